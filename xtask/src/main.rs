@@ -1,0 +1,265 @@
+//! The mtcal command line: `cargo xtask <command>`.
+//!
+//! Thin by design: it parses arguments, calls the library crates and prints. Exit codes: 0 ok,
+//! 2 error (bad input or a failed command).
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use mtcal_kinematics::volmap::{Grid, MapMethod, MapOptions, volumetric_map};
+use mtcal_kinematics::{AxisKind, Machine, MachineModel, ParamName, Side};
+use mtcal_machine::topology::Reading;
+use mtcal_machine::{LoadedMachine, load_machine};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "mtcal: machine-tool metrology", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Describe a machine: branches, axes, strokes and its error model.
+    Describe {
+        #[command(flatten)]
+        machine: MachineArg,
+    },
+    /// Volumetric error map of a machine for a parameter file.
+    Map {
+        #[command(flatten)]
+        machine: MachineArg,
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        #[arg(long)]
+        params: PathBuf,
+        /// Grid points per linear axis, e.g. 21x22x22 (source 004's 10,164 points, the default).
+        #[arg(long)]
+        grid: Option<String>,
+        /// Rotary axis positions in degrees for the map, e.g. A=30,C=45 (default 0).
+        #[arg(long)]
+        at: Option<String>,
+        /// Use the exact model instead of the first-order one.
+        #[arg(long)]
+        exact: bool,
+        /// Thresholds in µm for the share of points under them (repeatable).
+        #[arg(long = "threshold")]
+        thresholds: Vec<f64>,
+    },
+    /// Build the nominal machine of a topology code and write it as a URDF to edit.
+    Topology {
+        /// e.g. wCAFYXZt, CAFYXZ, ZFYX
+        code: String,
+        /// Read a bare code from the tool end (the rail paper's `ZFYX`).
+        #[arg(long)]
+        from_tool: bool,
+        /// Output file (standard output if absent).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+#[derive(clap::Args)]
+struct MachineArg {
+    /// A URDF file, or a topology code such as wCAFYXZt / CAFYXZ.
+    machine: String,
+    /// Read a bare topology code from the tool end instead of the workpiece end.
+    #[arg(long)]
+    from_tool: bool,
+}
+
+impl MachineArg {
+    fn load(&self) -> Result<LoadedMachine> {
+        load_machine(&self.machine, reading(self.from_tool))
+            .with_context(|| format!("cannot load machine `{}`", self.machine))
+    }
+}
+
+fn reading(from_tool: bool) -> Reading {
+    if from_tool {
+        Reading::FromTool
+    } else {
+        Reading::FromWorkpiece
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Describe { machine } => {
+            let loaded = machine.load()?;
+            let model = build_model(&loaded)?;
+            print!("{}", describe(&loaded, &model));
+            Ok(())
+        }
+        Command::Map {
+            machine,
+            params,
+            grid,
+            at,
+            exact,
+            thresholds,
+        } => {
+            let loaded = machine.load()?;
+            let model = build_model(&loaded)?;
+            let coeffs = mtcal_machine::params::load_params(&params, model.errors())
+                .with_context(|| format!("cannot read parameter file {}", params.display()))?;
+            let grid = make_grid(model.machine(), grid.as_deref(), at.as_deref())?;
+            let opts = MapOptions {
+                method: if exact {
+                    MapMethod::Exact
+                } else {
+                    MapMethod::FirstOrder
+                },
+                ..MapOptions::default()
+            };
+            let thresholds = if thresholds.is_empty() {
+                vec![5.0, 10.0, 20.0]
+            } else {
+                thresholds
+            };
+            print!("{}", describe(&loaded, &model));
+            println!("parameters  {}", params.display());
+            let map = volumetric_map(&model, &coeffs, &grid, &opts);
+            println!("{}", map.summary(&thresholds));
+            Ok(())
+        }
+        Command::Topology {
+            code,
+            from_tool,
+            out,
+        } => {
+            let parsed = mtcal_machine::topology::parse_code(&code, reading(from_tool))?;
+            let machine = mtcal_machine::topology::nominal_machine(&parsed, &code)?;
+            let comment = format!(
+                "Nominal machine for topology code {parsed} (mtcal default geometry: see \
+                 crates/machine/src/topology.rs). Edit the origins and limits to match the real machine."
+            );
+            let text = mtcal_machine::urdf::write_urdf(&machine, Some(&comment));
+            match out {
+                Some(path) => mtcal_machine::write_atomically(&path, text.as_bytes())
+                    .with_context(|| format!("cannot write {}", path.display()))?,
+                None => print!("{text}"),
+            }
+            Ok(())
+        }
+    }
+}
+
+fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
+    MachineModel::new(loaded.machine.clone(), &loaded.config)
+        .context("the error-model configuration does not fit the machine")
+}
+
+/// Parses `21x22x22` and `A=30,C=45` into a grid over the linear axes.
+fn make_grid(machine: &Machine, grid: Option<&str>, at: Option<&str>) -> Result<Grid> {
+    let n_linear = machine
+        .axes()
+        .iter()
+        .filter(|a| a.kind() == AxisKind::Linear)
+        .count();
+    let counts: Vec<usize> = match grid {
+        None => vec![21, 22, 22, 21, 21, 21][..n_linear].to_vec(),
+        Some(text) => text
+            .split('x')
+            .map(|s| s.trim().parse::<usize>())
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("--grid `{text}`: expected counts like 21x22x22"))?,
+    };
+    if counts.len() != n_linear || counts.iter().any(|&n| n < 1) {
+        bail!(
+            "--grid needs one count ≥ 1 per linear axis ({n_linear} here), e.g. {}",
+            vec!["11"; n_linear].join("x")
+        );
+    }
+    let rotary_letters: Vec<char> = machine
+        .axes()
+        .iter()
+        .filter(|a| a.kind() == AxisKind::Rotary)
+        .map(|a| a.letter().as_char())
+        .collect();
+    let mut rotary = vec![0.0; rotary_letters.len()];
+    for item in at.unwrap_or("").split(',').filter(|s| !s.trim().is_empty()) {
+        let (letter, value) = item
+            .split_once('=')
+            .with_context(|| format!("--at `{item}`: expected LETTER=DEGREES, e.g. C=45"))?;
+        let letter = letter.trim().chars().next().unwrap_or('?');
+        let deg: f64 = value
+            .trim()
+            .parse()
+            .with_context(|| format!("--at `{item}`: `{value}` is not a number of degrees"))?;
+        let slot = rotary_letters
+            .iter()
+            .position(|&c| c == letter)
+            .with_context(|| format!("--at `{item}`: the machine has no rotary axis {letter}"))?;
+        rotary[slot] = deg.to_radians();
+    }
+    Ok(Grid::with_counts(machine, &counts)
+        .and_then(|g| g.with_rotary(&rotary))
+        .context("cannot build the map grid")?)
+}
+
+/// A readable description of the machine and its error model.
+fn describe(loaded: &LoadedMachine, model: &MachineModel) -> String {
+    use std::fmt::Write;
+    let m = &loaded.machine;
+    let mut s = String::new();
+    let _ = writeln!(s, "machine     {} ({})", m.name(), loaded.source);
+    let _ = writeln!(s, "topology    {}", m.topology_code());
+    let _ = writeln!(
+        s,
+        "axis  kind     branch     stroke                      direction"
+    );
+    for ax in m.axes() {
+        let (unit, scale) = match ax.kind() {
+            AxisKind::Linear => ("mm", 1e3),
+            AxisKind::Rotary => ("deg", 180.0 / std::f64::consts::PI),
+        };
+        let stroke = match ax.limits() {
+            Some((lo, hi)) => format!("{:9.3} … {:9.3} {unit}", lo * scale, hi * scale),
+            None => "unlimited".to_string(),
+        };
+        let branch = match ax.side() {
+            Side::Workpiece => "workpiece",
+            Side::Tool => "tool",
+        };
+        let kind = match ax.kind() {
+            AxisKind::Linear => "linear",
+            AxisKind::Rotary => "rotary",
+        };
+        let d = ax.zero_rotation() * ax.direction();
+        let _ = writeln!(
+            s,
+            "{:<5} {kind:<8} {branch:<10} {stroke:<27} ({:+.3}, {:+.3}, {:+.3})",
+            ax.letter().to_string(),
+            d.x,
+            d.y,
+            d.z
+        );
+    }
+    let params = model.errors().params();
+    let count = |f: &dyn Fn(&ParamName) -> bool| params.iter().filter(|p| f(&p.name)).count();
+    let rotary = |n: &ParamName| n.axis().is_some_and(|a| a.is_rotary());
+    let _ = writeln!(
+        s,
+        "errors      {} parameters, {} coefficients ({}): {} component, {} rotary location, {} squareness, {} set-up",
+        params.len(),
+        model.n_coeffs(),
+        loaded.config_source,
+        count(&|n| matches!(n, ParamName::Component { .. })),
+        count(&|n| matches!(n, ParamName::Location { .. }) && rotary(n)),
+        count(&|n| matches!(n, ParamName::Location { .. }) && !rotary(n)),
+        count(&|n| matches!(n, ParamName::Setup(_))),
+    );
+    s
+}
