@@ -7,8 +7,9 @@
 //! `python3` with pinocchio (`pip install pin`); without them the test is skipped with a
 //! message, except under CI (env `CI` set), where it fails.
 
-use mtcal::kinematics::{Machine, Rigid, Side};
-use mtcal::machine::urdf::load_urdf_file;
+use mtcal::kinematics::{AxisKind, BranchSpec, JointSpec, Machine, MachineSpec, Rigid, Side};
+use mtcal::machine::urdf::{load_urdf_file, write_urdf};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -171,4 +172,158 @@ fn shipped_machines_match_pinocchio() {
     for (k, file) in files.iter().enumerate() {
         compare_machine(file, 0x5EED + k as u64);
     }
+}
+
+/// The shipped files have no rotated origins; this one exercises the rpy convention, fixed
+/// joints with rotations between moving joints (collapsed by mtcal, kept as frames by
+/// pinocchio), a horizontal spindle (pitch 90°) and skewed axis vectors.
+const ROTATED: &str = r#"<?xml version="1.0"?>
+<robot name="rotated">
+  <link name="frame"/>
+  <link name="base"/>
+  <joint name="base_mount" type="fixed">
+    <origin xyz="0.1 -0.2 0.3" rpy="0.1 -0.2 0.3"/>
+    <parent link="frame"/><child link="base"/>
+  </joint>
+  <link name="x_slide"/>
+  <joint name="X" type="prismatic">
+    <origin xyz="0 0 -0.4" rpy="0.02 0.01 -0.03"/>
+    <parent link="base"/><child link="x_slide"/>
+    <axis xyz="-1 0.01 0"/>
+    <limit lower="-0.5" upper="0.5" effort="1" velocity="1"/>
+  </joint>
+  <link name="bracket"/>
+  <joint name="bracket_mount" type="fixed">
+    <origin xyz="0.05 0.02 0.2" rpy="0 0 1.2"/>
+    <parent link="x_slide"/><child link="bracket"/>
+  </joint>
+  <link name="a_table"/>
+  <joint name="A" type="revolute">
+    <origin xyz="0 0.1 0.15" rpy="-1.2 0.3 0.4"/>
+    <parent link="bracket"/><child link="a_table"/>
+    <axis xyz="-1 0 0.02"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/>
+  </joint>
+  <link name="c_table"/>
+  <joint name="C" type="continuous">
+    <origin xyz="0.01 0 0.05" rpy="0.001 0 0"/>
+    <parent link="a_table"/><child link="c_table"/>
+    <axis xyz="0.01 0 -1"/>
+  </joint>
+  <link name="workpiece"/>
+  <joint name="wp" type="fixed">
+    <origin xyz="0.1 0.1 0.02" rpy="0.3 0.2 0.1"/>
+    <parent link="c_table"/><child link="workpiece"/>
+  </joint>
+  <link name="y_column"/>
+  <joint name="Y" type="prismatic">
+    <origin xyz="0 1 0" rpy="0 0 0.5"/>
+    <parent link="frame"/><child link="y_column"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-0.4" upper="0.4" effort="1" velocity="1"/>
+  </joint>
+  <link name="z_head"/>
+  <joint name="Z" type="prismatic">
+    <origin xyz="0 -0.5 0.8" rpy="0 1.5707963267948966 0"/>
+    <parent link="y_column"/><child link="z_head"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-0.6" upper="0" effort="1" velocity="1"/>
+  </joint>
+  <link name="guard"/>
+  <joint name="guard_mount" type="fixed">
+    <origin xyz="0 0 0.5"/>
+    <parent link="z_head"/><child link="guard"/>
+  </joint>
+  <link name="tool"/>
+  <joint name="spindle" type="fixed">
+    <origin xyz="0.2 0 -0.3" rpy="3.141592653589793 -1.5707963267948966 0.7"/>
+    <parent link="z_head"/><child link="tool"/>
+  </joint>
+</robot>
+"#;
+
+#[test]
+fn rotated_fixed_frames_match_pinocchio() {
+    if !pinocchio_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let path = dir.path().join("rotated.urdf");
+    std::fs::write(&path, ROTATED).expect("write URDF");
+    compare_machine(&path, 0xA11CE);
+}
+
+fn joint(letter: char, origin: Isometry3<f64>, axis: [f64; 3]) -> JointSpec {
+    let rotary = matches!(letter, 'A' | 'B' | 'C');
+    JointSpec {
+        letter,
+        kind: if rotary {
+            AxisKind::Rotary
+        } else {
+            AxisKind::Linear
+        },
+        origin,
+        axis: Vector3::from(axis),
+        limits: if letter == 'C' {
+            None
+        } else {
+            Some((-1.0, 1.0))
+        },
+    }
+}
+
+fn iso(t: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(t)),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
+}
+
+/// `write_urdf` output, including rotations at and near gimbal lock, reads the same in
+/// pinocchio as in mtcal.
+#[test]
+fn written_machine_matches_pinocchio() {
+    if !pinocchio_available() {
+        return;
+    }
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let spec = MachineSpec {
+        name: "written".into(),
+        workpiece: BranchSpec {
+            joints: vec![
+                joint(
+                    'X',
+                    iso([0.0, 0.0, -0.3], [0.1, 0.2, 0.3]),
+                    [-1.0, 0.0, 0.0],
+                ),
+                joint(
+                    'B',
+                    iso([0.2, 0.0, 0.3], [0.0, half_pi, 0.4]),
+                    [0.0, -1.0, 0.0],
+                ),
+                joint(
+                    'C',
+                    iso([0.0, 0.0, 0.1], [0.0, half_pi - 1e-9, 0.0]),
+                    [0.0, 0.0, -1.0],
+                ),
+            ],
+            end: iso([0.01, 0.02, 0.03], [-0.3, -half_pi, 1.0]),
+        },
+        tool: BranchSpec {
+            joints: vec![
+                joint('Y', iso([0.0, 0.8, -0.4], [0.0, 0.0, 0.0]), [0.0, 1.0, 0.0]),
+                joint(
+                    'Z',
+                    iso([0.0, -0.5, 1.2], [2.0, -1.0, 3.0]),
+                    [0.0, 0.3, 1.0],
+                ),
+            ],
+            end: iso([0.0, 0.0, -0.2], [0.0, 0.0, 0.0]),
+        },
+    };
+    let m = Machine::try_new(&spec).expect("valid spec");
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let path = dir.path().join("written.urdf");
+    std::fs::write(&path, write_urdf(&m, None)).expect("write URDF");
+    compare_machine(&path, 0xB0B);
 }

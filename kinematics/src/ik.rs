@@ -144,9 +144,10 @@ pub enum IkError {
     )]
     DependentLinearAxes { letters: String },
     #[error(
-        "singular configuration: the tool axis is within {angle_rad:.3e} rad of the line of rotary \
-         axis {free_axis}, so {free_axis} is free ({n} solutions with {free_axis} held at {held_at} \
-         rad are attached)", n = held.len()
+        "singular configuration: the tool axis is within {angle_rad:.3e} rad of the line of \
+         rotary axis {free_axis}, so {free_axis} is free ({n} solutions with {free_axis} held at \
+         {held_at} rad are attached)",
+        n = held.len()
     )]
     Singular {
         /// The axis whose angle the tool axis does not determine.
@@ -955,8 +956,14 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("singular"));
-        let sols = inverse_kinematics(&m, &tip, &tilted(1e-4), &IkOptions::default()).unwrap();
-        assert!(!sols.is_empty());
+        for eps in [2e-6, 1e-4] {
+            let sols = inverse_kinematics(&m, &tip, &tilted(eps), &IkOptions::default()).unwrap();
+            assert!(!sols.is_empty());
+            for s in &sols {
+                let (t2, a2) = forward_kinematics(&m, &s.q);
+                assert!((t2 - tip).norm() < 1e-9 && (a2 - tilted(eps)).norm() < 1e-9);
+            }
+        }
         // Anti-parallel tool axis (A = ±π) is singular too, and outside A's reach here.
         let err = inverse_kinematics(&m, &tip, &-axis, &IkOptions::default()).unwrap_err();
         assert!(

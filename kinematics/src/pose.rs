@@ -93,6 +93,17 @@ pub struct Workspace {
     w_t_t: Rigid,
 }
 
+/// What [`MachineModel::eval_values`] computes besides the component values.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Fill {
+    /// Values only (`Basis::value`, no buffer writes): the pose-error paths.
+    Values,
+    /// Also every basis function's value in `phi`: the parameter Jacobian.
+    Basis,
+    /// Also the derivatives with respect to the axis position: the axis Jacobian.
+    Derivative,
+}
+
 /// Which chain to evaluate.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Chain {
@@ -140,9 +151,19 @@ impl MachineModel {
 
     /// Exact pose error: full rigid transforms with every error inserted.
     pub fn pose_error(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace) -> PoseError {
+        self.pose_error_filled(q, coeffs, ws, Fill::Values)
+    }
+
+    fn pose_error_filled(
+        &self,
+        q: &[f64],
+        coeffs: &[f64],
+        ws: &mut Workspace,
+        fill: Fill,
+    ) -> PoseError {
         self.check_sizes(q, coeffs);
         let nominal = self.machine.tool_in_workpiece(q);
-        self.eval_values(q, coeffs, ws, false);
+        self.eval_values(q, coeffs, ws, fill);
         self.eval_chain(q, ws, Chain::Actual);
         let act = ws.w_t_t;
         PoseError {
@@ -160,13 +181,13 @@ impl MachineModel {
         ws: &mut Workspace,
     ) -> PoseError {
         self.check_sizes(q, coeffs);
-        self.eval_values(q, coeffs, ws, false);
+        self.eval_values(q, coeffs, ws, Fill::Values);
         self.eval_chain(q, ws, Chain::Nominal);
-        let w_t_f = ws.f_t_w.inverse();
         let p = ws.w_t_t.t;
+        // Twists are summed in the machine frame and mapped to the workpiece frame once.
         let (mut v, mut w) = (Vector3::zeros(), Vector3::zeros());
         let mut add = |side: Side, frame: &Rigid, tv: Vector3<f64>, tw: Vector3<f64>| {
-            let (tv, tw) = w_t_f.compose(frame).adjoint(&tv, &tw);
+            let (tv, tw) = frame.adjoint(&tv, &tw);
             let s = sign(side);
             v += tv * s;
             w += tw * s;
@@ -199,6 +220,7 @@ impl MachineModel {
         }
         add(Side::Tool, &ws.tool_end, ws.tool_trans, Vector3::zeros());
         add(Side::Workpiece, &ws.wp_end, ws.wp_trans, ws.wp_rot);
+        let (v, w) = ws.f_t_w.inverse().adjoint(&v, &w);
         PoseError {
             translation: v + w.cross(&p),
             rotation: w,
@@ -217,7 +239,7 @@ impl MachineModel {
         jac: &mut [f64],
     ) -> PoseError {
         assert_eq!(jac.len(), 6 * self.n_coeffs(), "jacobian buffer size");
-        let err = self.pose_error(q, coeffs, ws);
+        let err = self.pose_error_filled(q, coeffs, ws, Fill::Basis);
         let p = ws.w_t_t.t;
         let jl_inv = left_jacobian_inverse(&err.rotation);
         let w_t_f = ws.f_t_w.inverse();
@@ -282,7 +304,7 @@ impl MachineModel {
     ) -> Rigid {
         self.check_sizes(q, coeffs);
         assert_eq!(jac.len(), 6 * self.machine.n_axes(), "jacobian buffer size");
-        self.eval_values(q, coeffs, ws, true);
+        self.eval_values(q, coeffs, ws, Fill::Derivative);
         self.eval_chain(q, ws, Chain::Actual);
         let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
@@ -322,7 +344,7 @@ impl MachineModel {
     }
 
     /// Component and location values per axis (machine directions) from the coefficients.
-    fn eval_values(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace, derivative: bool) {
+    fn eval_values(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace, fill: Fill) {
         for (i, ax) in self.machine.axes().iter().enumerate() {
             let mut c = [0.0; 6];
             let mut dc = [0.0; 6];
@@ -333,26 +355,32 @@ impl MachineModel {
                         unreachable!("component slot holds a component")
                     };
                     let range = p.offset..p.offset + p.len;
-                    if derivative {
-                        basis.eval_with_derivative(
-                            q[i],
-                            &mut ws.phi[range.clone()],
-                            &mut ws.dphi[range.clone()],
-                        );
-                        dc[d] = dot(&ws.dphi[range.clone()], &coeffs[range.clone()]);
-                    } else {
-                        basis.eval(q[i], &mut ws.phi[range.clone()]);
+                    match fill {
+                        Fill::Values => {
+                            c[d] = basis.value(q[i], &coeffs[range]);
+                            continue_location(
+                                &mut c,
+                                &mut l,
+                                ax,
+                                d,
+                                self.errors.location(i, d),
+                                coeffs,
+                            );
+                            continue;
+                        }
+                        Fill::Basis => basis.eval(q[i], &mut ws.phi[range.clone()]),
+                        Fill::Derivative => {
+                            basis.eval_with_derivative(
+                                q[i],
+                                &mut ws.phi[range.clone()],
+                                &mut ws.dphi[range.clone()],
+                            );
+                            dc[d] = dot(&ws.dphi[range.clone()], &coeffs[range.clone()]);
+                        }
                     }
                     c[d] = dot(&ws.phi[range.clone()], &coeffs[range]);
                 }
-                if let Some(p) = self.errors.location(i, d) {
-                    let v = coeffs[p.offset];
-                    if ax.kind() == AxisKind::Rotary && d % 3 == ax.own_cartesian() {
-                        c[d] += v;
-                    } else {
-                        l[d] = v;
-                    }
-                }
+                continue_location(&mut c, &mut l, ax, d, self.errors.location(i, d), coeffs);
             }
             ws.comp[i] = c;
             ws.dcomp[i] = dc;
@@ -394,12 +422,11 @@ impl MachineModel {
 
     fn eval_joint(&self, i: usize, q: f64, t: Rigid, ws: &mut Workspace, actual: bool) -> Rigid {
         let ax = &self.machine.axes()[i];
+        if !actual {
+            return self.eval_nominal_joint(i, q, t, ws);
+        }
         let r0t = ax.zero_rotation().transpose();
-        let (c, l) = if actual {
-            (ws.comp[i], ws.loc[i])
-        } else {
-            ([0.0; 6], [0.0; 6])
-        };
+        let (c, l) = (ws.comp[i], ws.loc[i]);
         let js = &mut ws.joints[i];
         js.q = q;
         js.e_trans = r0t * v3(&c, 0);
@@ -426,6 +453,28 @@ impl MachineModel {
                 let rot = Rigid::rotation(axis_rotation(ax.direction(), q));
                 js.lrl = lr.compose(&rot).compose(&lr.inverse());
                 js.before_b.compose(&js.lrl)
+            }
+        }
+    }
+
+    /// The nominal joint: no error factor, so every error frame is a plain chain frame.
+    fn eval_nominal_joint(&self, i: usize, q: f64, t: Rigid, ws: &mut Workspace) -> Rigid {
+        let ax = &self.machine.axes()[i];
+        let js = &mut ws.joints[i];
+        js.q = q;
+        let t = t.compose(ax.origin());
+        js.before_a = t;
+        match ax.kind() {
+            AxisKind::Linear => {
+                js.motion_dir = *ax.direction();
+                js.before_b = Rigid::new(t.r, t.r * (js.motion_dir * q) + t.t);
+                js.before_b
+            }
+            AxisKind::Rotary => {
+                js.before_b = t;
+                js.before_r = t;
+                js.lrl = Rigid::rotation(axis_rotation(ax.direction(), q));
+                t.compose(&js.lrl)
             }
         }
     }
@@ -505,6 +554,27 @@ fn e_twist(
     } else {
         let w = left_jacobian(eps) * u;
         (delta.cross(&w), w)
+    }
+}
+
+/// Adds location error `d` of an axis: a rotary axis' own-direction location errors are the
+/// constants of its component errors, the others go to the location factor.
+#[inline]
+fn continue_location(
+    c: &mut [f64; 6],
+    l: &mut [f64; 6],
+    ax: &crate::machine::Axis,
+    d: usize,
+    param: Option<&crate::model::Param>,
+    coeffs: &[f64],
+) {
+    if let Some(p) = param {
+        let v = coeffs[p.offset];
+        if ax.kind() == AxisKind::Rotary && d % 3 == ax.own_cartesian() {
+            c[d] += v;
+        } else {
+            l[d] = v;
+        }
     }
 }
 

@@ -204,9 +204,9 @@ fn make_grid(machine: &Machine, grid: Option<&str>, at: Option<&str>) -> Result<
             .with_context(|| format!("--at `{item}`: the machine has no rotary axis {letter}"))?;
         rotary[slot] = deg.to_radians();
     }
-    Ok(Grid::with_counts(machine, &counts)
+    Grid::with_counts(machine, &counts)
         .and_then(|g| g.with_rotary(&rotary))
-        .context("cannot build the map grid")?)
+        .context("cannot build the map grid")
 }
 
 /// A readable description of the machine and its error model.

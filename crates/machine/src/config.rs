@@ -40,8 +40,10 @@
 //! - `locations`: `"iso"` is, for every rotary axis, its two positions and two tilts across its
 //!   own direction (for C: `EX0C EY0C EA0C EB0C`), plus the squareness errors `EC0Y` (Y to X,
 //!   about Z), `EB0Z` (Z to X, about Y) and `EA0Z` (Z to Y, about X) of the linear axes present.
-//!   Their sign conventions are those of `mtcal_kinematics::pose`. A list may name any location
-//!   error the machine can have; the letter `O` is accepted for the digit zero (`EXOC`).
+//!   A squareness error turns the second axis' direction of motion: positive `EC0Y` makes the
+//!   angle between +X and +Y larger than 90° (all sign conventions: ARCHITECTURE.md,
+//!   "Conventions"). A list may name any location error the machine can have; the letter `O`
+//!   is accepted for the digit zero (`EXOC`).
 //! - `setup`: where the tool point sits on the spindle (`TOOL_DX`, `TOOL_DY`, `TOOL_DZ`) and the
 //!   workpiece on the table (`WP_DX` … `WP_DC`).
 //! - `exclude`: names removed from the sets above; each must be in one of them.
@@ -1128,9 +1130,9 @@ fn spacing_knots((lo, hi): (f64, f64), spacing: f64, unit: Unit, spec: &Spec) ->
 /// A basis that cannot be built, explained in the file's terms.
 fn basis_problem(name: &ParamName, e: &BasisError, spec: &Spec, rule: &Rule) -> Problem {
     let explicit_min = spec.min.as_ref();
-    let (key, min, max) = match *e {
-        BasisError::EmptyDegreeRange { min, max } => ("degree", min, max),
-        BasisError::EmptyHarmonicRange { min, max } => ("harmonics", min, max),
+    let ((key, noun), min, max) = match *e {
+        BasisError::EmptyDegreeRange { min, max } => (("degree", "degree"), min, max),
+        BasisError::EmptyHarmonicRange { min, max } => (("harmonics", "harmonic"), min, max),
         BasisError::NoFunctions => {
             let msg = format!(
                 "{name}: {e}; {}, so the table is pinned to zero at {}",
@@ -1146,11 +1148,11 @@ fn basis_problem(name: &ParamName, e: &BasisError, spec: &Spec, rule: &Rule) -> 
         _ => return problem(spec.size_span(), format!("{name}: {e}")),
     };
     if let Some(m) = explicit_min {
-        let msg = format!("{name}: min_{key} = {min} is above {key} = {max}; lower it");
+        let msg = format!("{name}: min_{noun} = {min} is above {key} = {max}; lower it");
         return problem(m.span.clone(), msg);
     }
     let msg = format!(
-        "{name}: {key} = {max} leaves no functions: {}, so its series starts at {key} {min}; \
+        "{name}: {key} = {max} leaves no functions: {}, so its series starts at {noun} {min}; \
          use {key} >= {min}, or exclude {name}",
         rule.why
     );
@@ -1575,276 +1577,251 @@ pub(crate) mod tests {
         check("EXA", Basis::fourier(1, 2).unwrap());
     }
 
+    /// Error cases: TOML input, then `=> line:column: start of the message`, separated by
+    /// `----` lines. A case whose input starts with `# three-axis` runs on the 3-axis machine.
+    const ERROR_CASES: &str = r#"
+components = "all"
+foo = 1
+=> 2:1: unknown key `foo` at the top level
+----
+components =
+=> 1:13: this is not valid TOML
+----
+components = 3
+=> 1:14: `components` must be "all", "none" or a list
+----
+components = "full"
+=> 1:14: components = "full" is not understood
+----
+components = ["EXX", "EQX"]
+=> 1:22: `EQX` is not an error parameter name
+----
+components = ["EXX", 3]
+=> 1:22: entries of `components` must be parameter names
+----
+components = ["EXX", "EXX"]
+=> 1:22: EXX is listed twice
+----
+components = ["EX0C"]
+=> 1:15: EX0C is a location error; list it under `locations`
+----
+locations = ["EXX"]
+=> 1:14: EXX is a component error; list it under `components`
+----
+setup = ["EX0C"]
+=> 1:10: EX0C is a location error
+----
+components = ["EXU"]
+=> 1:15: EXU: the machine has no axis U (it has XYZAC)
+----
+locations = ["EX0Y"]
+=> 1:14: EX0Y: a linear axis has no translational location error
+----
+locations = ["EB0Y"]
+=> 1:14: EB0Y: a rotation of a linear axis about its own direction
+----
+exclude = ["EXU"]
+=> 1:12: cannot exclude EXU
+----
+components = "none"
+exclude = ["EXX"]
+=> 2:12: cannot exclude EXX
+----
+schema = "mtcal.errors/9"
+=> 1:10: schema "mtcal.errors/9" is not supported
+----
+[basis.linear]
+kind = "spline"
+=> 2:8: unknown basis kind "spline"
+----
+[basis.linear]
+kind = "fourier"
+=> 2:8: a Fourier series is periodic in the angle and needs a rotary axis
+----
+[basis.linear]
+degree = 30
+=> 2:10: `degree` must be an integer from 0 to 20, got 30
+----
+[basis.linear]
+degree = -1
+=> 2:10: `degree` must be an integer from 0 to 20, got -1
+----
+[basis.linear]
+degree = 2.5
+=> 2:10: `degree` must be an integer from 0 to 20, found a float
+----
+[basis.linear]
+degree = 1
+=> 2:10: EYX: degree = 1 leaves no functions: the model leaves out the constant and the slope of a straightness error
+----
+[basis.linear]
+degree = 0
+=> 2:10: EXX: degree = 0 leaves no functions: the model leaves out the constant of a positioning error
+----
+[basis.rotary]
+harmonics = 0
+=> 2:13: EXA: harmonics = 0 leaves no functions
+----
+[basis.linear]
+harmonics = 2
+=> 2:1: `harmonics` belongs to a fourier basis, but this one is legendre
+----
+[basis.linear]
+stroke_mm = [0, 1]
+=> 2:1: `stroke_mm` can only be set for one component error
+----
+[basis.linear]
+kind = "table"
+=> 1:1: [basis.linear]: a table basis needs `knots` or `spacing_mm`
+----
+[basis.linear]
+kind = "table"
+knots = 1
+=> 3:9: `knots` must be an integer from 2 to 10000, got 1
+----
+[basis.linear]
+kind = "table"
+knots = 2
+=> 3:9: EYX: basis has no functions left after pinning
+----
+[basis.linear]
+kind = "table"
+spacing_mm = 0
+=> 3:14: `spacing_mm` must be positive
+----
+[basis.linear]
+kind = "table"
+knots = 5
+spacing_mm = 5
+=> 4:1: `knots` and `spacing_mm` both set the size
+----
+[basis]
+planar = 1
+=> 2:1: unknown key `planar` in [basis]
+----
+basis = 1
+=> 1:9: `basis` must be a table, found an integer
+----
+[component.EXX]
+kind = "table"
+spacing_mm = 900
+=> 3:14: spacing_mm = 900 is longer than the stroke (700 mm)
+----
+[component.EXX]
+stroke_mm = [700, 0]
+=> 2:13: `stroke_mm` must be [lo, hi] with lo < hi, got [700, 0]
+----
+[component.EXX]
+stroke_mm = [1, 2, 3]
+=> 2:13: `stroke_mm` must be [lo, hi] with lo < hi, got 3 values
+----
+[component.EXX]
+stroke_mm = [0, nan]
+=> 2:17: `stroke_mm` must be a finite number
+----
+[component.EXX]
+stroke_deg = [0, 1]
+=> 2:1: `stroke_deg` is for rotary axes; [component.EXX] is for linear axes: use `stroke_mm`
+----
+[component.ECC]
+stroke_deg = [0, 1]
+=> 2:1: `stroke_deg` belongs to a legendre basis, but this one is fourier (the axis default
+----
+[component.ECC]
+kind = "table"
+knots_deg = [0, 90, 45]
+=> 3:21: `knots_deg` must increase strictly: 45 follows 90
+----
+[component.ECC]
+kind = "table"
+knots_deg = [0, 90]
+stroke_deg = [0, 90]
+=> 4:14: `knots_deg` sets the stroke already
+----
+[component.EXX]
+kind = "fourier"
+=> 2:8: a Fourier series is periodic in the angle and needs a rotary axis
+----
+[component.EXX]
+min_degree = 4
+=> 2:14: EXX: min_degree = 4 is above degree = 3
+----
+[component.ECC]
+min_harmonic = 3
+=> 2:16: ECC: min_harmonic = 3 is above harmonics = 2
+----
+[component.EXZ]
+kind = "table"
+knots = 3
+pin_first = 1
+=> 4:13: `pin_first` must be true or false, found an integer
+----
+[component.EXX]
+pin_first = true
+=> 2:1: `pin_first` belongs to a table basis, but this one is legendre (the axis default; set `kind` to change it)
+----
+[component.EXX]
+colour = 1
+=> 2:1: unknown key `colour` in [component.EXX]; a legendre basis takes: kind, degree, min_degree, stroke_mm
+----
+[component.EX0C]
+degree = 1
+=> 1:12: EX0C is a location error with a single value
+----
+[component.EXU]
+degree = 1
+=> 1:12: EXU: the machine has no axis U
+----
+exclude = ["EXX"]
+[component.EXX]
+degree = 1
+=> 2:12: EXX is not in the model
+----
+[component.EXX]
+degree = 4
+[component.EXX]
+degree = 5
+=> 3:12: this is not valid TOML: duplicate key
+----
+[component]
+EXX = { degree = 4 }
+EXQ = 1
+=> 3:1: `EXQ` is not an error parameter name
+----
+[component]
+EXX = 3
+=> 2:7: [component.EXX] must be a table, found an integer
+----
+# three-axis
+[component.ECC]
+degree = 4
+=> 2:12: ECC: the machine has no axis C (it has XYZ)
+"#;
+
+    /// Splits a case table into (input, expected) pairs.
+    pub(crate) fn cases(table: &str) -> Vec<(String, String)> {
+        table
+            .split("\n----\n")
+            .map(|case| {
+                let (input, expect) = case.rsplit_once("=> ").expect("a case needs `=> `");
+                (
+                    input.trim_start().to_string(),
+                    expect.trim_end().to_string(),
+                )
+            })
+            .collect()
+    }
+
     #[test]
     fn errors_point_at_the_problem() {
-        let five = five_axis();
-        let three = three_axis();
-        let cases: &[(&Machine, &str, &str)] = &[
-            (
-                &five,
-                "components = \"all\"\nfoo = 1",
-                "2:1: unknown key `foo` at the top level",
-            ),
-            (&five, "components = \n", "1:14: this is not valid TOML"),
-            (
-                &five,
-                "components = 3",
-                "1:14: `components` must be \"all\", \"none\" or a list",
-            ),
-            (
-                &five,
-                "components = \"full\"",
-                "1:14: components = \"full\" is not understood",
-            ),
-            (
-                &five,
-                "components = [\"EXX\", \"EQX\"]",
-                "1:22: `EQX` is not an error parameter name",
-            ),
-            (
-                &five,
-                "components = [\"EXX\", 3]",
-                "1:22: entries of `components` must be parameter names",
-            ),
-            (
-                &five,
-                "components = [\"EXX\", \"EXX\"]",
-                "1:22: EXX is listed twice",
-            ),
-            (
-                &five,
-                "components = [\"EX0C\"]",
-                "1:15: EX0C is a location error; list it under `locations`",
-            ),
-            (
-                &five,
-                "locations = [\"EXX\"]",
-                "1:14: EXX is a component error; list it under `components`",
-            ),
-            (
-                &five,
-                "setup = [\"EX0C\"]",
-                "1:10: EX0C is a location error",
-            ),
-            (
-                &five,
-                "components = [\"EXU\"]",
-                "1:15: EXU: the machine has no axis U (it has XYZAC)",
-            ),
-            (
-                &five,
-                "locations = [\"EX0Y\"]",
-                "1:14: EX0Y: a linear axis has no translational location error",
-            ),
-            (
-                &five,
-                "locations = [\"EY0Y\"]",
-                "1:14: EY0Y: a linear axis has no translational",
-            ),
-            (
-                &five,
-                "locations = [\"EB0Y\"]",
-                "1:14: EB0Y: a rotation of a linear axis about its own direction",
-            ),
-            (&five, "exclude = [\"EXU\"]", "1:12: cannot exclude EXU"),
-            (
-                &five,
-                "components = \"none\"\nexclude = [\"EXX\"]",
-                "2:12: cannot exclude EXX",
-            ),
-            (
-                &five,
-                "schema = \"mtcal.errors/9\"",
-                "1:10: schema \"mtcal.errors/9\" is not supported",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"spline\"",
-                "2:8: unknown basis kind \"spline\"",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"fourier\"",
-                "2:8: a Fourier series is periodic",
-            ),
-            (
-                &five,
-                "[basis.linear]\ndegree = 30",
-                "2:10: `degree` must be an integer from 0 to 20, got 30",
-            ),
-            (
-                &five,
-                "[basis.linear]\ndegree = -1",
-                "2:10: `degree` must be an integer from 0 to 20",
-            ),
-            (
-                &five,
-                "[basis.linear]\ndegree = 2.5",
-                "2:10: `degree` must be an integer from 0 to 20, found a float",
-            ),
-            (
-                &five,
-                "[basis.linear]\ndegree = 1",
-                "2:10: EYX: degree = 1 leaves no functions: the model leaves out the constant and the slope of a straightness error",
-            ),
-            (
-                &five,
-                "[basis.linear]\ndegree = 0",
-                "2:10: EXX: degree = 0 leaves no functions",
-            ),
-            (
-                &five,
-                "[basis.rotary]\nharmonics = 0",
-                "2:13: EXA: harmonics = 0 leaves no functions",
-            ),
-            (
-                &five,
-                "[basis.linear]\nharmonics = 2",
-                "2:1: `harmonics` belongs to a fourier basis, but this one is legendre",
-            ),
-            (
-                &five,
-                "[basis.linear]\nstroke_mm = [0, 1]",
-                "2:1: `stroke_mm` can only be set for one component error",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"table\"",
-                "1:1: [basis.linear]: a table basis needs `knots` or `spacing_mm`",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"table\"\nknots = 1",
-                "3:9: `knots` must be an integer from 2 to 10000, got 1",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"table\"\nknots = 2",
-                "3:9: EYX: basis has no functions left after pinning",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"table\"\nspacing_mm = 0",
-                "3:14: `spacing_mm` must be positive",
-            ),
-            (
-                &five,
-                "[basis.linear]\nkind = \"table\"\nknots = 5\nspacing_mm = 5",
-                "4:1: `knots` and `spacing_mm` both set the size",
-            ),
-            (
-                &five,
-                "[basis]\nplanar = 1",
-                "2:1: unknown key `planar` in [basis]",
-            ),
-            (
-                &five,
-                "basis = 1",
-                "1:9: `basis` must be a table, found an integer",
-            ),
-            (
-                &five,
-                "[component.EXX]\nkind = \"table\"\nspacing_mm = 900",
-                "3:14: spacing_mm = 900 is longer than the stroke (700 mm)",
-            ),
-            (
-                &five,
-                "[component.EXX]\nstroke_mm = [700, 0]",
-                "2:13: `stroke_mm` must be [lo, hi] with lo < hi, got [700, 0]",
-            ),
-            (
-                &five,
-                "[component.EXX]\nstroke_mm = [1, 2, 3]",
-                "2:13: `stroke_mm` must be [lo, hi] with lo < hi, got 3 values",
-            ),
-            (
-                &five,
-                "[component.EXX]\nstroke_mm = [0, nan]",
-                "2:17: `stroke_mm` must be a finite number",
-            ),
-            (
-                &five,
-                "[component.EXX]\nstroke_deg = [0, 1]",
-                "2:1: `stroke_deg` is for rotary axes; [component.EXX] is for linear axes: use `stroke_mm`",
-            ),
-            (
-                &five,
-                "[component.ECC]\nstroke_deg = [0, 1]",
-                "2:1: `stroke_deg` belongs to a legendre basis, but this one is fourier (the axis default",
-            ),
-            (
-                &five,
-                "[component.ECC]\nkind = \"table\"\nknots_deg = [0, 90, 45]",
-                "3:21: `knots_deg` must increase strictly: 45 follows 90",
-            ),
-            (
-                &five,
-                "[component.ECC]\nkind = \"table\"\nknots_deg = [0, 90]\nstroke_deg = [0, 90]",
-                "4:14: `knots_deg` sets the stroke already",
-            ),
-            (
-                &five,
-                "[component.EXX]\nkind = \"fourier\"",
-                "2:8: a Fourier series is periodic in the angle and needs a rotary axis",
-            ),
-            (
-                &five,
-                "[component.EXX]\nmin_degree = 4",
-                "2:14: EXX: min_degree = 4 is above degree = 3",
-            ),
-            (
-                &five,
-                "[component.EXZ]\nkind = \"table\"\nknots = 3\npin_first = 1",
-                "4:13: `pin_first` must be true or false, found an integer",
-            ),
-            (
-                &five,
-                "[component.EXX]\npin_first = true",
-                "2:1: `pin_first` belongs to a table basis, but this one is legendre (the axis default; set `kind` to change it)",
-            ),
-            (
-                &five,
-                "[component.EXX]\ncolour = 1",
-                "2:1: unknown key `colour` in [component.EXX]; a legendre basis takes: kind, degree, min_degree, stroke_mm",
-            ),
-            (
-                &five,
-                "[component.EX0C]\ndegree = 1",
-                "1:12: EX0C is a location error with a single value",
-            ),
-            (
-                &five,
-                "[component.EXU]\ndegree = 1",
-                "1:12: EXU: the machine has no axis U",
-            ),
-            (
-                &five,
-                "exclude = [\"EXX\"]\n[component.EXX]\ndegree = 1",
-                "2:12: EXX is not in the model",
-            ),
-            (
-                &five,
-                "[component.EXX]\ndegree = 4\n[component.EXX]\ndegree = 5",
-                "3:12: this is not valid TOML: duplicate key",
-            ),
-            (
-                &five,
-                "[component]\nEXX = { degree = 4 }\nEXQ = 1",
-                "3:1: `EXQ` is not an error parameter name",
-            ),
-            (
-                &five,
-                "[component]\nEXX = 3",
-                "2:7: [component.EXX] must be a table, found an integer",
-            ),
-            (
-                &three,
-                "[component.ECC]\ndegree = 4",
-                "1:12: ECC: the machine has no axis C (it has XYZ)",
-            ),
-        ];
-        for (m, input, expect) in cases {
-            check(m, input, expect);
+        let (five, three) = (five_axis(), three_axis());
+        for (input, expect) in cases(ERROR_CASES) {
+            let m = if input.starts_with("# three-axis") {
+                &three
+            } else {
+                &five
+            };
+            check(m, &input, &expect);
         }
     }
 

@@ -125,7 +125,8 @@ pub fn parse_params(text: &str, file: &Path, model: &ErrorModel) -> Result<Vec<f
 
 /// Writes every parameter of `model` in this format: `[values]` for single-value parameters,
 /// `[component.<name>] coefficients` for component errors, in file units and with enough digits
-/// that [`parse_params`] gives `coeffs` back.
+/// that [`parse_params`] gives `coeffs` back. Non-finite coefficients are written as `nan` or
+/// `inf`, which [`parse_params`] rejects.
 ///
 /// # Panics
 /// If `coeffs.len() != model.n_coeffs()`: the vector belongs to another model.
@@ -557,7 +558,7 @@ fn add_sine(term: &Item, name: &ParamName, labels: &[String], coeffs: &mut [f64]
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::tests::{five_axis, three_axis};
+    use crate::config::tests::{cases, five_axis, three_axis};
     use crate::config::{default_config, parse_config};
     use mtcal_kinematics::Machine;
     use proptest::prelude::*;
@@ -750,130 +751,135 @@ mod tests {
         );
     }
 
+    /// Error cases on the five-axis ISO model: TOML input, then `=> line:column: start of the
+    /// message`, separated by `----` lines.
+    const ERROR_CASES: &str = r#"
+[valuse]
+EX0C = 1
+=> 1:2: unknown key `valuse` at the top level; expected one of: schema, values, component
+----
+[values]
+EX0C = 1
+EX0C = 2
+=> 3:1: this is not valid TOML: duplicate key
+----
+schema = "mtcal.params/2"
+=> 1:10: schema "mtcal.params/2" is not supported
+----
+[values]
+EX0A = 1
+=> 2:1: EX0A is not in this machine's error model; add it to the machine's error-model configuration
+----
+[values]
+EQX = 1
+=> 2:1: `EQX` is not an error parameter name
+----
+[values]
+EXX = 1
+=> 2:1: EXX is a component error (a function of the position of X): give it in a [component.EXX] section
+----
+[values]
+EX0C = "a"
+=> 2:8: `EX0C` must be a number, found a string
+----
+[values]
+EX0C = nan
+=> 2:8: `EX0C` must be a finite number
+----
+[values]
+EX0C = 1
+EXOC = 2
+=> 3:1: EX0C is given twice
+----
+values = 3
+=> 1:10: `values` must be a table, found an integer
+----
+[component.EX0C]
+coefficients = [1]
+=> 1:12: EX0C has a single value, not a function of an axis position: give it under [values]
+----
+[component.EXU]
+coefficients = [1]
+=> 1:12: EXU is not in this machine's error model
+----
+[component.EXX]
+coefficients = [1, 2]
+=> 2:16: EXX has 3 coefficients in this model (P1, P2, P3: Legendre degrees 1..3 over [-350, 350] mm), got 2
+----
+[component.EXX]
+coefficients = [1, 2, inf]
+=> 2:23: a coefficient of EXX must be a finite number
+----
+[component.EXX]
+coefficients = [1, 2, 3]
+samples = [[0, 0]]
+=> 3:1: give either `coefficients` or `samples` in [component.EXX], not both
+----
+[component.EXX]
+=> 1:1: [component.EXX] needs one of `coefficients`, `samples` or `function`
+----
+[component.EXX]
+colour = 1
+=> 2:1: unknown key `colour` in [component.EXX]; expected one of: coefficients, samples, function
+----
+[component.EXX]
+samples = [[0, 0], [10, 1]]
+=> 2:11: EXX: the samples do not determine the model's basis (Legendre degrees 1..3 over [-350, 350] mm) together with the constant it leaves out: fit needs at least as many independent samples as coefficients: 2 samples for 4 coefficients
+----
+[component.EXX]
+samples = [[0, 0], [0, 1], [0, 2], [0, 3]]
+=> 2:11: EXX: the samples do not determine the model's basis
+----
+[component.EAX]
+samples = [[0, 0]]
+=> 2:11: EAX: the samples do not determine the model's basis (Legendre degrees 0..3 over [-350, 350] mm): fit needs
+----
+[component.EXX]
+samples = [[0, 0], [500, 1]]
+=> 2:21: the sample at 500 mm lies outside EXX's stroke [-350, 350] mm
+----
+[component.EXX]
+samples = [[0, 0, 1]]
+=> 2:12: a sample must be [position mm, value um], got 3 values
+----
+[component.EXX]
+samples = [1, 2]
+=> 2:12: a sample must be [position mm, value um], found an integer
+----
+[component.EAX]
+samples = [["a", 2]]
+=> 2:13: a sample position must be a number, found a string
+----
+[component.EXX]
+function = { kind = "sine", amplitude = 1, harmonic = 1 }
+=> 2:12: `function` needs a Fourier basis, but EXX's is a Legendre degrees 1..3
+----
+[component.ECC]
+function = 3
+=> 2:12: `function` must be a sine term
+----
+[component.ECC]
+function = { kind = "sine", amplitude = 1, harmonic = 3 }
+=> 2:55: harmonic 3 is not in ECC's basis (C1, S1, C2, S2)
+----
+[component.ECC]
+function = { kind = "cosine", amplitude = 1, harmonic = 1 }
+=> 2:21: unknown function kind: expected "sine"
+----
+[component.ECC]
+function = { kind = "sine", harmonic = 1 }
+=> 2:12: a sine term needs `kind = "sine"`, `amplitude` and `harmonic`
+----
+[component.ECC]
+function = { kind = "sine", amplitude = 1, harmonic = 1, phase = 3 }
+=> 2:58: unknown key `phase` in a sine term
+"#;
+
     #[test]
     fn errors_point_at_the_problem() {
         let model = default_model();
-        let cases: &[(&str, &str)] = &[
-            (
-                "[valuse]\nEX0C = 1",
-                "1:2: unknown key `valuse` at the top level; expected one of: schema, values, component",
-            ),
-            (
-                "[values]\nEX0C = 1\nEX0C = 2",
-                "3:1: this is not valid TOML: duplicate key",
-            ),
-            (
-                "schema = \"mtcal.params/2\"",
-                "1:10: schema \"mtcal.params/2\" is not supported",
-            ),
-            (
-                "[values]\nEX0A = 1",
-                "2:1: EX0A is not in this machine's error model; add it to the machine's error-model configuration",
-            ),
-            (
-                "[values]\nEQX = 1",
-                "2:1: `EQX` is not an error parameter name",
-            ),
-            (
-                "[values]\nEXX = 1",
-                "2:1: EXX is a component error (a function of the position of X): give it in a [component.EXX] section",
-            ),
-            (
-                "[values]\nEX0C = \"a\"",
-                "2:8: `EX0C` must be a number, found a string",
-            ),
-            (
-                "[values]\nEX0C = nan",
-                "2:8: `EX0C` must be a finite number",
-            ),
-            ("[values]\nEX0C = 1\nEXOC = 2", "3:1: EX0C is given twice"),
-            (
-                "values = 3",
-                "1:10: `values` must be a table, found an integer",
-            ),
-            (
-                "[component.EX0C]\ncoefficients = [1]",
-                "1:12: EX0C has a single value, not a function of an axis position: give it under [values]",
-            ),
-            (
-                "[component.EXU]\ncoefficients = [1]",
-                "1:12: EXU is not in this machine's error model",
-            ),
-            (
-                "[component.EXX]\ncoefficients = [1, 2]",
-                "2:16: EXX has 3 coefficients in this model (P1, P2, P3: Legendre degrees 1..3 over [-350, 350] mm), got 2",
-            ),
-            (
-                "[component.EXX]\ncoefficients = [1, 2, inf]",
-                "2:23: a coefficient of EXX must be a finite number",
-            ),
-            (
-                "[component.EXX]\ncoefficients = [1, 2, 3]\nsamples = [[0, 0]]",
-                "3:1: give either `coefficients` or `samples` in [component.EXX], not both",
-            ),
-            (
-                "[component.EXX]\n",
-                "1:1: [component.EXX] needs one of `coefficients`, `samples` or `function`",
-            ),
-            (
-                "[component.EXX]\ncolour = 1",
-                "2:1: unknown key `colour` in [component.EXX]; expected one of: coefficients, samples, function",
-            ),
-            (
-                "[component.EXX]\nsamples = [[0, 0], [10, 1]]",
-                "2:11: EXX: the samples do not determine the model's basis (Legendre degrees 1..3 over [-350, 350] mm) together with the constant it leaves out: fit needs at least as many independent samples as coefficients: 2 samples for 4 coefficients",
-            ),
-            (
-                "[component.EXX]\nsamples = [[0, 0], [0, 1], [0, 2], [0, 3]]",
-                "2:11: EXX: the samples do not determine the model's basis",
-            ),
-            (
-                "[component.EAX]\nsamples = [[0, 0]]",
-                "2:11: EAX: the samples do not determine the model's basis (Legendre degrees 0..3 over [-350, 350] mm): fit needs",
-            ),
-            (
-                "[component.EXX]\nsamples = [[0, 0], [500, 1]]",
-                "2:21: the sample at 500 mm lies outside EXX's stroke [-350, 350] mm",
-            ),
-            (
-                "[component.EXX]\nsamples = [[0, 0, 1]]",
-                "2:12: a sample must be [position mm, value um], got 3 values",
-            ),
-            (
-                "[component.EXX]\nsamples = [1, 2]",
-                "2:12: a sample must be [position mm, value um], found an integer",
-            ),
-            (
-                "[component.EAX]\nsamples = [[\"a\", 2]]",
-                "2:13: a sample position must be a number, found a string",
-            ),
-            (
-                "[component.EXX]\nfunction = { kind = \"sine\", amplitude = 1, harmonic = 1 }",
-                "2:12: `function` needs a Fourier basis, but EXX's is a Legendre degrees 1..3",
-            ),
-            (
-                "[component.ECC]\nfunction = 3",
-                "2:12: `function` must be a sine term",
-            ),
-            (
-                "[component.ECC]\nfunction = { kind = \"sine\", amplitude = 1, harmonic = 3 }",
-                "2:55: harmonic 3 is not in ECC's basis (C1, S1, C2, S2)",
-            ),
-            (
-                "[component.ECC]\nfunction = { kind = \"cosine\", amplitude = 1, harmonic = 1 }",
-                "2:21: unknown function kind: expected \"sine\"",
-            ),
-            (
-                "[component.ECC]\nfunction = { kind = \"sine\", harmonic = 1 }",
-                "2:12: a sine term needs `kind = \"sine\"`, `amplitude` and `harmonic`",
-            ),
-            (
-                "[component.ECC]\nfunction = { kind = \"sine\", amplitude = 1, harmonic = 1, phase = 3 }",
-                "2:58: unknown key `phase` in a sine term",
-            ),
-        ];
-        for (input, expect) in cases {
-            check(&model, input, expect);
+        for (input, expect) in cases(ERROR_CASES) {
+            check(&model, &input, &expect);
         }
     }
 
@@ -901,11 +907,17 @@ mod tests {
     }
 
     #[test]
-    fn load_names_missing_files() {
-        let err = load_params(Path::new("/nonexistent/truth.toml"), &default_model()).unwrap_err();
+    fn load_reads_files_and_names_missing_ones() {
+        let model = default_model();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("truth.params.toml");
+        let coeffs: Vec<f64> = (0..model.n_coeffs()).map(|i| i as f64 * 1e-7).collect();
+        std::fs::write(&path, write_params(&model, &coeffs)).unwrap();
+        assert_close(&load_params(&path, &model).unwrap(), &coeffs, 1e-15);
+        let missing = dir.path().join("missing.toml");
+        let err = load_params(&missing, &model).unwrap_err();
         assert!(
-            err.to_string()
-                .starts_with("/nonexistent/truth.toml: cannot read"),
+            err.to_string().contains("missing.toml: cannot read"),
             "{err}"
         );
         assert!(err.position().is_none());

@@ -58,8 +58,8 @@ pub enum UrdfError {
     #[error("{at}: <{element} {attribute}=\"{value}\"> is not valid: expected {expected}")]
     BadNumber {
         at: Location,
-        element: String,
-        attribute: String,
+        element: &'static str,
+        attribute: &'static str,
         value: String,
         expected: &'static str,
     },
@@ -430,26 +430,15 @@ fn read_joint<'d, 'i>(
         "type",
         "give the joint type: prismatic, revolute, continuous or fixed",
     )?;
-    let kind = match kind_text {
-        "fixed" => JointKind::Fixed,
-        "prismatic" => JointKind::Prismatic,
-        "revolute" => JointKind::Revolute,
-        "continuous" => JointKind::Continuous,
-        "floating" | "planar" | "spherical" => {
-            return Err(UrdfError::UnsupportedJointType {
-                at: ctx.at(node),
-                joint: name.to_string(),
-                kind: kind_text.to_string(),
-            });
+    let kind = joint_kind(kind_text).map_err(|unknown| {
+        let (joint, kind) = (name.to_string(), kind_text.to_string());
+        let at = ctx.at(node);
+        if unknown {
+            UrdfError::UnknownJointType { at, joint, kind }
+        } else {
+            UrdfError::UnsupportedJointType { at, joint, kind }
         }
-        _ => {
-            return Err(UrdfError::UnknownJointType {
-                at: ctx.at(node),
-                joint: name.to_string(),
-                kind: kind_text.to_string(),
-            });
-        }
-    };
+    })?;
     let parent = link_reference(ctx, node, name, "parent")?;
     let child = link_reference(ctx, node, name, "child")?;
     Ok(XmlJoint {
@@ -459,6 +448,19 @@ fn read_joint<'d, 'i>(
         parent,
         child,
     })
+}
+
+/// The kind of a URDF joint type; `Err(false)` for URDF types machines cannot use (several
+/// axes in one joint), `Err(true)` for strings that are no URDF type at all.
+fn joint_kind(text: &str) -> Result<JointKind, bool> {
+    match text {
+        "fixed" => Ok(JointKind::Fixed),
+        "prismatic" => Ok(JointKind::Prismatic),
+        "revolute" => Ok(JointKind::Revolute),
+        "continuous" => Ok(JointKind::Continuous),
+        "floating" | "planar" | "spherical" => Err(false),
+        _ => Err(true),
+    }
 }
 
 /// The `<parent link="…">` or `<child link="…">` of a joint.
@@ -553,8 +555,8 @@ fn check_joint_numbers(ctx: &Ctx, joint: &XmlJoint) -> Result<(), UrdfError> {
         if numbers.len() != count || value.split_whitespace().count() != count {
             return Err(UrdfError::BadNumber {
                 at: ctx.at(node),
-                element: tag.to_string(),
-                attribute: attribute.to_string(),
+                element: tag,
+                attribute,
                 value: value.to_string(),
                 expected: if count == 3 {
                     "three finite numbers separated by spaces, e.g. \"0 0 0.1\""
@@ -1495,12 +1497,8 @@ mod tests {
 
     #[test]
     fn rpy_is_exact_near_gimbal_lock() {
-        for pitch in [
-            std::f64::consts::FRAC_PI_2,
-            -std::f64::consts::FRAC_PI_2,
-            1.5707963,
-            -1.57079632,
-        ] {
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        for pitch in [half_pi, -half_pi, half_pi - 3e-8, 3e-9 - half_pi] {
             let r = *Rotation3::from_euler_angles(0.3, pitch, -1.2).matrix();
             let [roll, p, yaw] = rpy_from_matrix(&r);
             let back = *Rotation3::from_euler_angles(roll, p, yaw).matrix();
