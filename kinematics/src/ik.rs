@@ -252,6 +252,48 @@ fn wrap_pi(theta: f64) -> f64 {
     if w > PI { w - TAU } else { w }
 }
 
+/// Sets the linear axes of `q` so that the nominal tool point sits at `tip` (workpiece frame, m)
+/// with the rotary axes as they are in `q`: the "linear axes follow the ball" move of R-test
+/// and five-axis ball-bar paths. Exact (the tool point is affine in the linear positions when
+/// the rotary axes are fixed). Needs exactly three linear axes; fails if they are dependent.
+/// Limits are not checked: use [`Machine::within_limits`].
+pub fn follow_point(machine: &Machine, q: &mut [f64], tip: &Vector3<f64>) -> Result<(), IkError> {
+    let linear: Vec<usize> = (0..machine.n_axes())
+        .filter(|&i| machine.axes()[i].kind() == AxisKind::Linear)
+        .collect();
+    if linear.len() != 3 || q.len() != machine.n_axes() {
+        return Err(IkError::UnsupportedMachine {
+            name: machine.name().to_string(),
+            letters: machine.letters(),
+            needs: "exactly 3 linear axes (and one position per axis)",
+        });
+    }
+    if !tip.iter().chain(q.iter()).all(|x| x.is_finite()) {
+        return Err(IkError::NotFinite {
+            what: "tool point or axis position",
+        });
+    }
+    let opts = IkOptions::default();
+    let solver = Solver {
+        machine,
+        tip,
+        opts: &opts,
+        linear: [linear[0], linear[1], linear[2]],
+        rot: &[],
+    };
+    let x = solver
+        .solve_linear(q)
+        .ok_or_else(|| IkError::UnsupportedMachine {
+            name: machine.name().to_string(),
+            letters: machine.letters(),
+            needs: "linearly independent linear axes at this orientation",
+        })?;
+    for (c, &i) in solver.linear.iter().enumerate() {
+        q[i] = x[c];
+    }
+    Ok(())
+}
+
 /// Inverse kinematics of the nominal machine: every set of axis positions (canonical order)
 /// within the limits that puts the tool point at `tip` with its axis along `tool_axis`, both in
 /// the workpiece frame (m; the axis need not be unit).
@@ -1036,6 +1078,22 @@ mod tests {
             },
         })
         .unwrap()
+    }
+
+    #[test]
+    fn follow_point_puts_the_nominal_tool_point_on_the_target() {
+        let m = trunnion((-0.5, 2.1));
+        let tip = Vector3::new(0.12, -0.05, 0.08);
+        for (a, c) in [(0.0, 0.0), (0.7, 2.0), (-0.4, -3.0)] {
+            let mut q = vec![0.3; m.n_axes()];
+            q[m.axis_index('A').unwrap()] = a;
+            q[m.axis_index('C').unwrap()] = c;
+            follow_point(&m, &mut q, &tip).unwrap();
+            assert!((m.tool_in_workpiece(&q).t - tip).norm() < 1e-12);
+            assert_eq!(q[m.axis_index('A').unwrap()], a, "rotary axes untouched");
+        }
+        let mut q = vec![0.0; m.n_axes()];
+        assert!(follow_point(&m, &mut q, &Vector3::new(f64::NAN, 0.0, 0.0)).is_err());
     }
 
     #[test]

@@ -21,7 +21,9 @@
 
 use crate::machine::{AxisKind, Machine, Side};
 use crate::model::{ErrorModel, ModelError, ParamConfig, Role};
-use crate::rigid::{Rigid, axis_rotation, exp_so3, left_jacobian, left_jacobian_inverse, log_so3};
+use crate::rigid::{
+    Rigid, axis_rotation, exp_so3, left_jacobian, left_jacobian_inverse, log_so3, mm, mv,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Tool pose error in the workpiece frame: translation (m) and rotation vector (rad).
@@ -51,6 +53,163 @@ impl PoseError {
 pub struct MachineModel {
     machine: Machine,
     errors: ErrorModel,
+    plan: Plan,
+}
+
+/// The error model flattened per axis for the hot paths: coefficient offsets instead of
+/// parameter lookups, one shared Legendre evaluation per axis, and flags that let the nominal
+/// chain skip work (a pure-translation joint origin needs no rotation product).
+#[derive(Clone, Debug)]
+struct Plan {
+    axes: Vec<AxisPlan>,
+    tool: [Option<usize>; 3],
+    workpiece: [Option<usize>; 6],
+    /// Longest shared Legendre recurrence of any axis (scratch size).
+    max_legendre: usize,
+}
+
+#[derive(Clone, Debug)]
+struct AxisPlan {
+    linear: bool,
+    tool_side: bool,
+    r0t: Matrix3<f64>,
+    origin_is_translation: bool,
+    /// `(lo, hi)` of the stroke the axis' shared Legendre components use.
+    legendre_stroke: (f64, f64),
+    /// Highest Legendre degree evaluated for the axis (`None`: no shared Legendre component).
+    legendre_max: Option<usize>,
+    comp: [Slot; 6],
+    /// Coefficient offsets of the location errors that go into the location factor.
+    loc: [Option<usize>; 6],
+    /// Coefficient offsets of a rotary axis' own-direction location errors (added to the
+    /// component values: they are their constants).
+    own_loc: [Option<usize>; 6],
+}
+
+/// Highest Legendre degree + 1 the packed fast path handles; axes beyond it use the general one.
+const PACKED_TERMS: usize = 8;
+
+/// An axis' error values in local coordinates (`r0t` applied) as dense polynomials in the
+/// shared Legendre basis: `[δ; ε](q) = Σ_k comp[k]·P_k(u)`, location `[lt; lw] = loc`.
+#[derive(Clone, Copy, Debug, Default)]
+struct PackedAxis {
+    comp: [[f64; 6]; PACKED_TERMS],
+    terms: usize,
+    loc: [f64; 6],
+    /// Some component is not a shared-stroke Legendre polynomial: use the general path.
+    general: bool,
+}
+
+/// A component error slot of an axis.
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    Empty,
+    /// Legendre over the axis' shared stroke: coefficients `offset..offset+len` multiply
+    /// `P_min .. P_(min+len-1)`.
+    Legendre {
+        offset: usize,
+        len: usize,
+        min: usize,
+    },
+    /// Any other basis, evaluated through [`crate::Basis`] (index into the parameters).
+    General {
+        offset: usize,
+        len: usize,
+        param: usize,
+    },
+}
+
+impl Plan {
+    fn new(machine: &Machine, errors: &ErrorModel) -> Plan {
+        let axes: Vec<AxisPlan> = machine
+            .axes()
+            .iter()
+            .enumerate()
+            .map(|(i, ax)| AxisPlan::new(i, ax, errors))
+            .collect();
+        let max_legendre = axes
+            .iter()
+            .filter_map(|a| a.legendre_max)
+            .map(|m| m + 1)
+            .max()
+            .unwrap_or(0);
+        Plan {
+            axes,
+            tool: std::array::from_fn(|d| errors.tool_offset(d).map(|p| p.offset)),
+            workpiece: std::array::from_fn(|d| errors.workpiece_offset(d).map(|p| p.offset)),
+            max_legendre,
+        }
+    }
+}
+
+impl AxisPlan {
+    fn new(i: usize, ax: &crate::machine::Axis, errors: &ErrorModel) -> AxisPlan {
+        let linear = ax.kind() == AxisKind::Linear;
+        // The first Legendre component fixes the shared stroke; others on another stroke fall
+        // back to the general path.
+        let mut stroke = None;
+        let mut legendre_max = None;
+        let mut comp = [Slot::Empty; 6];
+        for (d, slot) in comp.iter_mut().enumerate() {
+            let Some(p) = errors.component(i, d) else {
+                continue;
+            };
+            let param = errors
+                .params()
+                .iter()
+                .position(|q| std::ptr::eq(q, p))
+                .expect("parameter of this model");
+            *slot = Slot::General {
+                offset: p.offset,
+                len: p.len,
+                param,
+            };
+            if let Role::Component {
+                basis:
+                    crate::Basis::Legendre {
+                        lo,
+                        hi,
+                        min_degree,
+                        max_degree,
+                    },
+                ..
+            } = &p.role
+            {
+                let s = *stroke.get_or_insert((*lo, *hi));
+                if s == (*lo, *hi) {
+                    *slot = Slot::Legendre {
+                        offset: p.offset,
+                        len: p.len,
+                        min: *min_degree,
+                    };
+                    legendre_max = Some(legendre_max.unwrap_or(0).max(*max_degree));
+                }
+            }
+        }
+        let own = ax.own_cartesian();
+        let mut loc = [None; 6];
+        let mut own_loc = [None; 6];
+        for d in 0..6 {
+            if let Some(p) = errors.location(i, d) {
+                if !linear && d % 3 == own {
+                    own_loc[d] = Some(p.offset);
+                } else {
+                    loc[d] = Some(p.offset);
+                }
+            }
+        }
+        AxisPlan {
+            linear,
+            tool_side: ax.side() == Side::Tool,
+            r0t: ax.zero_rotation().transpose(),
+            origin_is_translation: ax.origin().r == Matrix3::identity(),
+            legendre_stroke: stroke.unwrap_or((0.0, 1.0)),
+            legendre_max,
+            comp,
+            loc,
+            own_loc,
+        }
+    }
 }
 
 /// Per-joint quantities of the last chain evaluation, in the joint's local frame.
@@ -78,6 +237,15 @@ struct JointState {
 /// Scratch buffers for evaluations; allocate once per thread with [`MachineModel::workspace`].
 #[derive(Clone, Debug)]
 pub struct Workspace {
+    /// Shared Legendre values `P_0 ..` of the axis being evaluated.
+    legendre: Vec<f64>,
+    /// The coefficients [`Self::packed`] was built from (NaN before the first build).
+    packed_from: Vec<f64>,
+    /// Per axis: the component and location values as dense local-frame polynomials, rebuilt
+    /// only when the coefficients change (a map or a fit evaluates one set at many poses).
+    packed: Vec<PackedAxis>,
+    packed_tool: Vector3<f64>,
+    packed_wp: (Vector3<f64>, Vector3<f64>),
     phi: Vec<f64>,
     dphi: Vec<f64>,
     comp: Vec<[f64; 6]>,
@@ -104,17 +272,15 @@ enum Fill {
     Derivative,
 }
 
-/// Which chain to evaluate.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Chain {
-    Nominal,
-    Actual,
-}
-
 impl MachineModel {
     pub fn new(machine: Machine, config: &[ParamConfig]) -> Result<Self, ModelError> {
         let errors = ErrorModel::new(&machine, config)?;
-        Ok(Self { machine, errors })
+        let plan = Plan::new(&machine, &errors);
+        Ok(Self {
+            machine,
+            errors,
+            plan,
+        })
     }
 
     pub fn machine(&self) -> &Machine {
@@ -133,6 +299,11 @@ impl MachineModel {
         let n = self.machine.n_axes();
         let m = self.errors.n_coeffs();
         Workspace {
+            legendre: vec![0.0; self.plan.max_legendre],
+            packed_from: vec![f64::NAN; m],
+            packed: vec![PackedAxis::default(); n],
+            packed_tool: Vector3::zeros(),
+            packed_wp: (Vector3::zeros(), Vector3::zeros()),
             phi: vec![0.0; m],
             dphi: vec![0.0; m],
             comp: vec![[0.0; 6]; n],
@@ -162,18 +333,22 @@ impl MachineModel {
         fill: Fill,
     ) -> PoseError {
         self.check_sizes(q, coeffs);
-        let nominal = self.machine.tool_in_workpiece(q);
+        let nominal = self.nominal_tool_in_workpiece(q);
         self.eval_values(q, coeffs, ws, fill);
-        self.eval_chain(q, ws, Chain::Actual);
+        self.eval_chain(q, ws);
         let act = ws.w_t_t;
         PoseError {
             translation: act.t - nominal.t,
-            rotation: log_so3(&(act.r * nominal.r.transpose())),
+            rotation: log_so3(&mm(&act.r, &nominal.r.transpose())),
         }
     }
 
     /// First-order pose error: the error parameters' effects added linearly at the nominal
     /// pose. Agrees with [`Self::pose_error`] to second order in the error size.
+    ///
+    /// One walk of the nominal chain: every joint's error twists are mapped to the machine frame
+    /// as the walk passes it and summed, then the sum is moved to the workpiece frame once. No
+    /// per-joint state is stored (this is the path volumetric maps run millions of times).
     pub fn pose_error_first_order(
         &self,
         q: &[f64],
@@ -181,50 +356,184 @@ impl MachineModel {
         ws: &mut Workspace,
     ) -> PoseError {
         self.check_sizes(q, coeffs);
-        self.eval_values(q, coeffs, ws, Fill::Values);
-        self.eval_chain(q, ws, Chain::Nominal);
-        let p = ws.w_t_t.t;
-        // Twists are summed in the machine frame and mapped to the workpiece frame once.
+        self.ensure_packed(coeffs, ws);
+        let axes = self.machine.axes();
+        // Σ of signed twists in the machine frame.
         let (mut v, mut w) = (Vector3::zeros(), Vector3::zeros());
-        let mut add = |side: Side, frame: &Rigid, tv: Vector3<f64>, tw: Vector3<f64>| {
-            let (tv, tw) = frame.adjoint(&tv, &tw);
-            let s = sign(side);
-            v += tv * s;
-            w += tw * s;
+        let mut add = |frame: &Rigid, tv: Vector3<f64>, tw: Vector3<f64>| {
+            let rw = mv(&frame.r, &tw);
+            v += mv(&frame.r, &tv) + frame.t.cross(&rw);
+            w += rw;
         };
-        for (i, ax) in self.machine.axes().iter().enumerate() {
-            let js = &ws.joints[i];
-            let r0t = ax.zero_rotation().transpose();
-            let c = &ws.comp[i];
-            let l = &ws.loc[i];
-            // Functional component errors: the workpiece side's E⁻¹ and its negative sign cancel.
-            let (de, ee) = (r0t * v3(c, 0), r0t * v3(c, 3));
-            let e_frame = match ax.kind() {
-                AxisKind::Linear => js.before_b,
-                AxisKind::Rotary => js.before_a,
-            };
-            add(Side::Tool, &e_frame, de, ee);
-            let (lt, lw) = (r0t * v3(l, 0), r0t * v3(l, 3));
-            match ax.kind() {
-                AxisKind::Linear => add(
-                    ax.side(),
-                    &js.before_a,
-                    (lw * js.q).cross(ax.direction()),
-                    Vector3::zeros(),
-                ),
-                AxisKind::Rotary => {
-                    let (rv, rw) = js.lrl.adjoint(&lt, &lw);
-                    add(ax.side(), &js.before_b, lt - rv, lw - rw);
+        let mut f_t_w = Rigid::IDENTITY;
+        let mut f_t_t = Rigid::IDENTITY;
+        for side in [Side::Workpiece, Side::Tool] {
+            let branch = self.machine.branch(side);
+            let s = sign(side);
+            let mut t = Rigid::IDENTITY;
+            for &i in branch.joints() {
+                let ap = &self.plan.axes[i];
+                let ax = &axes[i];
+                let (c, l) = self.local_values(i, q[i], coeffs, ws);
+                t = self.after_origin(i, &t);
+                // Functional component errors: the workpiece side's E⁻¹ and its negative sign
+                // cancel, so they always enter with +1.
+                let (de, ee) = (v3(&c, 0), v3(&c, 3));
+                if ap.linear {
+                    t.t += mv(&t.r, &(ax.direction() * q[i]));
+                    // Squareness: the axis moves along R_L·a, a pure translation twist.
+                    let lv = v3(&l, 3).cross(ax.direction()) * (q[i] * s);
+                    add(&t, de + lv, ee);
+                } else {
+                    let (lt, lw) = (v3(&l, 0), v3(&l, 3));
+                    let rot = axis_rotation(ax.direction(), q[i]);
+                    // Location twist (I − Ad(Rot))·(lt, lw) at the frame before the rotation.
+                    let rw = mv(&rot, &lw);
+                    let rv = mv(&rot, &lt);
+                    add(&t, de + (lt - rv) * s, ee + (lw - rw) * s);
+                    t.r = mm(&t.r, &rot);
+                }
+            }
+            t = t.compose(branch.end());
+            match side {
+                Side::Workpiece => {
+                    add(&t, -ws.packed_wp.0, -ws.packed_wp.1);
+                    f_t_w = t;
+                }
+                Side::Tool => {
+                    add(&t, ws.packed_tool, Vector3::zeros());
+                    f_t_t = t;
                 }
             }
         }
-        add(Side::Tool, &ws.tool_end, ws.tool_trans, Vector3::zeros());
-        add(Side::Workpiece, &ws.wp_end, ws.wp_trans, ws.wp_rot);
-        let (v, w) = ws.f_t_w.inverse().adjoint(&v, &w);
+        let w_t_f = f_t_w.inverse();
+        let p = w_t_f.apply(&f_t_t.t);
+        let (v, w) = w_t_f.adjoint(&v, &w);
         PoseError {
             translation: v + w.cross(&p),
             rotation: w,
         }
+    }
+
+    /// Rebuilds the packed polynomials if `coeffs` differ from the last ones packed.
+    #[inline]
+    // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
+    #[allow(clippy::needless_range_loop)]
+    fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
+        // Bitwise comparison folded without early exit, so it vectorises.
+        let changed = ws
+            .packed_from
+            .iter()
+            .zip(coeffs)
+            .fold(0u64, |acc, (a, b)| acc | (a.to_bits() ^ b.to_bits()));
+        if changed == 0 {
+            return;
+        }
+        for (i, ap) in self.plan.axes.iter().enumerate() {
+            let mut pa = PackedAxis::default();
+            let terms = ap.legendre_max.map_or(1, |m| m + 1);
+            pa.general =
+                terms > PACKED_TERMS || ap.comp.iter().any(|s| matches!(s, Slot::General { .. }));
+            pa.terms = terms.min(PACKED_TERMS);
+            if !pa.general {
+                let mut machine_dir = [[0.0; 6]; PACKED_TERMS];
+                for d in 0..6 {
+                    if let Slot::Legendre { offset, len, min } = ap.comp[d] {
+                        for k in 0..len {
+                            machine_dir[min + k][d] = coeffs[offset + k];
+                        }
+                    }
+                    if let Some(o) = ap.own_loc[d] {
+                        machine_dir[0][d] += coeffs[o];
+                    }
+                }
+                for k in 0..pa.terms {
+                    pa.comp[k] = to_local(&ap.r0t, &machine_dir[k]);
+                }
+            }
+            let mut l = [0.0; 6];
+            for d in 0..6 {
+                if let Some(o) = ap.loc[d] {
+                    l[d] = coeffs[o];
+                }
+            }
+            pa.loc = to_local(&ap.r0t, &l);
+            ws.packed[i] = pa;
+        }
+        ws.packed_tool = Vector3::new(
+            opt(self.plan.tool[0], coeffs),
+            opt(self.plan.tool[1], coeffs),
+            opt(self.plan.tool[2], coeffs),
+        );
+        ws.packed_wp = (ws_wp(&self.plan, coeffs, 0), ws_wp(&self.plan, coeffs, 3));
+        ws.packed_from.copy_from_slice(coeffs);
+    }
+
+    /// Local-frame component values `[δ; ε]` and location values `[lt; lw]` of axis `i` at
+    /// position `q`, from the packed polynomials (or the general path).
+    #[inline(always)]
+    fn local_values(
+        &self,
+        i: usize,
+        q: f64,
+        coeffs: &[f64],
+        ws: &mut Workspace,
+    ) -> ([f64; 6], [f64; 6]) {
+        let pa = &ws.packed[i];
+        if pa.general {
+            let ap = &self.plan.axes[i];
+            let (c, _) = self.axis_values(i, q, coeffs, &mut ws.legendre);
+            return (to_local(&ap.r0t, &c), ws.packed[i].loc);
+        }
+        let mut p = [0.0; PACKED_TERMS];
+        let terms = pa.terms;
+        legendre_values(self.plan.axes[i].legendre_stroke, q, &mut p[..terms]);
+        let mut c = [0.0; 6];
+        for (row, pk) in pa.comp[..terms].iter().zip(&p) {
+            for d in 0..6 {
+                c[d] += row[d] * pk;
+            }
+        }
+        (c, pa.loc)
+    }
+
+    /// Component values (with a rotary axis' own-direction location constants) and location
+    /// values of axis `i` at position `q`, machine directions.
+    #[inline]
+    fn axis_values(
+        &self,
+        i: usize,
+        q: f64,
+        coeffs: &[f64],
+        legendre: &mut [f64],
+    ) -> ([f64; 6], [f64; 6]) {
+        let ap = &self.plan.axes[i];
+        if let Some(max) = ap.legendre_max {
+            legendre_values(ap.legendre_stroke, q, &mut legendre[..=max]);
+        }
+        let mut c = [0.0; 6];
+        let mut l = [0.0; 6];
+        for d in 0..6 {
+            match ap.comp[d] {
+                Slot::Empty => {}
+                Slot::Legendre { offset, len, min } => {
+                    c[d] = dot(&coeffs[offset..offset + len], &legendre[min..min + len]);
+                }
+                Slot::General { offset, len, param } => {
+                    let Role::Component { basis, .. } = &self.errors.params()[param].role else {
+                        unreachable!("component slot holds a component")
+                    };
+                    c[d] = basis.value(q, &coeffs[offset..offset + len]);
+                }
+            }
+            if let Some(o) = ap.own_loc[d] {
+                c[d] += coeffs[o];
+            }
+            if let Some(o) = ap.loc[d] {
+                l[d] = coeffs[o];
+            }
+        }
+        (c, l)
     }
 
     /// Exact pose error and its Jacobian with respect to every coefficient.
@@ -240,55 +549,111 @@ impl MachineModel {
     ) -> PoseError {
         assert_eq!(jac.len(), 6 * self.n_coeffs(), "jacobian buffer size");
         let err = self.pose_error_filled(q, coeffs, ws, Fill::Basis);
-        let p = ws.w_t_t.t;
         let jl_inv = left_jacobian_inverse(&err.rotation);
+        self.fill_param_jacobian(ws, jac, Some(&jl_inv));
+        err
+    }
+
+    /// The actual tool pose in the workpiece frame `w_T_t` and its Jacobian with respect to every
+    /// coefficient, for instrument models: `jac` is column-major 6 × `n_coeffs`, each column
+    /// `[δt; δθ]` of the left perturbation `t ← t + δt`, `R ← exp([δθ]×)·R` (workpiece frame).
+    /// No allocation.
+    pub fn tool_pose_jacobian(
+        &self,
+        q: &[f64],
+        coeffs: &[f64],
+        ws: &mut Workspace,
+        jac: &mut [f64],
+    ) -> Rigid {
+        self.check_sizes(q, coeffs);
+        assert_eq!(jac.len(), 6 * self.n_coeffs(), "jacobian buffer size");
+        self.eval_values(q, coeffs, ws, Fill::Basis);
+        self.eval_chain(q, ws);
+        self.fill_param_jacobian(ws, jac, None);
+        ws.w_t_t
+    }
+
+    /// The actual tool pose in the workpiece frame `w_T_t`, every error inserted.
+    pub fn tool_pose(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace) -> Rigid {
+        self.check_sizes(q, coeffs);
+        self.eval_values(q, coeffs, ws, Fill::Values);
+        self.eval_chain(q, ws);
+        ws.w_t_t
+    }
+
+    /// Columns of the parameter Jacobian from the last actual chain evaluation (with `phi`
+    /// filled). `rot_map` maps the rotation rows (the pose error's `J_l⁻¹`); `None` leaves the
+    /// left-perturbation rotation.
+    // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
+    #[allow(clippy::needless_range_loop)]
+    fn fill_param_jacobian(&self, ws: &Workspace, jac: &mut [f64], rot_map: Option<&Matrix3<f64>>) {
+        let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
-        let to_column = |side: Side, frame: &Rigid, tv: Vector3<f64>, tw: Vector3<f64>| {
-            let (v, w) = w_t_f.compose(frame).adjoint(&tv, &tw);
-            let s = sign(side);
+        // The column of a twist (tv, tw) given in the frame `w_T_frame = m`, branch sign `s`.
+        let twist_column = |m: &Rigid, s: f64, tv: &Vector3<f64>, tw: &Vector3<f64>| {
+            let (v, w) = m.adjoint(tv, tw);
             let (v, w) = (v * s, w * s);
             let dp = v + w.cross(&p);
-            let dr = jl_inv * w;
+            let dr = match rot_map {
+                Some(map) => mv(map, &w),
+                None => w,
+            };
             [dp.x, dp.y, dp.z, dr.x, dr.y, dr.z]
         };
-        for (i, ax) in self.machine.axes().iter().enumerate() {
+        for (i, ap) in self.plan.axes.iter().enumerate() {
+            let js = &ws.joints[i];
+            let s = if ap.tool_side { 1.0 } else { -1.0 };
+            let e_frame = if ap.linear { js.before_b } else { js.before_a };
+            let m = w_t_f.compose(&e_frame);
             let units = self.component_twists(i, ws);
-            let e_frame = self.e_frame(i, ws);
-            let cols: [[f64; 6]; 6] =
-                std::array::from_fn(|d| to_column(ax.side(), &e_frame, units[d].0, units[d].1));
-            for (d, unit_col) in cols.iter().enumerate() {
-                if let Some(par) = self.errors.component(i, d) {
-                    for k in 0..par.len {
-                        let f = ws.phi[par.offset + k];
-                        let col = &mut jac[6 * (par.offset + k)..6 * (par.offset + k + 1)];
+            let mut unit_cols = [[0.0; 6]; 6];
+            for (uc, (tv, tw)) in unit_cols.iter_mut().zip(&units) {
+                *uc = twist_column(&m, s, tv, tw);
+            }
+            for (d, unit_col) in unit_cols.iter().enumerate() {
+                if let Slot::Legendre { offset, len, .. } | Slot::General { offset, len, .. } =
+                    ap.comp[d]
+                {
+                    let cols = jac[6 * offset..6 * (offset + len)].chunks_exact_mut(6);
+                    for (col, f) in cols.zip(&ws.phi[offset..offset + len]) {
                         col.iter_mut().zip(unit_col).for_each(|(o, c)| *o = f * c);
                     }
                 }
-                if let Some(par) = self.errors.location(i, d) {
-                    let col = if ax.kind() == AxisKind::Rotary && d % 3 == ax.own_cartesian() {
-                        *unit_col
-                    } else {
-                        let (tv, tw, frame) = self.location_twist(i, d, ws);
-                        to_column(ax.side(), &frame, tv, tw)
-                    };
-                    jac[6 * par.offset..6 * par.offset + 6].copy_from_slice(&col);
+                if let Some(o) = ap.own_loc[d] {
+                    jac[6 * o..6 * o + 6].copy_from_slice(unit_col);
+                }
+            }
+            if ap.loc.iter().any(Option::is_some) {
+                let (twists, frame) = self.location_twists(i, ws);
+                let m = w_t_f.compose(&frame);
+                for d in 0..6 {
+                    if let Some(o) = ap.loc[d] {
+                        let col = twist_column(&m, s, &twists[d].0, &twists[d].1);
+                        jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                    }
                 }
             }
         }
-        for d in 0..3 {
-            if let Some(par) = self.errors.tool_offset(d) {
-                let col = to_column(Side::Tool, &ws.tool_end, unit(d), Vector3::zeros());
-                jac[6 * par.offset..6 * par.offset + 6].copy_from_slice(&col);
+        if self.plan.tool.iter().any(Option::is_some) {
+            let m = w_t_f.compose(&ws.tool_end);
+            for d in 0..3 {
+                if let Some(o) = self.plan.tool[d] {
+                    let col = twist_column(&m, 1.0, &unit(d), &Vector3::zeros());
+                    jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                }
             }
         }
-        for d in 0..6 {
-            if let Some(par) = self.errors.workpiece_offset(d) {
-                let (tv, tw) = e_twist(d, &Matrix3::identity(), &ws.wp_trans, &ws.wp_rot);
-                let col = to_column(Side::Workpiece, &ws.wp_end, tv, tw);
-                jac[6 * par.offset..6 * par.offset + 6].copy_from_slice(&col);
+        if self.plan.workpiece.iter().any(Option::is_some) {
+            let m = w_t_f.compose(&ws.wp_end);
+            let jl = left_jacobian(&ws.wp_rot);
+            for d in 0..6 {
+                if let Some(o) = self.plan.workpiece[d] {
+                    let (tv, tw) = e_twist(d, &Matrix3::identity(), &jl, &ws.wp_trans);
+                    let col = twist_column(&m, -1.0, &tv, &tw);
+                    jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                }
             }
         }
-        err
     }
 
     /// Jacobian of the actual tool pose in the workpiece frame with respect to the axis
@@ -305,7 +670,7 @@ impl MachineModel {
         self.check_sizes(q, coeffs);
         assert_eq!(jac.len(), 6 * self.machine.n_axes(), "jacobian buffer size");
         self.eval_values(q, coeffs, ws, Fill::Derivative);
-        self.eval_chain(q, ws, Chain::Actual);
+        self.eval_chain(q, ws);
         let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
         for (i, ax) in self.machine.axes().iter().enumerate() {
@@ -343,8 +708,53 @@ impl MachineModel {
         assert_eq!(coeffs.len(), self.n_coeffs(), "one value per coefficient");
     }
 
-    /// Component and location values per axis (machine directions) from the coefficients.
+    /// Component and location values per axis (local joint directions) from the coefficients;
+    /// with [`Fill::Basis`] also every basis function's value in `phi`.
+    // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
+    #[allow(clippy::needless_range_loop)]
     fn eval_values(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace, fill: Fill) {
+        if fill == Fill::Derivative {
+            return self.eval_values_generic(q, coeffs, ws, fill);
+        }
+        self.ensure_packed(coeffs, ws);
+        for i in 0..self.plan.axes.len() {
+            let (c, l) = self.local_values(i, q[i], coeffs, ws);
+            ws.comp[i] = c;
+            ws.loc[i] = l;
+            if fill == Fill::Basis {
+                self.fill_phi(i, q[i], ws);
+            }
+        }
+        ws.wp_trans = ws.packed_wp.0;
+        ws.wp_rot = ws.packed_wp.1;
+        ws.tool_trans = ws.packed_tool;
+    }
+
+    /// Every basis function of axis `i`'s components at `q` into `phi`.
+    fn fill_phi(&self, i: usize, q: f64, ws: &mut Workspace) {
+        let ap = &self.plan.axes[i];
+        if let Some(max) = ap.legendre_max {
+            legendre_values(ap.legendre_stroke, q, &mut ws.legendre[..=max]);
+        }
+        for slot in ap.comp {
+            match slot {
+                Slot::Empty => {}
+                Slot::Legendre { offset, len, min } => {
+                    ws.phi[offset..offset + len].copy_from_slice(&ws.legendre[min..min + len]);
+                }
+                Slot::General { offset, len, param } => {
+                    let Role::Component { basis, .. } = &self.errors.params()[param].role else {
+                        unreachable!("component slot holds a component")
+                    };
+                    basis.eval(q, &mut ws.phi[offset..offset + len]);
+                }
+            }
+        }
+    }
+
+    /// Component and location values per axis through [`crate::Basis`] one component at a time:
+    /// the derivative fill (axis Jacobian), which is not on the identification hot path.
+    fn eval_values_generic(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace, fill: Fill) {
         for (i, ax) in self.machine.axes().iter().enumerate() {
             let mut c = [0.0; 6];
             let mut dc = [0.0; 6];
@@ -382,9 +792,10 @@ impl MachineModel {
                 }
                 continue_location(&mut c, &mut l, ax, d, self.errors.location(i, d), coeffs);
             }
-            ws.comp[i] = c;
+            let r0t = &self.plan.axes[i].r0t;
+            ws.comp[i] = to_local(r0t, &c);
             ws.dcomp[i] = dc;
-            ws.loc[i] = l;
+            ws.loc[i] = to_local(r0t, &l);
         }
         ws.wp_trans = Vector3::from_fn(|r, _| value_of(self.errors.workpiece_offset(r), coeffs));
         ws.wp_rot = Vector3::from_fn(|r, _| value_of(self.errors.workpiece_offset(3 + r), coeffs));
@@ -392,57 +803,48 @@ impl MachineModel {
     }
 
     /// Walks both branches, recording every joint's frames; leaves `f_t_w` and `w_t_t`.
-    fn eval_chain(&self, q: &[f64], ws: &mut Workspace, chain: Chain) {
-        let actual = chain == Chain::Actual;
+    fn eval_chain(&self, q: &[f64], ws: &mut Workspace) {
         for side in [Side::Workpiece, Side::Tool] {
             let branch = self.machine.branch(side);
             let mut t = Rigid::IDENTITY;
             for &i in branch.joints() {
-                t = self.eval_joint(i, q[i], t, ws, actual);
+                t = self.eval_joint(i, q[i], t, ws);
             }
             t = t.compose(branch.end());
             match side {
                 Side::Workpiece => {
                     ws.wp_end = t;
-                    if actual {
-                        t = t.compose(&Rigid::new(exp_so3(&ws.wp_rot), ws.wp_trans));
-                    }
+                    t = t.compose(&Rigid::new(exp_so3(&ws.wp_rot), ws.wp_trans));
                     ws.f_t_w = t;
                 }
                 Side::Tool => {
                     ws.tool_end = t;
-                    if actual {
-                        t = t.compose(&Rigid::translation(ws.tool_trans));
-                    }
+                    t = t.compose(&Rigid::translation(ws.tool_trans));
                     ws.w_t_t = ws.f_t_w.inverse().compose(&t);
                 }
             }
         }
     }
 
-    fn eval_joint(&self, i: usize, q: f64, t: Rigid, ws: &mut Workspace, actual: bool) -> Rigid {
+    fn eval_joint(&self, i: usize, q: f64, t: Rigid, ws: &mut Workspace) -> Rigid {
         let ax = &self.machine.axes()[i];
-        if !actual {
-            return self.eval_nominal_joint(i, q, t, ws);
-        }
-        let r0t = ax.zero_rotation().transpose();
         let (c, l) = (ws.comp[i], ws.loc[i]);
         let js = &mut ws.joints[i];
         js.q = q;
-        js.e_trans = r0t * v3(&c, 0);
-        js.e_rot = r0t * v3(&c, 3);
-        js.l_trans = r0t * v3(&l, 0);
-        js.l_rot = r0t * v3(&l, 3);
+        js.e_trans = v3(&c, 0);
+        js.e_rot = v3(&c, 3);
+        js.l_trans = v3(&l, 0);
+        js.l_rot = v3(&l, 3);
         let e = Rigid::new(exp_so3(&js.e_rot), js.e_trans);
         js.e_body = match ax.side() {
             Side::Tool => e,
             Side::Workpiece => e.inverse(),
         };
-        let t = t.compose(ax.origin());
+        let t = self.after_origin(i, &t);
         js.before_a = t;
         match ax.kind() {
             AxisKind::Linear => {
-                js.motion_dir = exp_so3(&js.l_rot) * ax.direction();
+                js.motion_dir = mv(&exp_so3(&js.l_rot), ax.direction());
                 js.before_b = t.compose(&Rigid::translation(js.motion_dir * q));
                 js.before_b.compose(&js.e_body)
             }
@@ -457,25 +859,14 @@ impl MachineModel {
         }
     }
 
-    /// The nominal joint: no error factor, so every error frame is a plain chain frame.
-    fn eval_nominal_joint(&self, i: usize, q: f64, t: Rigid, ws: &mut Workspace) -> Rigid {
-        let ax = &self.machine.axes()[i];
-        let js = &mut ws.joints[i];
-        js.q = q;
-        let t = t.compose(ax.origin());
-        js.before_a = t;
-        match ax.kind() {
-            AxisKind::Linear => {
-                js.motion_dir = *ax.direction();
-                js.before_b = Rigid::new(t.r, t.r * (js.motion_dir * q) + t.t);
-                js.before_b
-            }
-            AxisKind::Rotary => {
-                js.before_b = t;
-                js.before_r = t;
-                js.lrl = Rigid::rotation(axis_rotation(ax.direction(), q));
-                t.compose(&js.lrl)
-            }
+    /// `t · origin` of axis `i`, without the rotation product when the origin is a translation.
+    #[inline(always)]
+    fn after_origin(&self, i: usize, t: &Rigid) -> Rigid {
+        let origin = self.machine.axes()[i].origin();
+        if self.plan.axes[i].origin_is_translation {
+            Rigid::new(t.r, mv(&t.r, &origin.t) + t.t)
+        } else {
+            t.compose(origin)
         }
     }
 
@@ -491,69 +882,140 @@ impl MachineModel {
     /// Twists of the body per unit of each machine-direction component value, in the frame
     /// before the error factor (exact, at the current error values).
     fn component_twists(&self, i: usize, ws: &Workspace) -> [(Vector3<f64>, Vector3<f64>); 6] {
-        let ax = &self.machine.axes()[i];
+        let ap = &self.plan.axes[i];
         let js = &ws.joints[i];
-        let r0t = ax.zero_rotation().transpose();
-        std::array::from_fn(|d| {
-            let (tv, tw) = e_twist(d, &r0t, &js.e_trans, &js.e_rot);
-            match ax.side() {
-                Side::Tool => (tv, tw),
+        let jl = left_jacobian(&js.e_rot);
+        let mut out = [(Vector3::zeros(), Vector3::zeros()); 6];
+        for (d, o) in out.iter_mut().enumerate() {
+            let (tv, tw) = e_twist(d, &ap.r0t, &jl, &js.e_trans);
+            *o = if ap.tool_side {
+                (tv, tw)
+            } else {
                 // d(E⁻¹)·E = −Ad(E⁻¹)·(dE·E⁻¹); the branch sign is applied later.
-                Side::Workpiece => {
-                    let (v, w) = js.e_body.adjoint(&tv, &tw);
-                    (-v, -w)
-                }
-            }
-        })
+                let (v, w) = js.e_body.adjoint(&tv, &tw);
+                (-v, -w)
+            };
+        }
+        out
     }
 
-    /// Twist of a (non-own-direction) location error of axis `i` and the frame it is given in.
-    fn location_twist(
-        &self,
-        i: usize,
-        d: usize,
-        ws: &Workspace,
-    ) -> (Vector3<f64>, Vector3<f64>, Rigid) {
-        let ax = &self.machine.axes()[i];
+    /// Twists of axis `i`'s location errors that enter its location factor (every direction;
+    /// the caller uses the configured ones) and the frame they are given in.
+    fn location_twists(&self, i: usize, ws: &Workspace) -> ([Twist; 6], Rigid) {
+        let ap = &self.plan.axes[i];
         let js = &ws.joints[i];
-        let u = ax.zero_rotation().transpose() * unit(d % 3);
-        match ax.kind() {
-            AxisKind::Linear => {
-                let w = left_jacobian(&js.l_rot) * u;
-                (
-                    w.cross(&js.motion_dir) * js.q,
-                    Vector3::zeros(),
-                    js.before_a,
-                )
+        let jl = left_jacobian(&js.l_rot);
+        let zero = Vector3::zeros();
+        let mut twists = [(zero, zero); 6];
+        for (d, tw_out) in twists.iter_mut().enumerate() {
+            if ap.loc[d].is_none() {
+                continue;
             }
-            AxisKind::Rotary => {
-                let (tv, tw) = if d < 3 {
-                    (u, Vector3::zeros())
+            let u = column(&ap.r0t, d % 3);
+            *tw_out = if ap.linear {
+                if d < 3 {
+                    (zero, zero)
                 } else {
-                    let w = left_jacobian(&js.l_rot) * u;
+                    (mv(&jl, &u).cross(&js.motion_dir) * js.q, zero)
+                }
+            } else {
+                let (tv, tw) = if d < 3 {
+                    (u, zero)
+                } else {
+                    let w = mv(&jl, &u);
                     (js.l_trans.cross(&w), w)
                 };
                 let (rv, rw) = js.lrl.adjoint(&tv, &tw);
-                (tv - rv, tw - rw, js.before_b)
-            }
+                (tv - rv, tw - rw)
+            };
         }
+        (twists, if ap.linear { js.before_a } else { js.before_b })
+    }
+
+    /// Nominal `w_T_t` (no errors), as [`Machine::tool_in_workpiece`] but with the plan's
+    /// shortcuts.
+    fn nominal_tool_in_workpiece(&self, q: &[f64]) -> Rigid {
+        let branch_pose = |side: Side| {
+            let branch = self.machine.branch(side);
+            let mut t = Rigid::IDENTITY;
+            for &i in branch.joints() {
+                let ax = &self.machine.axes()[i];
+                t = self.after_origin(i, &t);
+                t = match ax.kind() {
+                    AxisKind::Linear => Rigid::new(t.r, mv(&t.r, &(ax.direction() * q[i])) + t.t),
+                    AxisKind::Rotary => {
+                        Rigid::new(mm(&t.r, &axis_rotation(ax.direction(), q[i])), t.t)
+                    }
+                };
+            }
+            t.compose(branch.end())
+        };
+        branch_pose(Side::Workpiece)
+            .inverse()
+            .compose(&branch_pose(Side::Tool))
     }
 }
 
 /// `dE·E⁻¹` for a unit change of machine-direction component `d` of `E = (exp(ε), δ)`, given
-/// in local coordinates through `r0t` (machine → local).
+/// in local coordinates through `r0t` (machine → local); `jl` is the left Jacobian of `ε`.
+#[inline]
 fn e_twist(
     d: usize,
     r0t: &Matrix3<f64>,
+    jl: &Matrix3<f64>,
     delta: &Vector3<f64>,
-    eps: &Vector3<f64>,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let u = r0t * unit(d % 3);
+    let u = column(r0t, d % 3);
     if d < 3 {
         (u, Vector3::zeros())
     } else {
-        let w = left_jacobian(eps) * u;
+        let w = mv(jl, &u);
         (delta.cross(&w), w)
+    }
+}
+
+/// `1/n` (a table for the small `n` of the Legendre recurrence keeps division off the hot path;
+/// the values are the correctly rounded quotients, as `1.0 / n as f64`).
+#[inline]
+fn recip(n: usize) -> f64 {
+    const TABLE: [f64; 9] = [
+        f64::INFINITY,
+        1.0,
+        1.0 / 2.0,
+        1.0 / 3.0,
+        1.0 / 4.0,
+        1.0 / 5.0,
+        1.0 / 6.0,
+        1.0 / 7.0,
+        1.0 / 8.0,
+    ];
+    if n < TABLE.len() {
+        TABLE[n]
+    } else {
+        1.0 / n as f64
+    }
+}
+
+/// `P_0 … P_(len−1)` at `q` on the stroke `(lo, hi)`, held at the ends outside it: the same
+/// recurrence and rounding as [`crate::Basis`]'s Legendre evaluation.
+#[inline]
+fn legendre_values((lo, hi): (f64, f64), q: f64, out: &mut [f64]) {
+    let x = if q < lo {
+        lo
+    } else if q > hi {
+        hi
+    } else {
+        q
+    };
+    let u = (x - lo) * (2.0 / (hi - lo)) - 1.0;
+    let (mut p_prev, mut p) = (0.0, 1.0);
+    let n = out.len();
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = p;
+        if k + 1 < n {
+            let p_next = ((2 * k + 1) as f64 * u * p - k as f64 * p_prev) * recip(k + 1);
+            (p_prev, p) = (p, p_next);
+        }
     }
 }
 
@@ -585,6 +1047,23 @@ fn sign(side: Side) -> f64 {
     }
 }
 
+/// A twist `(v, ω)`.
+type Twist = (Vector3<f64>, Vector3<f64>);
+
+/// `[r0t·a[0..3]; r0t·a[3..6]]`: machine directions to a joint's local ones.
+#[inline]
+fn to_local(r0t: &Matrix3<f64>, a: &[f64; 6]) -> [f64; 6] {
+    let (t, r) = (mv(r0t, &v3(a, 0)), mv(r0t, &v3(a, 3)));
+    [t.x, t.y, t.z, r.x, r.y, r.z]
+}
+
+/// Column `j` of `m`.
+#[inline(always)]
+fn column(m: &Matrix3<f64>, j: usize) -> Vector3<f64> {
+    let c = &m.data.0[j];
+    Vector3::new(c[0], c[1], c[2])
+}
+
 fn unit(i: usize) -> Vector3<f64> {
     let mut v = Vector3::zeros();
     v[i] = 1.0;
@@ -597,6 +1076,20 @@ fn v3(a: &[f64; 6], start: usize) -> Vector3<f64> {
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn opt(offset: Option<usize>, coeffs: &[f64]) -> f64 {
+    offset.map_or(0.0, |o| coeffs[o])
+}
+
+/// Workpiece set-up translation (`start` 0) or rotation (`start` 3) from the coefficients.
+fn ws_wp(plan: &Plan, coeffs: &[f64], start: usize) -> Vector3<f64> {
+    let wp = &plan.workpiece;
+    Vector3::new(
+        opt(wp[start], coeffs),
+        opt(wp[start + 1], coeffs),
+        opt(wp[start + 2], coeffs),
+    )
 }
 
 fn value_of(p: Option<&crate::model::Param>, coeffs: &[f64]) -> f64 {

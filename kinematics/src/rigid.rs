@@ -45,8 +45,8 @@ impl Rigid {
     #[inline]
     pub fn compose(&self, other: &Rigid) -> Rigid {
         Rigid {
-            r: self.r * other.r,
-            t: self.r * other.t + self.t,
+            r: mm(&self.r, &other.r),
+            t: mv(&self.r, &other.t) + self.t,
         }
     }
 
@@ -55,13 +55,13 @@ impl Rigid {
         let rt = self.r.transpose();
         Rigid {
             r: rt,
-            t: -(rt * self.t),
+            t: -mv(&rt, &self.t),
         }
     }
 
     #[inline]
     pub fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        self.r * p + self.t
+        mv(&self.r, p) + self.t
     }
 
     pub fn from_isometry(iso: &Isometry3<f64>) -> Self {
@@ -83,8 +83,8 @@ impl Rigid {
     /// adjoint): a point velocity field `v + ω × x` in child coordinates becomes `v' + ω' × x'`.
     #[inline]
     pub fn adjoint(&self, v: &Vector3<f64>, w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-        let w2 = self.r * w;
-        (self.r * v + self.t.cross(&w2), w2)
+        let w2 = mv(&self.r, w);
+        (mv(&self.r, v) + self.t.cross(&w2), w2)
     }
 }
 
@@ -102,8 +102,7 @@ pub fn exp_so3(w: &Vector3<f64>) -> Matrix3<f64> {
         let th = th2.sqrt();
         (th.sin() / th, (1.0 - th.cos()) / th2)
     };
-    let k = w.cross_matrix();
-    Matrix3::identity() + k * a + k * k * b
+    i_ak_bk2(w, a, b)
 }
 
 /// The left Jacobian of SO(3): `exp([ω + dω]×) ≈ exp([J_l(ω) dω]×) exp([ω]×)`.
@@ -120,8 +119,7 @@ pub fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
         let th = th2.sqrt();
         ((1.0 - th.cos()) / th2, (th - th.sin()) / (th2 * th))
     };
-    let k = w.cross_matrix();
-    Matrix3::identity() + k * a + k * k * b
+    i_ak_bk2(w, a, b)
 }
 
 /// Inverse of [`left_jacobian`].
@@ -135,8 +133,7 @@ pub fn left_jacobian_inverse(w: &Vector3<f64>) -> Matrix3<f64> {
         let th = th2.sqrt();
         1.0 / th2 - (1.0 + th.cos()) / (2.0 * th * th.sin())
     };
-    let k = w.cross_matrix();
-    Matrix3::identity() - k * 0.5 + k * k * c
+    i_ak_bk2(w, -0.5, c)
 }
 
 /// `log(R)` as a rotation vector; exact for angles below π.
@@ -164,8 +161,48 @@ pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
 #[inline]
 pub fn axis_rotation(a: &Vector3<f64>, q: f64) -> Matrix3<f64> {
     let (s, c) = q.sin_cos();
-    let k = a.cross_matrix();
-    Matrix3::identity() + k * s + k * k * (1.0 - c)
+    i_ak_bk2(a, s, 1.0 - c)
+}
+
+/// `I + a·[w]× + b·[w]×²`, written out (`[w]×² = w·wᵀ − |w|²·I`): the shape of every
+/// Rodrigues-type formula here. Hand-unrolled 3 × 3 arithmetic: nalgebra's generic small-matrix
+/// products are several times slower on the kinematic hot paths.
+#[inline(always)]
+fn i_ak_bk2(w: &Vector3<f64>, a: f64, b: f64) -> Matrix3<f64> {
+    let (x, y, z) = (w.x, w.y, w.z);
+    let d = 1.0 - b * (x * x + y * y + z * z);
+    let (bxy, bxz, byz) = (b * x * y, b * x * z, b * y * z);
+    Matrix3::new(
+        d + b * x * x,
+        bxy - a * z,
+        bxz + a * y,
+        bxy + a * z,
+        d + b * y * y,
+        byz - a * x,
+        bxz - a * y,
+        byz + a * x,
+        d + b * z * z,
+    )
+}
+
+/// `m · v`, unrolled (see [`i_ak_bk2`]).
+#[inline(always)]
+pub fn mv(m: &Matrix3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
+    let c = &m.data.0;
+    Vector3::new(
+        c[0][0] * v.x + c[1][0] * v.y + c[2][0] * v.z,
+        c[0][1] * v.x + c[1][1] * v.y + c[2][1] * v.z,
+        c[0][2] * v.x + c[1][2] * v.y + c[2][2] * v.z,
+    )
+}
+
+/// `a · b`, unrolled (see [`i_ak_bk2`]).
+#[inline(always)]
+pub fn mm(a: &Matrix3<f64>, b: &Matrix3<f64>) -> Matrix3<f64> {
+    let bc = &b.data.0;
+    let col = |j: usize| mv(a, &Vector3::new(bc[j][0], bc[j][1], bc[j][2]));
+    let (c0, c1, c2) = (col(0), col(1), col(2));
+    Matrix3::from_columns(&[c0, c1, c2])
 }
 
 #[cfg(test)]

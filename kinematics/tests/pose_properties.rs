@@ -266,6 +266,39 @@ proptest! {
         }
     }
 
+    /// The tool-pose Jacobian (left perturbation, for instrument models) equals central finite
+    /// differences of the actual tool pose, and the pose is the nominal one plus the exact error.
+    #[test]
+    fn tool_pose_jacobian_matches_finite_differences((model, q, c) in any_case()) {
+        let mut ws = model.workspace();
+        let n = model.n_coeffs();
+        let mut jac = vec![0.0; 6 * n];
+        let pose = model.tool_pose_jacobian(&q, &c, &mut ws, &mut jac);
+        prop_assert_eq!(pose, model.tool_pose(&q, &c, &mut ws));
+        let nominal = model.machine().tool_in_workpiece(&q);
+        let err = model.pose_error(&q, &c, &mut ws);
+        prop_assert!(((pose.t - nominal.t) - err.translation).norm() < 1e-15 * machine_size(model.machine()));
+        let step = 1e-6;
+        let mut cp = c.clone();
+        for k in 0..n {
+            cp[k] = c[k] + step;
+            let plus = model.tool_pose(&q, &cp, &mut ws);
+            cp[k] = c[k] - step;
+            let minus = model.tool_pose(&q, &cp, &mut ws);
+            cp[k] = c[k];
+            let dt = (plus.t - minus.t) / (2.0 * step);
+            // δθ from R₊·R₋ᵀ = exp(2h·[δθ]×) to first order.
+            let m = plus.r * minus.r.transpose();
+            let dth = Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) / (4.0 * step);
+            let fd = [dt.x, dt.y, dt.z, dth.x, dth.y, dth.z];
+            for r in 0..6 {
+                let an = jac[6 * k + r];
+                prop_assert!((fd[r] - an).abs() < 1e-8 * (1.0 + an.abs()),
+                    "coefficient {} row {r}: analytic {an} fd {}", model.errors().coefficient_labels()[k], fd[r]);
+            }
+        }
+    }
+
     /// At zero errors the exact Jacobian times the coefficients is the first-order error.
     #[test]
     fn first_order_is_jacobian_at_zero((model, q, c) in any_case()) {

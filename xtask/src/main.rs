@@ -46,6 +46,33 @@ enum Command {
         #[arg(long = "threshold")]
         thresholds: Vec<f64>,
     },
+    /// Identify a machine's errors from a measurement session (folder with session.toml).
+    Identify {
+        /// The session folder (or its session.toml).
+        session: PathBuf,
+        /// Write the result as JSON (schema mtcal.identify/1) to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write every validation run's predicted readings to DIR/<run>.csv.
+        #[arg(long)]
+        predict: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
+    /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
+    Simulate {
+        /// The test plan (TOML; see crates/identify/src/simulate.rs).
+        plan: PathBuf,
+        /// The session folder to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// List the registered instrument plugins.
+    Plugins,
     /// Build the nominal machine of a topology code and write it as a URDF to edit.
     Topology {
         /// e.g. wCAFYXZt, CAFYXZ, ZFYX
@@ -96,6 +123,29 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Identify {
+            session,
+            json,
+            predict,
+            quiet,
+            threads,
+        } => identify(&session, json, predict, quiet, threads),
+        Command::Simulate { plan, out } => {
+            let sim = mtcal_identify::simulate::simulate(&plan, &out)?;
+            println!(
+                "wrote {} ({} runs, {} samples)",
+                sim.manifest.display(),
+                sim.runs,
+                sim.samples
+            );
+            Ok(())
+        }
+        Command::Plugins => {
+            for p in mtcal_plugins::plugins() {
+                println!("{:<10} {}", p.name, p.about);
+            }
+            Ok(())
+        }
         Command::Describe { machine } => {
             let loaded = machine.load()?;
             let model = build_model(&loaded)?;
@@ -152,6 +202,87 @@ fn run(cli: Cli) -> Result<()> {
                 None => print!("{text}"),
             }
             Ok(())
+        }
+    }
+}
+
+fn identify(
+    session: &std::path::Path,
+    json: Option<PathBuf>,
+    predict: Option<PathBuf>,
+    quiet: bool,
+    threads: usize,
+) -> Result<()> {
+    let study = mtcal_identify::Study::load(session)?;
+    let samples: usize = study.runs.iter().map(|r| r.len()).sum();
+    println!(
+        "session {}: {} runs, {} samples; machine {} ({}); {} parameters ({} machine coefficients)",
+        session.display(),
+        study.runs.len(),
+        samples,
+        study.machine.machine.name(),
+        study.machine.source,
+        study.n_x,
+        study.estimated.len()
+    );
+    let options = mtcal_solve::Options {
+        threads,
+        ..Default::default()
+    };
+    let mut progress = Progress::new(quiet);
+    let id = mtcal_identify::identify(&study, &options, &mut progress)?;
+    progress.finish();
+    print!("{}", id.summary());
+    if let Some(path) = json {
+        mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    if let Some(dir) = predict {
+        for f in mtcal_identify::write_predictions(&study, &id.x, &dir)? {
+            println!("wrote {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// A progress bar on standard error for long fits (hidden when quiet or not a terminal).
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        let bar = (!quiet).then(|| {
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} iteration {prefix} [{bar:30}] {pos}/{len} blocks {msg}",
+                )
+                .expect("valid template"),
+            );
+            bar
+        });
+        Self { bar }
+    }
+    fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl mtcal_solve::Observer for Progress {
+    fn iteration(&mut self, it: usize, cost: f64, _lambda: f64) {
+        if let Some(bar) = &self.bar {
+            bar.set_prefix(it.to_string());
+            bar.set_message(format!("cost {cost:.4e}"));
+        }
+    }
+    fn rows(&mut self, done: usize, total: usize) {
+        if let Some(bar) = &self.bar {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
         }
     }
 }

@@ -1,0 +1,234 @@
+//! The identification problem: every fitted sample of every run, whitened by its channel's σ,
+//! as a streaming least-squares problem over the estimated machine coefficients and the free
+//! nuisance parameters; and the evaluation of any run at a parameter vector.
+//!
+//! Per sample the machine model gives the actual tool pose and its Jacobian with respect to
+//! every coefficient (`MachineModel::tool_pose_jacobian`), the set-up predicts the readings
+//! and their derivatives with respect to that pose and its nuisance parameters, and the chain
+//! rule joins them: `∂r/∂c = ∂r/∂pose · ∂pose/∂c`. Rows of one run share their columns (all
+//! estimated machine coefficients + the run's set-up's free nuisance parameters), which is
+//! the structure the streaming solver exploits.
+
+use crate::study::Study;
+use mtcal_instrument::At;
+use mtcal_kinematics::Rigid;
+use mtcal_kinematics::rigid::exp_so3;
+use mtcal_solve::{EvalError, Problem, RowSink};
+
+/// Samples per block of parallel evaluation.
+const BLOCK_SAMPLES: usize = 2048;
+
+/// The least-squares problem of a [`Study`]'s fitted runs.
+#[derive(Debug)]
+pub struct FitProblem<'a> {
+    study: &'a Study,
+    /// (run, first sample, end sample).
+    blocks: Vec<(usize, usize, usize)>,
+}
+
+impl<'a> FitProblem<'a> {
+    pub fn new(study: &'a Study) -> Self {
+        let mut blocks = Vec::new();
+        for (r, run) in study.runs.iter().enumerate() {
+            if !run.fit {
+                continue;
+            }
+            let n = run.len();
+            let mut s = 0;
+            while s < n {
+                let e = (s + BLOCK_SAMPLES).min(n);
+                blocks.push((r, s, e));
+                s = e;
+            }
+        }
+        Self { study, blocks }
+    }
+}
+
+impl Problem for FitProblem<'_> {
+    fn n_params(&self) -> usize {
+        self.study.n_x
+    }
+
+    fn n_blocks(&self) -> usize {
+        self.blocks.len()
+    }
+
+    fn eval_block(&self, b: usize, x: &[f64], sink: &mut RowSink<'_>) -> Result<(), EvalError> {
+        let (r, start, end) = self.blocks[b];
+        let study = self.study;
+        let run = &study.runs[r];
+        let slot = &study.setups[run.setup];
+        let readings = run
+            .readings
+            .as_ref()
+            .expect("fitted runs have readings (checked when loading)");
+        let mut eval = SampleEval::new(study, r, x);
+        let m = study.estimated.len();
+        let cols: Vec<usize> = (0..m)
+            .chain(slot.x_offset..slot.x_offset + slot.free.len())
+            .collect();
+        sink.columns(&cols);
+        let nch = eval.n_channels();
+        let mut row = vec![0.0; cols.len()];
+        for i in start..end {
+            eval.at(i, true);
+            for c in 0..nch {
+                let sigma = eval.sigma[c];
+                let res = (eval.pred[c] - readings[i * nch + c]) / sigma;
+                if !res.is_finite() {
+                    return Err(EvalError::new(format!(
+                        "run {}: sample {} (CSV line {}) channel {}: the model gives no finite \
+                         prediction",
+                        run.name,
+                        i + 1,
+                        i + 2,
+                        study.channels(r)[c].name
+                    )));
+                }
+                eval.jacobian_row(c, &mut row);
+                row.iter_mut().for_each(|v| *v /= sigma);
+                sink.row(res, &row);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Evaluates one run's samples at one parameter vector: predictions and, on request, the
+/// Jacobian of the predictions with respect to the estimated coefficients and the set-up's
+/// free nuisance parameters. Allocates once, per run.
+pub(crate) struct SampleEval<'a> {
+    study: &'a Study,
+    run: usize,
+    coeffs: Vec<f64>,
+    nuis: Vec<f64>,
+    ws: mtcal_kinematics::Workspace,
+    jac: Vec<f64>,
+    pub pred: Vec<f64>,
+    d_pose: Vec<f64>,
+    d_nuis: Vec<f64>,
+    pub sigma: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
+impl<'a> SampleEval<'a> {
+    pub fn new(study: &'a Study, run: usize, x: &[f64]) -> Self {
+        let setup = &study.setups[study.runs[run].setup].setup;
+        let nch = setup.channels().len();
+        let nn = setup.nuisance().len();
+        Self {
+            study,
+            run,
+            coeffs: study.coeffs_from(x),
+            nuis: study.nuisance_from(study.runs[run].setup, x),
+            ws: study.model.workspace(),
+            jac: vec![0.0; 6 * study.model.n_coeffs()],
+            pred: vec![0.0; nch],
+            d_pose: vec![0.0; 6 * nch],
+            d_nuis: vec![0.0; nch * nn],
+            sigma: setup.channels().iter().map(|c| c.sigma).collect(),
+            scratch: vec![0.0; 2 * nch],
+        }
+    }
+
+    pub fn n_channels(&self) -> usize {
+        self.pred.len()
+    }
+
+    /// Predictions at sample `i` into `pred`; with `derivatives` also the pose Jacobian and the
+    /// set-up's derivatives.
+    pub fn at(&mut self, i: usize, derivatives: bool) {
+        let study = self.study;
+        let run = &study.runs[self.run];
+        let setup = &study.setups[run.setup].setup;
+        let na = study.model.machine().n_axes();
+        let q = &run.q[i * na..(i + 1) * na];
+        let pose = if derivatives {
+            study
+                .model
+                .tool_pose_jacobian(q, &self.coeffs, &mut self.ws, &mut self.jac)
+        } else {
+            study.model.tool_pose(q, &self.coeffs, &mut self.ws)
+        };
+        let at = At {
+            q,
+            t: run.table.t[i],
+            w_t_t: &pose,
+        };
+        setup.predict(&at, &self.nuis, &mut self.pred);
+        if derivatives && !setup.derivatives(&at, &self.nuis, &mut self.d_pose, &mut self.d_nuis) {
+            self.finite_differences(q, run.table.t[i], &pose);
+        }
+    }
+
+    /// Central differences of the set-up's predictions, for plugins without analytic
+    /// derivatives.
+    fn finite_differences(&mut self, q: &[f64], t: f64, pose: &Rigid) {
+        let setup = &self.study.setups[self.study.runs[self.run].setup].setup;
+        let nch = self.pred.len();
+        let h = 1e-7;
+        let (plus, minus) = self.scratch.split_at_mut(nch);
+        for k in 0..6 {
+            let shifted = |sgn: f64| {
+                let mut p = *pose;
+                if k < 3 {
+                    p.t[k] += sgn * h;
+                } else {
+                    let mut w = nalgebra::Vector3::zeros();
+                    w[k - 3] = sgn * h;
+                    p.r = exp_so3(&w) * p.r;
+                }
+                p
+            };
+            let (pp, pm) = (shifted(1.0), shifted(-1.0));
+            setup.predict(&At { q, t, w_t_t: &pp }, &self.nuis, plus);
+            setup.predict(&At { q, t, w_t_t: &pm }, &self.nuis, minus);
+            for c in 0..nch {
+                self.d_pose[c * 6 + k] = (plus[c] - minus[c]) / (2.0 * h);
+            }
+        }
+        let nn = self.nuis.len();
+        for j in 0..nn {
+            let v = self.nuis[j];
+            self.nuis[j] = v + h;
+            setup.predict(&At { q, t, w_t_t: pose }, &self.nuis, plus);
+            self.nuis[j] = v - h;
+            setup.predict(&At { q, t, w_t_t: pose }, &self.nuis, minus);
+            self.nuis[j] = v;
+            for c in 0..nch {
+                self.d_nuis[c * nn + j] = (plus[c] - minus[c]) / (2.0 * h);
+            }
+        }
+    }
+
+    /// The Jacobian row of channel `c` (unwhitened) over the run's columns: estimated machine
+    /// coefficients, then the set-up's free nuisance parameters.
+    pub fn jacobian_row(&self, c: usize, row: &mut [f64]) {
+        let study = self.study;
+        let dp = &self.d_pose[c * 6..c * 6 + 6];
+        for (o, &k) in row.iter_mut().zip(&study.estimated) {
+            let col = &self.jac[6 * k..6 * k + 6];
+            *o = dp.iter().zip(col).map(|(a, b)| a * b).sum();
+        }
+        let slot = &study.setups[study.runs[self.run].setup];
+        let nn = self.nuis.len();
+        let m = study.estimated.len();
+        for (j, &i) in slot.free.iter().enumerate() {
+            row[m + j] = self.d_nuis[c * nn + i];
+        }
+    }
+}
+
+/// Predicted readings (SI, row-major `samples × channels`) of run `r` at parameters `x`.
+pub fn predict_run(study: &Study, r: usize, x: &[f64]) -> Vec<f64> {
+    let mut eval = SampleEval::new(study, r, x);
+    let nch = eval.n_channels();
+    let n = study.runs[r].len();
+    let mut out = Vec::with_capacity(n * nch);
+    for i in 0..n {
+        eval.at(i, false);
+        out.extend_from_slice(&eval.pred);
+    }
+    out
+}

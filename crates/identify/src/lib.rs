@@ -1,0 +1,165 @@
+//! Identification of a machine tool's geometric errors from a measurement session.
+//!
+//! Data flow: a session folder ([`mtcal_session`]) → [`Study`] (machine model, set-ups from the
+//! instrument plugins, every run in SI units) → [`FitProblem`] (whitened residuals of every
+//! fitted sample, streamed to [`mtcal_solve`]) → [`Identification`] (parameters with 95 %
+//! intervals, unidentifiable combinations by name, fit per run and channel, validation runs
+//! predicted) → JSON / summary / predicted CSVs. [`simulate`] writes session folders from a
+//! machine, a truth parameter file and a test plan.
+//!
+//! # `[identify]` options in `session.toml` (mtcal's addition to the contract)
+//! - `parameters = ["EC0Y", "EB0Z", …]`: the machine parameters to estimate (ISO 230-1 names;
+//!   a component error brings all its coefficients). Default: every parameter of the machine's
+//!   error model (its `.errors.toml`). The others stay at their start values.
+//! - `start = "file.params.toml"`: start values (and the values of parameters not estimated);
+//!   default zero.
+
+pub mod fit;
+pub mod report;
+pub mod simulate;
+pub mod study;
+
+pub use fit::{FitProblem, predict_run};
+pub use report::Identification;
+pub use study::Study;
+
+use mtcal_instrument::SetupError;
+use mtcal_session::{RunColumns, RunTable, write_run};
+use mtcal_solve::{Observer, Options, ParamSpec, Silent, SolveError};
+use std::path::{Path, PathBuf};
+
+/// Why an identification could not run. Each message names the file (and where possible the
+/// line and column) and what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentifyError {
+    #[error(transparent)]
+    Session(#[from] mtcal_session::SessionError),
+    #[error("{}: machine: {message}", manifest.display())]
+    Machine { manifest: PathBuf, message: String },
+    #[error("{source_name}: error model: {message}")]
+    Model {
+        source_name: String,
+        message: String,
+    },
+    #[error(transparent)]
+    Params(#[from] mtcal_machine::params::ParamsError),
+    #[error("{at}: run `{run}`: unknown instrument `{name}`; known instruments: {known}")]
+    UnknownInstrument {
+        at: String,
+        run: String,
+        name: String,
+        known: String,
+    },
+    #[error("{at}: set-up `{setup}`: {source}")]
+    Setup {
+        at: String,
+        setup: String,
+        source: SetupError,
+    },
+    #[error("{at}: set-up `{setup}` is used by a `{second}` run but was first used by `{first}`")]
+    SetupShared {
+        at: String,
+        setup: String,
+        first: String,
+        second: String,
+    },
+    #[error("{}: [identify] `{key}`: {message}", manifest.display())]
+    Options {
+        manifest: PathBuf,
+        key: String,
+        message: String,
+    },
+    #[error(
+        "{}: every run is `use = \"validate\"`: at least one run must be fitted",
+        manifest.display()
+    )]
+    NothingToFit { manifest: PathBuf },
+    #[error("identification failed: {0}")]
+    Solve(#[from] SolveError),
+    #[error(transparent)]
+    Simulate(#[from] simulate::SimulateError),
+}
+
+/// Fits `study`: every estimated machine coefficient and free nuisance parameter, priors from
+/// the plugins' nuisance declarations.
+pub fn identify(
+    study: &Study,
+    options: &Options,
+    observer: &mut dyn Observer,
+) -> Result<Identification, IdentifyError> {
+    let x0 = study.initial_x();
+    let specs: Vec<ParamSpec> = (0..study.n_x)
+        .map(|i| {
+            let info = study.param_info(i);
+            ParamSpec {
+                name: info.name,
+                initial: x0[i],
+                prior: info.prior_sigma.map(|s| (0.0, s)),
+                group: (!info.machine).then(|| "set-up".to_string()),
+                ..ParamSpec::default()
+            }
+        })
+        .collect();
+    let problem = FitProblem::new(study);
+    let solution = mtcal_solve::solve(&problem, &specs, options, observer)?;
+    Ok(Identification::new(study, &solution))
+}
+
+/// Loads and identifies `session` with default options and no progress output.
+pub fn identify_session(session: &Path) -> Result<(Study, Identification), IdentifyError> {
+    let study = Study::load(session)?;
+    let id = identify(&study, &Options::default(), &mut Silent)?;
+    Ok((study, id))
+}
+
+/// Writes every validation run's predicted readings to `dir/<run>.csv` (the run's own columns,
+/// readings replaced by the predictions, or added when the run has none). Returns the files.
+pub fn write_predictions(
+    study: &Study,
+    x: &[f64],
+    dir: &Path,
+) -> Result<Vec<PathBuf>, IdentifyError> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        IdentifyError::Session(mtcal_session::SessionError::Write {
+            path: dir.to_path_buf(),
+            source: e,
+        })
+    })?;
+    let mut out = Vec::new();
+    for (r, run) in study.runs.iter().enumerate() {
+        if run.fit {
+            continue;
+        }
+        let channels = study.channels(r);
+        let pred = predict_run(study, r, x);
+        let values: Vec<f64> = pred
+            .chunks_exact(channels.len())
+            .flat_map(|row| row.iter().zip(channels).map(|(v, c)| v * c.unit.per_si()))
+            .collect();
+        let mut table: RunTable = run.table.clone();
+        table.readings = channels.iter().map(|c| c.name.clone()).collect();
+        table.values = Some(values);
+        let missing: Vec<String> = table
+            .readings
+            .iter()
+            .filter(|c| !table.columns.contains(c))
+            .cloned()
+            .collect();
+        table.columns.extend(missing);
+        let path = dir.join(format!("{}.csv", run.name));
+        write_run(&path, &table)?;
+        // Read back: what we wrote must load as a run with readings.
+        let axes: Vec<char> = table.axes.clone();
+        let names: Vec<&str> = table.readings.iter().map(String::as_str).collect();
+        mtcal_session::read_run(
+            &path,
+            &RunColumns {
+                axes: &axes,
+                readings: &names,
+                readings_optional: false,
+            },
+        )?;
+        out.push(path);
+    }
+    Ok(out)
+}

@@ -1,0 +1,372 @@
+//! The result of an identification as users read it: parameters with 95 % intervals, named
+//! unidentifiable combinations (never numbers), fit statistics per run and channel, validation
+//! predictions; the FORMATS.md `mtcal.identify/1` JSON and a plain-text summary.
+
+use crate::fit::predict_run;
+use crate::study::Study;
+use mtcal_instrument::Evaluation;
+use mtcal_kinematics::model::Role;
+use mtcal_solve::Solution;
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// Coverage factor of the reported intervals (normal, 95 %).
+pub const K95: f64 = 1.96;
+
+/// Samples per component-error curve in the JSON.
+const CURVE_SAMPLES: usize = 11;
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ParameterValue {
+    pub name: String,
+    /// In `unit` (µm, µrad, ppm).
+    pub value: f64,
+    pub unit: String,
+    pub u95: f64,
+    /// `machine` or the set-up it belongs to.
+    pub kind: String,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ComponentCurve {
+    pub name: String,
+    /// `[position mm|deg, value um|urad, u95]`.
+    pub samples: Vec<[f64; 3]>,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Unidentifiable {
+    pub parameters: Vec<String>,
+    pub why: String,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ChannelFit {
+    pub name: String,
+    pub unit: String,
+    pub rms: f64,
+    /// Σ (residual/σ)².
+    pub chi2: f64,
+    pub samples: usize,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct RunFit {
+    pub name: String,
+    pub instrument: String,
+    /// RMS over the run's channels, in µm (or the channels' unit).
+    pub rms_um: f64,
+    pub channels: Vec<ChannelFit>,
+    /// The instrument's own evaluation of the measured readings (e.g. ISO 230-4).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub metrics: Vec<MetricValue>,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MetricValue {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Fit {
+    pub rms_um: f64,
+    pub chi2_reduced: f64,
+    pub chi2: f64,
+    pub dof: usize,
+    pub runs: Vec<RunFit>,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SolverReport {
+    pub iterations: usize,
+    pub converged: bool,
+    pub termination: String,
+    pub rank: usize,
+    pub parameters: usize,
+    pub condition_number: f64,
+}
+
+/// Everything `identify` reports.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Identification {
+    pub schema: &'static str,
+    pub parameters: Vec<ParameterValue>,
+    pub component_errors: Vec<ComponentCurve>,
+    pub unidentifiable: Vec<Unidentifiable>,
+    pub fit: Fit,
+    /// Validation runs: not fitted; how well the identified model predicts them.
+    pub validation: Vec<RunFit>,
+    pub solver: SolverReport,
+    /// The solution vector (SI), for predictions; not written to the JSON.
+    #[serde(skip)]
+    pub x: Vec<f64>,
+}
+
+impl Identification {
+    /// Builds the report of `solution` for `study`.
+    pub fn new(study: &Study, solution: &Solution) -> Identification {
+        let x = solution.x.clone();
+        let mut parameters = Vec::new();
+        for (i, &xi) in x.iter().enumerate() {
+            if !solution.identified[i] {
+                continue;
+            }
+            let Some(sigma) = solution.sigma[i] else {
+                continue;
+            };
+            let info = study.param_info(i);
+            parameters.push(ParameterValue {
+                name: info.name,
+                value: xi * 1e6,
+                unit: info.unit,
+                u95: K95 * sigma * 1e6,
+                kind: if info.machine {
+                    "machine".into()
+                } else {
+                    study.setups[setup_of(study, i)].name.clone()
+                },
+            });
+        }
+        let unidentifiable = solution
+            .combinations
+            .iter()
+            .map(|c| Unidentifiable {
+                parameters: c.params.iter().map(|&i| study.param_info(i).name).collect(),
+                why: c.why.clone(),
+            })
+            .collect();
+        let component_errors = component_curves(study, solution);
+        let mut runs = Vec::new();
+        let mut validation = Vec::new();
+        for r in 0..study.runs.len() {
+            let Some(fit) = run_fit(study, r, &x) else {
+                continue;
+            };
+            if study.runs[r].fit {
+                runs.push(fit);
+            } else {
+                validation.push(fit);
+            }
+        }
+        let n: usize = runs
+            .iter()
+            .flat_map(|r| &r.channels)
+            .map(|c| c.samples)
+            .sum();
+        let ss: f64 = runs
+            .iter()
+            .flat_map(|r| &r.channels)
+            .map(|c| c.rms * c.rms * c.samples as f64)
+            .sum();
+        Identification {
+            schema: "mtcal.identify/1",
+            parameters,
+            component_errors,
+            unidentifiable,
+            fit: Fit {
+                rms_um: if n > 0 { (ss / n as f64).sqrt() } else { 0.0 },
+                chi2_reduced: solution.chi2_reduced,
+                chi2: solution.chi2,
+                dof: solution.dof,
+                runs,
+            },
+            validation,
+            solver: SolverReport {
+                iterations: solution.iterations,
+                converged: solution.converged,
+                termination: format!("{:?}", solution.termination),
+                rank: solution.rank,
+                parameters: solution.x.len(),
+                condition_number: solution.condition_number,
+            },
+            x,
+        }
+    }
+
+    /// The FORMATS.md JSON (`mtcal.identify/1`, with mtcal's additional keys).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("the report serialises") + "\n"
+    }
+
+    /// A plain-text summary for the terminal.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "fit: rms {:.3} um, chi2/dof {:.3} ({} dof), {} iterations{}, rank {}/{}, condition {:.3e}",
+            self.fit.rms_um,
+            self.fit.chi2_reduced,
+            self.fit.dof,
+            self.solver.iterations,
+            if self.solver.converged {
+                ""
+            } else {
+                " (NOT converged)"
+            },
+            self.solver.rank,
+            self.solver.parameters,
+            self.solver.condition_number
+        );
+        let _ = writeln!(s, "\nidentified parameters (95 % intervals):");
+        for p in &self.parameters {
+            let _ = writeln!(
+                s,
+                "  {:<24} {:>12.4} ± {:<10.4} {:<5} {}",
+                p.name,
+                p.value,
+                p.u95,
+                p.unit,
+                if p.kind == "machine" { "" } else { &p.kind }
+            );
+        }
+        if !self.unidentifiable.is_empty() {
+            let _ = writeln!(s, "\nnot identifiable from these runs (no values given):");
+            for u in &self.unidentifiable {
+                let _ = writeln!(s, "  {}: {}", u.parameters.join(", "), u.why);
+            }
+        }
+        let _ = writeln!(s, "\nruns:");
+        for r in self.fit.runs.iter().chain(&self.validation) {
+            let role = if self.validation.contains(r) {
+                "validate"
+            } else {
+                "fit"
+            };
+            let chans: Vec<String> = r
+                .channels
+                .iter()
+                .map(|c| format!("{} {:.3}", c.name, c.rms))
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {:<22} {:<8} {:<8} rms {:.3} um  ({})",
+                r.name,
+                r.instrument,
+                role,
+                r.rms_um,
+                chans.join(", ")
+            );
+            for m in &r.metrics {
+                let _ = writeln!(s, "  {:<22}   {}: {:.3} {}", "", m.name, m.value, m.unit);
+            }
+        }
+        s
+    }
+}
+
+fn setup_of(study: &Study, i: usize) -> usize {
+    study
+        .setups
+        .iter()
+        .rposition(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
+        .expect("a nuisance index belongs to a set-up")
+}
+
+/// Residual statistics of run `r` at `x`; `None` for a run without readings.
+fn run_fit(study: &Study, r: usize, x: &[f64]) -> Option<RunFit> {
+    let run = &study.runs[r];
+    let readings = run.readings.as_ref()?;
+    let pred = predict_run(study, r, x);
+    let channels = study.channels(r);
+    let nch = channels.len();
+    let n = run.len();
+    let mut fits = Vec::with_capacity(nch);
+    let mut ss_all = 0.0;
+    for (c, ch) in channels.iter().enumerate() {
+        let mut ss = 0.0;
+        for i in 0..n {
+            let d = pred[i * nch + c] - readings[i * nch + c];
+            ss += d * d;
+        }
+        ss_all += ss;
+        fits.push(ChannelFit {
+            name: ch.name.clone(),
+            unit: ch.unit.as_str().to_string(),
+            rms: (ss / n as f64).sqrt() * ch.unit.per_si(),
+            chi2: ss / (ch.sigma * ch.sigma),
+            samples: n,
+        });
+    }
+    let slot = &study.setups[run.setup];
+    let metrics = slot
+        .plugin
+        .evaluate
+        .map(|f| {
+            f(&Evaluation {
+                machine: study.model.machine(),
+                setup: &slot.table,
+                q: &run.q,
+                readings,
+                t: &run.table.t,
+            })
+        })
+        .unwrap_or_default()
+        .into_iter()
+        .map(|m| MetricValue {
+            name: m.name,
+            value: m.value * m.unit.per_si(),
+            unit: m.unit.as_str().to_string(),
+        })
+        .collect();
+    Some(RunFit {
+        name: run.name.clone(),
+        instrument: slot.plugin.name.to_string(),
+        rms_um: (ss_all / (n * nch) as f64).sqrt() * 1e6,
+        channels: fits,
+        metrics,
+    })
+}
+
+/// Curves of the estimated multi-coefficient component errors whose coefficients are all
+/// identified, with 95 % bands from the covariance.
+fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
+    let model = &study.model;
+    let pos: Vec<Option<usize>> = {
+        let mut p = vec![None; model.n_coeffs()];
+        for (i, &k) in study.estimated.iter().enumerate() {
+            p[k] = Some(i);
+        }
+        p
+    };
+    let coeffs = study.coeffs_from(&solution.x);
+    let mut out = Vec::new();
+    for param in model.errors().params() {
+        let Role::Component { axis, basis, .. } = &param.role else {
+            continue;
+        };
+        let idx: Option<Vec<usize>> = (param.offset..param.offset + param.len)
+            .map(|k| pos[k].filter(|&i| solution.identified[i]))
+            .collect();
+        let Some(idx) = idx else { continue };
+        let (lo, hi) = basis
+            .stroke()
+            .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(model.machine(), *axis));
+        let rotary = model.machine().axes()[*axis].kind() == mtcal_kinematics::AxisKind::Rotary;
+        let mut phi = vec![0.0; param.len];
+        let mut samples = Vec::with_capacity(CURVE_SAMPLES);
+        for s in 0..CURVE_SAMPLES {
+            let q = lo + (hi - lo) * s as f64 / (CURVE_SAMPLES - 1) as f64;
+            basis.eval(q, &mut phi);
+            let value: f64 = phi
+                .iter()
+                .zip(&coeffs[param.offset..param.offset + param.len])
+                .map(|(a, b)| a * b)
+                .sum();
+            let mut var = 0.0;
+            for (a, &i) in idx.iter().enumerate() {
+                for (b, &j) in idx.iter().enumerate() {
+                    var += phi[a] * phi[b] * solution.cov(i, j);
+                }
+            }
+            let position = if rotary { q.to_degrees() } else { q * 1e3 };
+            samples.push([position, value * 1e6, K95 * var.max(0.0).sqrt() * 1e6]);
+        }
+        out.push(ComponentCurve {
+            name: param.name.to_string(),
+            samples,
+        });
+    }
+    out
+}

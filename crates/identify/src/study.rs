@@ -1,0 +1,382 @@
+//! A loaded session ready to identify: the machine model, which coefficients are estimated,
+//! every distinct set-up with its nuisance parameters, and every run's samples in SI units.
+
+use crate::IdentifyError;
+use mtcal_instrument::{Channel, InstrumentPlugin, Nuisance, Setup, SetupContext};
+use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
+use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
+use mtcal_session::{RunColumns, RunTable, RunUse, Session, SetupRef, load_session, read_run};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Keys of the manifest's `[identify]` table.
+pub const IDENTIFY_KEYS: &[&str] = &["parameters", "start"];
+
+/// One distinct set-up: a shared `[setup.<name>]` or a run's own `[run.setup]`.
+#[derive(Debug)]
+pub struct SetupSlot {
+    /// The shared set-up's name, or the run's name for an own set-up.
+    pub name: String,
+    pub plugin: &'static InstrumentPlugin,
+    pub setup: Box<dyn Setup>,
+    /// The manifest table it was loaded from.
+    pub table: toml::Table,
+    /// Indices (into `setup.nuisance()`) of the free nuisance parameters.
+    pub free: Vec<usize>,
+    /// Where the free nuisance parameters start in the parameter vector.
+    pub x_offset: usize,
+}
+
+/// One run's samples.
+#[derive(Debug)]
+pub struct RunSlot {
+    pub name: String,
+    pub fit: bool,
+    /// Index into [`Study::setups`].
+    pub setup: usize,
+    pub table: RunTable,
+    /// Commanded positions, SI, row-major `samples × axes`.
+    pub q: Vec<f64>,
+    /// Readings, SI, row-major `samples × channels`; `None` for a validation run without them.
+    pub readings: Option<Vec<f64>>,
+}
+
+impl RunSlot {
+    pub fn len(&self) -> usize {
+        self.table.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.table.is_empty()
+    }
+}
+
+/// A session loaded for identification.
+#[derive(Debug)]
+pub struct Study {
+    pub session: Session,
+    pub machine: LoadedMachine,
+    pub model: MachineModel,
+    /// Machine coefficients (SI) that are not estimated keep these values; estimated ones start
+    /// from them. Zero unless `[identify] start` names a parameter file.
+    pub base_coeffs: Vec<f64>,
+    /// Indices of the estimated machine coefficients; `x[i]` is coefficient `estimated[i]`.
+    pub estimated: Vec<usize>,
+    /// A label per machine coefficient (`EX0C`, `EXX.P2`).
+    pub coeff_labels: Vec<String>,
+    pub setups: Vec<SetupSlot>,
+    pub runs: Vec<RunSlot>,
+    /// Length of the parameter vector: estimated machine coefficients, then every set-up's free
+    /// nuisance parameters.
+    pub n_x: usize,
+}
+
+impl Study {
+    /// Loads `dir` (a session folder or its manifest): machine, set-ups and every run file.
+    pub fn load(dir: &Path) -> Result<Study, IdentifyError> {
+        let session = load_session(dir)?;
+        let machine = load_session_machine(&session)?;
+        let model = MachineModel::new(machine.machine.clone(), &machine.config).map_err(|e| {
+            IdentifyError::Model {
+                source_name: machine.config_source.clone(),
+                message: e.to_string(),
+            }
+        })?;
+        check_identify_keys(&session)?;
+        let base_coeffs = match session.identify.get("start") {
+            None => vec![0.0; model.n_coeffs()],
+            Some(toml::Value::String(f)) => {
+                params::load_params(&session.dir.join(f), model.errors())?
+            }
+            Some(v) => {
+                return Err(identify_key(
+                    &session,
+                    "start",
+                    &format!("expected a parameter file name, found {v}"),
+                ));
+            }
+        };
+        let coeff_labels = model.errors().coefficient_labels();
+        let estimated = estimated_coefficients(&session, &model)?;
+        let mut setups: Vec<SetupSlot> = Vec::new();
+        let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
+        let mut runs = Vec::with_capacity(session.runs.len());
+        let mut n_x = estimated.len();
+        for spec in &session.runs {
+            let plugin = mtcal_instrument::find(&spec.instrument).ok_or_else(|| {
+                IdentifyError::UnknownInstrument {
+                    at: spec.location.to_string(),
+                    run: spec.name.clone(),
+                    name: spec.instrument.clone(),
+                    known: mtcal_instrument::plugins()
+                        .iter()
+                        .map(|p| p.name)
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                }
+            })?;
+            let setup_name = match &spec.setup {
+                SetupRef::Shared(n) => n.clone(),
+                SetupRef::Own(_) => spec.name.clone(),
+            };
+            let setup_index = match by_name.get(&setup_name) {
+                Some(&i) => {
+                    if setups[i].plugin.name != plugin.name {
+                        return Err(IdentifyError::SetupShared {
+                            at: spec.location.to_string(),
+                            setup: setup_name,
+                            first: setups[i].plugin.name.to_string(),
+                            second: plugin.name.to_string(),
+                        });
+                    }
+                    i
+                }
+                None => {
+                    let table = session.setup_of(spec).clone();
+                    let ctx = SetupContext {
+                        machine: &machine.machine,
+                    };
+                    let setup =
+                        (plugin.load_setup)(&table, &ctx).map_err(|e| IdentifyError::Setup {
+                            at: spec.location.to_string(),
+                            setup: setup_name.clone(),
+                            source: e,
+                        })?;
+                    let free: Vec<usize> = setup
+                        .nuisance()
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, n)| n.free)
+                        .map(|(i, _)| i)
+                        .collect();
+                    let slot = SetupSlot {
+                        name: setup_name.clone(),
+                        plugin,
+                        setup,
+                        table,
+                        x_offset: n_x,
+                        free,
+                    };
+                    n_x += slot.free.len();
+                    setups.push(slot);
+                    by_name.insert(setup_name, setups.len() - 1);
+                    setups.len() - 1
+                }
+            };
+            let fit = spec.use_ == RunUse::Fit;
+            let channels: Vec<&str> = setups[setup_index]
+                .setup
+                .channels()
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect();
+            let letters: Vec<char> = model
+                .machine()
+                .axes()
+                .iter()
+                .map(|a| a.letter().as_char())
+                .collect();
+            let table = read_run(
+                &spec.file,
+                &RunColumns {
+                    axes: &letters,
+                    readings: &channels,
+                    readings_optional: !fit,
+                },
+            )?;
+            let q = positions_si(&model, &table);
+            let readings = table.values.as_ref().map(|v| {
+                let ch = setups[setup_index].setup.channels();
+                v.chunks_exact(ch.len())
+                    .flat_map(|row| row.iter().zip(ch).map(|(x, c)| x / c.unit.per_si()))
+                    .collect()
+            });
+            runs.push(RunSlot {
+                name: spec.name.clone(),
+                fit,
+                setup: setup_index,
+                table,
+                q,
+                readings,
+            });
+        }
+        if !runs.iter().any(|r| r.fit) {
+            return Err(IdentifyError::NothingToFit {
+                manifest: session.manifest.clone(),
+            });
+        }
+        Ok(Study {
+            session,
+            machine,
+            model,
+            base_coeffs,
+            estimated,
+            coeff_labels,
+            setups,
+            runs,
+            n_x,
+        })
+    }
+
+    /// The machine coefficient vector (SI) for parameter vector `x`.
+    pub fn coeffs_from(&self, x: &[f64]) -> Vec<f64> {
+        let mut c = self.base_coeffs.clone();
+        for (i, &k) in self.estimated.iter().enumerate() {
+            c[k] = x[i];
+        }
+        c
+    }
+
+    /// Set-up `s`'s full nuisance vector (SI; held ones at zero) for parameter vector `x`.
+    pub fn nuisance_from(&self, s: usize, x: &[f64]) -> Vec<f64> {
+        let slot = &self.setups[s];
+        let mut n = vec![0.0; slot.setup.nuisance().len()];
+        for (j, &i) in slot.free.iter().enumerate() {
+            n[i] = x[slot.x_offset + j];
+        }
+        n
+    }
+
+    /// The starting parameter vector.
+    pub fn initial_x(&self) -> Vec<f64> {
+        let mut x = vec![0.0; self.n_x];
+        for (i, &k) in self.estimated.iter().enumerate() {
+            x[i] = self.base_coeffs[k];
+        }
+        x
+    }
+
+    /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.
+    pub fn param_info(&self, i: usize) -> ParamInfo {
+        if i < self.estimated.len() {
+            let k = self.estimated[i];
+            let label = &self.coeff_labels[k];
+            let base = label.split('.').next().unwrap_or(label);
+            let unit = base
+                .parse::<ParamName>()
+                .map(|n| n.unit())
+                .unwrap_or("um")
+                .to_string();
+            return ParamInfo {
+                name: label.clone(),
+                unit,
+                prior_sigma: None,
+                machine: true,
+            };
+        }
+        let (slot, nuis) = self.nuisance_at(i);
+        ParamInfo {
+            name: format!("{}.{}", slot.name, nuis.name),
+            unit: nuis.unit.as_str().to_string(),
+            prior_sigma: nuis.prior_sigma,
+            machine: false,
+        }
+    }
+
+    fn nuisance_at(&self, i: usize) -> (&SetupSlot, &Nuisance) {
+        let slot = self
+            .setups
+            .iter()
+            .rev()
+            .find(|s| s.x_offset <= i)
+            .expect("index past the machine coefficients belongs to a set-up");
+        let nuis = &slot.setup.nuisance()[slot.free[i - slot.x_offset]];
+        (slot, nuis)
+    }
+
+    /// The channels of run `r`.
+    pub fn channels(&self, r: usize) -> &[Channel] {
+        self.setups[self.runs[r].setup].setup.channels()
+    }
+}
+
+/// What a parameter of the parameter vector is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamInfo {
+    pub name: String,
+    /// `um`, `urad` or `ppm`: the unit it is reported in (SI × 1e6).
+    pub unit: String,
+    pub prior_sigma: Option<f64>,
+    /// A machine error coefficient (not a set-up nuisance parameter).
+    pub machine: bool,
+}
+
+fn load_session_machine(session: &Session) -> Result<LoadedMachine, IdentifyError> {
+    let arg: PathBuf = match &session.machine_path {
+        Some(p) => p.clone(),
+        None => PathBuf::from(&session.machine),
+    };
+    load_machine(&arg.to_string_lossy(), Reading::default()).map_err(|e| IdentifyError::Machine {
+        manifest: session.manifest.clone(),
+        message: e.to_string(),
+    })
+}
+
+fn check_identify_keys(session: &Session) -> Result<(), IdentifyError> {
+    for key in session.identify.keys() {
+        if !IDENTIFY_KEYS.contains(&key.as_str()) {
+            return Err(identify_key(
+                session,
+                key,
+                &format!("unknown key; [identify] knows {}", IDENTIFY_KEYS.join(", ")),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn identify_key(session: &Session, key: &str, message: &str) -> IdentifyError {
+    IdentifyError::Options {
+        manifest: session.manifest.clone(),
+        key: key.to_string(),
+        message: message.to_string(),
+    }
+}
+
+/// `[identify] parameters = ["EC0Y", …]`: the machine parameters to estimate (all of a
+/// component error's coefficients); default: every parameter of the error model.
+fn estimated_coefficients(
+    session: &Session,
+    model: &MachineModel,
+) -> Result<Vec<usize>, IdentifyError> {
+    let Some(v) = session.identify.get("parameters") else {
+        return Ok((0..model.n_coeffs()).collect());
+    };
+    let bad = |m: String| identify_key(session, "parameters", &m);
+    let list = v
+        .as_array()
+        .ok_or_else(|| bad(format!("expected a list of ISO 230-1 names, found {v}")))?;
+    let mut out = Vec::new();
+    for item in list {
+        let s = item
+            .as_str()
+            .ok_or_else(|| bad(format!("expected a name in quotes, found {item}")))?;
+        let name: ParamName = s
+            .parse()
+            .map_err(|e| bad(format!("`{s}` is not an ISO 230-1 parameter name: {e}")))?;
+        let p = model.errors().find(&name).ok_or_else(|| {
+            bad(format!(
+                "`{s}` is not in this machine's error model ({} parameters; see its .errors.toml)",
+                model.errors().params().len()
+            ))
+        })?;
+        out.extend(p.offset..p.offset + p.len);
+    }
+    out.sort_unstable();
+    out.dedup();
+    Ok(out)
+}
+
+/// Commanded positions in SI: mm → m on linear axes, degrees → rad on rotary ones.
+fn positions_si(model: &MachineModel, table: &RunTable) -> Vec<f64> {
+    let kinds: Vec<AxisKind> = model.machine().axes().iter().map(|a| a.kind()).collect();
+    table
+        .positions
+        .chunks_exact(kinds.len())
+        .flat_map(|row| {
+            row.iter().zip(&kinds).map(|(v, k)| match k {
+                AxisKind::Linear => v * 1e-3,
+                AxisKind::Rotary => v.to_radians(),
+            })
+        })
+        .collect()
+}

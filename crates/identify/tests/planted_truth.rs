@@ -1,0 +1,233 @@
+//! Planted-truth tests of the whole identification: simulate a session from a known machine,
+//! identify it, compare with the truth.
+
+use mtcal_identify::{Identification, identify_session, simulate::simulate};
+// Links every instrument plugin (inventory drops crates nobody names).
+use mtcal_plugins as _;
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+const ELEVEN: &str =
+    r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
+
+/// The truth of examples/five-axis (µm / µrad).
+const TRUTH: [(&str, f64); 11] = [
+    ("EC0Y", 12.0),
+    ("EB0Z", -8.0),
+    ("EA0Z", 15.0),
+    ("EY0A", 18.0),
+    ("EZ0A", -25.0),
+    ("EB0A", 20.0),
+    ("EC0A", -10.0),
+    ("EX0C", 12.0),
+    ("EY0C", -6.0),
+    ("EA0C", 30.0),
+    ("EB0C", -15.0),
+];
+
+/// Writes a plan into `dir` and simulates it into `dir/session`.
+fn session(dir: &Path, setups_and_runs: &str, noise: f64) -> PathBuf {
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let runs = setups_and_runs.replace("NOISE", &format!("{noise}"));
+    let plan = format!(
+        "machine = {machine:?}\ntruth = {truth:?}\nseed = 11\n[identify]\nparameters = {ELEVEN}\n{runs}"
+    );
+    let plan_path = dir.join("plan.toml");
+    std::fs::write(&plan_path, plan).unwrap();
+    let out = dir.join("session");
+    simulate(&plan_path, &out).unwrap();
+    out
+}
+
+const RTEST_PLAN: &str = r#"
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+ball_free = false
+tool_length_free = false
+[setup.high]
+ball = [100.0, 0.0, 300.0]
+ball_free = false
+tool_length_free = false
+[[run]]
+name = "xyc-a0"
+instrument = "rtest"
+setup = "low"
+noise = NOISE
+path = { kind = "xyc", samples = 37 }
+[[run]]
+name = "xyc-a+30"
+instrument = "rtest"
+setup = "low"
+noise = NOISE
+path = { kind = "xyc", samples = 37, hold = { A = 30.0 } }
+[[run]]
+name = "xyc-a-30"
+instrument = "rtest"
+setup = "low"
+noise = NOISE
+path = { kind = "xyc", samples = 37, hold = { A = -30.0 } }
+[[run]]
+name = "yza"
+instrument = "rtest"
+setup = "low"
+noise = NOISE
+path = { kind = "yza", samples = 31 }
+[[run]]
+name = "xyc-high"
+instrument = "rtest"
+setup = "high"
+noise = NOISE
+path = { kind = "xyc", samples = 37 }
+[[run]]
+name = "xyzac"
+instrument = "rtest"
+setup = "low"
+use = "validate"
+noise = NOISE
+path = { kind = "xyzac", samples = 49 }
+"#;
+
+fn value(id: &Identification, name: &str) -> Option<f64> {
+    id.parameters
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| p.value)
+}
+
+#[test]
+fn noise_free_rtest_recovers_the_eleven_errors_and_predicts_the_validation_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = session(dir.path(), RTEST_PLAN, 0.0);
+    let (_, id) = identify_session(&s).unwrap();
+    // With the set-up calibrated (ball and tool length held), this plan separates all eleven.
+    for (name, truth) in TRUTH {
+        let v = value(&id, name)
+            .unwrap_or_else(|| panic!("{name} not identified: {:?}", id.unidentifiable));
+        assert!((v - truth).abs() < 1e-6, "{name}: {v} vs truth {truth}");
+    }
+    assert!(id.unidentifiable.is_empty(), "{:?}", id.unidentifiable);
+    assert!(id.fit.rms_um < 1e-6, "noise-free fit rms {}", id.fit.rms_um);
+    assert_eq!(id.validation.len(), 1);
+    assert!(
+        id.validation[0].rms_um < 1e-6,
+        "validation predicted to {} um",
+        id.validation[0].rms_um
+    );
+}
+
+#[test]
+fn noisy_rtest_predicts_validation_within_the_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = session(dir.path(), RTEST_PLAN, 0.5);
+    let (_, id) = identify_session(&s).unwrap();
+    let v = id.validation[0].rms_um;
+    assert!(v < 0.7, "validation rms {v} um with 0.5 um noise");
+    assert!(
+        (id.fit.chi2_reduced - 1.0).abs() < 0.2,
+        "chi2/dof {}",
+        id.fit.chi2_reduced
+    );
+    // Every identified parameter lies within a few of its intervals of the truth.
+    for (name, truth) in TRUTH {
+        if let Some(p) = id.parameters.iter().find(|p| p.name == name) {
+            assert!(
+                (p.value - truth).abs() < 2.5 * p.u95,
+                "{name}: {} ± {} vs {truth}",
+                p.value,
+                p.u95
+            );
+        }
+    }
+}
+
+#[test]
+fn one_xyc_circle_cannot_separate_everything_and_says_so() {
+    let plan = r#"
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+[[run]]
+name = "xyc-a0"
+instrument = "rtest"
+setup = "low"
+noise = NOISE
+path = { kind = "xyc", samples = 37 }
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let s = session(dir.path(), plan, 0.0);
+    let (_, id) = identify_session(&s).unwrap();
+    assert!(
+        !id.unidentifiable.is_empty(),
+        "an under-determined plan names combinations"
+    );
+    for u in &id.unidentifiable {
+        for p in &u.parameters {
+            assert!(
+                id.parameters.iter().all(|q| &q.name != p),
+                "{p} is unidentifiable but was given a value"
+            );
+        }
+    }
+    // Circles in one plane at A = 0 cannot see the tilt of Z towards Y and X alone.
+    let named: Vec<&String> = id
+        .unidentifiable
+        .iter()
+        .flat_map(|u| &u.parameters)
+        .collect();
+    assert!(
+        named
+            .iter()
+            .any(|n| n.as_str() == "EZ0A" || n.as_str() == "EY0A"),
+        "{named:?}"
+    );
+}
+
+#[test]
+fn ballbar_circles_in_three_planes_recover_squareness() {
+    let plan = r#"
+[identify]
+[setup.bar]
+pivot = [0.0, 0.0, 250.0]
+length = 100.0
+[[run]]
+name = "xy"
+instrument = "ballbar"
+setup = "bar"
+noise = NOISE
+path = { kind = "circle", plane = "XY", samples = 90 }
+[[run]]
+name = "yz"
+instrument = "ballbar"
+setup = "bar"
+noise = NOISE
+path = { kind = "circle", plane = "YZ", samples = 90, start_deg = -90.0, sweep_deg = 180.0 }
+[[run]]
+name = "zx"
+instrument = "ballbar"
+setup = "bar"
+noise = NOISE
+path = { kind = "circle", plane = "ZX", samples = 90, start_deg = 0.0, sweep_deg = 180.0 }
+"#
+    .replace("[identify]\n", "");
+    let dir = tempfile::tempdir().unwrap();
+    // Only the squareness errors are estimated.
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let text = format!(
+        "machine = {machine:?}\ntruth = {truth:?}\n[identify]\nparameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n{}",
+        plan.replace("NOISE", "0.0")
+    );
+    std::fs::write(dir.path().join("plan.toml"), text).unwrap();
+    // The truth has location errors too; the ball-bar circles at A = C = 0 do not see them
+    // except as pivot offsets, which are fitted.
+    simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
+    let (_, id) = identify_session(&dir.path().join("s")).unwrap();
+    for (name, truth) in [("EC0Y", 12.0), ("EB0Z", -8.0), ("EA0Z", 15.0)] {
+        let v = value(&id, name)
+            .unwrap_or_else(|| panic!("{name} not identified: {:?}", id.unidentifiable));
+        assert!((v - truth).abs() < 1e-3, "{name}: {v} vs {truth}");
+    }
+}

@@ -1,0 +1,363 @@
+//! The measurement-model trait every mtcal instrument plugin implements, and the registry the
+//! plugins put their descriptors in.
+//!
+//! # How an instrument enters the identification
+//! A plugin turns one run's set-up (the `[run.setup]` / `[setup.<name>]` table of the session
+//! manifest) into a [`Setup`]: an object that, given the **actual pose of the tool point in the
+//! workpiece frame** at one sample, predicts the instrument's readings. The identification core
+//! owns the machine: it evaluates the pose with every error parameter inserted, hands it to the
+//! set-up, and chains the set-up's derivatives with respect to that pose onto the kinematic
+//! Jacobian (`∂reading/∂c = ∂reading/∂pose · ∂pose/∂c`). So a plugin touches machine parameters
+//! only through the tool pose: the parameters it touches are exactly those the pose depends on
+//! (in the pose components [`Setup::touches`] declares), and every other parameter has a zero
+//! Jacobian column for its runs.
+//!
+//! A set-up also declares its own **nuisance parameters** (ball position, tool length, pivot,
+//! bar length…). They are *deviations from the set-up's nominal values*, in SI units, starting
+//! at zero; runs sharing a named set-up share them. And it gives a **noise model**: one standard
+//! deviation per reading channel, which whitens the residuals so instruments mix fairly.
+//!
+//! # Conventions
+//! - SI inside: m, rad, s. Readings are converted from the file units of [`Channel::unit`]
+//!   (µm, µrad) at the edge by the caller.
+//! - The pose derivative `d_pose` is with respect to a small *left* perturbation of the tool
+//!   pose in the workpiece frame: `t ← t + δt`, `R ← exp([δθ]×)·R`; a point `x = R·o + t` fixed
+//!   to the tool moves by `δt + δθ × (R·o)`. Columns `[δt_x, δt_y, δt_z, δθ_x, δθ_y, δθ_z]`.
+//!
+//! # Adding an instrument
+//! Write a crate under `plugins/`, implement [`Setup`], submit an [`InstrumentPlugin`] with
+//! `inventory::submit!`, name the crate in `mtcal-plugins`, and call the conformance harness
+//! (`mtcal-conformance`) from its tests.
+
+use mtcal_kinematics::{Machine, Rigid};
+use std::fmt;
+
+pub mod program;
+
+/// The unit a reading or a nuisance parameter is written in outside (files, reports).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Unit {
+    /// Micrometres; SI value in metres.
+    Um,
+    /// Microradians; SI value in radians.
+    Urad,
+    /// Parts per million; SI value dimensionless.
+    Ppm,
+}
+
+impl Unit {
+    /// Factor from SI to this unit (`value_in_unit = si * factor`).
+    pub fn per_si(self) -> f64 {
+        1e6
+    }
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Unit::Um => "um",
+            Unit::Urad => "urad",
+            Unit::Ppm => "ppm",
+        }
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// One reading column of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    /// The CSV column name (`dx`, `dr`, …).
+    pub name: String,
+    pub unit: Unit,
+    /// Standard deviation of one reading, SI.
+    pub sigma: f64,
+}
+
+/// A nuisance parameter of a set-up: a deviation from the set-up's nominal value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Nuisance {
+    /// Short name, unique within the set-up (`ball_x`, `tool_length`, …). The core prefixes it
+    /// with the set-up name in reports.
+    pub name: String,
+    pub unit: Unit,
+    /// Estimated by the fit (`true`) or held at zero (calibrated).
+    pub free: bool,
+    /// Standard deviation of a prior centred on zero, SI; `None` = no prior.
+    pub prior_sigma: Option<f64>,
+}
+
+/// Which parts of the tool pose a set-up's readings depend on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Touches {
+    pub position: bool,
+    pub orientation: bool,
+}
+
+/// One sample as the set-up sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct At<'a> {
+    /// Commanded axis positions, SI, in the machine's axis order.
+    pub q: &'a [f64],
+    /// Time since the session started, s.
+    pub t: f64,
+    /// Actual pose of the tool point in the workpiece frame (`w_T_t`), errors inserted.
+    pub w_t_t: &'a Rigid,
+}
+
+/// A loaded set-up of one instrument: its measurement model for one or more runs.
+///
+/// Object safe; the core holds `Box<dyn Setup>`. Implementations must not allocate in
+/// [`Setup::predict`] or [`Setup::derivatives`]: they run once per sample.
+pub trait Setup: fmt::Debug + Send + Sync {
+    /// The reading channels, in the order `predict` writes them.
+    fn channels(&self) -> &[Channel];
+
+    /// The nuisance parameters, in the order `predict` reads them.
+    fn nuisance(&self) -> &[Nuisance];
+
+    /// Which parts of the tool pose the readings depend on.
+    fn touches(&self) -> Touches {
+        Touches {
+            position: true,
+            orientation: true,
+        }
+    }
+
+    /// Predicted readings (SI) at one sample, for nuisance values `nuis` (SI deviations).
+    fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]);
+
+    /// Analytic derivatives of the predicted readings: `d_pose` is `channels × 6` row-major
+    /// with respect to the left pose perturbation (module docs), `d_nuis` is
+    /// `channels × nuisance` row-major. Return `false` (the default) if not implemented; the
+    /// core then uses central finite differences.
+    fn derivatives(
+        &self,
+        at: &At<'_>,
+        nuis: &[f64],
+        d_pose: &mut [f64],
+        d_nuis: &mut [f64],
+    ) -> bool {
+        let _ = (at, nuis, d_pose, d_nuis);
+        false
+    }
+
+    /// The set-up as a manifest table: loading it again gives an equal set-up.
+    fn to_toml(&self) -> toml::Table;
+}
+
+/// What the loader needs to know besides the table.
+#[derive(Clone, Copy, Debug)]
+pub struct SetupContext<'a> {
+    pub machine: &'a Machine,
+}
+
+/// Why a set-up table was rejected: the offending key and what was expected.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("setup key `{key}`: {message}")]
+pub struct SetupError {
+    pub key: String,
+    pub message: String,
+}
+
+impl SetupError {
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// A test set-up and the axis positions to measure it at: what a plugin offers the
+/// conformance harness and the property tests for a given machine.
+#[derive(Clone, Debug)]
+pub struct Fixture {
+    pub setup: toml::Table,
+    /// Axis positions, SI, one `Vec` per sample.
+    pub poses: Vec<Vec<f64>>,
+}
+
+/// A named measuring path: commanded axis positions for a set-up on a machine.
+#[derive(Clone, Debug)]
+pub struct PathSpec<'a> {
+    /// The run's `path` table from a test plan (plugin-specific keys, e.g. `kind = "xyc"`).
+    pub path: &'a toml::Table,
+    /// The set-up table the path is for.
+    pub setup: &'a toml::Table,
+    pub machine: &'a Machine,
+}
+
+/// A plugin's set-up loader: from a manifest table to a [`Setup`].
+pub type LoadSetup = fn(&toml::Table, &SetupContext<'_>) -> Result<Box<dyn Setup>, SetupError>;
+
+/// The registered descriptor of an instrument plugin.
+#[derive(Debug)]
+pub struct InstrumentPlugin {
+    /// The `instrument` value in session manifests (`rtest`, `ballbar`, …).
+    pub name: &'static str,
+    /// One line for `mtcal plugins`.
+    pub about: &'static str,
+    /// Builds a set-up from its manifest table.
+    pub load_setup: LoadSetup,
+    /// A representative set-up and poses on `machine`, or `None` if the instrument cannot be
+    /// used on it. `seed` varies the set-up for property tests.
+    pub fixture: fn(&Machine, u64) -> Option<Fixture>,
+    /// Commanded positions (SI) of a measuring path, one `Vec` per sample.
+    pub path: fn(&PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError>,
+    /// The instrument's own evaluation of one run (e.g. ISO 230-4 circular deviation), if any.
+    pub evaluate: Option<fn(&Evaluation<'_>) -> Vec<Metric>>,
+}
+
+/// One run's data for an instrument's own evaluation.
+#[derive(Clone, Copy, Debug)]
+pub struct Evaluation<'a> {
+    pub machine: &'a Machine,
+    pub setup: &'a toml::Table,
+    /// Commanded positions, SI, row-major `samples × axes`.
+    pub q: &'a [f64],
+    /// Readings, SI, row-major `samples × channels`.
+    pub readings: &'a [f64],
+    pub t: &'a [f64],
+}
+
+/// A named number an instrument's evaluation reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Metric {
+    /// e.g. `circular deviation G (ISO 230-4)`.
+    pub name: String,
+    /// SI.
+    pub value: f64,
+    pub unit: Unit,
+}
+
+inventory::collect!(InstrumentPlugin);
+
+/// Every registered plugin, sorted by name. Only plugins whose crates the final binary links
+/// are here: `mtcal-plugins` names them all.
+pub fn plugins() -> Vec<&'static InstrumentPlugin> {
+    let mut all: Vec<_> = inventory::iter::<InstrumentPlugin>.into_iter().collect();
+    all.sort_by_key(|p| p.name);
+    all
+}
+
+/// The plugin registered under `name`.
+pub fn find(name: &str) -> Option<&'static InstrumentPlugin> {
+    inventory::iter::<InstrumentPlugin>
+        .into_iter()
+        .find(|p| p.name == name)
+}
+
+/// Helpers for set-up loaders: typed reads of a manifest table with [`SetupError`]s that say
+/// what was expected.
+pub mod read {
+    use super::SetupError;
+
+    /// A number (integers accepted).
+    pub fn number(table: &toml::Table, key: &str) -> Result<Option<f64>, SetupError> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(v) => as_number(v)
+                .filter(|x| x.is_finite())
+                .map(Some)
+                .ok_or_else(|| {
+                    SetupError::new(key, format!("expected a finite number, found {v}"))
+                }),
+        }
+    }
+
+    /// A required number.
+    pub fn required_number(table: &toml::Table, key: &str, what: &str) -> Result<f64, SetupError> {
+        number(table, key)?.ok_or_else(|| SetupError::new(key, format!("missing: {what}")))
+    }
+
+    /// A vector of three numbers.
+    pub fn vec3(table: &toml::Table, key: &str) -> Result<Option<[f64; 3]>, SetupError> {
+        let Some(v) = table.get(key) else {
+            return Ok(None);
+        };
+        let bad = || SetupError::new(key, format!("expected three numbers [x, y, z], found {v}"));
+        let arr = v.as_array().ok_or_else(bad)?;
+        if arr.len() != 3 {
+            return Err(bad());
+        }
+        let mut out = [0.0; 3];
+        for (o, x) in out.iter_mut().zip(arr) {
+            *o = as_number(x).filter(|x| x.is_finite()).ok_or_else(bad)?;
+        }
+        Ok(Some(out))
+    }
+
+    /// A boolean.
+    pub fn boolean(table: &toml::Table, key: &str) -> Result<Option<bool>, SetupError> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(toml::Value::Boolean(b)) => Ok(Some(*b)),
+            Some(v) => Err(SetupError::new(
+                key,
+                format!("expected true or false, found {v}"),
+            )),
+        }
+    }
+
+    /// A string.
+    pub fn string<'a>(table: &'a toml::Table, key: &str) -> Result<Option<&'a str>, SetupError> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(toml::Value::String(s)) => Ok(Some(s)),
+            Some(v) => Err(SetupError::new(
+                key,
+                format!("expected a string, found {v}"),
+            )),
+        }
+    }
+
+    /// Rejects keys outside `allowed`, so a typo does not pass silently.
+    pub fn only_keys(table: &toml::Table, allowed: &[&str]) -> Result<(), SetupError> {
+        for key in table.keys() {
+            if !allowed.contains(&key.as_str()) {
+                return Err(SetupError::new(
+                    key,
+                    format!("unknown key; this instrument knows {}", allowed.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn as_number(v: &toml::Value) -> Option<f64> {
+        match v {
+            toml::Value::Float(x) => Some(*x),
+            toml::Value::Integer(i) => Some(*i as f64),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readers_name_the_key_and_the_expectation() {
+        let t: toml::Table =
+            toml::from_str("a = 1\nb = [1.0, 2, 3.5]\nc = \"x\"\nd = [1, 2]").expect("valid toml");
+        assert_eq!(read::number(&t, "a").unwrap(), Some(1.0));
+        assert_eq!(read::vec3(&t, "b").unwrap(), Some([1.0, 2.0, 3.5]));
+        let e = read::vec3(&t, "d").unwrap_err();
+        assert_eq!(e.key, "d");
+        assert!(e.message.contains("three numbers"), "{e}");
+        let e = read::number(&t, "c").unwrap_err();
+        assert!(e.to_string().starts_with("setup key `c`"), "{e}");
+        assert!(read::required_number(&t, "zz", "ball height").is_err());
+        let e = read::only_keys(&t, &["a", "b", "c"]).unwrap_err();
+        assert_eq!(e.key, "d");
+    }
+
+    #[test]
+    fn units_scale_si_to_micro() {
+        assert_eq!(Unit::Um.per_si(), 1e6);
+        assert_eq!(Unit::Urad.to_string(), "urad");
+    }
+}

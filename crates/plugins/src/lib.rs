@@ -1,0 +1,31 @@
+//! Every instrument plugin of mtcal, linked.
+//!
+//! A plugin registers its descriptor with `inventory`; the registration lives in the plugin's
+//! crate and vanishes from a binary that never names that crate. This crate names them all, so
+//! depending on it (the identification core, the command line) is enough to see every plugin
+//! through [`plugins`] and [`find`]. A new plugin crate gets a `use … as _;` line here and its
+//! name in the test below.
+
+use mtcal_ballbar as _;
+use mtcal_rtest as _;
+
+pub use mtcal_instrument::{find, plugins};
+
+/// The names of every registered plugin, sorted.
+pub fn names() -> Vec<&'static str> {
+    plugins().iter().map(|p| p.name).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_plugin_is_registered_exactly_once() {
+        assert_eq!(names(), ["ballbar", "rtest"]);
+        for name in names() {
+            assert_eq!(find(name).map(|p| p.name), Some(name));
+            assert!(!find(name).expect("registered").about.is_empty());
+        }
+    }
+}

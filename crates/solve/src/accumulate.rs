@@ -1,0 +1,547 @@
+//! Streaming accumulation of residual rows into an upper-triangular factor `R`, its rotated
+//! right-hand side `z = Qᵀr` and the residual sum of squares that no column explains.
+//!
+//! Rows arrive in groups that share a set of active columns. A group is folded with the dense
+//! kernel in [`crate::qr`] on the sub-block `R[E, E]`, where `E` is the active set closed under
+//! fill-in: a reflector for column `j` mixes row `j` of `R` into the new rows, so every column in
+//! which row `j` of `R` is non-zero becomes active too. With block-local ("nuisance") columns
+//! ordered before the shared ones, `E` is exactly the active set and no fill-in occurs; the solver
+//! chooses such an order (see `solver::column_order`). Rows outside `E` are untouched by the
+//! reflectors, which is what makes the sub-block update exact.
+
+use faer::MatMut;
+
+use crate::qr::{self, Scratch};
+
+/// Marks a parameter without a column (fixed) or a column outside the current group.
+pub(crate) const NONE: usize = usize::MAX;
+
+/// Rows buffered before they are folded into `R`. Larger blocks amortise the per-fold overhead
+/// and keep the matrix products efficient; 512 × 112 doubles (450 kB) stay in L2.
+const CHUNK: usize = 1024;
+
+/// A fault found while accepting rows; the solver turns it into a [`crate::SolveError`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Fault {
+    NonFiniteResidual {
+        block: usize,
+        row: usize,
+        value: f64,
+    },
+    NonFiniteJacobian {
+        block: usize,
+        row: usize,
+        param: usize,
+        value: f64,
+    },
+    Columns {
+        block: usize,
+        reason: String,
+    },
+    Row {
+        block: usize,
+        row: usize,
+        reason: String,
+    },
+}
+
+/// One thread's streaming factor.
+#[derive(Debug, Clone)]
+pub(crate) struct Accumulator {
+    /// Parameter index → column of `R`, [`NONE`] for fixed parameters.
+    to_col: Vec<usize>,
+    /// Number of columns (free parameters).
+    n: usize,
+    /// `n × n`, column-major, upper triangular.
+    pub(crate) r: Vec<f64>,
+    pub(crate) z: Vec<f64>,
+    /// Residual sum of squares not explained by the columns.
+    pub(crate) rss: f64,
+    /// Σ r² over all data rows, summed directly (the cost).
+    pub(crate) sumsq: f64,
+    pub(crate) n_rows: usize,
+    /// Per parameter: in how many blocks it was active (for the column order).
+    pub(crate) usage: Vec<u32>,
+    stamp: Vec<usize>,
+    // The current group.
+    group_cols: Vec<usize>,
+    group_valid: bool,
+    in_group: bool,
+    /// Active set closed under fill-in, sorted columns of `R`.
+    e_cols: Vec<usize>,
+    /// Column of `R` → position in `e_cols`, or [`NONE`].
+    pos_of: Vec<usize>,
+    /// (index into the caller's Jacobian row, position in `e_cols`).
+    pairs: Vec<(usize, usize)>,
+    /// Positions in `e_cols` that rows never write (fill-in columns); kept zero in `bot`.
+    fill: Vec<usize>,
+    mask: Vec<bool>,
+    // Fold buffers.
+    top: Vec<f64>,
+    bot: Vec<f64>,
+    k: usize,
+    scratch: Scratch,
+    // Bookkeeping for messages.
+    block: usize,
+    row_in_block: usize,
+    pub(crate) fault: Option<Fault>,
+}
+
+impl Accumulator {
+    /// An empty factor for `to_col.len()` parameters of which `n` are free.
+    pub(crate) fn new(to_col: Vec<usize>, n: usize) -> Self {
+        let n_params = to_col.len();
+        Self {
+            to_col,
+            n,
+            r: vec![0.0; n * n],
+            z: vec![0.0; n],
+            rss: 0.0,
+            sumsq: 0.0,
+            n_rows: 0,
+            usage: vec![0; n_params],
+            stamp: vec![NONE; n_params],
+            group_cols: Vec::new(),
+            group_valid: false,
+            in_group: false,
+            e_cols: Vec::new(),
+            pos_of: vec![NONE; n],
+            pairs: Vec::new(),
+            fill: Vec::new(),
+            mask: vec![false; n],
+            top: Vec::new(),
+            bot: Vec::new(),
+            k: 0,
+            scratch: Scratch::new(n + 1),
+            block: 0,
+            row_in_block: 0,
+            fault: None,
+        }
+    }
+
+    /// Whether this accumulator was built for the same column layout.
+    pub(crate) fn has_layout(&self, to_col: &[usize]) -> bool {
+        self.to_col == to_col
+    }
+
+    /// Empties the factor, keeping the buffers.
+    pub(crate) fn reset(&mut self) {
+        self.r.fill(0.0);
+        self.z.fill(0.0);
+        self.rss = 0.0;
+        self.sumsq = 0.0;
+        self.n_rows = 0;
+        self.usage.fill(0);
+        self.stamp.fill(NONE);
+        self.clear_group();
+        self.k = 0;
+        self.fault = None;
+    }
+
+    /// Starts from a diagonal factor: column `c` gets the row `(w, r)` (a prior `(x − μ)/σ` has
+    /// `w = 1/σ`). Only valid on an empty factor; diagonal rows cause no fill-in.
+    pub(crate) fn set_diagonal_rows(&mut self, rows: &[(usize, f64, f64)]) {
+        for &(c, w, r) in rows {
+            debug_assert_eq!(self.r[c + c * self.n], 0.0);
+            let (w, r) = if w < 0.0 { (-w, -r) } else { (w, r) };
+            self.r[c + c * self.n] = w;
+            self.z[c] = r;
+        }
+    }
+
+    pub(crate) fn start_block(&mut self, block: usize) {
+        self.block = block;
+        self.row_in_block = 0;
+        self.in_group = false;
+    }
+
+    fn clear_group(&mut self) {
+        for &c in &self.e_cols {
+            self.pos_of[c] = NONE;
+        }
+        self.e_cols.clear();
+        self.pairs.clear();
+        self.fill.clear();
+        self.group_cols.clear();
+        self.group_valid = false;
+        self.in_group = false;
+    }
+
+    /// Starts a group of rows whose Jacobian entries lie in the parameter columns `cols`.
+    pub(crate) fn columns(&mut self, cols: &[usize]) {
+        if self.fault.is_some() {
+            return;
+        }
+        let n_params = self.to_col.len();
+        if let Some(reason) = check_columns(cols, n_params) {
+            self.fault = Some(Fault::Columns {
+                block: self.block,
+                reason,
+            });
+            return;
+        }
+        for &c in cols {
+            if self.stamp[c] != self.block {
+                self.stamp[c] = self.block;
+                self.usage[c] += 1;
+            }
+        }
+        self.in_group = true;
+        if self.group_valid && self.group_cols == cols {
+            return;
+        }
+        self.flush();
+        self.clear_group();
+        self.group_cols.extend_from_slice(cols);
+        for (s, &p) in cols.iter().enumerate() {
+            let c = self.to_col[p];
+            if c != NONE {
+                self.pairs.push((s, c));
+            }
+        }
+        self.begin_group();
+        self.group_valid = true;
+        self.in_group = true;
+    }
+
+    /// Computes the fill-closed active set from `pairs` (which hold columns of `R` on entry and
+    /// positions in `e_cols` on return) and prepares the buffers.
+    fn begin_group(&mut self) {
+        let n = self.n;
+        for &(_, c) in &self.pairs {
+            self.mask[c] = true;
+        }
+        // Close under fill-in: row j of R (j active) makes every column where it is non-zero active.
+        for j in 0..n {
+            if !self.mask[j] {
+                continue;
+            }
+            for k in j + 1..n {
+                if !self.mask[k] && self.r[j + k * n] != 0.0 {
+                    self.mask[k] = true;
+                }
+            }
+            self.e_cols.push(j);
+        }
+        for (t, &c) in self.e_cols.iter().enumerate() {
+            self.mask[c] = false;
+            self.pos_of[c] = t;
+        }
+        for pair in &mut self.pairs {
+            pair.1 = self.pos_of[pair.1];
+        }
+        let e = self.e_cols.len();
+        for &(_, t) in &self.pairs {
+            self.mask[t] = true;
+        }
+        for t in 0..e {
+            if !self.mask[t] {
+                self.fill.push(t);
+            }
+            self.mask[t] = false;
+        }
+        if self.bot.len() < CHUNK * (e + 1) {
+            self.bot.resize(CHUNK * (e + 1), 0.0);
+        }
+        if self.top.len() < e * (e + 1) {
+            self.top.resize(e * (e + 1), 0.0);
+        }
+        for &t in &self.fill {
+            self.bot[t * CHUNK..(t + 1) * CHUNK].fill(0.0);
+        }
+        self.k = 0;
+    }
+
+    /// One row of the current group: residual `r` and Jacobian entries for the group's columns.
+    pub(crate) fn row(&mut self, r: f64, jac: &[f64]) {
+        if self.fault.is_some() {
+            return;
+        }
+        if !self.in_group {
+            self.fault = Some(Fault::Row {
+                block: self.block,
+                row: self.row_in_block,
+                reason: "a row was pushed before `columns` started a group in this block".into(),
+            });
+            return;
+        }
+        if jac.len() != self.group_cols.len() {
+            self.fault = Some(Fault::Row {
+                block: self.block,
+                row: self.row_in_block,
+                reason: format!(
+                    "the Jacobian row has {} entries but the group has {} columns",
+                    jac.len(),
+                    self.group_cols.len()
+                ),
+            });
+            return;
+        }
+        // `v * 0.0` is 0 for finite v and NaN otherwise: one cheap check for the whole row.
+        let mut bad = r * 0.0;
+        for &v in jac {
+            bad += v * 0.0;
+        }
+        if bad != 0.0 {
+            self.fault = Some(self.non_finite(r, jac));
+            return;
+        }
+        let k = self.k;
+        for &(s, t) in &self.pairs {
+            self.bot[k + t * CHUNK] = jac[s];
+        }
+        self.bot[k + self.e_cols.len() * CHUNK] = r;
+        self.sumsq += r * r;
+        self.k += 1;
+        self.n_rows += 1;
+        self.row_in_block += 1;
+        if self.k == CHUNK {
+            self.flush();
+        }
+    }
+
+    #[cold]
+    fn non_finite(&self, r: f64, jac: &[f64]) -> Fault {
+        let (block, row) = (self.block, self.row_in_block);
+        if !r.is_finite() {
+            return Fault::NonFiniteResidual {
+                block,
+                row,
+                value: r,
+            };
+        }
+        let s = jac.iter().position(|v| !v.is_finite()).unwrap_or(0);
+        Fault::NonFiniteJacobian {
+            block,
+            row,
+            param: self.group_cols[s],
+            value: jac[s],
+        }
+    }
+
+    /// Folds the buffered rows into `R`.
+    pub(crate) fn flush(&mut self) {
+        let k = self.k;
+        if k == 0 {
+            return;
+        }
+        self.k = 0;
+        let (n, e) = (self.n, self.e_cols.len());
+        let top = &mut self.top[..e * (e + 1)];
+        for (t, &ct) in self.e_cols.iter().enumerate() {
+            let col = &mut top[t * e..(t + 1) * e];
+            for (u, &cu) in self.e_cols[..=t].iter().enumerate() {
+                col[u] = self.r[cu + ct * n];
+            }
+            col[t + 1..].fill(0.0);
+        }
+        for (u, &cu) in self.e_cols.iter().enumerate() {
+            top[e * e + u] = self.z[cu];
+        }
+        {
+            let topm = MatMut::from_column_major_slice_mut(top, e, e + 1);
+            let botm =
+                MatMut::from_column_major_slice_with_stride_mut(&mut self.bot, k, e + 1, CHUNK);
+            qr::fold(topm, botm, &mut self.scratch);
+        }
+        let rhs = &self.bot[e * CHUNK..e * CHUNK + k];
+        self.rss += qr::dot(rhs, rhs);
+        for (t, &ct) in self.e_cols.iter().enumerate() {
+            for (u, &cu) in self.e_cols[..=t].iter().enumerate() {
+                self.r[cu + ct * n] = top[u + t * e];
+            }
+        }
+        for (u, &cu) in self.e_cols.iter().enumerate() {
+            self.z[cu] = top[e * e + u];
+        }
+        for &t in &self.fill {
+            self.bot[t * CHUNK..t * CHUNK + k].fill(0.0);
+        }
+    }
+
+    /// Folds another factor (built for the same layout) into this one: the rows of its `R`, with
+    /// its `z` as right-hand side, are rows like any other. Rows are grouped by their support so
+    /// that block-local structure causes no fill-in.
+    pub(crate) fn merge(&mut self, other: &mut Accumulator) {
+        debug_assert_eq!(self.n, other.n);
+        other.flush();
+        self.flush();
+        self.clear_group();
+        let n = self.n;
+        self.rss += other.rss;
+        self.sumsq += other.sumsq;
+        self.n_rows += other.n_rows;
+        for (u, o) in self.usage.iter_mut().zip(&other.usage) {
+            *u += o;
+        }
+        for i in 0..n {
+            let support = (i..n).filter(|&c| other.r[i + c * n] != 0.0);
+            let fits = self.group_valid && support.clone().all(|c| self.pos_of[c] != NONE);
+            if !fits {
+                if support.clone().next().is_none() {
+                    self.rss += other.z[i] * other.z[i];
+                    continue;
+                }
+                self.flush();
+                self.clear_group();
+                self.pairs.extend(support.map(|c| (0, c)));
+                self.begin_group();
+                self.group_valid = true;
+            }
+            let k = self.k;
+            for (t, &c) in self.e_cols.iter().enumerate() {
+                self.bot[k + t * CHUNK] = if c >= i { other.r[i + c * n] } else { 0.0 };
+            }
+            self.bot[k + self.e_cols.len() * CHUNK] = other.z[i];
+            self.k += 1;
+            if self.k == CHUNK {
+                self.flush();
+            }
+        }
+        self.flush();
+        // The merge group writes every position; the next `columns` call must start afresh.
+        self.clear_group();
+    }
+}
+
+fn check_columns(cols: &[usize], n_params: usize) -> Option<String> {
+    if let Some(&last) = cols.last()
+        && last >= n_params
+    {
+        return Some(format!(
+            "column {last} is out of range (the problem has {n_params} parameters)"
+        ));
+    }
+    if let Some(w) = cols.windows(2).find(|w| w[0] >= w[1]) {
+        return Some(format!(
+            "columns must be sorted and unique, found {} before {}",
+            w[0], w[1]
+        ));
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    fn gram_of(acc: &Accumulator) -> Mat<f64> {
+        let n = acc.n;
+        let rz = Mat::<f64>::from_fn(
+            n,
+            n + 1,
+            |i, j| if j < n { acc.r[i + j * n] } else { acc.z[i] },
+        );
+        let mut g = rz.transpose() * &rz;
+        g[(n, n)] += acc.rss;
+        g
+    }
+
+    /// Blocks with shared columns and per-block columns in varying orders, including fill-in
+    /// (shared columns first) and fixed parameters, against the dense Gram matrix.
+    #[test]
+    fn groups_with_fill_match_dense() {
+        let n_params = 12;
+        // Parameter 5 fixed; columns are a permutation that puts shared params first (fill-in).
+        let mut to_col = vec![NONE; n_params];
+        let order = [0, 1, 2, 3, 4, 6, 7, 8, 9, 10, 11];
+        for (c, &p) in order.iter().enumerate() {
+            to_col[p] = c;
+        }
+        let n = order.len();
+        let mut acc = Accumulator::new(to_col.clone(), n);
+        let mut dense = Mat::<f64>::zeros(0, n + 1);
+        let mut s = 3;
+        let groups: [&[usize]; 5] = [
+            &[0, 1, 2, 5, 6],
+            &[0, 1, 2, 7, 8],
+            &[3, 9],
+            &[0, 1, 2, 5, 6],
+            &[4, 10, 11],
+        ];
+        for (b, cols) in groups.iter().enumerate() {
+            acc.start_block(b);
+            acc.columns(cols);
+            for _ in 0..(7 + 3 * b) {
+                let jac: Vec<f64> = cols.iter().map(|_| lcg(&mut s)).collect();
+                let r = lcg(&mut s);
+                acc.row(r, &jac);
+                let mut row = Mat::<f64>::zeros(1, n + 1);
+                for (&p, &v) in cols.iter().zip(&jac) {
+                    if to_col[p] != NONE {
+                        row[(0, to_col[p])] = v;
+                    }
+                }
+                row[(0, n)] = r;
+                let mut d2 = Mat::<f64>::zeros(dense.nrows() + 1, n + 1);
+                d2.get_mut(..dense.nrows(), ..).copy_from(&dense);
+                d2.get_mut(dense.nrows().., ..).copy_from(&row);
+                dense = d2;
+            }
+        }
+        acc.flush();
+        assert!(acc.fault.is_none());
+        let want = dense.transpose() * &dense;
+        let err = (&gram_of(&acc) - &want).norm_max() / want.norm_max();
+        assert!(err < 1e-13, "gram error {err:e}");
+
+        // Split the same rows over two accumulators and merge.
+        let mut a = Accumulator::new(to_col.clone(), n);
+        let mut b = Accumulator::new(to_col, n);
+        let mut s = 3;
+        for (blk, cols) in groups.iter().enumerate() {
+            let acc = if blk % 2 == 0 { &mut a } else { &mut b };
+            acc.start_block(blk);
+            acc.columns(cols);
+            for _ in 0..(7 + 3 * blk) {
+                let jac: Vec<f64> = cols.iter().map(|_| lcg(&mut s)).collect();
+                acc.row(lcg(&mut s), &jac);
+            }
+        }
+        a.merge(&mut b);
+        let err = (&gram_of(&a) - &want).norm_max() / want.norm_max();
+        assert!(err < 1e-13, "merged gram error {err:e}");
+        assert_eq!(a.n_rows, dense.nrows());
+    }
+
+    #[test]
+    fn faults_name_block_and_row() {
+        let mut acc = Accumulator::new(vec![0, 1, 2], 3);
+        acc.start_block(4);
+        acc.columns(&[0, 2]);
+        acc.row(1.0, &[1.0, 2.0]);
+        acc.row(1.0, &[1.0, f64::INFINITY]);
+        assert_eq!(
+            acc.fault,
+            Some(Fault::NonFiniteJacobian {
+                block: 4,
+                row: 1,
+                param: 2,
+                value: f64::INFINITY
+            })
+        );
+        let mut acc = Accumulator::new(vec![0, 1, 2], 3);
+        acc.start_block(0);
+        acc.columns(&[2, 1]);
+        assert!(matches!(acc.fault, Some(Fault::Columns { block: 0, .. })));
+        let mut acc = Accumulator::new(vec![0, 1, 2], 3);
+        acc.start_block(1);
+        acc.row(0.0, &[]);
+        assert!(matches!(
+            acc.fault,
+            Some(Fault::Row {
+                block: 1,
+                row: 0,
+                ..
+            })
+        ));
+    }
+}

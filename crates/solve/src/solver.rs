@@ -1,0 +1,475 @@
+//! The Levenberg–Marquardt / Gauss–Newton iteration and the assembly of the [`Solution`].
+
+use crate::accumulate::{Accumulator, Fault, NONE};
+use crate::analysis::{Analysis, predicted};
+use crate::bounds::bounded_step;
+use crate::eval::{Failure, Layout, Lin, Prior, evaluate};
+use crate::{
+    Linearization, Observer, Options, ParamSpec, Problem, Silent, Solution, SolveError,
+    Termination, describe_null_space,
+};
+
+/// A step is accepted when the cost drops by at least this share of the predicted drop.
+const ACCEPT: f64 = 1e-4;
+/// When the cost drop matches the prediction this well (`|ρ − 1|` below it), the linear model is
+/// as good as exact and the next step is undamped (Gauss–Newton): linear problems converge in two
+/// steps and nonlinear ones quadratically near the solution.
+const EXACT_MODEL: f64 = 1e-3;
+/// Damping after a rejected undamped step, relative to σ_max².
+const LAMBDA_START: f64 = 1e-4;
+/// Consecutive rejected steps before giving up.
+const MAX_REJECTIONS: usize = 40;
+
+/// Validated parameters.
+struct Setup {
+    n_params: usize,
+    x0: Vec<f64>,
+    free: Vec<usize>,
+    priors: Vec<Prior>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    has_bounds: bool,
+    names: Vec<String>,
+    threads: usize,
+}
+
+impl Setup {
+    fn new<P: Problem>(
+        problem: &P,
+        params: &[ParamSpec],
+        threads: usize,
+    ) -> Result<Self, SolveError> {
+        let n_params = problem.n_params();
+        if params.len() != n_params {
+            return Err(SolveError::ParamCount {
+                expected: n_params,
+                got: params.len(),
+            });
+        }
+        if n_params == 0 {
+            return Err(SolveError::Empty("it has no parameters".into()));
+        }
+        let invalid = |index: usize, reason: String| SolveError::InvalidParam {
+            index,
+            name: params[index].name.clone(),
+            reason,
+        };
+        let mut x0 = Vec::with_capacity(n_params);
+        let (mut lo, mut hi) = (
+            vec![f64::NEG_INFINITY; n_params],
+            vec![f64::INFINITY; n_params],
+        );
+        let mut priors = Vec::new();
+        for (i, p) in params.iter().enumerate() {
+            if !p.initial.is_finite() {
+                return Err(invalid(
+                    i,
+                    format!("the initial value {} is not finite", p.initial),
+                ));
+            }
+            if let Some((a, b)) = p.bounds {
+                if a.is_nan() || b.is_nan() || a > b {
+                    return Err(invalid(
+                        i,
+                        format!("the bounds ({a}, {b}) are not an interval"),
+                    ));
+                }
+                (lo[i], hi[i]) = (a, b);
+            }
+            if let Some((mean, sigma)) = p.prior {
+                if !(mean.is_finite() && sigma > 0.0 && sigma.is_finite()) {
+                    return Err(invalid(
+                        i,
+                        format!(
+                            "the prior ({mean}, {sigma}) needs a finite mean and a positive finite sigma"
+                        ),
+                    ));
+                }
+                if !p.fixed {
+                    priors.push(Prior {
+                        param: i,
+                        mean,
+                        sigma,
+                    });
+                }
+            }
+            // A fixed parameter stays where it is, bounds or not.
+            x0.push(if p.fixed {
+                p.initial
+            } else {
+                p.initial.clamp(lo[i], hi[i])
+            });
+        }
+        let free: Vec<usize> = (0..n_params).filter(|&i| !params[i].fixed).collect();
+        if free.is_empty() {
+            return Err(SolveError::AllFixed { n: n_params });
+        }
+        if problem.n_blocks() == 0 && priors.is_empty() {
+            return Err(SolveError::Empty("it has no blocks and no priors".into()));
+        }
+        let has_bounds = free.iter().any(|&i| lo[i].is_finite() || hi[i].is_finite());
+        let threads = if threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            threads
+        };
+        // Ordering hint: grouped (block-local) parameters first, shared ones last.
+        let mut free = free;
+        free.sort_by_key(|&i| params[i].group.is_none());
+        Ok(Self {
+            n_params,
+            x0,
+            free,
+            priors,
+            lo,
+            hi,
+            has_bounds,
+            names: params.iter().map(|p| p.name.clone()).collect(),
+            threads,
+        })
+    }
+
+    fn error(&self, failure: Failure) -> SolveError {
+        match failure {
+            Failure::Eval { block, source } => SolveError::Eval { block, source },
+            Failure::Fault(Fault::NonFiniteResidual { block, row, value }) => {
+                SolveError::NonFiniteResidual { block, row, value }
+            }
+            Failure::Fault(Fault::NonFiniteJacobian {
+                block,
+                row,
+                param,
+                value,
+            }) => SolveError::NonFiniteJacobian {
+                block,
+                row,
+                param,
+                name: self.names[param].clone(),
+                value,
+            },
+            Failure::Fault(Fault::Columns { block, reason }) => {
+                SolveError::InvalidColumns { block, reason }
+            }
+            Failure::Fault(Fault::Row { block, row, reason }) => {
+                SolveError::InvalidRow { block, row, reason }
+            }
+        }
+    }
+}
+
+/// Evaluation state shared by the iterations.
+struct Evaluator<'a, P: Problem> {
+    problem: &'a P,
+    setup: &'a Setup,
+    layout: Layout,
+    pool: Vec<Accumulator>,
+    evaluations: usize,
+}
+
+impl<P: Problem> Evaluator<'_, P> {
+    fn eval(&mut self, x: &[f64], observer: &mut dyn Observer) -> Result<Lin, Failure> {
+        self.evaluations += 1;
+        let lin = evaluate(
+            self.problem,
+            x,
+            &self.layout,
+            &self.setup.priors,
+            &mut self.pool,
+            self.setup.threads,
+            observer,
+        )?;
+        if !lin.cost.is_finite() {
+            // Σr² overflowed although every residual is finite.
+            return Err(Failure::Fault(Fault::NonFiniteResidual {
+                block: 0,
+                row: 0,
+                value: lin.cost,
+            }));
+        }
+        Ok(lin)
+    }
+
+    /// Columns used by few blocks first, shared ones last: no fill-in in the streaming QR.
+    fn reorder(&mut self, usage: &[u32]) {
+        let mut order = self.layout.order.clone();
+        order.sort_by_key(|&p| usage[p]);
+        if order != self.layout.order {
+            self.layout = Layout::new(self.setup.n_params, order);
+        }
+    }
+}
+
+/// Solves the weighted nonlinear least-squares problem and analyses what it identifies.
+pub fn solve<P: Problem>(
+    problem: &P,
+    params: &[ParamSpec],
+    options: &Options,
+    observer: &mut dyn Observer,
+) -> Result<Solution, SolveError> {
+    let setup = Setup::new(problem, params, options.threads)?;
+    let mut ev = Evaluator {
+        problem,
+        setup: &setup,
+        layout: Layout::new(setup.n_params, setup.free.clone()),
+        pool: Vec::new(),
+        evaluations: 0,
+    };
+    let mut x = setup.x0.clone();
+    let mut lin = ev.eval(&x, observer).map_err(|f| setup.error(f))?;
+    if lin.n_rows == 0 && setup.priors.is_empty() {
+        return Err(SolveError::Empty(
+            "its blocks produced no rows and there are no priors".into(),
+        ));
+    }
+    ev.reorder(&lin.usage);
+    let mut an = Analysis::new(&lin, options.rank_tolerance)?;
+    let mut lambda = if options.lm {
+        LAMBDA_START * an.s2max()
+    } else {
+        0.0
+    };
+    let mut nu = 2.0;
+    // The damping to return to when an undamped step fails.
+    let mut lambda_resume = LAMBDA_START * an.s2max();
+    let mut iterations = 0;
+    observer.iteration(0, lin.cost, lambda);
+    let termination = 'outer: loop {
+        let gn = step(&an, &lin, &x, &setup, 0.0)?;
+        let (_, gn_change) = predicted(&lin, &gn);
+        let x_col: Vec<f64> = lin.order.iter().map(|&p| x[p]).collect();
+        let rnorm = (2.0 * lin.cost).sqrt();
+        if an.scaled_norm(&gn) <= options.tolerance * an.scaled_norm(&x_col)
+            || gn_change <= options.tolerance * rnorm.max(1.0)
+        {
+            break Termination::Converged;
+        }
+        if iterations >= options.max_iterations {
+            break Termination::MaxIterations;
+        }
+        let mut t = 1.0;
+        let mut rejections = 0;
+        loop {
+            let dx = if options.lm {
+                step(&an, &lin, &x, &setup, lambda)?
+            } else {
+                gn.iter().map(|v| v * t).collect()
+            };
+            let (pred, _) = predicted(&lin, &dx);
+            let mut x_new = x.clone();
+            for (&p, d) in lin.order.iter().zip(&dx) {
+                x_new[p] = (x[p] + d).clamp(setup.lo[p], setup.hi[p]);
+            }
+            let rho = if pred > 0.0 {
+                match ev.eval(&x_new, observer) {
+                    Ok(new) => {
+                        let rho = (lin.cost - new.cost) / pred;
+                        if rho > ACCEPT {
+                            x = x_new;
+                            lin = new;
+                            Some(rho)
+                        } else {
+                            None
+                        }
+                    }
+                    Err(f) if f.is_numerical() => None,
+                    Err(f) => return Err(setup.error(f)),
+                }
+            } else {
+                None
+            };
+            if let Some(rho) = rho {
+                // Nielsen's update: shrink λ by up to 3 after good steps, keep it after poor ones.
+                lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                if (rho - 1.0).abs() < EXACT_MODEL && lambda > 0.0 {
+                    lambda_resume = lambda;
+                    lambda = 0.0;
+                }
+                nu = 2.0;
+                break;
+            }
+            rejections += 1;
+            if rejections > MAX_REJECTIONS {
+                break 'outer Termination::NoProgress;
+            }
+            if options.lm {
+                lambda = if lambda == 0.0 {
+                    lambda_resume
+                } else {
+                    lambda * nu
+                };
+                nu *= 2.0;
+            } else {
+                t *= 0.5;
+            }
+        }
+        iterations += 1;
+        observer.iteration(iterations, lin.cost, lambda);
+        an = Analysis::new(&lin, options.rank_tolerance)?;
+    };
+    Ok(assemble(
+        &setup,
+        x,
+        &lin,
+        &an,
+        iterations,
+        ev.evaluations,
+        termination,
+    ))
+}
+
+/// The (damped, bounded) step in the column order of `lin`.
+fn step(
+    an: &Analysis,
+    lin: &Lin,
+    x: &[f64],
+    setup: &Setup,
+    lambda: f64,
+) -> Result<Vec<f64>, SolveError> {
+    let dx = an.step(lambda);
+    if !setup.has_bounds {
+        return Ok(dx);
+    }
+    let x_col: Vec<f64> = lin.order.iter().map(|&p| x[p]).collect();
+    let lo: Vec<f64> = lin.order.iter().map(|&p| setup.lo[p]).collect();
+    let hi: Vec<f64> = lin.order.iter().map(|&p| setup.hi[p]).collect();
+    let inside = (0..dx.len()).all(|c| {
+        let v = x_col[c] + dx[c];
+        v >= lo[c] && v <= hi[c]
+    });
+    if inside {
+        return Ok(dx);
+    }
+    bounded_step(an, lambda, &x_col, &lo, &hi)
+}
+
+fn assemble(
+    setup: &Setup,
+    x: Vec<f64>,
+    lin: &Lin,
+    an: &Analysis,
+    iterations: usize,
+    evaluations: usize,
+    termination: Termination,
+) -> Solution {
+    let n = setup.n_params;
+    let cols = lin.n();
+    let mut col_of = vec![NONE; n];
+    for (c, &p) in lin.order.iter().enumerate() {
+        col_of[p] = c;
+    }
+    // Null space, rows in ascending parameter order so that "relative to the first" reads in
+    // parameter order.
+    let mut sorted = lin.order.clone();
+    sorted.sort_unstable();
+    let null = an.null_space();
+    let dirs: Vec<Vec<f64>> = (0..null.ncols())
+        .map(|k| sorted.iter().map(|&p| null[(col_of[p], k)]).collect())
+        .collect();
+    let scale: Vec<f64> = sorted.iter().map(|&p| an.d[col_of[p]]).collect();
+    let names: Vec<&str> = sorted.iter().map(|&p| setup.names[p].as_str()).collect();
+    let mut combinations = describe_null_space(&dirs, &scale, &names);
+    for c in &mut combinations {
+        for p in &mut c.params {
+            *p = sorted[*p];
+        }
+    }
+    let mut identified = vec![false; n];
+    for &p in &lin.order {
+        identified[p] = true;
+    }
+    for c in &combinations {
+        for &p in &c.params {
+            identified[p] = false;
+        }
+    }
+    let cov_col = an.covariance();
+    let mut covariance = vec![0.0; n * n];
+    for (ci, &pi) in lin.order.iter().enumerate() {
+        if !identified[pi] {
+            continue;
+        }
+        for (cj, &pj) in lin.order.iter().enumerate() {
+            if identified[pj] {
+                covariance[pi * n + pj] = cov_col[(ci, cj)];
+            }
+        }
+    }
+    let sigma: Vec<Option<f64>> = (0..n)
+        .map(|p| identified[p].then(|| covariance[p * n + p].max(0.0).sqrt()))
+        .collect();
+    let rank = an.rank;
+    let n_prior = setup.priors.len();
+    let dof = (lin.n_rows + n_prior).saturating_sub(rank);
+    let chi2 = 2.0 * lin.cost;
+    debug_assert_eq!(cols, an.d.len());
+    Solution {
+        x,
+        cost: lin.cost,
+        n_rows: lin.n_rows,
+        n_prior_rows: n_prior,
+        dof,
+        chi2,
+        chi2_reduced: if dof > 0 { chi2 / dof as f64 } else { 0.0 },
+        iterations,
+        evaluations,
+        converged: termination == Termination::Converged,
+        termination,
+        rank,
+        condition_number: if rank > 0 {
+            an.s[0] / an.s[rank - 1]
+        } else {
+            1.0
+        },
+        singular_values: an.s.clone(),
+        identified,
+        sigma,
+        covariance,
+        combinations,
+    }
+}
+
+/// Evaluates the problem at `x` (one value per parameter; fixed ones included) and returns its
+/// linearisation, prior rows included and fixed parameters' columns dropped.
+pub fn linearize<P: Problem>(
+    problem: &P,
+    params: &[ParamSpec],
+    x: &[f64],
+    threads: usize,
+) -> Result<Linearization, SolveError> {
+    let setup = Setup::new(problem, params, threads)?;
+    if x.len() != setup.n_params {
+        return Err(SolveError::ParamCount {
+            expected: setup.n_params,
+            got: x.len(),
+        });
+    }
+    let layout = Layout::new(setup.n_params, setup.free.clone());
+    let mut pool = Vec::new();
+    let lin = evaluate(
+        problem,
+        x,
+        &layout,
+        &setup.priors,
+        &mut pool,
+        setup.threads,
+        &mut Silent,
+    )
+    .map_err(|f| setup.error(f))?;
+    let n = setup.n_params;
+    let cols = lin.n();
+    let mut r = vec![0.0; n * n];
+    for (c, &p) in lin.order.iter().enumerate() {
+        for i in 0..=c {
+            r[i * n + p] = lin.r[i + c * cols];
+        }
+    }
+    let mut z = lin.z.clone();
+    z.resize(n, 0.0);
+    Ok(Linearization {
+        r,
+        z,
+        rss: lin.rss,
+        cost: lin.cost,
+        n_rows: lin.n_rows,
+    })
+}

@@ -1,0 +1,213 @@
+//! ISO 230-4 evaluation of circular tests: least-squares centre removal and circular deviation.
+
+use crate::path::Plane;
+use crate::setup::BallbarConfig;
+use mtcal_instrument::{Evaluation, Metric, Unit};
+use nalgebra::{Matrix3, Vector3};
+use std::f64::consts::TAU;
+
+/// The result of [`circular_deviation`]; all values in metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CircularDeviation {
+    /// Circular deviation G (ISO 230-4): max − min of the radial deviations after the
+    /// least-squares centre and radius are removed.
+    pub g: f64,
+    /// Centre of the least-squares circle of the measured path relative to the pivot, along the
+    /// plane's first axis (`cos φ` component of the readings).
+    pub centre_a: f64,
+    /// The same along the plane's second axis (`sin φ` component).
+    pub centre_b: f64,
+    /// Mean radius of the least-squares circle minus the nominal bar length.
+    pub radius_offset: f64,
+}
+
+/// ISO 230-4 circular deviation of one run: `dr_m[i]` (m) is the bar length minus its nominal
+/// length at commanded angle `angles_rad[i]`, so the radial deviation is `r_i = L + dr_i`. Fits
+/// `dr_i ≈ R + a·cos φ_i + b·sin φ_i` by least squares (the linearised least-squares circle,
+/// exact to first order in the deviations over the bar length), removes it and returns the
+/// peak-to-valley `G` of what remains with the fitted `a`, `b`, `R`.
+///
+/// With fewer than three samples, or angles that do not fix a centre (all equal or opposite),
+/// the centre is not fitted (`a = b = 0`) and `R` is the mean.
+///
+/// # Panics
+/// If the slices differ in length.
+pub fn circular_deviation(angles_rad: &[f64], dr_m: &[f64]) -> CircularDeviation {
+    assert_eq!(angles_rad.len(), dr_m.len(), "one reading per angle");
+    if angles_rad.is_empty() {
+        return CircularDeviation {
+            g: 0.0,
+            centre_a: 0.0,
+            centre_b: 0.0,
+            radius_offset: 0.0,
+        };
+    }
+    let mut ata = Matrix3::zeros();
+    let mut atb = Vector3::zeros();
+    for (&phi, &dr) in angles_rad.iter().zip(dr_m) {
+        let row = Vector3::new(1.0, phi.cos(), phi.sin());
+        ata += row * row.transpose();
+        atb += row * dr;
+    }
+    let n = angles_rad.len() as f64;
+    let fit = (angles_rad.len() >= 3 && ata.determinant() > 1e-9 * n * n * n)
+        .then(|| ata.cholesky().map(|c| c.solve(&atb)))
+        .flatten()
+        .unwrap_or_else(|| Vector3::new(dr_m.iter().sum::<f64>() / n, 0.0, 0.0));
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (&phi, &dr) in angles_rad.iter().zip(dr_m) {
+        let e = dr - fit[0] - fit[1] * phi.cos() - fit[2] * phi.sin();
+        lo = lo.min(e);
+        hi = hi.max(e);
+    }
+    CircularDeviation {
+        g: hi - lo,
+        centre_a: fit[1],
+        centre_b: fit[2],
+        radius_offset: fit[0],
+    }
+}
+
+/// ISO 230-4 results of a bidirectional test (one counter-clockwise and one clockwise run).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bidirectional {
+    /// Bidirectional circular deviation G(b): both runs about their common least-squares circle
+    /// (centre and radius fitted to both), max over both − min over both. Its `centre_*` and
+    /// `radius_offset` are that common circle's.
+    pub both: CircularDeviation,
+    /// The counter-clockwise run on its own.
+    pub ccw: CircularDeviation,
+    /// The clockwise run on its own.
+    pub cw: CircularDeviation,
+}
+
+/// Bidirectional circular deviation from a counter-clockwise and a clockwise run, each given as
+/// `(angles_rad, dr_m)` like [`circular_deviation`].
+pub fn bidirectional_circular_deviation(
+    ccw: (&[f64], &[f64]),
+    cw: (&[f64], &[f64]),
+) -> Bidirectional {
+    let angles: Vec<f64> = ccw.0.iter().chain(cw.0).copied().collect();
+    let dr: Vec<f64> = ccw.1.iter().chain(cw.1).copied().collect();
+    Bidirectional {
+        both: circular_deviation(&angles, &dr),
+        ccw: circular_deviation(ccw.0, ccw.1),
+        cw: circular_deviation(cw.0, cw.1),
+    }
+}
+
+/// A run recognised as a circle about the pivot: its plane and the commanded angles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CircleRun {
+    pub plane: Plane,
+    /// Commanded angle of every sample, rad, unwrapped along the run.
+    pub angles: Vec<f64>,
+    /// Which samples ISO 230-4 evaluates: all but the overshoot arcs.
+    pub evaluated: Vec<usize>,
+}
+
+/// Recognises a circle run from its commanded positions (SI, row-major `samples × axes`): every
+/// nominal tool point lies in one coordinate plane through the pivot at the bar length from it
+/// (within 10 µm, as positions in files may be rounded) and the angle changes along the run.
+/// When the run turns through more than one revolution, the excess is taken as equal overshoot
+/// arcs at both ends (the paths this crate writes) and left out of `evaluated`, as ISO 230-4
+/// evaluates one revolution.
+pub fn recognise_circle(
+    machine: &mtcal_kinematics::Machine,
+    config: &BallbarConfig,
+    q: &[f64],
+) -> Option<CircleRun> {
+    let n_axes = machine.n_axes();
+    if n_axes == 0 || q.len() % n_axes != 0 || q.len() / n_axes < 3 {
+        return None;
+    }
+    let pivot = config.pivot();
+    let length = config.length();
+    let rel: Vec<Vector3<f64>> = q
+        .chunks_exact(n_axes)
+        .map(|qi| machine.tool_in_workpiece(qi).t - pivot)
+        .collect();
+    let tol = 1e-5;
+    let plane = Plane::ALL.into_iter().find(|p| {
+        let [i, j, k] = p.indices();
+        rel.iter()
+            .all(|d| d[k].abs() < tol && (d[i].hypot(d[j]) - length).abs() < tol)
+    })?;
+    let [i, j, _] = plane.indices();
+    let mut angles: Vec<f64> = Vec::with_capacity(rel.len());
+    for d in &rel {
+        let raw = d[j].atan2(d[i]);
+        let a = match angles.last() {
+            Some(&prev) => prev + wrap_pi(raw - prev),
+            None => raw,
+        };
+        angles.push(a);
+    }
+    let first = angles[0];
+    let travel = angles.iter().map(|a| (a - first).abs()).fold(0.0, f64::max);
+    if travel < 1e-3 {
+        return None;
+    }
+    let excess = (travel - TAU).max(0.0);
+    let keep = |a: f64| {
+        let s = (a - first).abs();
+        s >= excess / 2.0 - 1e-9 && s <= excess / 2.0 + TAU + 1e-9
+    };
+    let evaluated = (0..angles.len()).filter(|&k| keep(angles[k])).collect();
+    Some(CircleRun {
+        plane,
+        angles,
+        evaluated,
+    })
+}
+
+fn wrap_pi(x: f64) -> f64 {
+    let w = x.rem_euclid(TAU);
+    if w > std::f64::consts::PI { w - TAU } else { w }
+}
+
+/// The plugin's `evaluate`: for a circle run, `circular deviation G (ISO 230-4)`, the fitted
+/// centre offsets along the plane's two axes and the radius offset (all µm); for any other run
+/// (rotary tests, unreadable set-up) nothing.
+pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
+    let Ok(config) = BallbarConfig::from_table(ev.setup) else {
+        return Vec::new();
+    };
+    let Some(run) = recognise_circle(ev.machine, &config, ev.q) else {
+        return Vec::new();
+    };
+    let n = run.angles.len();
+    if n == 0 || ev.readings.len() % n != 0 {
+        return Vec::new();
+    }
+    let channels = ev.readings.len() / n;
+    let angles: Vec<f64> = run.evaluated.iter().map(|&k| run.angles[k]).collect();
+    let dr: Vec<f64> = run
+        .evaluated
+        .iter()
+        .map(|&k| ev.readings[k * channels])
+        .collect();
+    let cd = circular_deviation(&angles, &dr);
+    let name = run.plane.name();
+    let (a, b) = (&name[..1], &name[1..]);
+    let um = |name: String, value: f64| Metric {
+        name,
+        value,
+        unit: Unit::Um,
+    };
+    vec![
+        um("circular deviation G (ISO 230-4)".into(), cd.g),
+        um(
+            format!("centre offset {a} (least-squares circle)"),
+            cd.centre_a,
+        ),
+        um(
+            format!("centre offset {b} (least-squares circle)"),
+            cd.centre_b,
+        ),
+        um(
+            "radius offset (least-squares circle)".into(),
+            cd.radius_offset,
+        ),
+    ]
+}
