@@ -213,9 +213,13 @@ fn identify(
     quiet: bool,
     threads: usize,
 ) -> Result<()> {
+    use std::io::Write as _;
+    // Written through a handle so a closed pipe (`| head`) is an error, not a panic.
+    let mut out = std::io::stdout().lock();
     let study = mtcal_identify::Study::load(session)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
-    println!(
+    writeln!(
+        out,
         "session {}: {} runs, {} samples; machine {} ({}); {} parameters ({} machine coefficients)",
         session.display(),
         study.runs.len(),
@@ -224,7 +228,7 @@ fn identify(
         study.machine.source,
         study.n_x,
         study.estimated.len()
-    );
+    )?;
     let options = mtcal_solve::Options {
         threads,
         ..Default::default()
@@ -232,15 +236,15 @@ fn identify(
     let mut progress = Progress::new(quiet);
     let id = mtcal_identify::identify(&study, &options, &mut progress)?;
     progress.finish();
-    print!("{}", id.summary());
+    write!(out, "{}", id.summary())?;
     if let Some(path) = json {
         mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("wrote {}", path.display());
+        writeln!(out, "wrote {}", path.display())?;
     }
     if let Some(dir) = predict {
         for f in mtcal_identify::write_predictions(&study, &id.x, &dir)? {
-            println!("wrote {}", f.display());
+            writeln!(out, "wrote {}", f.display())?;
         }
     }
     Ok(())

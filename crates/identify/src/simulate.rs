@@ -26,7 +26,11 @@
 //! noise = 0.5                                 # σ of the reading noise (channel units);
 //!                                             # default: the channel's σ; 0: noise-free
 //! readings = true                             # false: a validation run without readings
+//! feed_mm_min = 1000.0                        # feed written into the run's NC program
 //! ```
+//! Besides the session, every run's commanded path is written as a G-code program,
+//! `programs/<run>.nc` (mm / degrees, `G90 G01`, the linear axes keeping the tool point where
+//! the instrument needs it), for running the same test on the real machine.
 //! Noise is Gaussian, from a ChaCha8 generator seeded with `seed` and the run's index, so a
 //! plan gives byte-identical sessions on every machine.
 //!
@@ -64,6 +68,7 @@ const RUN_KEYS: &[&str] = &[
     "noise",
     "readings",
     "interval_s",
+    "feed_mm_min",
 ];
 
 /// Why a plan could not be simulated; names the plan file and the key.
@@ -397,6 +402,32 @@ pub fn simulate_with(
                 });
             }
         }
+        let feed = match run.get("feed_mm_min") {
+            None => 1000.0,
+            Some(v) => v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .filter(|x| x.is_finite() && *x > 0.0)
+                .ok_or_else(|| run_err(format!("`feed_mm_min` must be > 0, found {v}")))?,
+        };
+        let program = mtcal_instrument::program::nc_program(
+            model.machine(),
+            &poses,
+            feed,
+            &format!("mtcal {instrument} run {name}"),
+        );
+        let programs = out.join("programs");
+        std::fs::create_dir_all(&programs).map_err(|e| SimulateError::Io {
+            path: programs.clone(),
+            source: e,
+        })?;
+        let nc = programs.join(format!("{name}.nc"));
+        mtcal_machine::write_atomically(&nc, program.as_bytes()).map_err(|e| {
+            SimulateError::Io {
+                path: nc,
+                source: e,
+            }
+        })?;
         t0 += n as f64 * dt + 10.0;
         total += n;
         let axes: Vec<char> = model

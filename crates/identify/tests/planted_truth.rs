@@ -124,6 +124,7 @@ fn noisy_rtest_predicts_validation_within_the_noise() {
     let dir = tempfile::tempdir().unwrap();
     let s = session(dir.path(), RTEST_PLAN, 0.5);
     let (_, id) = identify_session(&s).unwrap();
+    assert!(id.solver.converged, "{:?}", id.solver);
     let v = id.validation[0].rms_um;
     assert!(v < 0.7, "validation rms {v} um with 0.5 um noise");
     assert!(
@@ -230,4 +231,146 @@ path = { kind = "circle", plane = "ZX", samples = 90, start_deg = 0.0, sweep_deg
             .unwrap_or_else(|| panic!("{name} not identified: {:?}", id.unidentifiable));
         assert!((v - truth).abs() < 1e-3, "{name}: {v} vs {truth}");
     }
+}
+
+const FIVE_AXIS_BALLBAR: &str = r#"
+[setup.p1]
+pivot = [100.0, 0.0, 250.0]
+length = 100.0
+pivot_free = false
+tool_length_free = false
+[setup.p2]
+pivot = [0.0, 100.0, 300.0]
+length = 100.0
+pivot_free = false
+tool_length_free = false
+[[run]]
+name = "c-radial"
+instrument = "ballbar"
+setup = "p1"
+noise = NOISE
+path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "radial", samples = 73 }
+[[run]]
+name = "c-tangential"
+instrument = "ballbar"
+setup = "p1"
+noise = NOISE
+path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "tangential", samples = 73 }
+[[run]]
+name = "c-axial"
+instrument = "ballbar"
+setup = "p1"
+noise = NOISE
+path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "axial", samples = 73 }
+[[run]]
+name = "a-radial"
+instrument = "ballbar"
+setup = "p2"
+noise = NOISE
+path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "radial", samples = 61 }
+[[run]]
+name = "a-tangential"
+instrument = "ballbar"
+setup = "p2"
+noise = NOISE
+path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "tangential", samples = 61 }
+[[run]]
+name = "a-axial"
+instrument = "ballbar"
+setup = "p2"
+noise = NOISE
+path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "axial", samples = 61 }
+[[run]]
+name = "c-radial-a30"
+instrument = "ballbar"
+setup = "p1"
+noise = NOISE
+path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, hold = { A = 30.0 }, bar = "radial", samples = 73 }
+"#;
+
+#[test]
+fn five_axis_ballbar_tests_recover_the_rotary_location_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = session(dir.path(), FIVE_AXIS_BALLBAR, 0.0);
+    let (_, id) = identify_session(&s).unwrap();
+    assert!(id.unidentifiable.is_empty(), "{:?}", id.unidentifiable);
+    for (name, truth) in TRUTH {
+        let v = value(&id, name).unwrap();
+        assert!((v - truth).abs() < 1e-6, "{name}: {v} vs truth {truth}");
+    }
+}
+
+#[test]
+fn the_bundled_mixed_session_identifies_and_predicts_its_validation_run() {
+    // examples/five-axis: R-test and ball-bar runs with free set-ups and 0.5 / 1 µm noise.
+    let (_, id) = identify_session(&repo().join("examples/five-axis/session")).unwrap();
+    assert!(id.solver.converged, "{:?}", id.solver);
+    let instruments: Vec<&str> = id.fit.runs.iter().map(|r| r.instrument.as_str()).collect();
+    assert!(instruments.contains(&"rtest") && instruments.contains(&"ballbar"));
+    assert!(
+        id.validation[0].rms_um < 0.7,
+        "validation rms {}",
+        id.validation[0].rms_um
+    );
+    assert!(
+        (id.fit.chi2_reduced - 1.0).abs() < 0.2,
+        "chi2/dof {}",
+        id.fit.chi2_reduced
+    );
+    for p in &id.parameters {
+        if let Some((_, t)) = TRUTH.iter().find(|(n, _)| *n == p.name) {
+            assert!(
+                (p.value - t).abs() < 2.5 * p.u95,
+                "{}: {} ± {} vs {t}",
+                p.name,
+                p.value,
+                p.u95
+            );
+        }
+    }
+    // Nothing the data cannot separate gets a value.
+    for u in &id.unidentifiable {
+        assert!(
+            u.parameters
+                .iter()
+                .all(|n| id.parameters.iter().all(|p| &p.name != n))
+        );
+    }
+}
+
+#[test]
+fn simulate_writes_nc_programs_that_keep_the_tool_point_on_the_ball() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = session(dir.path(), RTEST_PLAN, 0.0);
+    let text = std::fs::read_to_string(s.join("programs/xyc-a+30.nc")).unwrap();
+    let machine =
+        mtcal_machine::urdf::load_urdf_file(&repo().join("machines/mcu630-cafyxz.urdf")).unwrap();
+    let letters: Vec<char> = machine
+        .axes()
+        .iter()
+        .map(|a| a.letter().as_char())
+        .collect();
+    let mut moves = 0;
+    for line in text.lines().filter(|l| l.contains("G01")) {
+        let mut q = vec![f64::NAN; letters.len()];
+        for word in line.split_whitespace() {
+            let (c, v) = word.split_at(1);
+            if let Some(i) = letters.iter().position(|l| l.to_string() == c) {
+                let v: f64 = v.parse().unwrap();
+                let ax = &machine.axes()[i];
+                q[i] = match ax.kind() {
+                    mtcal_kinematics::AxisKind::Linear => v * 1e-3,
+                    mtcal_kinematics::AxisKind::Rotary => v.to_radians(),
+                };
+            }
+        }
+        let p = machine.tool_in_workpiece(&q).t * 1e3;
+        // 4 decimals in the program: the tool point is on the ball to ~0.1 µm.
+        assert!(
+            (p - nalgebra::Vector3::new(100.0, 0.0, 200.0)).norm() < 2e-4,
+            "{line}: {p}"
+        );
+        moves += 1;
+    }
+    assert_eq!(moves, 37);
 }

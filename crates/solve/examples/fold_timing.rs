@@ -63,13 +63,12 @@ fn main() {
         })
         .collect();
     let x = vec![0.0; p.n_params()];
-    for threads in [1usize, 2] {
-        let mut best = f64::MAX;
-        for _ in 0..5 {
-            let t = std::time::Instant::now();
-            black_box(linearize(&p, &params, &x, threads).unwrap());
-            best = best.min(t.elapsed().as_secs_f64());
-        }
-        println!("threads {threads}: {:.3e} rows/s", ROWS as f64 / best);
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().unwrap())
+        .collect();
+    let (threads, reps) = (args[0], args[1]);
+    for _ in 0..reps {
+        black_box(linearize(&p, &params, &x, threads).unwrap());
     }
 }

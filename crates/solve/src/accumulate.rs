@@ -18,7 +18,10 @@ pub(crate) const NONE: usize = usize::MAX;
 
 /// Rows buffered before they are folded into `R`. Larger blocks amortise the per-fold overhead
 /// and keep the matrix products efficient; 512 × 112 doubles (450 kB) stay in L2.
-const CHUNK: usize = 1024;
+const CHUNK: usize = 512;
+/// Column stride of the column-major fold buffer. Not a power of two, so that the columns of one
+/// row do not all map to the same cache set.
+const LD: usize = CHUNK + 8;
 
 /// A fault found while accepting rows; the solver turns it into a [`crate::SolveError`].
 #[derive(Debug, Clone, PartialEq)]
@@ -73,11 +76,16 @@ pub(crate) struct Accumulator {
     pos_of: Vec<usize>,
     /// (index into the caller's Jacobian row, position in `e_cols`).
     pairs: Vec<(usize, usize)>,
-    /// Positions in `e_cols` that rows never write (fill-in columns); kept zero in `bot`.
+    /// `pairs` compressed into runs `(s, t, len)` of consecutive entries, copied as slices.
+    runs: Vec<(usize, usize, usize)>,
+    /// Positions in `e_cols` that rows never write (fill-in columns); written as zeros.
     fill: Vec<usize>,
     mask: Vec<bool>,
-    // Fold buffers.
+    // Fold buffers: rows are staged row-major (one contiguous write per row; writing them straight
+    // into column-major storage touches a different page per entry) and transposed in blocks
+    // into `bot` when folded.
     top: Vec<f64>,
+    stage: Vec<f64>,
     bot: Vec<f64>,
     k: usize,
     scratch: Scratch,
@@ -107,9 +115,11 @@ impl Accumulator {
             e_cols: Vec::new(),
             pos_of: vec![NONE; n],
             pairs: Vec::new(),
+            runs: Vec::new(),
             fill: Vec::new(),
             mask: vec![false; n],
             top: Vec::new(),
+            stage: Vec::new(),
             bot: Vec::new(),
             k: 0,
             scratch: Scratch::new(n + 1),
@@ -161,6 +171,7 @@ impl Accumulator {
         }
         self.e_cols.clear();
         self.pairs.clear();
+        self.runs.clear();
         self.fill.clear();
         self.group_cols.clear();
         self.group_valid = false;
@@ -234,20 +245,27 @@ impl Accumulator {
         for &(_, t) in &self.pairs {
             self.mask[t] = true;
         }
+        self.runs.clear();
+        for &(src, t) in &self.pairs {
+            match self.runs.last_mut() {
+                Some((s0, t0, len)) if *s0 + *len == src && *t0 + *len == t => *len += 1,
+                _ => self.runs.push((src, t, 1)),
+            }
+        }
         for t in 0..e {
             if !self.mask[t] {
                 self.fill.push(t);
             }
             self.mask[t] = false;
         }
-        if self.bot.len() < CHUNK * (e + 1) {
-            self.bot.resize(CHUNK * (e + 1), 0.0);
+        if self.bot.len() < LD * (e + 1) {
+            self.bot.resize(LD * (e + 1), 0.0);
+        }
+        if self.stage.len() < CHUNK * (e + 1) {
+            self.stage.resize(CHUNK * (e + 1), 0.0);
         }
         if self.top.len() < e * (e + 1) {
             self.top.resize(e * (e + 1), 0.0);
-        }
-        for &t in &self.fill {
-            self.bot[t * CHUNK..(t + 1) * CHUNK].fill(0.0);
         }
         self.k = 0;
     }
@@ -277,20 +295,19 @@ impl Accumulator {
             });
             return;
         }
-        // `v * 0.0` is 0 for finite v and NaN otherwise: one cheap check for the whole row.
-        let mut bad = r * 0.0;
-        for &v in jac {
-            bad += v * 0.0;
-        }
-        if bad != 0.0 {
+        if !all_finite(r, jac) {
             self.fault = Some(self.non_finite(r, jac));
             return;
         }
-        let k = self.k;
-        for &(s, t) in &self.pairs {
-            self.bot[k + t * CHUNK] = jac[s];
+        let w = self.e_cols.len() + 1;
+        let row = &mut self.stage[self.k * w..(self.k + 1) * w];
+        for &(src, t, len) in &self.runs {
+            row[t..t + len].copy_from_slice(&jac[src..src + len]);
         }
-        self.bot[k + self.e_cols.len() * CHUNK] = r;
+        for &t in &self.fill {
+            row[t] = 0.0;
+        }
+        row[w - 1] = r;
         self.sumsq += r * r;
         self.k += 1;
         self.n_rows += 1;
@@ -338,13 +355,13 @@ impl Accumulator {
         for (u, &cu) in self.e_cols.iter().enumerate() {
             top[e * e + u] = self.z[cu];
         }
+        transpose(&self.stage[..k * (e + 1)], k, e + 1, &mut self.bot);
         {
             let topm = MatMut::from_column_major_slice_mut(top, e, e + 1);
-            let botm =
-                MatMut::from_column_major_slice_with_stride_mut(&mut self.bot, k, e + 1, CHUNK);
+            let botm = MatMut::from_column_major_slice_with_stride_mut(&mut self.bot, k, e + 1, LD);
             qr::fold(topm, botm, &mut self.scratch);
         }
-        let rhs = &self.bot[e * CHUNK..e * CHUNK + k];
+        let rhs = &self.bot[e * LD..e * LD + k];
         self.rss += qr::dot(rhs, rhs);
         for (t, &ct) in self.e_cols.iter().enumerate() {
             for (u, &cu) in self.e_cols[..=t].iter().enumerate() {
@@ -353,9 +370,6 @@ impl Accumulator {
         }
         for (u, &cu) in self.e_cols.iter().enumerate() {
             self.z[cu] = top[e * e + u];
-        }
-        for &t in &self.fill {
-            self.bot[t * CHUNK..t * CHUNK + k].fill(0.0);
         }
     }
 
@@ -388,11 +402,12 @@ impl Accumulator {
                 self.begin_group();
                 self.group_valid = true;
             }
-            let k = self.k;
+            let w = self.e_cols.len() + 1;
+            let row = &mut self.stage[self.k * w..(self.k + 1) * w];
             for (t, &c) in self.e_cols.iter().enumerate() {
-                self.bot[k + t * CHUNK] = if c >= i { other.r[i + c * n] } else { 0.0 };
+                row[t] = if c >= i { other.r[i + c * n] } else { 0.0 };
             }
-            self.bot[k + self.e_cols.len() * CHUNK] = other.z[i];
+            row[w - 1] = other.z[i];
             self.k += 1;
             if self.k == CHUNK {
                 self.flush();
@@ -401,6 +416,42 @@ impl Accumulator {
         self.flush();
         // The merge group writes every position; the next `columns` call must start afresh.
         self.clear_group();
+    }
+}
+
+/// Whether `r` and every entry of `jac` are finite. `v * 0.0` is 0 for finite `v` and NaN
+/// otherwise; eight independent partial sums keep the loop vectorised (a single running sum
+/// would serialise on the add latency).
+fn all_finite(r: f64, jac: &[f64]) -> bool {
+    let mut acc = [0.0_f64; 8];
+    let chunks = jac.chunks_exact(8);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..8 {
+            acc[l] += c[l] * 0.0;
+        }
+    }
+    let mut s = r * 0.0;
+    for v in rest {
+        s += v * 0.0;
+    }
+    s + acc.iter().sum::<f64>() == 0.0
+}
+
+/// Copies the row-major `k × w` block `src` into the column-major `dst` (stride [`LD`]), eight
+/// rows (one cache line of each destination column) at a time.
+fn transpose(src: &[f64], k: usize, w: usize, dst: &mut [f64]) {
+    let mut i0 = 0;
+    while i0 < k {
+        let rows = (k - i0).min(8);
+        let block = &src[i0 * w..(i0 + rows) * w];
+        for t in 0..w {
+            let col = &mut dst[t * LD + i0..t * LD + i0 + rows];
+            for (i, d) in col.iter_mut().enumerate() {
+                *d = block[i * w + t];
+            }
+        }
+        i0 += rows;
     }
 }
 

@@ -295,22 +295,15 @@ pub(crate) fn norm2(x: &[f64]) -> f64 {
     m * s.sqrt()
 }
 
-/// Dot product with independent partial sums so that the compiler vectorises it.
+/// Dot product (faer's SIMD kernel, dispatched at run time to the widest vector unit).
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     debug_assert_eq!(a.len(), b.len());
-    let mut acc = [0.0; 8];
-    let (ac, ar) = a.split_at(a.len() - a.len() % 8);
-    let (bc, br) = b.split_at(ac.len());
-    for (x, y) in ac.chunks_exact(8).zip(bc.chunks_exact(8)) {
-        for l in 0..8 {
-            acc[l] += x[l] * y[l];
-        }
-    }
-    let mut s = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
-    for (x, y) in ar.iter().zip(br) {
-        s += x * y;
-    }
-    s
+    faer::linalg::matmul::dot::inner_prod(
+        faer::ColRef::from_slice(a).transpose(),
+        faer::Conj::No,
+        faer::ColRef::from_slice(b),
+        faer::Conj::No,
+    )
 }
 
 fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {

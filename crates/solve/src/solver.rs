@@ -19,6 +19,12 @@ const EXACT_MODEL: f64 = 1e-3;
 const LAMBDA_START: f64 = 1e-4;
 /// Consecutive rejected steps before giving up.
 const MAX_REJECTIONS: usize = 40;
+/// When a trial step is rejected and the Gauss–Newton step promises less than this fraction of
+/// the cost, the promise is below the rounding error of the cost itself (a sum of many
+/// squares): no trial point could show a real decrease, so the iteration has converged. Without
+/// this a noisy problem at its optimum rejected step after step until `MAX_REJECTIONS` and
+/// reported `NoProgress`.
+const ROUNDING: f64 = 1e-11;
 
 /// Validated parameters.
 struct Setup {
@@ -235,7 +241,7 @@ pub fn solve<P: Problem>(
     observer.iteration(0, lin.cost, lambda);
     let termination = 'outer: loop {
         let gn = step(&an, &lin, &x, &setup, 0.0)?;
-        let (_, gn_change) = predicted(&lin, &gn);
+        let (gn_pred, gn_change) = predicted(&lin, &gn);
         let x_col: Vec<f64> = lin.order.iter().map(|&p| x[p]).collect();
         let rnorm = (2.0 * lin.cost).sqrt();
         if an.scaled_norm(&gn) <= options.tolerance * an.scaled_norm(&x_col)
@@ -288,6 +294,10 @@ pub fn solve<P: Problem>(
                 break;
             }
             rejections += 1;
+            if gn_pred <= ROUNDING * lin.cost {
+                // The cost cannot show the decrease the step promises: at the optimum.
+                break 'outer Termination::Converged;
+            }
             if rejections > MAX_REJECTIONS {
                 break 'outer Termination::NoProgress;
             }

@@ -1,0 +1,89 @@
+//! Identification time against the number of samples: simulated R-test sessions on the
+//! five-axis trunnion (5 runs, 0.5 µm noise), the 11-error set (3 squareness + 8 location) and
+//! the full error model (every component error too: most of it unidentifiable from R-test, which
+//! the report says; the solve still carries all its columns).
+//!
+//! `cargo bench -p mtcal-identify --bench identify`; the numbers go in the README.
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use mtcal_identify::{Study, identify};
+use mtcal_solve::{Options, Silent};
+use std::hint::black_box;
+use std::path::Path;
+// Links every instrument plugin (inventory drops crates nobody names).
+use mtcal_plugins as _;
+
+const ELEVEN: &str = r#"parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
+
+/// A simulated session with about `samples` samples in a temporary folder.
+fn session(samples: usize, eleven: bool) -> (tempfile::TempDir, Study) {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let per_run = (samples / 5).max(2);
+    let identify = if eleven { ELEVEN } else { "" };
+    let plan = format!(
+        r#"machine = {machine:?}
+truth = {truth:?}
+interval_s = 0.01
+[identify]
+{identify}
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+[setup.high]
+ball = [100.0, 0.0, 300.0]
+[[run]]
+name = "a0"
+instrument = "rtest"
+setup = "low"
+path = {{ kind = "xyc", samples = {per_run} }}
+[[run]]
+name = "a30"
+instrument = "rtest"
+setup = "low"
+path = {{ kind = "xyc", samples = {per_run}, hold = {{ A = 30.0 }} }}
+[[run]]
+name = "am30"
+instrument = "rtest"
+setup = "low"
+path = {{ kind = "xyc", samples = {per_run}, hold = {{ A = -30.0 }} }}
+[[run]]
+name = "yza"
+instrument = "rtest"
+setup = "low"
+path = {{ kind = "yza", samples = {per_run} }}
+[[run]]
+name = "high"
+instrument = "rtest"
+setup = "high"
+path = {{ kind = "xyc", samples = {per_run} }}
+"#,
+        machine = repo.join("machines/mcu630-cafyxz.urdf"),
+        truth = repo.join("examples/five-axis/truth.params.toml"),
+    );
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s"))
+        .unwrap();
+    let study = Study::load(&dir.path().join("s")).unwrap();
+    (dir, study)
+}
+
+fn bench_identify(c: &mut Criterion) {
+    let mut g = c.benchmark_group("identify_rtest_trunnion");
+    g.sample_size(10);
+    for (eleven, sizes) in [
+        (true, &[1_000usize, 10_000, 100_000][..]),
+        (false, &[1_000, 10_000][..]),
+    ] {
+        for &n in sizes {
+            let (_dir, study) = session(n, eleven);
+            let label = if eleven { "11-errors" } else { "full-model" };
+            g.bench_with_input(BenchmarkId::new(label, n), &study, |b, study| {
+                b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_identify);
+criterion_main!(benches);
