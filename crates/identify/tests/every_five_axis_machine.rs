@@ -17,6 +17,15 @@ const NOISE_UM: f64 = 0.5;
 
 #[test]
 fn validation_runs_are_predicted_within_the_noise_on_every_five_axis_machine() {
+    check_every_machine(NOISE_UM);
+}
+
+#[test]
+fn noise_free_validation_runs_are_predicted_exactly_on_every_five_axis_machine() {
+    check_every_machine(0.0);
+}
+
+fn check_every_machine(noise_um: f64) {
     let rtest = mtcal_instrument::find("rtest").expect("rtest registered");
     let mut checked = 0;
     for (name, machine) in shipped_machines() {
@@ -75,9 +84,12 @@ fn validation_runs_are_predicted_within_the_noise_on_every_five_axis_machine() {
                 };
                 setup.predict(&at, &nuis, &mut pred);
                 for p in &pred {
-                    values.push(
-                        (p + Normal::new(0.0, NOISE_UM * 1e-6).unwrap().sample(&mut rng)) * 1e6,
-                    );
+                    let e = if noise_um > 0.0 {
+                        Normal::new(0.0, noise_um * 1e-6).unwrap().sample(&mut rng)
+                    } else {
+                        0.0
+                    };
+                    values.push((p + e) * 1e6);
                 }
                 for (v, ax) in q.iter().zip(machine.axes()) {
                     positions.push(match ax.kind() {
@@ -137,15 +149,16 @@ fn validation_runs_are_predicted_within_the_noise_on_every_five_axis_machine() {
         let (_, id) = identify_session(dir.path()).unwrap();
         assert_eq!(id.validation.len(), 1, "{name}");
         let v = id.validation[0].rms_um;
+        let bound = if noise_um > 0.0 { 1.5 * noise_um } else { 1e-6 };
         assert!(
-            v < 1.5 * NOISE_UM,
-            "{name}: validation run predicted to {v} um rms with {NOISE_UM} um noise; \
+            v < bound,
+            "{name}: validation run predicted to {v} um rms with {noise_um} um noise; \
              unidentifiable: {:?}\n{}",
             id.unidentifiable,
             id.summary()
         );
         assert!(
-            id.fit.rms_um < 1.2 * NOISE_UM,
+            id.fit.rms_um < 1.2 * noise_um + 1e-6,
             "{name}: fit rms {}",
             id.fit.rms_um
         );
