@@ -441,17 +441,21 @@ fn all_finite(r: f64, jac: &[f64]) -> bool {
 /// Copies the row-major `k × w` block `src` into the column-major `dst` (stride [`LD`]), eight
 /// rows (one cache line of each destination column) at a time.
 fn transpose(src: &[f64], k: usize, w: usize, dst: &mut [f64]) {
-    let mut i0 = 0;
-    while i0 < k {
-        let rows = (k - i0).min(8);
-        let block = &src[i0 * w..(i0 + rows) * w];
-        for t in 0..w {
-            let col = &mut dst[t * LD + i0..t * LD + i0 + rows];
-            for (i, d) in col.iter_mut().enumerate() {
-                *d = block[i * w + t];
+    let full = k - k % 8;
+    for i0 in (0..full).step_by(8) {
+        let rows: [&[f64]; 8] = std::array::from_fn(|i| &src[(i0 + i) * w..(i0 + i + 1) * w]);
+        for (t, col) in dst.chunks_mut(LD).take(w).enumerate() {
+            let d: &mut [f64; 8] = (&mut col[i0..i0 + 8]).try_into().expect("eight rows");
+            for (di, row) in d.iter_mut().zip(&rows) {
+                *di = row[t];
             }
         }
-        i0 += rows;
+    }
+    for i in full..k {
+        let row = &src[i * w..(i + 1) * w];
+        for (t, &v) in row.iter().enumerate() {
+            dst[t * LD + i] = v;
+        }
     }
 }
 

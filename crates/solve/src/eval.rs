@@ -64,7 +64,12 @@ impl Lin {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Failure {
     Fault(Fault),
-    Eval { block: usize, source: EvalError },
+    Eval {
+        block: usize,
+        source: EvalError,
+    },
+    /// Every residual is finite but `Σ r²` overflows.
+    Overflow,
 }
 
 impl Failure {
@@ -74,12 +79,14 @@ impl Failure {
         matches!(
             self,
             Failure::Eval { .. }
+                | Failure::Overflow
                 | Failure::Fault(Fault::NonFiniteResidual { .. } | Fault::NonFiniteJacobian { .. })
         )
     }
 
     fn block(&self) -> usize {
         match self {
+            Failure::Overflow => 0,
             Failure::Eval { block, .. } => *block,
             Failure::Fault(
                 Fault::NonFiniteResidual { block, .. }

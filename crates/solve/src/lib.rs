@@ -320,11 +320,12 @@ impl Solution {
 /// from [`linearize`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Linearization {
-    /// Square root of the information matrix, `n × n` row-major with columns in parameter order
-    /// (`Rᵀ R = Jᵀ J`); upper triangular up to a permutation of its columns. Columns of fixed
-    /// parameters are zero.
+    /// Square root of the information matrix, `n × n` row-major (`n` = number of parameters)
+    /// with columns in parameter order: `Rᵀ R = Jᵀ J`. The first rows (one per free parameter)
+    /// form an upper-triangular factor up to a permutation of its columns; the remaining rows
+    /// and the columns of fixed parameters are zero.
     pub r: Vec<f64>,
-    /// Rotated residual `Qᵀ r`, one entry per row of `r`.
+    /// Rotated residual `Qᵀ r`, one entry per row of `r` (zero beyond the free parameters).
     pub z: Vec<f64>,
     /// The part of `Σ r²` no step can remove.
     pub rss: f64,

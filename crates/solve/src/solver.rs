@@ -138,6 +138,9 @@ impl Setup {
     fn error(&self, failure: Failure) -> SolveError {
         match failure {
             Failure::Eval { block, source } => SolveError::Eval { block, source },
+            Failure::Overflow => SolveError::Numerical(
+                "the sum of squared residuals overflows (residuals near 1e154 or larger)".into(),
+            ),
             Failure::Fault(Fault::NonFiniteResidual { block, row, value }) => {
                 SolveError::NonFiniteResidual { block, row, value }
             }
@@ -185,12 +188,7 @@ impl<P: Problem> Evaluator<'_, P> {
             observer,
         )?;
         if !lin.cost.is_finite() {
-            // Σr² overflowed although every residual is finite.
-            return Err(Failure::Fault(Fault::NonFiniteResidual {
-                block: 0,
-                row: 0,
-                value: lin.cost,
-            }));
+            return Err(Failure::Overflow);
         }
         Ok(lin)
     }
