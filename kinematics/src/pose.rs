@@ -66,6 +66,9 @@ struct Plan {
     workpiece: [Option<usize>; 6],
     /// Longest shared Legendre recurrence of any axis (scratch size).
     max_legendre: usize,
+    /// The branch ends carry no rotation (the first-order walk skips the product).
+    tool_end_is_translation: bool,
+    wp_end_is_translation: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -74,6 +77,8 @@ struct AxisPlan {
     tool_side: bool,
     r0t: Matrix3<f64>,
     origin_is_translation: bool,
+    /// The axis direction is exactly the unit vector `e_k`: rotations mix two coordinates.
+    along_basis: Option<usize>,
     /// `(lo, hi)` of the stroke the axis' shared Legendre components use.
     legendre_stroke: (f64, f64),
     /// Highest Legendre degree evaluated for the axis (`None`: no shared Legendre component).
@@ -93,7 +98,10 @@ const PACKED_TERMS: usize = 8;
 /// shared Legendre basis: `[δ; ε](q) = Σ_k comp[k]·P_k(u)`, location `[lt; lw] = loc`.
 #[derive(Clone, Copy, Debug, Default)]
 struct PackedAxis {
-    comp: [[f64; 6]; PACKED_TERMS],
+    /// Monomial coefficients in the normalised position `u ∈ [−1, 1]` (converted from the
+    /// Legendre ones when packing): Horner's rule then evaluates all six directions with a
+    /// short dependency chain, where the Legendre recurrence is a long serial one.
+    mono: [[f64; 6]; PACKED_TERMS],
     terms: usize,
     loc: [f64; 6],
     /// Some component is not a shared-stroke Legendre polynomial: use the general path.
@@ -138,6 +146,8 @@ impl Plan {
             tool: std::array::from_fn(|d| errors.tool_offset(d).map(|p| p.offset)),
             workpiece: std::array::from_fn(|d| errors.workpiece_offset(d).map(|p| p.offset)),
             max_legendre,
+            tool_end_is_translation: machine.branch(Side::Tool).end().r == Matrix3::identity(),
+            wp_end_is_translation: machine.branch(Side::Workpiece).end().r == Matrix3::identity(),
         }
     }
 }
@@ -203,6 +213,7 @@ impl AxisPlan {
             tool_side: ax.side() == Side::Tool,
             r0t: ax.zero_rotation().transpose(),
             origin_is_translation: ax.origin().r == Matrix3::identity(),
+            along_basis: (0..3).find(|&k| *ax.direction() == unit(k)),
             legendre_stroke: stroke.unwrap_or((0.0, 1.0)),
             legendre_max,
             comp,
@@ -346,9 +357,13 @@ impl MachineModel {
     /// First-order pose error: the error parameters' effects added linearly at the nominal
     /// pose. Agrees with [`Self::pose_error`] to second order in the error size.
     ///
-    /// One walk of the nominal chain: every joint's error twists are mapped to the machine frame
-    /// as the walk passes it and summed, then the sum is moved to the workpiece frame once. No
-    /// per-joint state is stored (this is the path volumetric maps run millions of times).
+    /// One walk along the nominal chain from the tool to the workpiece, carrying the tool
+    /// point in the current frame and the error accumulated so far as a point displacement at
+    /// the tool point and a rotation, both in current-frame coordinates. Because the
+    /// displacement is referred to the tool point, changing frames only rotates it (no
+    /// adjoint cross products), and a joint whose origin is a pure translation only moves the
+    /// point. No frame products and no per-joint state (volumetric maps run this millions of
+    /// times).
     pub fn pose_error_first_order(
         &self,
         q: &[f64],
@@ -358,60 +373,56 @@ impl MachineModel {
         self.check_sizes(q, coeffs);
         self.ensure_packed(coeffs, ws);
         let axes = self.machine.axes();
-        // Σ of signed twists in the machine frame.
-        let (mut v, mut w) = (Vector3::zeros(), Vector3::zeros());
-        let mut add = |frame: &Rigid, tv: Vector3<f64>, tw: Vector3<f64>| {
-            let rw = mv(&frame.r, &tw);
-            v += mv(&frame.r, &tv) + frame.t.cross(&rw);
-            w += rw;
-        };
-        let mut f_t_w = Rigid::IDENTITY;
-        let mut f_t_t = Rigid::IDENTITY;
-        for side in [Side::Workpiece, Side::Tool] {
-            let branch = self.machine.branch(side);
-            let s = sign(side);
-            let mut t = Rigid::IDENTITY;
-            for &i in branch.joints() {
-                let ap = &self.plan.axes[i];
-                let ax = &axes[i];
-                let (c, l) = self.local_values(i, q[i], coeffs, ws);
-                t = self.after_origin(i, &t);
-                // Functional component errors: the workpiece side's E⁻¹ and its negative sign
-                // cancel, so they always enter with +1.
-                let (de, ee) = (v3(&c, 0), v3(&c, 3));
-                if ap.linear {
-                    t.t += mv(&t.r, &(ax.direction() * q[i]));
-                    // Squareness: the axis moves along R_L·a, a pure translation twist.
-                    let lv = v3(&l, 3).cross(ax.direction()) * (q[i] * s);
-                    add(&t, de + lv, ee);
-                } else {
-                    let (lt, lw) = (v3(&l, 0), v3(&l, 3));
-                    let rot = axis_rotation(ax.direction(), q[i]);
-                    // Location twist (I − Ad(Rot))·(lt, lw) at the frame before the rotation.
-                    let rw = mv(&rot, &lw);
-                    let rv = mv(&rot, &lt);
-                    add(&t, de + (lt - rv) * s, ee + (lw - rw) * s);
-                    t.r = mm(&t.r, &rot);
-                }
+        let mut acc = AtToolPoint::default();
+        // Tool branch, from the tool end down to the machine frame (branch sign +1).
+        let tool = self.machine.branch(Side::Tool);
+        acc.add(ws.packed_tool, Vector3::zeros());
+        acc.move_to_parent(tool.end(), self.plan.tool_end_is_translation);
+        for &i in tool.joints().iter().rev() {
+            let (ap, ax) = (&self.plan.axes[i], &axes[i]);
+            let (c, l) = self.local_values(i, q[i], coeffs, ws);
+            let (de, ee) = (v3(&c, 0), v3(&c, 3));
+            if ap.linear {
+                // Errors sit after the motion; squareness moves the axis along R_L·a.
+                let dir = ax.direction();
+                acc.add(de + v3(&l, 3).cross(dir) * q[i], ee);
+                acc.p += dir * q[i];
+            } else {
+                let turn = Turn::new(ap.along_basis, ax.direction(), q[i]);
+                acc.p = turn.apply(&acc.p);
+                acc.v = turn.apply(&acc.v);
+                acc.w = turn.apply(&acc.w);
+                let (lt, lw) = (v3(&l, 0), v3(&l, 3));
+                acc.add(de + lt - turn.apply(&lt), ee + lw - turn.apply(&lw));
             }
-            t = t.compose(branch.end());
-            match side {
-                Side::Workpiece => {
-                    add(&t, -ws.packed_wp.0, -ws.packed_wp.1);
-                    f_t_w = t;
-                }
-                Side::Tool => {
-                    add(&t, ws.packed_tool, Vector3::zeros());
-                    f_t_t = t;
-                }
+            acc.move_to_parent(ax.origin(), ap.origin_is_translation);
+        }
+        // Workpiece branch, from the machine frame up to the workpiece (branch sign −1; the
+        // functional component errors enter as E⁻¹, which cancels the sign).
+        let wp = self.machine.branch(Side::Workpiece);
+        for &i in wp.joints() {
+            let (ap, ax) = (&self.plan.axes[i], &axes[i]);
+            let (c, l) = self.local_values(i, q[i], coeffs, ws);
+            let (de, ee) = (v3(&c, 0), v3(&c, 3));
+            acc.move_to_child(ax.origin(), ap.origin_is_translation);
+            if ap.linear {
+                let dir = ax.direction();
+                acc.p -= dir * q[i];
+                acc.add(de - v3(&l, 3).cross(dir) * q[i], ee);
+            } else {
+                let turn = Turn::new(ap.along_basis, ax.direction(), q[i]);
+                let (lt, lw) = (v3(&l, 0), v3(&l, 3));
+                acc.add(de - lt + turn.apply(&lt), ee - lw + turn.apply(&lw));
+                acc.p = turn.apply_inverse(&acc.p);
+                acc.v = turn.apply_inverse(&acc.v);
+                acc.w = turn.apply_inverse(&acc.w);
             }
         }
-        let w_t_f = f_t_w.inverse();
-        let p = w_t_f.apply(&f_t_t.t);
-        let (v, w) = w_t_f.adjoint(&v, &w);
+        acc.move_to_child(wp.end(), self.plan.wp_end_is_translation);
+        acc.add(-ws.packed_wp.0, -ws.packed_wp.1);
         PoseError {
-            translation: v + w.cross(&p),
-            rotation: w,
+            translation: acc.v,
+            rotation: acc.w,
         }
     }
 
@@ -420,13 +431,7 @@ impl MachineModel {
     // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
     #[allow(clippy::needless_range_loop)]
     fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
-        // Bitwise comparison folded without early exit, so it vectorises.
-        let changed = ws
-            .packed_from
-            .iter()
-            .zip(coeffs)
-            .fold(0u64, |acc, (a, b)| acc | (a.to_bits() ^ b.to_bits()));
-        if changed == 0 {
+        if bitwise_equal(&ws.packed_from, coeffs) {
             return;
         }
         for (i, ap) in self.plan.axes.iter().enumerate() {
@@ -447,8 +452,14 @@ impl MachineModel {
                         machine_dir[0][d] += coeffs[o];
                     }
                 }
+                let legendre = legendre_monomials();
                 for k in 0..pa.terms {
-                    pa.comp[k] = to_local(&ap.r0t, &machine_dir[k]);
+                    let local = to_local(&ap.r0t, &machine_dir[k]);
+                    for (j, m) in pa.mono[..=k].iter_mut().enumerate() {
+                        for d in 0..6 {
+                            m[d] += local[d] * legendre[k][j];
+                        }
+                    }
                 }
             }
             let mut l = [0.0; 6];
@@ -485,13 +496,12 @@ impl MachineModel {
             let (c, _) = self.axis_values(i, q, coeffs, &mut ws.legendre);
             return (to_local(&ap.r0t, &c), ws.packed[i].loc);
         }
-        let mut p = [0.0; PACKED_TERMS];
         let terms = pa.terms;
-        legendre_values(self.plan.axes[i].legendre_stroke, q, &mut p[..terms]);
-        let mut c = [0.0; 6];
-        for (row, pk) in pa.comp[..terms].iter().zip(&p) {
+        let u = normalised(self.plan.axes[i].legendre_stroke, q);
+        let mut c = pa.mono[terms - 1];
+        for m in pa.mono[..terms - 1].iter().rev() {
             for d in 0..6 {
-                c[d] += row[d] * pk;
+                c[d] = c[d] * u + m[d];
             }
         }
         (c, pa.loc)
@@ -999,15 +1009,8 @@ fn recip(n: usize) -> f64 {
 /// `P_0 … P_(len−1)` at `q` on the stroke `(lo, hi)`, held at the ends outside it: the same
 /// recurrence and rounding as [`crate::Basis`]'s Legendre evaluation.
 #[inline]
-fn legendre_values((lo, hi): (f64, f64), q: f64, out: &mut [f64]) {
-    let x = if q < lo {
-        lo
-    } else if q > hi {
-        hi
-    } else {
-        q
-    };
-    let u = (x - lo) * (2.0 / (hi - lo)) - 1.0;
+fn legendre_values(stroke: (f64, f64), q: f64, out: &mut [f64]) {
+    let u = normalised(stroke, q);
     let (mut p_prev, mut p) = (0.0, 1.0);
     let n = out.len();
     for (k, o) in out.iter_mut().enumerate() {
@@ -1015,6 +1018,154 @@ fn legendre_values((lo, hi): (f64, f64), q: f64, out: &mut [f64]) {
         if k + 1 < n {
             let p_next = ((2 * k + 1) as f64 * u * p - k as f64 * p_prev) * recip(k + 1);
             (p_prev, p) = (p, p_next);
+        }
+    }
+}
+
+/// `a == b` bit for bit (so NaN never matches a number), four lanes at a time without early
+/// exit: this runs on every evaluation, and the usual answer is "equal".
+#[inline]
+fn bitwise_equal(a: &[f64], b: &[f64]) -> bool {
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .fold(0u64, |acc, (x, y)| acc | (x.to_bits() ^ y.to_bits()));
+    let lanes = ca.zip(cb).fold([0u64; 4], |mut acc, (x, y)| {
+        for k in 0..4 {
+            acc[k] |= x[k].to_bits() ^ y[k].to_bits();
+        }
+        acc
+    });
+    a.len() == b.len() && (tail | lanes[0] | lanes[1] | lanes[2] | lanes[3]) == 0
+}
+
+/// `q` mapped from the stroke `(lo, hi)` to `[−1, 1]`, held at the ends outside it.
+#[inline(always)]
+fn normalised((lo, hi): (f64, f64), q: f64) -> f64 {
+    let x = if q < lo {
+        lo
+    } else if q > hi {
+        hi
+    } else {
+        q
+    };
+    (x - lo) * (2.0 / (hi - lo)) - 1.0
+}
+
+/// `P_k(u) = Σ_j L[k][j]·u^j` for `k < PACKED_TERMS` (Bonnet's recurrence on the monomial
+/// coefficients; all entries are small exact-enough rationals).
+fn legendre_monomials() -> [[f64; PACKED_TERMS]; PACKED_TERMS] {
+    let mut l = [[0.0; PACKED_TERMS]; PACKED_TERMS];
+    l[0][0] = 1.0;
+    l[1][1] = 1.0;
+    for k in 1..PACKED_TERMS - 1 {
+        // (k+1)·P_(k+1) = (2k+1)·u·P_k − k·P_(k−1)
+        let (a, b, c) = ((2 * k + 1) as f64, k as f64, (k + 1) as f64);
+        for j in 0..PACKED_TERMS {
+            let up = if j > 0 { l[k][j - 1] } else { 0.0 };
+            l[k + 1][j] = (a * up - b * l[k - 1][j]) / c;
+        }
+    }
+    l
+}
+
+/// A rotary axis' rotation by `q`: about a coordinate axis only two coordinates mix (four
+/// products instead of a 3 × 3 product, and no matrix to build).
+#[derive(Clone, Copy)]
+enum Turn {
+    /// About `e_k`, with `(sin q, cos q)`.
+    About(usize, f64, f64),
+    General(Matrix3<f64>),
+}
+
+impl Turn {
+    #[inline(always)]
+    fn new(along_basis: Option<usize>, direction: &Vector3<f64>, q: f64) -> Turn {
+        match along_basis {
+            Some(k) => {
+                let (s, c) = q.sin_cos();
+                Turn::About(k, s, c)
+            }
+            None => Turn::General(axis_rotation(direction, q)),
+        }
+    }
+
+    #[inline(always)]
+    fn apply(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        match *self {
+            Turn::About(k, s, c) => planar(k, s, c, v),
+            Turn::General(r) => mv(&r, v),
+        }
+    }
+
+    #[inline(always)]
+    fn apply_inverse(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        match *self {
+            Turn::About(k, s, c) => planar(k, -s, c, v),
+            Turn::General(r) => mv(&r.transpose(), v),
+        }
+    }
+}
+
+/// `v` rotated about `e_k` by the angle with sine `s` and cosine `c`.
+#[inline(always)]
+fn planar(k: usize, s: f64, c: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+    let mut out = *v;
+    out[i] = c * v[i] - s * v[j];
+    out[j] = s * v[i] + c * v[j];
+    out
+}
+
+/// The first-order error carried along the chain: the tool point `p`, the displacement of the
+/// tool point `v` (µm) and the rotation `w` (µrad), all in the current frame's coordinates.
+#[derive(Clone, Copy, Default)]
+struct AtToolPoint {
+    p: Vector3<f64>,
+    v: Vector3<f64>,
+    w: Vector3<f64>,
+}
+
+impl AtToolPoint {
+    /// Adds a twist `(tv, tw)` given at the current frame's origin.
+    #[inline(always)]
+    fn add(&mut self, tv: Vector3<f64>, tw: Vector3<f64>) {
+        self.v += tv + tw.cross(&self.p);
+        self.w += tw;
+    }
+
+    /// Re-expresses in the frame before the rotation `r` (current = before · r).
+    #[inline(always)]
+    fn rotate(&mut self, r: &Matrix3<f64>) {
+        self.p = mv(r, &self.p);
+        self.v = mv(r, &self.v);
+        self.w = mv(r, &self.w);
+    }
+
+    /// Re-expresses in the frame after the rotation `r` (current · r = next).
+    #[inline(always)]
+    fn rotate_back(&mut self, r: &Matrix3<f64>) {
+        let rt = r.transpose();
+        self.rotate(&rt);
+    }
+
+    /// From a child frame to its parent, `parent_T_child = t`.
+    #[inline(always)]
+    fn move_to_parent(&mut self, t: &Rigid, translation_only: bool) {
+        if !translation_only {
+            self.rotate(&t.r);
+        }
+        self.p += t.t;
+    }
+
+    /// From a parent frame to its child, `parent_T_child = t`.
+    #[inline(always)]
+    fn move_to_child(&mut self, t: &Rigid, translation_only: bool) {
+        self.p -= t.t;
+        if !translation_only {
+            self.rotate_back(&t.r);
         }
     }
 }
