@@ -76,9 +76,11 @@ struct AxisPlan {
     linear: bool,
     tool_side: bool,
     r0t: Matrix3<f64>,
+    /// The joint frame is aligned with the machine frame at the zero pose (`r0t = I`).
+    r0t_is_identity: bool,
     origin_is_translation: bool,
-    /// The axis direction is exactly the unit vector `e_k`: rotations mix two coordinates.
-    along_basis: Option<usize>,
+    /// The axis direction is exactly `±e_k`, as `(k, ±1)`: rotations mix two coordinates.
+    along_basis: Option<(usize, f64)>,
     /// `(lo, hi)` of the stroke the axis' shared Legendre components use.
     legendre_stroke: (f64, f64),
     /// Highest Legendre degree evaluated for the axis (`None`: no shared Legendre component).
@@ -212,13 +214,34 @@ impl AxisPlan {
             linear,
             tool_side: ax.side() == Side::Tool,
             r0t: ax.zero_rotation().transpose(),
+            r0t_is_identity: *ax.zero_rotation() == Matrix3::identity(),
             origin_is_translation: ax.origin().r == Matrix3::identity(),
-            along_basis: (0..3).find(|&k| *ax.direction() == unit(k)),
+            along_basis: (0..3).find_map(|k| {
+                let d = ax.direction();
+                if *d == unit(k) {
+                    Some((k, 1.0))
+                } else if *d == -unit(k) {
+                    Some((k, -1.0))
+                } else {
+                    None
+                }
+            }),
             legendre_stroke: stroke.unwrap_or((0.0, 1.0)),
             legendre_max,
             comp,
             loc,
             own_loc,
+        }
+    }
+
+    /// `m · r0t` (machine directions to local ones, then `m`), without the product when the
+    /// joint frame is aligned with the machine's.
+    #[inline(always)]
+    fn times_r0t(&self, m: &Matrix3<f64>) -> Matrix3<f64> {
+        if self.r0t_is_identity {
+            *m
+        } else {
+            mm(m, &self.r0t)
         }
     }
 }
@@ -232,8 +255,8 @@ struct JointState {
     before_b: Rigid,
     /// Rotary: frame before `Rot(q)` (after `L`).
     before_r: Rigid,
-    /// Rotary: `L·Rot(q)·L⁻¹`.
-    lrl: Rigid,
+    /// The body frame after the joint (`before_b · L·Rot(q)·L⁻¹` for a rotary axis).
+    after: Rigid,
     /// The body's error factor (`E` or `E⁻¹`).
     e_body: Rigid,
     e_trans: Vector3<f64>,
@@ -263,6 +286,8 @@ pub struct Workspace {
     dcomp: Vec<[f64; 6]>,
     loc: Vec<[f64; 6]>,
     joints: Vec<JointState>,
+    /// Per rotary axis: its rotation at the last chain evaluation's position.
+    turns: Vec<Turn>,
     tool_end: Rigid,
     wp_end: Rigid,
     wp_rot: Vector3<f64>,
@@ -321,6 +346,7 @@ impl MachineModel {
             dcomp: vec![[0.0; 6]; n],
             loc: vec![[0.0; 6]; n],
             joints: vec![JointState::default(); n],
+            turns: vec![Turn::About(0, 0.0, 1.0); n],
             tool_end: Rigid::IDENTITY,
             wp_end: Rigid::IDENTITY,
             wp_rot: Vector3::zeros(),
@@ -344,9 +370,9 @@ impl MachineModel {
         fill: Fill,
     ) -> PoseError {
         self.check_sizes(q, coeffs);
-        let nominal = self.nominal_tool_in_workpiece(q);
         self.eval_values(q, coeffs, ws, fill);
         self.eval_chain(q, ws);
+        let nominal = self.nominal_tool_in_workpiece(q, &ws.turns);
         let act = ws.w_t_t;
         PoseError {
             translation: act.t - nominal.t,
@@ -427,13 +453,19 @@ impl MachineModel {
     }
 
     /// Rebuilds the packed polynomials if `coeffs` differ from the last ones packed.
-    #[inline]
+    #[inline(always)]
+    fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
+        // The check inline (it runs on every evaluation), the rebuild out of line.
+        if !bitwise_equal(&ws.packed_from, coeffs) {
+            self.pack(coeffs, ws);
+        }
+    }
+
+    /// Builds the packed polynomials from `coeffs`.
+    #[inline(never)]
     // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
     #[allow(clippy::needless_range_loop)]
-    fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
-        if bitwise_equal(&ws.packed_from, coeffs) {
-            return;
-        }
+    fn pack(&self, coeffs: &[f64], ws: &mut Workspace) {
         for (i, ap) in self.plan.axes.iter().enumerate() {
             let mut pa = PackedAxis::default();
             let terms = ap.legendre_max.map_or(1, |m| m + 1);
@@ -594,52 +626,63 @@ impl MachineModel {
     /// Columns of the parameter Jacobian from the last actual chain evaluation (with `phi`
     /// filled). `rot_map` maps the rotation rows (the pose error's `J_l⁻¹`); `None` leaves the
     /// left-perturbation rotation.
+    ///
+    /// An axis' error twists are translations and rotations about one point, so each set of
+    /// six columns is a few 3 × 3 products ([`twist_columns`]) rather than six adjoints.
     // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
     #[allow(clippy::needless_range_loop)]
     fn fill_param_jacobian(&self, ws: &Workspace, jac: &mut [f64], rot_map: Option<&Matrix3<f64>>) {
         let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
-        // The column of a twist (tv, tw) given in the frame `w_T_frame = m`, branch sign `s`.
-        let twist_column = |m: &Rigid, s: f64, tv: &Vector3<f64>, tw: &Vector3<f64>| {
-            let (v, w) = m.adjoint(tv, tw);
-            let (v, w) = (v * s, w * s);
-            let dp = v + w.cross(&p);
-            let dr = match rot_map {
-                Some(map) => mv(map, &w),
-                None => w,
-            };
-            [dp.x, dp.y, dp.z, dr.x, dr.y, dr.z]
-        };
         for (i, ap) in self.plan.axes.iter().enumerate() {
             let js = &ws.joints[i];
-            let s = if ap.tool_side { 1.0 } else { -1.0 };
-            let e_frame = if ap.linear { js.before_b } else { js.before_a };
-            let m = w_t_f.compose(&e_frame);
-            let units = self.component_twists(i, ws);
-            let mut unit_cols = [[0.0; 6]; 6];
-            for (uc, (tv, tw)) in unit_cols.iter_mut().zip(&units) {
-                *uc = twist_column(&m, s, tv, tw);
+            // Component errors: dE·E⁻¹ is a translation along `u` or a rotation `J_l·u` about
+            // `δ`, in the frame before E. A workpiece-side body moves by E⁻¹, and
+            // d(E⁻¹)·E = −Ad(E⁻¹)·(dE·E⁻¹): the same twists in the frame after E⁻¹, negated,
+            // which cancels the branch sign.
+            let e_frame = if ap.linear {
+                &js.before_b
+            } else {
+                &js.before_a
+            };
+            let mut m = w_t_f.compose(e_frame);
+            if !ap.tool_side {
+                m = m.compose(&js.e_body);
+            }
+            let rot_dirs = ap.times_r0t(&left_jacobian(&js.e_rot));
+            let unit_cols = twist_columns(&m, ap, &rot_dirs, &js.e_trans, &p, rot_map);
+            // A packed axis' basis values are its shared Legendre values (not copied to `phi`).
+            let packed = !ws.packed[i].general;
+            let mut legendre = [0.0; PACKED_TERMS];
+            if let (true, Some(max)) = (packed, ap.legendre_max) {
+                legendre_values(ap.legendre_stroke, js.q, &mut legendre[..=max]);
             }
             for (d, unit_col) in unit_cols.iter().enumerate() {
-                if let Slot::Legendre { offset, len, .. } | Slot::General { offset, len, .. } =
-                    ap.comp[d]
-                {
-                    let cols = jac[6 * offset..6 * (offset + len)].chunks_exact_mut(6);
-                    for (col, f) in cols.zip(&ws.phi[offset..offset + len]) {
-                        col.iter_mut().zip(unit_col).for_each(|(o, c)| *o = f * c);
+                let (offset, len, basis) = match ap.comp[d] {
+                    Slot::Empty => (0, 0, &ws.phi[..0]),
+                    Slot::Legendre { offset, len, min } if packed => {
+                        (offset, len, &legendre[min..min + len])
                     }
+                    Slot::Legendre { offset, len, .. } | Slot::General { offset, len, .. } => {
+                        (offset, len, &ws.phi[offset..offset + len])
+                    }
+                };
+                let block = &mut jac[6 * offset..6 * (offset + len)];
+                for (k, f) in basis.iter().enumerate() {
+                    // As a fixed-size array: six straight-line products, no per-row loop.
+                    let col: &mut [f64; 6] =
+                        (&mut block[6 * k..6 * k + 6]).try_into().expect("six rows");
+                    *col = unit_col.map(|c| f * c);
                 }
                 if let Some(o) = ap.own_loc[d] {
                     jac[6 * o..6 * o + 6].copy_from_slice(unit_col);
                 }
             }
             if ap.loc.iter().any(Option::is_some) {
-                let (twists, frame) = self.location_twists(i, ws);
-                let m = w_t_f.compose(&frame);
+                let cols = self.location_columns(i, ws, &w_t_f, &p, rot_map);
                 for d in 0..6 {
                     if let Some(o) = ap.loc[d] {
-                        let col = twist_column(&m, s, &twists[d].0, &twists[d].1);
-                        jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                        jac[6 * o..6 * o + 6].copy_from_slice(&cols[d]);
                     }
                 }
             }
@@ -648,7 +691,7 @@ impl MachineModel {
             let m = w_t_f.compose(&ws.tool_end);
             for d in 0..3 {
                 if let Some(o) = self.plan.tool[d] {
-                    let col = twist_column(&m, 1.0, &unit(d), &Vector3::zeros());
+                    let col = twist_column(&m, 1.0, &unit(d), &Vector3::zeros(), &p, rot_map);
                     jac[6 * o..6 * o + 6].copy_from_slice(&col);
                 }
             }
@@ -659,11 +702,52 @@ impl MachineModel {
             for d in 0..6 {
                 if let Some(o) = self.plan.workpiece[d] {
                     let (tv, tw) = e_twist(d, &Matrix3::identity(), &jl, &ws.wp_trans);
-                    let col = twist_column(&m, -1.0, &tv, &tw);
+                    let col = twist_column(&m, -1.0, &tv, &tw, &p, rot_map);
                     jac[6 * o..6 * o + 6].copy_from_slice(&col);
                 }
             }
         }
+    }
+
+    /// Jacobian columns of every location-error direction of axis `i` (the caller uses the
+    /// configured ones), branch sign applied.
+    // Index loops over parallel fixed-size arrays (directions 0..6, rows) read best here.
+    #[allow(clippy::needless_range_loop)]
+    fn location_columns(
+        &self,
+        i: usize,
+        ws: &Workspace,
+        w_t_f: &Rigid,
+        p: &Vector3<f64>,
+        rot_map: Option<&Matrix3<f64>>,
+    ) -> [[f64; 6]; 6] {
+        let ap = &self.plan.axes[i];
+        let js = &ws.joints[i];
+        let s = if ap.tool_side { 1.0 } else { -1.0 };
+        let rot_dirs = ap.times_r0t(&left_jacobian(&js.l_rot));
+        let mut cols = [[0.0; 6]; 6];
+        if ap.linear {
+            // Squareness tilts the direction of motion: the body moves by (J_l·u × a')·q, a
+            // translation in the frame before the motion. Translations do not apply.
+            let r = mm(&w_t_f.r, &js.before_a.r);
+            for d in 3..6 {
+                let tv = column(&rot_dirs, d - 3).cross(&js.motion_dir) * (s * js.q);
+                cols[d][..3].copy_from_slice(mv(&r, &tv).as_slice());
+            }
+        } else {
+            // A location twist τ moves L·Rot·L⁻¹ by τ − Ad(L·Rot·L⁻¹)·τ: τ in the frame before
+            // L minus τ in the frame after the joint. Rotations are about `l_t`.
+            let before_b = w_t_f.compose(&js.before_b);
+            let before = twist_columns(&before_b, ap, &rot_dirs, &js.l_trans, p, rot_map);
+            let after = w_t_f.compose(&js.after);
+            let after = twist_columns(&after, ap, &rot_dirs, &js.l_trans, p, rot_map);
+            for d in 0..6 {
+                for r in 0..6 {
+                    cols[d][r] = s * (before[d][r] - after[d][r]);
+                }
+            }
+        }
+        cols
     }
 
     /// Jacobian of the actual tool pose in the workpiece frame with respect to the axis
@@ -731,7 +815,9 @@ impl MachineModel {
             let (c, l) = self.local_values(i, q[i], coeffs, ws);
             ws.comp[i] = c;
             ws.loc[i] = l;
-            if fill == Fill::Basis {
+            // Packed axes' basis values are the shared Legendre ones, which the parameter
+            // Jacobian evaluates itself.
+            if fill == Fill::Basis && ws.packed[i].general {
                 self.fill_phi(i, q[i], ws);
             }
         }
@@ -812,8 +898,14 @@ impl MachineModel {
         ws.tool_trans = Vector3::from_fn(|r, _| value_of(self.errors.tool_offset(r), coeffs));
     }
 
-    /// Walks both branches, recording every joint's frames; leaves `f_t_w` and `w_t_t`.
+    /// Walks both branches, recording every joint's frames; leaves `f_t_w`, `w_t_t` and the
+    /// rotary axes' turns.
     fn eval_chain(&self, q: &[f64], ws: &mut Workspace) {
+        for (i, (ap, ax)) in self.plan.axes.iter().zip(self.machine.axes()).enumerate() {
+            if !ap.linear {
+                ws.turns[i] = Turn::new(ap.along_basis, ax.direction(), q[i]);
+            }
+        }
         for side in [Side::Workpiece, Side::Tool] {
             let branch = self.machine.branch(side);
             let mut t = Rigid::IDENTITY;
@@ -829,7 +921,7 @@ impl MachineModel {
                 }
                 Side::Tool => {
                     ws.tool_end = t;
-                    t = t.compose(&Rigid::translation(ws.tool_trans));
+                    t = t.translated(&ws.tool_trans);
                     ws.w_t_t = ws.f_t_w.inverse().compose(&t);
                 }
             }
@@ -855,16 +947,18 @@ impl MachineModel {
         match ax.kind() {
             AxisKind::Linear => {
                 js.motion_dir = mv(&exp_so3(&js.l_rot), ax.direction());
-                js.before_b = t.compose(&Rigid::translation(js.motion_dir * q));
-                js.before_b.compose(&js.e_body)
+                js.before_b = t.translated(&(js.motion_dir * q));
+                js.after = js.before_b.compose(&js.e_body);
+                js.after
             }
             AxisKind::Rotary => {
                 let lr = Rigid::new(exp_so3(&js.l_rot), js.l_trans);
                 js.before_b = t.compose(&js.e_body);
                 js.before_r = js.before_b.compose(&lr);
-                let rot = Rigid::rotation(axis_rotation(ax.direction(), q));
-                js.lrl = lr.compose(&rot).compose(&lr.inverse());
-                js.before_b.compose(&js.lrl)
+                // before_r · Rot(q) · L⁻¹, with Rot(q) applied to the columns.
+                let turned = Rigid::new(ws.turns[i].right_of(&js.before_r.r), js.before_r.t);
+                js.after = turned.compose(&lr.inverse());
+                js.after
             }
         }
     }
@@ -909,42 +1003,9 @@ impl MachineModel {
         out
     }
 
-    /// Twists of axis `i`'s location errors that enter its location factor (every direction;
-    /// the caller uses the configured ones) and the frame they are given in.
-    fn location_twists(&self, i: usize, ws: &Workspace) -> ([Twist; 6], Rigid) {
-        let ap = &self.plan.axes[i];
-        let js = &ws.joints[i];
-        let jl = left_jacobian(&js.l_rot);
-        let zero = Vector3::zeros();
-        let mut twists = [(zero, zero); 6];
-        for (d, tw_out) in twists.iter_mut().enumerate() {
-            if ap.loc[d].is_none() {
-                continue;
-            }
-            let u = column(&ap.r0t, d % 3);
-            *tw_out = if ap.linear {
-                if d < 3 {
-                    (zero, zero)
-                } else {
-                    (mv(&jl, &u).cross(&js.motion_dir) * js.q, zero)
-                }
-            } else {
-                let (tv, tw) = if d < 3 {
-                    (u, zero)
-                } else {
-                    let w = mv(&jl, &u);
-                    (js.l_trans.cross(&w), w)
-                };
-                let (rv, rw) = js.lrl.adjoint(&tv, &tw);
-                (tv - rv, tw - rw)
-            };
-        }
-        (twists, if ap.linear { js.before_a } else { js.before_b })
-    }
-
     /// Nominal `w_T_t` (no errors), as [`Machine::tool_in_workpiece`] but with the plan's
-    /// shortcuts.
-    fn nominal_tool_in_workpiece(&self, q: &[f64]) -> Rigid {
+    /// shortcuts and the rotary axes' turns of the last chain evaluation (at `q`).
+    fn nominal_tool_in_workpiece(&self, q: &[f64], turns: &[Turn]) -> Rigid {
         let branch_pose = |side: Side| {
             let branch = self.machine.branch(side);
             let mut t = Rigid::IDENTITY;
@@ -953,9 +1014,7 @@ impl MachineModel {
                 t = self.after_origin(i, &t);
                 t = match ax.kind() {
                     AxisKind::Linear => Rigid::new(t.r, mv(&t.r, &(ax.direction() * q[i])) + t.t),
-                    AxisKind::Rotary => {
-                        Rigid::new(mm(&t.r, &axis_rotation(ax.direction(), q[i])), t.t)
-                    }
+                    AxisKind::Rotary => Rigid::new(turns[i].right_of(&t.r), t.t),
                 };
             }
             t.compose(branch.end())
@@ -982,6 +1041,59 @@ fn e_twist(
         let w = mv(jl, &u);
         (delta.cross(&w), w)
     }
+}
+
+/// The Jacobian column `[δp; δθ]` of a twist `(tv, tw)` given in the frame `w_T_m = m`, times
+/// `s`: the tool point `p` moves by `v + ω × p` and the tool turns by `ω` (mapped by
+/// `rot_map`), where `(v, ω)` is the twist in workpiece coordinates.
+#[inline(always)]
+fn twist_column(
+    m: &Rigid,
+    s: f64,
+    tv: &Vector3<f64>,
+    tw: &Vector3<f64>,
+    p: &Vector3<f64>,
+    rot_map: Option<&Matrix3<f64>>,
+) -> [f64; 6] {
+    let (v, w) = m.adjoint(tv, tw);
+    let (v, w) = (v * s, w * s);
+    let dp = v + w.cross(p);
+    let dr = match rot_map {
+        Some(map) => mv(map, &w),
+        None => w,
+    };
+    [dp.x, dp.y, dp.z, dr.x, dr.y, dr.z]
+}
+
+/// Jacobian columns (as [`twist_column`], sign +1) of six twists given in the frame
+/// `w_T_m = (R, t)`: translations along the machine directions (`ap.r0t` maps them to local
+/// ones), then rotations about the columns of `rot_dirs` (local) through the point `o`. A
+/// rotation `ω` about `o` moves the tool point by `(R·ω) × (p − t − R·o)`, so the six columns
+/// are a few 3 × 3 products and three cross products instead of six adjoints.
+#[inline(always)]
+fn twist_columns(
+    m: &Rigid,
+    ap: &AxisPlan,
+    rot_dirs: &Matrix3<f64>,
+    o: &Vector3<f64>,
+    p: &Vector3<f64>,
+    rot_map: Option<&Matrix3<f64>>,
+) -> [[f64; 6]; 6] {
+    let tr = ap.times_r0t(&m.r);
+    let rw = mm(&m.r, rot_dirs);
+    let arm = p - m.t - mv(&m.r, o);
+    let turn = match rot_map {
+        Some(map) => mm(map, &rw),
+        None => rw,
+    };
+    let mut cols = [[0.0; 6]; 6];
+    for k in 0..3 {
+        let (t, w, dr) = (column(&tr, k), column(&rw, k), column(&turn, k));
+        let dp = w.cross(&arm);
+        cols[k] = [t.x, t.y, t.z, 0.0, 0.0, 0.0];
+        cols[3 + k] = [dp.x, dp.y, dp.z, dr.x, dr.y, dr.z];
+    }
+    cols
 }
 
 /// `1/n` (a table for the small `n` of the Legendre recurrence keeps division off the hot path;
@@ -1073,20 +1185,20 @@ fn legendre_monomials() -> [[f64; PACKED_TERMS]; PACKED_TERMS] {
 
 /// A rotary axis' rotation by `q`: about a coordinate axis only two coordinates mix (four
 /// products instead of a 3 × 3 product, and no matrix to build).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 enum Turn {
-    /// About `e_k`, with `(sin q, cos q)`.
+    /// About `e_k`, with `(sin q, cos q)` (an axis along `−e_k` turns by `−q`).
     About(usize, f64, f64),
     General(Matrix3<f64>),
 }
 
 impl Turn {
     #[inline(always)]
-    fn new(along_basis: Option<usize>, direction: &Vector3<f64>, q: f64) -> Turn {
+    fn new(along_basis: Option<(usize, f64)>, direction: &Vector3<f64>, q: f64) -> Turn {
         match along_basis {
-            Some(k) => {
+            Some((k, sign)) => {
                 let (s, c) = q.sin_cos();
-                Turn::About(k, s, c)
+                Turn::About(k, sign * s, c)
             }
             None => Turn::General(axis_rotation(direction, q)),
         }
@@ -1107,16 +1219,36 @@ impl Turn {
             Turn::General(r) => mv(&r.transpose(), v),
         }
     }
+
+    /// `m · Rot`: about `e_k` only two columns mix.
+    #[inline(always)]
+    fn right_of(&self, m: &Matrix3<f64>) -> Matrix3<f64> {
+        match *self {
+            Turn::About(k, s, c) => {
+                // Columns i = k+1, j = k+2 (cyclic) become c·m_i + s·m_j and c·m_j − s·m_i.
+                let (m0, m1, m2) = (column(m, 0), column(m, 1), column(m, 2));
+                let cols = match k {
+                    0 => [m0, m1 * c + m2 * s, m2 * c - m1 * s],
+                    1 => [m0 * c - m2 * s, m1, m2 * c + m0 * s],
+                    _ => [m0 * c + m1 * s, m1 * c - m0 * s, m2],
+                };
+                Matrix3::from_columns(&cols)
+            }
+            Turn::General(r) => mm(m, &r),
+        }
+    }
 }
 
 /// `v` rotated about `e_k` by the angle with sine `s` and cosine `c`.
 #[inline(always)]
 fn planar(k: usize, s: f64, c: f64, v: &Vector3<f64>) -> Vector3<f64> {
-    let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-    let mut out = *v;
-    out[i] = c * v[i] - s * v[j];
-    out[j] = s * v[i] + c * v[j];
-    out
+    // Written out per axis: no run-time indexing into the vector.
+    let (x, y, z) = (v.x, v.y, v.z);
+    match k {
+        0 => Vector3::new(x, c * y - s * z, s * y + c * z),
+        1 => Vector3::new(s * z + c * x, y, c * z - s * x),
+        _ => Vector3::new(c * x - s * y, s * x + c * y, z),
+    }
 }
 
 /// The first-order error carried along the chain: the tool point `p`, the displacement of the
@@ -1198,9 +1330,6 @@ fn sign(side: Side) -> f64 {
     }
 }
 
-/// A twist `(v, ω)`.
-type Twist = (Vector3<f64>, Vector3<f64>);
-
 /// `[r0t·a[0..3]; r0t·a[3..6]]`: machine directions to a joint's local ones.
 #[inline]
 fn to_local(r0t: &Matrix3<f64>, a: &[f64; 6]) -> [f64; 6] {
@@ -1247,5 +1376,112 @@ fn value_of(p: Option<&crate::model::Param>, coeffs: &[f64]) -> f64 {
     match p {
         Some(p) => coeffs[p.offset],
         None => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::{BranchSpec, JointSpec, MachineSpec};
+    use crate::model::{BasisChoice, iso_full_config};
+    use nalgebra::{Isometry3, Translation3};
+
+    fn joint(letter: char, kind: AxisKind, axis: [f64; 3], at: [f64; 3]) -> JointSpec {
+        JointSpec {
+            letter,
+            kind,
+            origin: Isometry3::from_parts(
+                Translation3::from(Vector3::from(at)),
+                Default::default(),
+            ),
+            axis: Vector3::from(axis),
+            limits: Some((-2.0, 2.0)),
+        }
+    }
+
+    /// A trunnion with axes along `±e_k` and joint frames aligned with the machine's, so that
+    /// every shortcut of the plan applies, and the same model with the shortcuts switched off.
+    fn aligned_and_general() -> (MachineModel, MachineModel) {
+        use AxisKind::{Linear, Rotary};
+        let spec = MachineSpec {
+            name: "aligned".into(),
+            workpiece: BranchSpec {
+                joints: vec![
+                    joint('A', Rotary, [-1.0, 0.0, 0.0], [0.0, 0.0, 0.125]),
+                    joint('C', Rotary, [0.0, 0.0, -1.0], [0.01, -0.02, -0.125]),
+                ],
+                end: Isometry3::translation(0.05, 0.0, 0.02),
+            },
+            tool: BranchSpec {
+                joints: vec![
+                    joint('Y', Linear, [0.0, 1.0, 0.0], [0.0, 0.0, 1.2]),
+                    joint('X', Linear, [1.0, 0.0, 0.0], [0.0, 0.2, -0.1]),
+                    joint('Z', Linear, [0.0, 0.0, 1.0], [0.0, 0.15, -0.15]),
+                    joint('B', Rotary, [0.0, -1.0, 0.0], [0.0, 0.0, -0.3]),
+                ],
+                end: Isometry3::translation(0.0, 0.0, -0.2),
+            },
+        };
+        let machine = Machine::try_new(&spec).expect("valid machine");
+        let cubic = BasisChoice::Legendre { degree: 3 };
+        let config = iso_full_config(&machine, &cubic, &cubic).expect("ISO model");
+        let fast = MachineModel::new(machine, &config).expect("model");
+        let mut general = fast.clone();
+        for ap in &mut general.plan.axes {
+            ap.along_basis = None;
+            ap.r0t_is_identity = false;
+            ap.origin_is_translation = false;
+        }
+        general.plan.tool_end_is_translation = false;
+        general.plan.wp_end_is_translation = false;
+        assert!(fast.plan.axes.iter().all(|a| a.r0t_is_identity));
+        assert!(fast.plan.axes.iter().all(|a| a.along_basis.is_some()));
+        (fast, general)
+    }
+
+    /// The plan's shortcuts for coordinate-aligned axes (planar turns, no `r0t` products) give
+    /// the general path's results to rounding, on every evaluation path.
+    #[test]
+    fn aligned_axis_shortcuts_change_nothing() {
+        let (fast, general) = aligned_and_general();
+        let n = fast.n_coeffs();
+        let coeffs: Vec<f64> = (0..n)
+            .map(|k| 1e-5 * (((k * 7919) % 41) as f64 - 20.0) / 20.0)
+            .collect();
+        let (mut wf, mut wg) = (fast.workspace(), general.workspace());
+        let (mut jf, mut jg) = (vec![0.0; 6 * n], vec![0.0; 6 * n]);
+        let na = fast.machine().n_axes();
+        let (mut af, mut ag) = (vec![0.0; 6 * na], vec![0.0; 6 * na]);
+        let close = |a: &[f64], b: &[f64], what: &str| {
+            for (k, (x, y)) in a.iter().zip(b).enumerate() {
+                assert!((x - y).abs() < 1e-15, "{what}[{k}]: {x:e} vs {y:e}");
+            }
+        };
+        for s in 0..20 {
+            let q: Vec<f64> = (0..na)
+                .map(|a| -1.9 + 3.8 * (((s * (a + 3) * 37) % 101) as f64 / 100.0))
+                .collect();
+            let f = fast.pose_error_first_order(&q, &coeffs, &mut wf).to_array();
+            let g = general
+                .pose_error_first_order(&q, &coeffs, &mut wg)
+                .to_array();
+            close(&f, &g, "first order");
+            let f = fast
+                .pose_error_jacobian(&q, &coeffs, &mut wf, &mut jf)
+                .to_array();
+            let g = general
+                .pose_error_jacobian(&q, &coeffs, &mut wg, &mut jg)
+                .to_array();
+            close(&f, &g, "exact");
+            close(&jf, &jg, "parameter jacobian");
+            let f = fast.tool_pose_jacobian(&q, &coeffs, &mut wf, &mut jf);
+            let g = general.tool_pose_jacobian(&q, &coeffs, &mut wg, &mut jg);
+            close(f.r.as_slice(), g.r.as_slice(), "tool pose rotation");
+            close(f.t.as_slice(), g.t.as_slice(), "tool pose translation");
+            close(&jf, &jg, "tool pose jacobian");
+            fast.tool_jacobian(&q, &coeffs, &mut wf, &mut af);
+            general.tool_jacobian(&q, &coeffs, &mut wg, &mut ag);
+            close(&af, &ag, "axis jacobian");
+        }
     }
 }

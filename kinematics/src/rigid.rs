@@ -50,6 +50,15 @@ impl Rigid {
         }
     }
 
+    /// `self ∘ Trans(v)`, without the product with the identity rotation.
+    #[inline]
+    pub fn translated(&self, v: &Vector3<f64>) -> Rigid {
+        Rigid {
+            r: self.r,
+            t: mv(&self.r, v) + self.t,
+        }
+    }
+
     #[inline]
     pub fn inverse(&self) -> Rigid {
         let rt = self.r.transpose();
@@ -94,9 +103,11 @@ pub fn exp_so3(w: &Vector3<f64>) -> Matrix3<f64> {
     let th2 = w.norm_squared();
     let (a, b) = if th2 < 1e-8 {
         // sin θ/θ and (1 - cos θ)/θ², to O(θ⁶): exact to double precision for |θ| < 1e-4.
+        // Multiplications by the reciprocals: divisions are slow, and the rounding of the
+        // tiny correction terms does not show.
         (
-            1.0 - th2 / 6.0 * (1.0 - th2 / 20.0),
-            0.5 - th2 / 24.0 * (1.0 - th2 / 30.0),
+            1.0 - th2 * (1.0 / 6.0) * (1.0 - th2 * (1.0 / 20.0)),
+            0.5 - th2 * (1.0 / 24.0) * (1.0 - th2 * (1.0 / 30.0)),
         )
     } else {
         let th = th2.sqrt();
@@ -110,10 +121,10 @@ pub fn exp_so3(w: &Vector3<f64>) -> Matrix3<f64> {
 pub fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
     let th2 = w.norm_squared();
     let (a, b) = if th2 < 1e-8 {
-        // (1 - cos θ)/θ² and (θ - sin θ)/θ³.
+        // (1 - cos θ)/θ² and (θ - sin θ)/θ³ (reciprocals as in `exp_so3`).
         (
-            0.5 - th2 / 24.0 * (1.0 - th2 / 30.0),
-            1.0 / 6.0 - th2 / 120.0 * (1.0 - th2 / 42.0),
+            0.5 - th2 * (1.0 / 24.0) * (1.0 - th2 * (1.0 / 30.0)),
+            1.0 / 6.0 - th2 * (1.0 / 120.0) * (1.0 - th2 * (1.0 / 42.0)),
         )
     } else {
         let th = th2.sqrt();
@@ -128,7 +139,7 @@ pub fn left_jacobian_inverse(w: &Vector3<f64>) -> Matrix3<f64> {
     let th2 = w.norm_squared();
     // 1/θ² - (1 + cos θ)/(2 θ sin θ)
     let c = if th2 < 1e-8 {
-        1.0 / 12.0 + th2 / 720.0
+        1.0 / 12.0 + th2 * (1.0 / 720.0)
     } else {
         let th = th2.sqrt();
         1.0 / th2 - (1.0 + th.cos()) / (2.0 * th * th.sin())

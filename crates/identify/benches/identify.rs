@@ -3,15 +3,23 @@
 //! the full error model (every component error too: most of it unidentifiable from R-test, which
 //! the report says; the solve still carries all its columns).
 //!
+//! Besides the times, each case prints the peak heap that `identify` allocates on top of the
+//! loaded session (the solver's working memory: it must not grow with the number of samples).
+//!
 //! `cargo bench -p mtcal-identify --bench identify`; the numbers go in the README.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use mtcal_identify::{Study, identify};
 use mtcal_solve::{Options, Silent};
+use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
+use std::alloc::System;
 use std::hint::black_box;
 use std::path::Path;
 // Links every instrument plugin (inventory drops crates nobody names).
 use mtcal_plugins as _;
+
+#[global_allocator]
+static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 const ELEVEN: &str = r#"parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 
@@ -71,12 +79,20 @@ fn bench_identify(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify_rtest_trunnion");
     g.sample_size(10);
     for (eleven, sizes) in [
-        (true, &[1_000usize, 10_000, 100_000][..]),
+        (true, &[1_000usize, 10_000, 100_000, 1_000_000][..]),
         (false, &[1_000, 10_000][..]),
     ] {
         for &n in sizes {
             let (_dir, study) = session(n, eleven);
             let label = if eleven { "11-errors" } else { "full-model" };
+            GLOBAL.reset_peak_memory();
+            let once = identify(&study, &Options::default(), &mut Silent).unwrap();
+            eprintln!(
+                "{label}/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations",
+                GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
+                study.n_x,
+                once.solver.iterations
+            );
             g.bench_with_input(BenchmarkId::new(label, n), &study, |b, study| {
                 b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
             });

@@ -120,10 +120,10 @@ impl<'a> SampleEval<'a> {
         Self {
             study,
             run,
-            coeffs: study.coeffs_from(x),
+            coeffs: study.fit_coeffs_from(x),
             nuis: study.nuisance_from(study.runs[run].setup, x),
-            ws: study.model.workspace(),
-            jac: vec![0.0; 6 * study.model.n_coeffs()],
+            ws: study.fit_model.workspace(),
+            jac: vec![0.0; 6 * study.fit_model.n_coeffs()],
             pred: vec![0.0; nch],
             d_pose: vec![0.0; 6 * nch],
             d_nuis: vec![0.0; nch * nn],
@@ -142,14 +142,13 @@ impl<'a> SampleEval<'a> {
         let study = self.study;
         let run = &study.runs[self.run];
         let setup = &study.setups[run.setup].setup;
-        let na = study.model.machine().n_axes();
+        let model = &study.fit_model;
+        let na = model.machine().n_axes();
         let q = &run.q[i * na..(i + 1) * na];
         let pose = if derivatives {
-            study
-                .model
-                .tool_pose_jacobian(q, &self.coeffs, &mut self.ws, &mut self.jac)
+            model.tool_pose_jacobian(q, &self.coeffs, &mut self.ws, &mut self.jac)
         } else {
-            study.model.tool_pose(q, &self.coeffs, &mut self.ws)
+            model.tool_pose(q, &self.coeffs, &mut self.ws)
         };
         let at = At {
             q,
@@ -207,7 +206,7 @@ impl<'a> SampleEval<'a> {
     pub fn jacobian_row(&self, c: usize, row: &mut [f64]) {
         let study = self.study;
         let dp = &self.d_pose[c * 6..c * 6 + 6];
-        for (o, &k) in row.iter_mut().zip(&study.estimated) {
+        for (o, &k) in row.iter_mut().zip(&study.estimated_in_fit) {
             let col = &self.jac[6 * k..6 * k + 6];
             *o = dp.iter().zip(col).map(|(a, b)| a * b).sum();
         }

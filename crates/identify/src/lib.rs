@@ -4,7 +4,7 @@
 //! instrument plugins, every run in SI units) → [`FitProblem`] (whitened residuals of every
 //! fitted sample, streamed to [`mtcal_solve`]) → [`Identification`] (parameters with 95 %
 //! intervals, unidentifiable combinations by name, fit per run and channel, validation runs
-//! predicted) → JSON / summary / predicted CSVs. [`simulate`] writes session folders from a
+//! predicted, [`mismatch`]: where the residuals are not noise) → JSON / summary / predicted CSVs. [`simulate`] writes session folders from a
 //! machine, a truth parameter file and a test plan.
 //!
 //! # `[identify]` options in `session.toml` (mtcal's addition to the contract)
@@ -15,6 +15,7 @@
 //!   default zero.
 
 pub mod fit;
+pub mod mismatch;
 pub mod report;
 pub mod simulate;
 pub mod study;
@@ -78,6 +79,8 @@ pub enum IdentifyError {
     Solve(#[from] SolveError),
     #[error(transparent)]
     Simulate(#[from] simulate::SimulateError),
+    #[error("mismatch analysis: {0}")]
+    Mismatch(#[from] mtcal_mismatch::MismatchError),
 }
 
 /// Fits `study`: every estimated machine coefficient and free nuisance parameter, priors from
@@ -102,7 +105,7 @@ pub fn identify(
         .collect();
     let problem = FitProblem::new(study);
     let solution = mtcal_solve::solve(&problem, &specs, options, observer)?;
-    Ok(Identification::new(study, &solution))
+    Ok(Identification::new(study, &solution)?)
 }
 
 /// Loads and identifies `session` with default options and no progress output.

@@ -98,6 +98,12 @@ pub struct Identification {
     pub fit: Fit,
     /// Validation runs: not fitted; how well the identified model predicts them.
     pub validation: Vec<RunFit>,
+    /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
+    pub mismatch: mtcal_mismatch::Mismatch,
+    /// Every structure test behind `mismatch`, one sentence each for the rejected ones; in the
+    /// JSON as `mismatch_tests`.
+    #[serde(rename = "mismatch_tests")]
+    pub mismatch_detail: Vec<String>,
     pub solver: SolverReport,
     /// The solution vector (SI), for predictions; not written to the JSON.
     #[serde(skip)]
@@ -106,7 +112,10 @@ pub struct Identification {
 
 impl Identification {
     /// Builds the report of `solution` for `study`.
-    pub fn new(study: &Study, solution: &Solution) -> Identification {
+    pub fn new(
+        study: &Study,
+        solution: &Solution,
+    ) -> Result<Identification, mtcal_mismatch::MismatchError> {
         let x = solution.x.clone();
         let mut parameters = Vec::new();
         for (i, &xi) in x.iter().enumerate() {
@@ -140,8 +149,17 @@ impl Identification {
         let component_errors = component_curves(study, solution);
         let mut runs = Vec::new();
         let mut validation = Vec::new();
-        for r in 0..study.runs.len() {
-            let Some(fit) = run_fit(study, r, &x) else {
+        let predictions: Vec<Option<Vec<f64>>> = (0..study.runs.len())
+            .map(|r| {
+                study.runs[r]
+                    .readings
+                    .is_some()
+                    .then(|| predict_run(study, r, &x))
+            })
+            .collect();
+        let analysis = crate::mismatch::analyse(study, &predictions)?;
+        for (r, pred) in predictions.iter().enumerate() {
+            let Some(fit) = pred.as_ref().map(|p| run_fit(study, r, p)) else {
                 continue;
             };
             if study.runs[r].fit {
@@ -160,7 +178,7 @@ impl Identification {
             .flat_map(|r| &r.channels)
             .map(|c| c.rms * c.rms * c.samples as f64)
             .sum();
-        Identification {
+        Ok(Identification {
             schema: "mtcal.identify/1",
             parameters,
             component_errors,
@@ -173,6 +191,8 @@ impl Identification {
                 runs,
             },
             validation,
+            mismatch: analysis.mismatch.clone(),
+            mismatch_detail: analysis.describe(),
             solver: SolverReport {
                 iterations: solution.iterations,
                 converged: solution.converged,
@@ -182,7 +202,7 @@ impl Identification {
                 condition_number: solution.condition_number,
             },
             x,
-        }
+        })
     }
 
     /// The FORMATS.md JSON (`mtcal.identify/1`, with mtcal's additional keys).
@@ -227,6 +247,21 @@ impl Identification {
                 let _ = writeln!(s, "  {}: {}", u.parameters.join(", "), u.why);
             }
         }
+        if self.mismatch.detected {
+            let _ = writeln!(
+                s,
+                "\nmismatch: the residuals are not noise (family-wise α = 5 %):"
+            );
+            for line in &self.mismatch_detail {
+                let _ = writeln!(s, "  {line}");
+            }
+        } else {
+            let _ = writeln!(
+                s,
+                "\nmismatch: none found (every fitted run's residuals pass the structure tests, \
+                 family-wise α = 5 %)"
+            );
+        }
         let _ = writeln!(s, "\nruns:");
         for r in self.fit.runs.iter().chain(&self.validation) {
             let role = if self.validation.contains(r) {
@@ -264,11 +299,13 @@ fn setup_of(study: &Study, i: usize) -> usize {
         .expect("a nuisance index belongs to a set-up")
 }
 
-/// Residual statistics of run `r` at `x`; `None` for a run without readings.
-fn run_fit(study: &Study, r: usize, x: &[f64]) -> Option<RunFit> {
+/// Residual statistics of run `r` (which has readings) from its predictions `pred`.
+fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
     let run = &study.runs[r];
-    let readings = run.readings.as_ref()?;
-    let pred = predict_run(study, r, x);
+    let readings = run
+        .readings
+        .as_ref()
+        .expect("only runs with readings are fitted");
     let channels = study.channels(r);
     let nch = channels.len();
     let n = run.len();
@@ -310,13 +347,13 @@ fn run_fit(study: &Study, r: usize, x: &[f64]) -> Option<RunFit> {
             unit: m.unit.as_str().to_string(),
         })
         .collect();
-    Some(RunFit {
+    RunFit {
         name: run.name.clone(),
         instrument: slot.plugin.name.to_string(),
         rms_um: (ss_all / (n * nch) as f64).sqrt() * 1e6,
         channels: fits,
         metrics,
-    })
+    }
 }
 
 /// Curves of the estimated multi-coefficient component errors whose coefficients are all

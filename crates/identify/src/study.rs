@@ -61,6 +61,15 @@ pub struct Study {
     pub base_coeffs: Vec<f64>,
     /// Indices of the estimated machine coefficients; `x[i]` is coefficient `estimated[i]`.
     pub estimated: Vec<usize>,
+    /// The model the fit evaluates: only the parameters that are estimated or have a nonzero
+    /// base value. A parameter held at zero changes no prediction, so leaving it out gives the
+    /// same poses while the Jacobian skips its columns (the 11-error R-test fit of a machine
+    /// with a full error model evaluates 11 columns instead of 121).
+    pub fit_model: MachineModel,
+    /// Per coefficient of `fit_model`: its index in `model`.
+    pub fit_coeffs: Vec<usize>,
+    /// Per estimated coefficient (`estimated[i]`): its index in `fit_model`.
+    pub estimated_in_fit: Vec<usize>,
     /// A label per machine coefficient (`EX0C`, `EXX.P2`).
     pub coeff_labels: Vec<String>,
     pub setups: Vec<SetupSlot>,
@@ -97,6 +106,12 @@ impl Study {
         };
         let coeff_labels = model.errors().coefficient_labels();
         let estimated = estimated_coefficients(&session, &model)?;
+        let (fit_model, fit_coeffs) = reduced_model(&machine, &model, &estimated, &base_coeffs)?;
+        let mut in_fit = vec![usize::MAX; model.n_coeffs()];
+        for (j, &k) in fit_coeffs.iter().enumerate() {
+            in_fit[k] = j;
+        }
+        let estimated_in_fit = estimated.iter().map(|&k| in_fit[k]).collect();
         let mut setups: Vec<SetupSlot> = Vec::new();
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
@@ -210,6 +225,9 @@ impl Study {
             model,
             base_coeffs,
             estimated,
+            fit_model,
+            fit_coeffs,
+            estimated_in_fit,
             coeff_labels,
             setups,
             runs,
@@ -224,6 +242,12 @@ impl Study {
             c[k] = x[i];
         }
         c
+    }
+
+    /// The coefficient vector of [`Self::fit_model`] (SI) for parameter vector `x`.
+    pub fn fit_coeffs_from(&self, x: &[f64]) -> Vec<f64> {
+        let full = self.coeffs_from(x);
+        self.fit_coeffs.iter().map(|&k| full[k]).collect()
     }
 
     /// Set-up `s`'s full nuisance vector (SI; held ones at zero) for parameter vector `x`.
@@ -330,6 +354,38 @@ fn identify_key(session: &Session, key: &str, message: &str) -> IdentifyError {
         key: key.to_string(),
         message: message.to_string(),
     }
+}
+
+/// The model restricted to the parameters that are estimated or have a nonzero base value, and
+/// per coefficient of it the index in the full model. The kept parameters keep their bases, so
+/// the restricted model gives the same poses for the same values.
+fn reduced_model(
+    machine: &LoadedMachine,
+    model: &MachineModel,
+    estimated: &[usize],
+    base: &[f64],
+) -> Result<(MachineModel, Vec<usize>), IdentifyError> {
+    let mut used = vec![false; model.n_coeffs()];
+    for &k in estimated {
+        used[k] = true;
+    }
+    let mut config = Vec::new();
+    let mut index = Vec::new();
+    // `ErrorModel::new` lays the parameters out in configuration order.
+    for (entry, p) in machine.config.iter().zip(model.errors().params()) {
+        let range = p.offset..p.offset + p.len;
+        if range.clone().any(|k| used[k] || base[k] != 0.0) {
+            config.push(entry.clone());
+            index.extend(range);
+        }
+    }
+    let reduced =
+        MachineModel::new(machine.machine.clone(), &config).map_err(|e| IdentifyError::Model {
+            source_name: machine.config_source.clone(),
+            message: e.to_string(),
+        })?;
+    debug_assert_eq!(reduced.n_coeffs(), index.len());
+    Ok((reduced, index))
 }
 
 /// `[identify] parameters = ["EC0Y", …]`: the machine parameters to estimate (all of a

@@ -15,6 +15,12 @@ const ACCEPT: f64 = 1e-4;
 /// as good as exact and the next step is undamped (Gauss–Newton): linear problems converge in two
 /// steps and nonlinear ones quadratically near the solution.
 const EXACT_MODEL: f64 = 1e-3;
+/// A Gauss–Newton step shorter than this in the metric of the data (`‖R·dx‖`: standard
+/// deviations of the estimate along the step), right after a step whose cost change the linear
+/// model predicted to within [`EXACT_MODEL`], is taken without evaluating the problem again:
+/// there the model error is far below the step itself (the next step would be of the order of
+/// its square), so one more pass over millions of samples would only confirm it.
+const FINAL_STEP: f64 = 1e-3;
 /// Damping after a rejected undamped step, relative to σ_max².
 const LAMBDA_START: f64 = 1e-4;
 /// Consecutive rejected steps before giving up.
@@ -236,6 +242,7 @@ pub fn solve<P: Problem>(
     // The damping to return to when an undamped step fails.
     let mut lambda_resume = LAMBDA_START * an.s2max();
     let mut iterations = 0;
+    let mut model_exact = false;
     observer.iteration(0, lin.cost, lambda);
     let termination = 'outer: loop {
         let gn = step(&an, &lin, &x, &setup, 0.0)?;
@@ -245,6 +252,15 @@ pub fn solve<P: Problem>(
         if an.scaled_norm(&gn) <= options.tolerance * an.scaled_norm(&x_col)
             || gn_change <= options.tolerance * rnorm.max(1.0)
         {
+            break Termination::Converged;
+        }
+        if model_exact && gn_change <= FINAL_STEP {
+            for (&p, d) in lin.order.iter().zip(&gn) {
+                x[p] = (x[p] + d).clamp(setup.lo[p], setup.hi[p]);
+            }
+            lin.cost = (lin.cost - gn_pred).max(0.0);
+            iterations += 1;
+            observer.iteration(iterations, lin.cost, 0.0);
             break Termination::Converged;
         }
         if iterations >= options.max_iterations {
@@ -284,7 +300,8 @@ pub fn solve<P: Problem>(
             if let Some(rho) = rho {
                 // Nielsen's update: shrink λ by up to 3 after good steps, keep it after poor ones.
                 lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                if (rho - 1.0).abs() < EXACT_MODEL && lambda > 0.0 {
+                model_exact = (rho - 1.0).abs() < EXACT_MODEL;
+                if model_exact && lambda > 0.0 {
                     lambda_resume = lambda;
                     lambda = 0.0;
                 }

@@ -1,0 +1,171 @@
+//! Where the identified model and the recordings disagree: every fitted run's whitened
+//! residuals at the solution, ordered by time, by each axis position and by each context column
+//! (`T_*`, `S`, `F`), and split by each axis' direction of motion, through [`mtcal_mismatch`].
+//!
+//! The whole call is one family for Holm's correction ([`Family::All`]), so a session of white
+//! noise raises a false alarm with probability at most α = 5 %, however many runs it has.
+
+use crate::study::Study;
+use mtcal_mismatch::{Analysis, Family, MismatchError, Options, RunResiduals};
+
+/// Runs longer than this are analysed as block sums of consecutive samples (in time order),
+/// `Σ rᵢ / √m` over blocks of `m`: under the null hypothesis still independent with unit
+/// variance, so the tests keep their level, and effects slower than a block keep their power
+/// (the periodogram's cost grows with the number of samples times frequencies).
+const MAX_SAMPLES: usize = 1024;
+
+/// Fewer samples than this give the structure tests nothing to work with: such runs are left
+/// out (their χ² is in the run fits).
+const MIN_SAMPLES: usize = 20;
+
+/// Channels whose whitened residuals are smaller than this (RMS, in units of the stated noise)
+/// are left out: a fit that good (simulated, noise-free data) leaves only rounding, whose
+/// ordering the scale-free structure tests would read as structure.
+const MIN_RMS: f64 = 1e-3;
+
+/// One run's residuals and context, owned (the analysis borrows them).
+struct RunData {
+    name: String,
+    channels: Vec<(String, Vec<f64>)>,
+    context: Vec<(String, Vec<f64>)>,
+    splits: Vec<(String, Vec<i32>)>,
+    /// Per channel: `Σ rᵢ² − n` over the samples, the χ² beyond the noise.
+    excess: Vec<(String, f64)>,
+}
+
+/// The mismatch analysis of the fitted runs; `predictions[r]` are run `r`'s predicted readings
+/// (SI, `samples × channels`) at the solution, `None` for runs without readings.
+pub fn analyse(study: &Study, predictions: &[Option<Vec<f64>>]) -> Result<Analysis, MismatchError> {
+    let data: Vec<RunData> = study
+        .runs
+        .iter()
+        .enumerate()
+        .filter(|(_, run)| run.fit && run.len() >= MIN_SAMPLES)
+        .filter_map(|(r, _)| Some(run_data(study, r, predictions[r].as_ref()?)))
+        .filter(|d| !d.channels.is_empty())
+        .collect();
+    let runs: Vec<RunResiduals<'_>> = data
+        .iter()
+        .map(|d| {
+            let mut rr = RunResiduals::new(&d.name);
+            for (name, values) in &d.channels {
+                rr = rr.channel(name, values);
+            }
+            for (name, values) in &d.context {
+                rr = rr.context(name, values);
+            }
+            for (name, labels) in &d.splits {
+                rr = rr.split(name, labels);
+            }
+            rr
+        })
+        .collect();
+    let options = Options {
+        family: Family::All,
+        ..Options::default()
+    };
+    let mut analysis = mtcal_mismatch::locate(&runs, &options)?;
+    // Largest first: run-channels by their excess χ² (beyond the noise); within one, the
+    // analysis' own order (strongest evidence first) stays. Adjusted p-values cannot order
+    // strong effects across runs (they underflow to zero), and a large effect in one run biases
+    // the fitted parameters, which leaves smaller structure in the others.
+    let excess = |run: &str, channel: &str| {
+        data.iter()
+            .filter(|d| d.name == run)
+            .flat_map(|d| &d.excess)
+            .find(|(c, _)| c == channel)
+            .map_or(0.0, |(_, e)| *e)
+    };
+    analysis.mismatch.locations.sort_by(|a, b| {
+        let ea = excess(&a.run, &a.channel);
+        let eb = excess(&b.run, &b.channel);
+        eb.total_cmp(&ea)
+    });
+    Ok(analysis)
+}
+
+fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
+    let run = &study.runs[r];
+    let readings = run.readings.as_ref().expect("fitted runs have readings");
+    let channels = study.channels(r);
+    let (n, nch) = (run.len(), channels.len());
+    let m = n.div_ceil(MAX_SAMPLES).max(1);
+    let blocks = n.div_ceil(m);
+    // Block sums over consecutive samples; the context is the block mean.
+    let sum_over = |f: &dyn Fn(usize) -> f64, normalise: Norm| -> Vec<f64> {
+        (0..blocks)
+            .map(|b| {
+                let range = b * m..((b + 1) * m).min(n);
+                let len = range.len() as f64;
+                let s: f64 = range.map(f).sum();
+                match normalise {
+                    Norm::Residual => s / len.sqrt(),
+                    Norm::Mean => s / len,
+                }
+            })
+            .collect()
+    };
+    let mut channels_out = Vec::new();
+    let mut excess = Vec::new();
+    for (c, ch) in channels.iter().enumerate() {
+        let w = |i: usize| (pred[i * nch + c] - readings[i * nch + c]) / ch.sigma;
+        let chi2: f64 = (0..n).map(|i| w(i) * w(i)).sum();
+        if (chi2 / n as f64).sqrt() >= MIN_RMS {
+            channels_out.push((ch.name.clone(), sum_over(&w, Norm::Residual)));
+            excess.push((ch.name.clone(), chi2 - n as f64));
+        }
+    }
+    let mut context = vec![("t".to_string(), sum_over(&|i| run.table.t[i], Norm::Mean))];
+    let na = run.table.axes.len();
+    for (a, &letter) in run.table.axes.iter().enumerate() {
+        let pos = |i: usize| run.table.positions[i * na + a];
+        context.push((letter.to_string(), sum_over(&pos, Norm::Mean)));
+    }
+    for (name, values) in &run.table.context {
+        context.push((name.clone(), sum_over(&|i| values[i], Norm::Mean)));
+    }
+    let splits = run
+        .table
+        .axes
+        .iter()
+        .enumerate()
+        .map(|(a, &letter)| {
+            let pos = |i: usize| run.table.positions[i * na + a];
+            let labels = (0..blocks)
+                .map(|b| {
+                    let (first, last) = (b * m, ((b + 1) * m).min(n) - 1);
+                    // Direction of motion: the central difference around the block.
+                    let (lo, hi) = (first.saturating_sub(1), (last + 1).min(n - 1));
+                    direction(pos(hi) - pos(lo))
+                })
+                .collect();
+            (format!("{letter} direction"), labels)
+        })
+        .collect();
+    RunData {
+        name: run.name.clone(),
+        channels: channels_out,
+        context,
+        splits,
+        excess,
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Norm {
+    /// `Σ rᵢ / √m`: unit variance under the null hypothesis.
+    Residual,
+    /// The mean (context values).
+    Mean,
+}
+
+/// +1 moving up, −1 moving down, 0 standing (below a nanometre or a nano-degree per sample).
+fn direction(delta: f64) -> i32 {
+    if delta > 1e-9 {
+        1
+    } else if delta < -1e-9 {
+        -1
+    } else {
+        0
+    }
+}

@@ -1,0 +1,114 @@
+//! `identify` reports where the identified model and the recordings disagree (FORMATS.md
+//! `mismatch`): nothing on white noise, the run, channel and variable of a planted drift.
+
+use mtcal_identify::simulate::{Plant, PlantSample, simulate_with};
+use mtcal_identify::{Identification, identify_session};
+use mtcal_plugins as _;
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Source 000's R-test plan on the trunnion, 0.5 µm noise, 11-error set.
+fn plan(dir: &Path, seed: u64) -> PathBuf {
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let mut plan = format!(
+        "machine = {machine:?}\ntruth = {truth:?}\nseed = {seed}\ninterval_s = 1.0\n[identify]\n\
+         parameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\", \"EY0A\", \"EZ0A\", \"EB0A\", \"EC0A\", \
+         \"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n\
+         [setup.low]\nball = [100.0, 0.0, 200.0]\n[setup.high]\nball = [100.0, 0.0, 300.0]\n"
+    );
+    for (name, setup, path) in [
+        ("xyc-a0", "low", "{ kind = \"xyc\", samples = 181 }"),
+        (
+            "xyc-a+30",
+            "low",
+            "{ kind = \"xyc\", samples = 181, hold = { A = 30.0 } }",
+        ),
+        (
+            "xyc-a-30",
+            "low",
+            "{ kind = \"xyc\", samples = 181, hold = { A = -30.0 } }",
+        ),
+        ("yza", "low", "{ kind = \"yza\", samples = 151 }"),
+        ("xyc-high", "high", "{ kind = \"xyc\", samples = 181 }"),
+    ] {
+        plan += &format!(
+            "[[run]]\nname = \"{name}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\npath = {path}\n"
+        );
+    }
+    let file = dir.join("plan.toml");
+    std::fs::write(&file, plan).unwrap();
+    file
+}
+
+/// A first-order thermal drift of the `dz` reading in one run: `amplitude·(1 − e^(−t'/τ))`
+/// with `t'` the time since that run started.
+#[derive(Debug)]
+struct Drift {
+    run: &'static str,
+    amplitude_m: f64,
+    tau_s: f64,
+}
+
+impl Plant for Drift {
+    fn apply(&self, s: &PlantSample<'_>, readings: &mut [f64]) {
+        if s.run == self.run {
+            let t = s.sample as f64;
+            readings[2] += self.amplitude_m * (1.0 - (-t / self.tau_s).exp());
+        }
+    }
+}
+
+fn identify_with(plants: &[&dyn Plant], seed: u64) -> Identification {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    simulate_with(&plan(dir.path(), seed), &out, plants).unwrap();
+    identify_session(&out).unwrap().1
+}
+
+#[test]
+fn white_noise_gives_no_mismatch() {
+    for seed in [1, 2, 3] {
+        let id = identify_with(&[], seed);
+        assert!(
+            !id.mismatch.detected,
+            "seed {seed}: {:#?}",
+            id.mismatch_detail
+        );
+        assert!(id.mismatch.locations.is_empty());
+        assert!(id.to_json().contains("\"mismatch\""));
+    }
+}
+
+#[test]
+fn a_planted_drift_is_located_in_its_run_and_channel() {
+    // 2 µm over the run with τ = 60 s: per sample well inside the noise at first.
+    let drift = Drift {
+        run: "xyc-a+30",
+        amplitude_m: 2e-6,
+        tau_s: 60.0,
+    };
+    let id = identify_with(&[&drift], 1);
+    assert!(id.mismatch.detected, "{:#?}", id.mismatch_detail);
+    let first = &id.mismatch.locations[0];
+    assert_eq!(
+        (first.run.as_str(), first.channel.as_str()),
+        ("xyc-a+30", "dz"),
+        "{:#?}",
+        id.mismatch.locations
+    );
+    // In an XYC circle time and C increase together: either names the ordering.
+    assert!(
+        matches!(first.along.as_deref(), Some("t" | "C")),
+        "{:?}",
+        first.along
+    );
+    assert!(first.share > 0.5, "share {}", first.share);
+    assert!(
+        id.summary()
+            .contains("mismatch: the residuals are not noise")
+    );
+}

@@ -1,0 +1,45 @@
+//! The fit evaluates a reduced copy of the machine model (only estimated parameters and those
+//! with a nonzero starting value). It must give exactly the poses of the full model.
+
+use mtcal_identify::Study;
+use mtcal_plugins as _;
+use std::path::Path;
+
+fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}
+
+#[test]
+fn reduced_fit_model_gives_the_full_models_poses() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/five-axis/session");
+    let study = Study::load(&dir).unwrap();
+    // The example estimates the 11-error set of a machine whose error model has every
+    // component error too: the fit model must carry just those 11 coefficients.
+    assert_eq!(study.estimated.len(), 11);
+    assert_eq!(study.fit_model.n_coeffs(), 11, "{:?}", study.fit_coeffs);
+    assert!(study.model.n_coeffs() > 100);
+    let mut seed = 7;
+    let mut ws_full = study.model.workspace();
+    let mut ws_fit = study.fit_model.workspace();
+    for _ in 0..5 {
+        // Values of a few tens of µm / µrad for the estimated coefficients.
+        let x: Vec<f64> = (0..study.n_x).map(|_| 5e-5 * lcg(&mut seed)).collect();
+        let full = study.coeffs_from(&x);
+        let fit = study.fit_coeffs_from(&x);
+        for &k in &study.fit_coeffs {
+            assert!(study.estimated.contains(&k) || study.base_coeffs[k] != 0.0);
+        }
+        for run in &study.runs {
+            let na = study.model.machine().n_axes();
+            for q in run.q.chunks_exact(na).step_by(7) {
+                let a = study.model.tool_pose(q, &full, &mut ws_full);
+                let b = study.fit_model.tool_pose(q, &fit, &mut ws_fit);
+                assert!((a.t - b.t).norm() < 1e-15, "{:?} vs {:?}", a.t, b.t);
+                assert!((a.r - b.r).norm() < 1e-15);
+            }
+        }
+    }
+}
