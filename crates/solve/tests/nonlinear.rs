@@ -238,3 +238,46 @@ fn max_iterations_is_reported() {
     assert_eq!(sol.iterations, 1);
     assert!(sol.x.iter().all(|v| v.is_finite()));
 }
+
+/// The last, statistically negligible Gauss–Newton step is taken without a further pass over
+/// the data. What is returned must still be the optimum: solving again from the returned point
+/// moves it by far less than its uncertainty, and the reported χ² is the χ² there.
+#[test]
+fn the_final_step_without_evaluation_lands_on_the_optimum() {
+    let p = circle(5);
+    let a = solve(
+        &p,
+        &circle_params([2.0, -1.0, 4.5]),
+        &options(1),
+        &mut Silent,
+    )
+    .unwrap();
+    assert!(a.converged, "{:?}", a.termination);
+    let b = solve(
+        &p,
+        &circle_params([a.x[0], a.x[1], a.x[2]]),
+        &options(1),
+        &mut Silent,
+    )
+    .unwrap();
+    for i in 0..3 {
+        let sigma = a.sigma[i].unwrap();
+        assert!(
+            (a.x[i] - b.x[i]).abs() < 1e-4 * sigma,
+            "parameter {i}: {} vs {} (σ {sigma})",
+            a.x[i],
+            b.x[i]
+        );
+    }
+    assert!(
+        (a.chi2 - b.chi2).abs() < 1e-6,
+        "χ² {} vs {}",
+        a.chi2,
+        b.chi2
+    );
+    assert!(
+        b.iterations <= 1,
+        "restart took {} iterations",
+        b.iterations
+    );
+}
