@@ -114,6 +114,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader went away (`| head`): nothing more to say to it, and not a failure.
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
@@ -121,7 +123,18 @@ fn main() -> ExitCode {
     }
 }
 
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
 fn run(cli: Cli) -> Result<()> {
+    use std::io::Write as _;
+    // Everything goes through one handle so that a closed pipe is an error to return, never a
+    // panic (`println!` panics when standard output is gone).
+    let mut stdout = std::io::stdout().lock();
     match cli.command {
         Command::Identify {
             session,
@@ -129,27 +142,28 @@ fn run(cli: Cli) -> Result<()> {
             predict,
             quiet,
             threads,
-        } => identify(&session, json, predict, quiet, threads),
+        } => identify(&mut stdout, &session, json, predict, quiet, threads),
         Command::Simulate { plan, out } => {
             let sim = mtcal_identify::simulate::simulate(&plan, &out)?;
-            println!(
+            writeln!(
+                stdout,
                 "wrote {} ({} runs, {} samples)",
                 sim.manifest.display(),
                 sim.runs,
                 sim.samples
-            );
+            )?;
             Ok(())
         }
         Command::Plugins => {
             for p in mtcal_plugins::plugins() {
-                println!("{:<10} {}", p.name, p.about);
+                writeln!(stdout, "{:<10} {}", p.name, p.about)?;
             }
             Ok(())
         }
         Command::Describe { machine } => {
             let loaded = machine.load()?;
             let model = build_model(&loaded)?;
-            print!("{}", describe(&loaded, &model));
+            write!(stdout, "{}", describe(&loaded, &model))?;
             Ok(())
         }
         Command::Map {
@@ -178,10 +192,10 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 thresholds
             };
-            print!("{}", describe(&loaded, &model));
-            println!("parameters  {}", params.display());
+            write!(stdout, "{}", describe(&loaded, &model))?;
+            writeln!(stdout, "parameters  {}", params.display())?;
             let map = volumetric_map(&model, &coeffs, &grid, &opts);
-            println!("{}", map.summary(&thresholds));
+            writeln!(stdout, "{}", map.summary(&thresholds))?;
             Ok(())
         }
         Command::Topology {
@@ -199,7 +213,7 @@ fn run(cli: Cli) -> Result<()> {
             match out {
                 Some(path) => mtcal_machine::write_atomically(&path, text.as_bytes())
                     .with_context(|| format!("cannot write {}", path.display()))?,
-                None => print!("{text}"),
+                None => write!(stdout, "{text}")?,
             }
             Ok(())
         }
@@ -207,15 +221,13 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn identify(
+    out: &mut impl std::io::Write,
     session: &std::path::Path,
     json: Option<PathBuf>,
     predict: Option<PathBuf>,
     quiet: bool,
     threads: usize,
 ) -> Result<()> {
-    use std::io::Write as _;
-    // Written through a handle so a closed pipe (`| head`) is an error, not a panic.
-    let mut out = std::io::stdout().lock();
     let study = mtcal_identify::Study::load(session)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
     writeln!(
