@@ -74,6 +74,9 @@ struct Plan {
 #[derive(Clone, Debug)]
 struct AxisPlan {
     linear: bool,
+    /// Some component error or own-direction location error is configured: the axis has
+    /// component-twist Jacobian columns (a reduced model, e.g. location errors only, has none).
+    has_component_columns: bool,
     tool_side: bool,
     r0t: Matrix3<f64>,
     /// The joint frame is aligned with the machine frame at the zero pose (`r0t = I`).
@@ -212,6 +215,8 @@ impl AxisPlan {
         }
         AxisPlan {
             linear,
+            has_component_columns: comp.iter().any(|s| !matches!(s, Slot::Empty))
+                || own_loc.iter().any(Option::is_some),
             tool_side: ax.side() == Side::Tool,
             r0t: ax.zero_rotation().transpose(),
             r0t_is_identity: *ax.zero_rotation() == Matrix3::identity(),
@@ -635,6 +640,17 @@ impl MachineModel {
         let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
         for (i, ap) in self.plan.axes.iter().enumerate() {
+            if ap.loc.iter().any(Option::is_some) {
+                let cols = self.location_columns(i, ws, &w_t_f, &p, rot_map);
+                for d in 0..6 {
+                    if let Some(o) = ap.loc[d] {
+                        jac[6 * o..6 * o + 6].copy_from_slice(&cols[d]);
+                    }
+                }
+            }
+            if !ap.has_component_columns {
+                continue;
+            }
             let js = &ws.joints[i];
             // Component errors: dE·E⁻¹ is a translation along `u` or a rotation `J_l·u` about
             // `δ`, in the frame before E. A workpiece-side body moves by E⁻¹, and
@@ -676,14 +692,6 @@ impl MachineModel {
                 }
                 if let Some(o) = ap.own_loc[d] {
                     jac[6 * o..6 * o + 6].copy_from_slice(unit_col);
-                }
-            }
-            if ap.loc.iter().any(Option::is_some) {
-                let cols = self.location_columns(i, ws, &w_t_f, &p, rot_map);
-                for d in 0..6 {
-                    if let Some(o) = ap.loc[d] {
-                        jac[6 * o..6 * o + 6].copy_from_slice(&cols[d]);
-                    }
                 }
             }
         }
