@@ -620,6 +620,32 @@ impl MachineModel {
         ws.w_t_t
     }
 
+    /// The actual tool pose, like [`Self::tool_pose`], leaving `ws` ready for
+    /// [`Self::project_tool_jacobian`] at this pose (the caller needs the pose first to know
+    /// how its readings depend on it).
+    pub fn tool_pose_for_jacobian(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace) -> Rigid {
+        self.check_sizes(q, coeffs);
+        self.eval_values(q, coeffs, ws, Fill::Basis);
+        self.eval_chain(q, ws);
+        ws.w_t_t
+    }
+
+    /// `out[c·n + k] = Σ_r proj[c][r] · J[r][k]` for the tool-pose Jacobian `J` of
+    /// [`Self::tool_pose_jacobian`] (`n` coefficients) at the pose of the last
+    /// [`Self::tool_pose_for_jacobian`]: the Jacobian of readings that depend on the pose
+    /// through the rows `proj`. A component error's columns are one unit column times its basis
+    /// values, so each is projected once and scaled, which is much cheaper than the full
+    /// Jacobian followed by the product.
+    ///
+    /// # Panics
+    /// If `out.len() != proj.len() · n_coeffs()`.
+    pub fn project_tool_jacobian(&self, ws: &Workspace, proj: &[[f64; 6]], out: &mut [f64]) {
+        let n = self.n_coeffs();
+        assert_eq!(out.len(), proj.len() * n, "projected jacobian buffer size");
+        out.fill(0.0);
+        self.param_columns(ws, &mut ProjectedColumns { proj, out, n }, None);
+    }
+
     /// The actual tool pose in the workpiece frame `w_T_t`, every error inserted.
     pub fn tool_pose(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace) -> Rigid {
         self.check_sizes(q, coeffs);
@@ -637,6 +663,20 @@ impl MachineModel {
     // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
     #[allow(clippy::needless_range_loop)]
     fn fill_param_jacobian(&self, ws: &Workspace, jac: &mut [f64], rot_map: Option<&Matrix3<f64>>) {
+        self.param_columns(ws, &mut FullColumns(jac), rot_map);
+    }
+
+    /// Hands every parameter Jacobian column of the last actual chain evaluation to `out`: one
+    /// by one, or as a unit column times a component's basis values (see
+    /// [`Self::fill_param_jacobian`]).
+    // Index loops over parallel fixed-size arrays (directions 0..6, axes) read best here.
+    #[allow(clippy::needless_range_loop)]
+    fn param_columns<C: ColumnSink>(
+        &self,
+        ws: &Workspace,
+        out: &mut C,
+        rot_map: Option<&Matrix3<f64>>,
+    ) {
         let p = ws.w_t_t.t;
         let w_t_f = ws.f_t_w.inverse();
         for (i, ap) in self.plan.axes.iter().enumerate() {
@@ -644,7 +684,7 @@ impl MachineModel {
                 let cols = self.location_columns(i, ws, &w_t_f, &p, rot_map);
                 for d in 0..6 {
                     if let Some(o) = ap.loc[d] {
-                        jac[6 * o..6 * o + 6].copy_from_slice(&cols[d]);
+                        out.column(o, &cols[d]);
                     }
                 }
             }
@@ -683,15 +723,9 @@ impl MachineModel {
                         (offset, len, &ws.phi[offset..offset + len])
                     }
                 };
-                let block = &mut jac[6 * offset..6 * (offset + len)];
-                for (k, f) in basis.iter().enumerate() {
-                    // As a fixed-size array: six straight-line products, no per-row loop.
-                    let col: &mut [f64; 6] =
-                        (&mut block[6 * k..6 * k + 6]).try_into().expect("six rows");
-                    *col = unit_col.map(|c| f * c);
-                }
+                out.scaled_columns(offset, unit_col, &basis[..len]);
                 if let Some(o) = ap.own_loc[d] {
-                    jac[6 * o..6 * o + 6].copy_from_slice(unit_col);
+                    out.column(o, unit_col);
                 }
             }
         }
@@ -700,7 +734,7 @@ impl MachineModel {
             for d in 0..3 {
                 if let Some(o) = self.plan.tool[d] {
                     let col = twist_column(&m, 1.0, &unit(d), &Vector3::zeros(), &p, rot_map);
-                    jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                    out.column(o, &col);
                 }
             }
         }
@@ -711,7 +745,7 @@ impl MachineModel {
                 if let Some(o) = self.plan.workpiece[d] {
                     let (tv, tw) = e_twist(d, &Matrix3::identity(), &jl, &ws.wp_trans);
                     let col = twist_column(&m, -1.0, &tv, &tw, &p, rot_map);
-                    jac[6 * o..6 * o + 6].copy_from_slice(&col);
+                    out.column(o, &col);
                 }
             }
         }
@@ -1049,6 +1083,62 @@ fn e_twist(
         let w = mv(jl, &u);
         (delta.cross(&w), w)
     }
+}
+
+/// Receives parameter Jacobian columns (six pose rows each).
+trait ColumnSink {
+    /// Column of coefficient `o`.
+    fn column(&mut self, o: usize, col: &[f64; 6]);
+    /// Columns `offset + k` = `basis[k] · unit`.
+    fn scaled_columns(&mut self, offset: usize, unit: &[f64; 6], basis: &[f64]);
+}
+
+/// Writes the full `6 × n` Jacobian, column-major.
+struct FullColumns<'a>(&'a mut [f64]);
+
+impl ColumnSink for FullColumns<'_> {
+    fn column(&mut self, o: usize, col: &[f64; 6]) {
+        self.0[6 * o..6 * o + 6].copy_from_slice(col);
+    }
+
+    fn scaled_columns(&mut self, offset: usize, unit: &[f64; 6], basis: &[f64]) {
+        let block = &mut self.0[6 * offset..6 * (offset + basis.len())];
+        for (k, f) in basis.iter().enumerate() {
+            // As a fixed-size array: six straight-line products, no per-row loop.
+            let col: &mut [f64; 6] = (&mut block[6 * k..6 * k + 6]).try_into().expect("six rows");
+            *col = unit.map(|c| f * c);
+        }
+    }
+}
+
+/// Writes `proj · J` (`proj.len()` rows of `n`, row-major).
+struct ProjectedColumns<'a> {
+    proj: &'a [[f64; 6]],
+    out: &'a mut [f64],
+    n: usize,
+}
+
+impl ColumnSink for ProjectedColumns<'_> {
+    fn column(&mut self, o: usize, col: &[f64; 6]) {
+        for (c, p) in self.proj.iter().enumerate() {
+            self.out[c * self.n + o] = dot6(p, col);
+        }
+    }
+
+    fn scaled_columns(&mut self, offset: usize, unit: &[f64; 6], basis: &[f64]) {
+        for (c, p) in self.proj.iter().enumerate() {
+            let v = dot6(p, unit);
+            let row = &mut self.out[c * self.n + offset..c * self.n + offset + basis.len()];
+            for (o, f) in row.iter_mut().zip(basis) {
+                *o = v * f;
+            }
+        }
+    }
+}
+
+fn dot6(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    // Two independent partial sums: half the dependent-add latency of a running sum.
+    (a[0] * b[0] + a[2] * b[2] + a[4] * b[4]) + (a[1] * b[1] + a[3] * b[3] + a[5] * b[5])
 }
 
 /// The Jacobian column `[δp; δθ]` of a twist `(tv, tw)` given in the frame `w_T_m = m`, times

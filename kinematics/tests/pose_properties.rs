@@ -268,6 +268,32 @@ proptest! {
         }
     }
 
+    /// The projected tool-pose Jacobian (what identification uses: the readings' derivatives
+    /// with respect to the pose times the pose Jacobian, formed per component and scaled by its
+    /// basis values) equals the product of the rows with the full Jacobian, at the same pose.
+    #[test]
+    fn projected_tool_jacobian_is_the_product_with_the_full_one(
+        (model, q, c) in any_case(),
+        rows in proptest::collection::vec(proptest::array::uniform6(-2.0..2.0f64), 1..4),
+    ) {
+        let mut ws = model.workspace();
+        let n = model.n_coeffs();
+        let mut jac = vec![0.0; 6 * n];
+        let pose = model.tool_pose_jacobian(&q, &c, &mut ws, &mut jac);
+        let mut projected = vec![f64::NAN; rows.len() * n];
+        prop_assert_eq!(model.tool_pose_for_jacobian(&q, &c, &mut ws), pose);
+        model.project_tool_jacobian(&ws, &rows, &mut projected);
+        for (i, row) in rows.iter().enumerate() {
+            for k in 0..n {
+                let full: f64 = (0..6).map(|r| row[r] * jac[6 * k + r]).sum();
+                let got = projected[i * n + k];
+                let scale = 1.0 + (0..6).map(|r| (row[r] * jac[6 * k + r]).abs()).sum::<f64>();
+                prop_assert!((got - full).abs() <= 1e-13 * scale,
+                    "row {i} coefficient {}: projected {got} full {full}", model.errors().coefficient_labels()[k]);
+            }
+        }
+    }
+
     /// The tool-pose Jacobian (left perturbation, for instrument models) equals central finite
     /// differences of the actual tool pose, and the pose is the nominal one plus the exact error.
     #[test]

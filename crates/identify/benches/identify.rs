@@ -1,7 +1,12 @@
 //! Identification time against the number of samples: simulated R-test sessions on the
-//! five-axis trunnion (5 runs, 0.5 µm noise), the 11-error set (3 squareness + 8 location) and
-//! the full error model (every component error too: most of it unidentifiable from R-test, which
-//! the report says; the solve still carries all its columns).
+//! five-axis trunnion (0.5 µm noise) with
+//! - the 11-error set (3 squareness + 8 location; 5 runs, 19 parameters with the set-ups);
+//! - the full error model (every component error too: most of it unidentifiable from R-test,
+//!   which the report says; 129 parameters, 1e3 and 1e4 samples only — it does not converge,
+//!   see the README);
+//! - the C-axis model: the 11-error set plus the six error motions of C as Fourier series of
+//!   harmonics 2…8 (84 coefficients), from 8 runs at four ball positions: 112 parameters, well
+//!   posed (the ~100-parameter case of the target).
 //!
 //! Besides the times, each case prints the peak heap that `identify` allocates on top of the
 //! loaded session (the solver's working memory: it must not grow with the number of samples).
@@ -22,6 +27,79 @@ use mtcal_plugins as _;
 static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 const ELEVEN: &str = r#"parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
+
+/// Error model of the C-axis case: location and squareness errors plus C's error motions.
+const C_AXIS_ERRORS: &str = r#"schema = "mtcal.errors/1"
+components = ["EXC", "EYC", "EZC", "EAC", "EBC", "ECC"]
+locations = "iso"
+setup = ["TOOL_DZ"]
+[basis.rotary]
+kind = "fourier"
+harmonics = 8
+[component.EXC]
+min_harmonic = 2
+[component.EYC]
+min_harmonic = 2
+[component.EZC]
+min_harmonic = 2
+[component.EAC]
+min_harmonic = 2
+[component.EBC]
+min_harmonic = 2
+[component.ECC]
+min_harmonic = 2
+"#;
+
+/// The C-axis case: 8 R-test runs at four ball positions (three XYC heights/radii, ±30° tilted
+/// XYC, three YZA), about `samples` samples in all.
+fn c_axis_session(samples: usize) -> (tempfile::TempDir, Study) {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    std::fs::copy(
+        repo.join("machines/mcu630-cafyxz.urdf"),
+        dir.path().join("m.urdf"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("m.errors.toml"), C_AXIS_ERRORS).unwrap();
+    let n = (samples / 8).max(2);
+    let runs = [
+        ("c1", "s1", "xyc", ""),
+        ("c2", "s2", "xyc", ""),
+        ("c3", "s3", "xyc", ""),
+        ("c1a", "s1", "xyc", ", hold = { A = 30.0 }"),
+        ("c2a", "s2", "xyc", ", hold = { A = -30.0 }"),
+        ("a1", "s1", "yza", ""),
+        ("a2", "s2", "yza", ""),
+        ("a4", "s4", "yza", ""),
+    ];
+    let mut plan = format!(
+        r#"machine = {machine:?}
+truth = {truth:?}
+interval_s = 0.01
+[setup.s1]
+ball = [100.0, 0.0, 200.0]
+[setup.s2]
+ball = [100.0, 0.0, 350.0]
+[setup.s3]
+ball = [200.0, 0.0, 200.0]
+[setup.s4]
+ball = [100.0, -100.0, 200.0]
+"#,
+        machine = dir.path().join("m.urdf"),
+        truth = repo.join("examples/five-axis/truth.params.toml"),
+    );
+    for (name, setup, kind, hold) in runs {
+        plan += &format!(
+            "[[run]]\nname = \"{name}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\n\
+             path = {{ kind = \"{kind}\", samples = {n}{hold} }}\n"
+        );
+    }
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s"))
+        .unwrap();
+    let study = Study::load(&dir.path().join("s")).unwrap();
+    (dir, study)
+}
 
 /// A simulated session with about `samples` samples in a temporary folder.
 fn session(samples: usize, eleven: bool) -> (tempfile::TempDir, Study) {
@@ -97,6 +175,24 @@ fn bench_identify(c: &mut Criterion) {
                 b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
             });
         }
+    }
+    for n in [1_000usize, 10_000, 100_000, 1_000_000] {
+        let (_dir, study) = c_axis_session(n);
+        GLOBAL.reset_peak_memory();
+        let once = identify(&study, &Options::default(), &mut Silent).unwrap();
+        eprintln!(
+            "c-axis/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations, \
+             {} passes ({} with a factorisation), converged {}",
+            GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
+            study.n_x,
+            once.solver.iterations,
+            once.solver.passes,
+            once.solver.factorizations,
+            once.solver.converged
+        );
+        g.bench_with_input(BenchmarkId::new("c-axis", n), &study, |b, study| {
+            b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
+        });
     }
     g.finish();
 }

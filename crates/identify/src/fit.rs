@@ -2,10 +2,10 @@
 //! as a streaming least-squares problem over the estimated machine coefficients and the free
 //! nuisance parameters; and the evaluation of any run at a parameter vector.
 //!
-//! Per sample the machine model gives the actual tool pose and its Jacobian with respect to
-//! every coefficient (`MachineModel::tool_pose_jacobian`), the set-up predicts the readings
+//! Per sample the machine model gives the actual tool pose, the set-up predicts the readings
 //! and their derivatives with respect to that pose and its nuisance parameters, and the chain
-//! rule joins them: `∂r/∂c = ∂r/∂pose · ∂pose/∂c`. Rows of one run share their columns (all
+//! rule joins them: `∂r/∂c = ∂r/∂pose · ∂pose/∂c`, computed by the model on the projected rows
+//! (`MachineModel::project_tool_jacobian`, cheaper than the full pose Jacobian). Rows of one run share their columns (all
 //! estimated machine coefficients + the run's set-up's free nuisance parameters), which is
 //! the structure the streaming solver exploits.
 
@@ -70,6 +70,7 @@ impl Problem for FitProblem<'_> {
             .collect();
         sink.columns(&cols);
         let nch = eval.n_channels();
+        let inv_sigma: Vec<f64> = eval.sigma.iter().map(|s| 1.0 / s).collect();
         let mut row = vec![0.0; cols.len()];
         for i in start..end {
             eval.at(i, true);
@@ -87,7 +88,8 @@ impl Problem for FitProblem<'_> {
                     )));
                 }
                 eval.jacobian_row(c, &mut row);
-                row.iter_mut().for_each(|v| *v /= sigma);
+                let w = inv_sigma[c];
+                row.iter_mut().for_each(|v| *v *= w);
                 sink.row(res, &row);
             }
         }
@@ -104,7 +106,10 @@ pub(crate) struct SampleEval<'a> {
     coeffs: Vec<f64>,
     nuis: Vec<f64>,
     ws: mtcal_kinematics::Workspace,
+    /// `∂pose/∂coefficient` projected on each channel's `∂reading/∂pose`: channels × fit
+    /// coefficients, row-major.
     jac: Vec<f64>,
+    proj: Vec<[f64; 6]>,
     pub pred: Vec<f64>,
     d_pose: Vec<f64>,
     d_nuis: Vec<f64>,
@@ -123,7 +128,8 @@ impl<'a> SampleEval<'a> {
             coeffs: study.fit_coeffs_from(x),
             nuis: study.nuisance_from(study.runs[run].setup, x),
             ws: study.fit_model.workspace(),
-            jac: vec![0.0; 6 * study.fit_model.n_coeffs()],
+            jac: vec![0.0; nch * study.fit_model.n_coeffs()],
+            proj: vec![[0.0; 6]; nch],
             pred: vec![0.0; nch],
             d_pose: vec![0.0; 6 * nch],
             d_nuis: vec![0.0; nch * nn],
@@ -146,7 +152,7 @@ impl<'a> SampleEval<'a> {
         let na = model.machine().n_axes();
         let q = &run.q[i * na..(i + 1) * na];
         let pose = if derivatives {
-            model.tool_pose_jacobian(q, &self.coeffs, &mut self.ws, &mut self.jac)
+            model.tool_pose_for_jacobian(q, &self.coeffs, &mut self.ws)
         } else {
             model.tool_pose(q, &self.coeffs, &mut self.ws)
         };
@@ -156,9 +162,16 @@ impl<'a> SampleEval<'a> {
             w_t_t: &pose,
         };
         setup.predict(&at, &self.nuis, &mut self.pred);
-        if derivatives && !setup.derivatives(&at, &self.nuis, &mut self.d_pose, &mut self.d_nuis) {
+        if !derivatives {
+            return;
+        }
+        if !setup.derivatives(&at, &self.nuis, &mut self.d_pose, &mut self.d_nuis) {
             self.finite_differences(q, run.table.t[i], &pose);
         }
+        for (p, d) in self.proj.iter_mut().zip(self.d_pose.chunks_exact(6)) {
+            p.copy_from_slice(d);
+        }
+        model.project_tool_jacobian(&self.ws, &self.proj, &mut self.jac);
     }
 
     /// Central differences of the set-up's predictions, for plugins without analytic
@@ -205,10 +218,10 @@ impl<'a> SampleEval<'a> {
     /// coefficients, then the set-up's free nuisance parameters.
     pub fn jacobian_row(&self, c: usize, row: &mut [f64]) {
         let study = self.study;
-        let dp = &self.d_pose[c * 6..c * 6 + 6];
+        let n = study.fit_model.n_coeffs();
+        let jac = &self.jac[c * n..(c + 1) * n];
         for (o, &k) in row.iter_mut().zip(&study.estimated_in_fit) {
-            let col = &self.jac[6 * k..6 * k + 6];
-            *o = dp.iter().zip(col).map(|(a, b)| a * b).sum();
+            *o = jac[k];
         }
         let slot = &study.setups[study.runs[self.run].setup];
         let nn = self.nuis.len();

@@ -81,6 +81,10 @@ pub struct Fit {
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct SolverReport {
     pub iterations: usize,
+    /// Passes over the data (evaluations at trial points and the start).
+    pub passes: usize,
+    /// Passes that built a factor; the others only checked a point (gradient-only).
+    pub factorizations: usize,
     pub converged: bool,
     pub termination: String,
     pub rank: usize,
@@ -195,6 +199,8 @@ impl Identification {
             mismatch_detail: analysis.describe(),
             solver: SolverReport {
                 iterations: solution.iterations,
+                passes: solution.evaluations,
+                factorizations: solution.factorizations,
                 converged: solution.converged,
                 termination: format!("{:?}", solution.termination),
                 rank: solution.rank,

@@ -93,6 +93,122 @@ pub(crate) struct Accumulator {
     block: usize,
     row_in_block: usize,
     pub(crate) fault: Option<Fault>,
+    /// Set: rows are not folded into `R` but summed into a gradient (see [`Gradient`]).
+    pub(crate) gradient: Option<Gradient>,
+}
+
+/// Gradient-only accumulation: `g = Jᵀr` and, for a few probe directions `u_k`, `‖J·u_k‖²`,
+/// in the column order of the layout. A row costs `O(n·k)` instead of the fold's `O(n²)`: this
+/// is how the solver checks a step with a factor it already has (see `solver`). Rows are staged
+/// in chunks and reduced with matrix products.
+#[derive(Debug, Clone)]
+pub(crate) struct Gradient {
+    pub(crate) g: Vec<f64>,
+    /// `n × k`, column-major (probe-major).
+    probes: Vec<f64>,
+    pub(crate) probe_sq: Vec<f64>,
+    /// Staged rows, row-major `CHUNK × (n + 1)`: the Jacobian row, then the residual.
+    stage: Vec<f64>,
+    /// `CHUNK × k` products of the staged rows with the probes.
+    dots: Vec<f64>,
+    rows: usize,
+    /// The last `n_cross` probes also get `Jᵀ(J·u_k)`: `n × n_cross`, column-major.
+    n_cross: usize,
+    pub(crate) cross: Vec<f64>,
+}
+
+impl Gradient {
+    /// `probes` holds whole probe vectors of `n` entries each; the last `n_cross` of them also
+    /// get `Jᵀ(J·u)`.
+    pub(crate) fn new(n: usize, probes: &[f64], n_cross: usize) -> Self {
+        let k = probes.len().checked_div(n).unwrap_or(0);
+        assert!(n_cross <= k, "cross products of more probes than given");
+        Self {
+            n_cross,
+            cross: vec![0.0; n * n_cross],
+            g: vec![0.0; n],
+            probes: probes.to_vec(),
+            probe_sq: vec![0.0; k],
+            stage: vec![0.0; CHUNK * (n + 1)],
+            dots: vec![0.0; CHUNK * k],
+            rows: 0,
+        }
+    }
+
+    fn reset(&mut self) {
+        self.g.fill(0.0);
+        self.probe_sq.fill(0.0);
+        self.cross.fill(0.0);
+        self.rows = 0;
+    }
+
+    /// Stages one row whose entries `jac[s]` belong to columns `c` for `(s, c)` in `pairs`.
+    fn add_row(&mut self, r: f64, jac: &[f64], pairs: &[(usize, usize)]) {
+        let n = self.g.len();
+        let row = &mut self.stage[self.rows * (n + 1)..(self.rows + 1) * (n + 1)];
+        row.fill(0.0);
+        for &(s, c) in pairs {
+            row[c] = jac[s];
+        }
+        row[n] = r;
+        self.rows += 1;
+        if self.rows == CHUNK {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        let (n, k, m) = (self.g.len(), self.probe_sq.len(), self.rows);
+        if m == 0 {
+            return;
+        }
+        self.rows = 0;
+        let stage = &self.stage[..m * (n + 1)];
+        let a = faer::MatRef::from_row_major_slice_with_stride(stage, m, n, n + 1);
+        let r = faer::MatRef::from_row_major_slice_with_stride(&stage[n..], m, 1, n + 1);
+        let g = faer::MatMut::from_column_major_slice_mut(&mut self.g, n, 1);
+        faer::linalg::matmul::matmul(g, faer::Accum::Add, a.transpose(), r, 1.0, faer::Par::Seq);
+        if k == 0 {
+            return;
+        }
+        let p = faer::MatRef::from_column_major_slice(&self.probes, n, k);
+        let d = faer::MatMut::from_column_major_slice_mut(&mut self.dots[..m * k], m, k);
+        faer::linalg::matmul::matmul(d, faer::Accum::Replace, a, p, 1.0, faer::Par::Seq);
+        for (q, col) in self
+            .probe_sq
+            .iter_mut()
+            .zip(self.dots[..m * k].chunks_exact(m))
+        {
+            *q += crate::qr::dot(col, col);
+        }
+        if self.n_cross > 0 {
+            let c = self.n_cross;
+            let jw = faer::MatRef::from_column_major_slice(&self.dots[(k - c) * m..k * m], m, c);
+            let cross = faer::MatMut::from_column_major_slice_mut(&mut self.cross, n, c);
+            faer::linalg::matmul::matmul(
+                cross,
+                faer::Accum::Add,
+                a.transpose(),
+                jw,
+                1.0,
+                faer::Par::Seq,
+            );
+        }
+    }
+
+    fn merge(&mut self, other: &mut Gradient) {
+        other.flush();
+        self.flush();
+        for (a, b) in self.g.iter_mut().zip(&other.g) {
+            *a += b;
+        }
+        for (a, b) in self.probe_sq.iter_mut().zip(&other.probe_sq) {
+            *a += b;
+        }
+        for (a, b) in self.cross.iter_mut().zip(&other.cross) {
+            *a += b;
+        }
+    }
 }
 
 impl Accumulator {
@@ -126,7 +242,20 @@ impl Accumulator {
             block: 0,
             row_in_block: 0,
             fault: None,
+            gradient: None,
         }
+    }
+
+    /// An accumulator that sums the gradient and the probes' squared norms instead of folding.
+    pub(crate) fn new_gradient(
+        to_col: Vec<usize>,
+        n: usize,
+        probes: &[f64],
+        n_cross: usize,
+    ) -> Self {
+        let mut acc = Self::new(to_col, n);
+        acc.gradient = Some(Gradient::new(n, probes, n_cross));
+        acc
     }
 
     /// Whether this accumulator was built for the same column layout.
@@ -146,11 +275,20 @@ impl Accumulator {
         self.clear_group();
         self.k = 0;
         self.fault = None;
+        if let Some(grad) = &mut self.gradient {
+            grad.reset();
+        }
     }
 
     /// Starts from a diagonal factor: column `c` gets the row `(w, r)` (a prior `(x − μ)/σ` has
     /// `w = 1/σ`). Only valid on an empty factor; diagonal rows cause no fill-in.
     pub(crate) fn set_diagonal_rows(&mut self, rows: &[(usize, f64, f64)]) {
+        if let Some(grad) = &mut self.gradient {
+            for &(c, w, r) in rows {
+                grad.add_row(r, &[w], &[(0, c)]);
+            }
+            return;
+        }
         for &(c, w, r) in rows {
             debug_assert_eq!(self.r[c + c * self.n], 0.0);
             let (w, r) = if w < 0.0 { (-w, -r) } else { (w, r) };
@@ -210,7 +348,9 @@ impl Accumulator {
                 self.pairs.push((s, c));
             }
         }
-        self.begin_group();
+        if self.gradient.is_none() {
+            self.begin_group();
+        }
         self.group_valid = true;
         self.in_group = true;
     }
@@ -299,6 +439,13 @@ impl Accumulator {
             self.fault = Some(self.non_finite(r, jac));
             return;
         }
+        if let Some(grad) = &mut self.gradient {
+            grad.add_row(r, jac, &self.pairs);
+            self.sumsq += r * r;
+            self.n_rows += 1;
+            self.row_in_block += 1;
+            return;
+        }
         let w = self.e_cols.len() + 1;
         let row = &mut self.stage[self.k * w..(self.k + 1) * w];
         for &(src, t, len) in &self.runs {
@@ -338,6 +485,10 @@ impl Accumulator {
 
     /// Folds the buffered rows into `R`.
     pub(crate) fn flush(&mut self) {
+        if let Some(grad) = &mut self.gradient {
+            grad.flush();
+            return;
+        }
         let k = self.k;
         if k == 0 {
             return;
@@ -378,6 +529,15 @@ impl Accumulator {
     /// that block-local structure causes no fill-in.
     pub(crate) fn merge(&mut self, other: &mut Accumulator) {
         debug_assert_eq!(self.n, other.n);
+        if let (Some(mine), Some(theirs)) = (&mut self.gradient, &mut other.gradient) {
+            mine.merge(theirs);
+            self.sumsq += other.sumsq;
+            self.n_rows += other.n_rows;
+            for (u, o) in self.usage.iter_mut().zip(&other.usage) {
+                *u += o;
+            }
+            return;
+        }
         other.flush();
         self.flush();
         self.clear_group();
@@ -498,6 +658,70 @@ mod tests {
         let mut g = rz.transpose() * &rz;
         g[(n, n)] += acc.rss;
         g
+    }
+
+    /// Gradient mode: `Jᵀr`, `‖J·u‖²` and `Jᵀ(J·u)` over rows in several groups (more rows than
+    /// a chunk), split over two accumulators and merged, and a diagonal prior row, against
+    /// sums formed row by row.
+    #[test]
+    fn gradient_mode_matches_dense_sums() {
+        let n_params = 6;
+        let to_col: Vec<usize> = vec![2, 0, NONE, 1, 3, 4];
+        let n = 5;
+        let mut s = 11;
+        let probes: Vec<f64> = (0..3 * n).map(|_| lcg(&mut s)).collect();
+        let mut a = Accumulator::new_gradient(to_col.clone(), n, &probes, 2);
+        let mut b = Accumulator::new_gradient(to_col.clone(), n, &probes, 2);
+        let (mut g, mut sq, mut cross) = (vec![0.0; n], [0.0; 3], vec![0.0; 2 * n]);
+        let mut add = |row: &[f64], r: f64| {
+            let dots: Vec<f64> = probes
+                .chunks_exact(n)
+                .map(|u| row.iter().zip(u).map(|(x, y)| x * y).sum())
+                .collect();
+            for c in 0..n {
+                g[c] += r * row[c];
+                cross[c] += row[c] * dots[1];
+                cross[n + c] += row[c] * dots[2];
+            }
+            for k in 0..3 {
+                sq[k] += dots[k] * dots[k];
+            }
+        };
+        a.set_diagonal_rows(&[(1, 4.0, 0.5)]);
+        let mut prior = vec![0.0; n];
+        prior[1] = 4.0;
+        add(&prior, 0.5);
+        let groups: [&[usize]; 3] = [&[0, 1, 2, 3], &[3, 4, 5], &[1, 2, 5]];
+        for (blk, cols) in groups.iter().enumerate() {
+            let acc = if blk == 1 { &mut b } else { &mut a };
+            acc.start_block(blk);
+            acc.columns(cols);
+            for _ in 0..(CHUNK + 37) {
+                let jac: Vec<f64> = cols.iter().map(|_| lcg(&mut s)).collect();
+                let r = lcg(&mut s);
+                acc.row(r, &jac);
+                let mut row = vec![0.0; n];
+                for (&p, &v) in cols.iter().zip(&jac) {
+                    if to_col[p] != NONE {
+                        row[to_col[p]] = v;
+                    }
+                }
+                add(&row, r);
+            }
+        }
+        a.merge(&mut b);
+        a.flush();
+        let grad = a.gradient.as_ref().unwrap();
+        let close = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .all(|(p, q)| (p - q).abs() < 1e-10 * (1.0 + q.abs()))
+        };
+        assert!(close(&grad.g, &g), "{:?} vs {g:?}", grad.g);
+        assert!(close(&grad.probe_sq, &sq), "{:?} vs {sq:?}", grad.probe_sq);
+        assert!(close(&grad.cross, &cross), "{:?} vs {cross:?}", grad.cross);
+        assert_eq!(a.n_rows, 3 * (CHUNK + 37));
+        let _ = n_params;
     }
 
     /// Blocks with shared columns and per-block columns in varying orders, including fill-in

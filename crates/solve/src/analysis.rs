@@ -95,6 +95,132 @@ impl Analysis {
         y
     }
 
+    /// The Gauss–Newton step `−(RᵀR)⁺·g` for a gradient `g` evaluated elsewhere (the chord
+    /// method: this factor stands in for the one at the new point), restricted to the identified
+    /// directions, and its length `‖R·dx‖`. Column order of the factor.
+    pub(crate) fn chord_step(&self, g: &[f64]) -> (Vec<f64>, f64) {
+        let n = self.d.len();
+        let gs: Vec<f64> = g.iter().zip(&self.d).map(|(a, d)| a / d).collect();
+        let mut y = vec![0.0; n];
+        let mut len2 = 0.0;
+        for i in 0..self.rank {
+            let vg: f64 = (0..n).map(|j| self.v[(j, i)] * gs[j]).sum();
+            let si = self.s[i];
+            len2 += (vg / si) * (vg / si);
+            let coef = -vg / (si * si);
+            for (j, yj) in y.iter_mut().enumerate() {
+                *yj += coef * self.v[(j, i)];
+            }
+        }
+        for (yj, dj) in y.iter_mut().zip(&self.d) {
+            *yj /= dj;
+        }
+        (y, len2.sqrt())
+    }
+
+    /// Probe directions for checking whether another point's Jacobian `J` has the metric of
+    /// this factor. First `identified.len()`… directions `u` in the identified subspace with
+    /// `‖R·u‖ = 1` — `dx` itself, the `weakest` least determined singular directions (where a
+    /// small change of the Jacobian matters most) and `random` fixed pseudo-random ones — on
+    /// which `‖J·u‖² − 1` is the relative change of the metric along `u`; then one unit
+    /// (scaled) direction per null-space vector, on which `‖J·u‖` must stay below the rank
+    /// threshold for the rank to hold. Returns the probes (`k × n`, probe-major, column order
+    /// of the factor) and how many of them, at the end, are null-space probes.
+    pub(crate) fn probes(
+        &self,
+        lin: &Lin,
+        dx: &[f64],
+        weakest: usize,
+        random: usize,
+    ) -> (Vec<f64>, usize) {
+        let n = self.d.len();
+        let mut out = Vec::new();
+        let (_, len) = predicted(lin, dx);
+        if len > 0.0 {
+            out.extend(dx.iter().map(|v| v / len));
+        }
+        // u = D⁻¹ Σᵢ vᵢ aᵢ/σᵢ with ‖a‖ = 1 gives R·u = Σᵢ aᵢ·uᵢ (left singular vectors).
+        let push = |a: &[f64], out: &mut Vec<f64>| {
+            let norm = crate::qr::norm2(a);
+            if norm == 0.0 {
+                return;
+            }
+            let mut u = vec![0.0; n];
+            for (i, ai) in a.iter().enumerate() {
+                if *ai == 0.0 {
+                    continue;
+                }
+                let coef = ai / (norm * self.s[i]);
+                for (j, uj) in u.iter_mut().enumerate() {
+                    *uj += coef * self.v[(j, i)];
+                }
+            }
+            for (uj, dj) in u.iter_mut().zip(&self.d) {
+                *uj /= dj;
+            }
+            out.extend(u);
+        };
+        for i in (0..self.rank).rev().take(weakest) {
+            let mut a = vec![0.0; self.rank];
+            a[i] = 1.0;
+            push(&a, &mut out);
+        }
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..random {
+            let a: Vec<f64> = (0..self.rank)
+                .map(|_| {
+                    seed = seed
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1_442_695_040_888_963_407);
+                    (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                })
+                .collect();
+            push(&a, &mut out);
+        }
+        for k in self.rank..n {
+            out.extend((0..n).map(|j| self.v[(j, k)] / self.d[j]));
+        }
+        (out, n - self.rank)
+    }
+
+    /// Whether the null space of this factor is still (numerically) null for another point's
+    /// Hessian `H`, given `cross` = `H·u_k` (`n × k`, column-major) for the null-space probes
+    /// `u_k = D⁻¹vₖ` of [`Self::probes`]. The test is on the Schur complement of the
+    /// identified block, `S = WᵀHW − WᵀHV Σ⁻² VᵀHW` (scaled), which does not mind the null
+    /// space turning slightly: its norm must stay below `(rank_tolerance · σ_max)²`, the
+    /// threshold that decides the rank. `VᵀHV = Σ²` is what the metric probes check.
+    pub(crate) fn null_space_kept(&self, cross: &[f64], rank_tolerance: f64) -> bool {
+        let n = self.d.len();
+        let m = n - self.rank;
+        if m == 0 {
+            return true;
+        }
+        // h_k = D⁻¹·H·u_k, the scaled Hessian applied to the scaled null vector.
+        let h: Vec<Vec<f64>> = cross
+            .chunks_exact(n)
+            .map(|c| c.iter().zip(&self.d).map(|(a, d)| a / d).collect())
+            .collect();
+        // Projections of each h_k on the identified directions, divided by σᵢ.
+        let proj: Vec<Vec<f64>> = h
+            .iter()
+            .map(|hk| {
+                (0..self.rank)
+                    .map(|i| (0..n).map(|j| self.v[(j, i)] * hk[j]).sum::<f64>() / self.s[i])
+                    .collect()
+            })
+            .collect();
+        let mut frob2 = 0.0;
+        for k in 0..m {
+            for l in 0..m {
+                let vk_hl: f64 = (0..n).map(|j| self.v[(j, self.rank + k)] * h[l][j]).sum();
+                let sk = vk_hl - crate::qr::dot(&proj[k], &proj[l]);
+                frob2 += sk * sk;
+            }
+        }
+        let limit = rank_tolerance * self.s.first().copied().unwrap_or(0.0);
+        frob2.sqrt() <= limit * limit
+    }
+
     /// `‖D·dx‖`.
     pub(crate) fn scaled_norm(&self, dx: &[f64]) -> f64 {
         let scaled: Vec<f64> = dx.iter().zip(&self.d).map(|(a, d)| a * d).collect();
@@ -134,4 +260,90 @@ pub(crate) fn predicted(lin: &Lin, dx: &[f64]) -> (f64, f64) {
     let zw = crate::qr::dot(&lin.z, &w);
     let ww = crate::qr::dot(&w, &w);
     (-zw - 0.5 * ww, ww.sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `R = diag(2, 1, 0)`: rank 2, null direction e₃.
+    fn deficient() -> (Lin, Analysis) {
+        let lin = Lin {
+            order: vec![0, 1, 2],
+            r: vec![2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+            z: vec![0.0; 3],
+            rss: 0.0,
+            cost: 0.0,
+            n_rows: 3,
+            usage: vec![1; 3],
+        };
+        let an = Analysis::new(&lin, 1e-9).unwrap();
+        (lin, an)
+    }
+
+    /// `H·u` for the null probe `u` of [`deficient`].
+    fn h_times_null(an: &Analysis, lin: &Lin, h: [[f64; 3]; 3]) -> Vec<f64> {
+        let (probes, n_null) = an.probes(lin, &[1.0, 0.0, 0.0], 0, 0);
+        assert_eq!(n_null, 1);
+        let u = &probes[probes.len() - 3..];
+        (0..3)
+            .map(|i| (0..3).map(|j| h[i][j] * u[j]).sum())
+            .collect()
+    }
+
+    /// The same Hessian keeps the null space; one where the null direction turned a little
+    /// (a rotation of `R` by 10⁻⁶ rad) keeps it too: the Schur complement does not see the
+    /// turn. A Hessian in which e₃ gained a singular value above the threshold does not.
+    #[test]
+    fn null_space_check_sees_new_directions_not_turns() {
+        let (lin, an) = deficient();
+        assert_eq!(an.rank, 2);
+        let same = [[4.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
+        assert!(an.null_space_kept(&h_times_null(&an, &lin, same), 1e-9));
+        // H = Qᵀ·diag(4, 1, 0)·Q with Q a rotation by θ in the (1, 3) plane.
+        let (c, s) = (1e-6f64.cos(), 1e-6f64.sin());
+        let turned = [
+            [4.0 * c * c, 0.0, 4.0 * c * s],
+            [0.0, 1.0, 0.0],
+            [4.0 * c * s, 0.0, 4.0 * s * s],
+        ];
+        let cross = h_times_null(&an, &lin, turned);
+        assert!(
+            cross[0].abs() > 1e-6,
+            "the turn is visible in H·u: {cross:?}"
+        );
+        assert!(an.null_space_kept(&cross, 1e-9));
+        let smax = 2.0;
+        for (sigma, kept) in [(0.5e-9 * smax, true), (3e-9 * smax, false)] {
+            let grown = [[4.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, sigma * sigma]];
+            assert_eq!(
+                an.null_space_kept(&h_times_null(&an, &lin, grown), 1e-9),
+                kept,
+                "σ = {sigma:e}"
+            );
+        }
+    }
+
+    /// The chord step with this factor's own gradient is its Gauss–Newton step.
+    #[test]
+    fn chord_step_with_the_own_gradient_is_the_gauss_newton_step() {
+        let lin = Lin {
+            order: vec![0, 1],
+            r: vec![2.0, 0.0, 0.5, 1.0],
+            z: vec![0.3, -0.7],
+            rss: 0.0,
+            cost: 0.0,
+            n_rows: 2,
+            usage: vec![1; 2],
+        };
+        let an = Analysis::new(&lin, 1e-9).unwrap();
+        // g = Rᵀz
+        let g = [2.0 * 0.3, 0.5 * 0.3 + 1.0 * -0.7];
+        let (chord, len) = an.chord_step(&g);
+        let gn = an.step(0.0);
+        for (a, b) in chord.iter().zip(&gn) {
+            assert!((a - b).abs() < 1e-14, "{chord:?} vs {gn:?}");
+        }
+        assert!((len - predicted(&lin, &gn).1).abs() < 1e-14);
+    }
 }

@@ -109,14 +109,81 @@ pub(crate) fn evaluate<P: Problem>(
     threads: usize,
     observer: &mut dyn Observer,
 ) -> Result<Lin, Failure> {
-    let n_blocks = problem.n_blocks();
-    let threads = threads.clamp(1, n_blocks.max(1));
-    if pool.len() != threads || !pool[0].has_layout(&layout.to_col) {
+    let threads = threads.clamp(1, problem.n_blocks().max(1));
+    if pool.len() != threads || !pool[0].has_layout(&layout.to_col) || pool[0].gradient.is_some() {
         pool.clear();
         pool.resize_with(threads, || {
             Accumulator::new(layout.to_col.clone(), layout.n())
         });
     }
+    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, observer)?;
+    let acc = &pool[0];
+    Ok(Lin {
+        order: layout.order.clone(),
+        r: acc.r.clone(),
+        z: acc.z.clone(),
+        rss: acc.rss,
+        cost: 0.5 * (acc.sumsq + prior_sumsq),
+        n_rows: acc.n_rows,
+        usage: acc.usage.clone(),
+    })
+}
+
+/// The gradient of the cost and the squared norms `‖J·u_k‖²` of probe directions at one point.
+#[derive(Debug, Clone)]
+pub(crate) struct GradientAt {
+    /// `Jᵀr` (prior rows included), column order of the layout.
+    pub(crate) g: Vec<f64>,
+    pub(crate) probe_sq: Vec<f64>,
+    /// `Jᵀ(J·u_k)` for the last `n_cross` probes: `n × n_cross`, column-major.
+    pub(crate) cross: Vec<f64>,
+    /// `½ Σ r²`, prior rows included.
+    pub(crate) cost: f64,
+}
+
+/// Like [`evaluate`] but sums `Jᵀr` and the probes' `‖J·u_k‖²` instead of factoring: a row
+/// costs `O(n·k)`, not `O(n²)`. `probes` holds `k` vectors of `layout.n()` entries; the last
+/// `n_cross` of them also get `Jᵀ(J·u)`.
+// The arguments of `evaluate` plus the probes; a struct for them would only move the list.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn evaluate_gradient<P: Problem>(
+    problem: &P,
+    x: &[f64],
+    layout: &Layout,
+    priors: &[Prior],
+    probes: &[f64],
+    n_cross: usize,
+    pool: &mut Vec<Accumulator>,
+    threads: usize,
+    observer: &mut dyn Observer,
+) -> Result<GradientAt, Failure> {
+    let threads = threads.clamp(1, problem.n_blocks().max(1));
+    pool.clear();
+    pool.resize_with(threads, || {
+        Accumulator::new_gradient(layout.to_col.clone(), layout.n(), probes, n_cross)
+    });
+    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, observer)?;
+    let acc = &pool[0];
+    let grad = acc.gradient.as_ref().expect("gradient accumulators");
+    Ok(GradientAt {
+        g: grad.g.clone(),
+        probe_sq: grad.probe_sq.clone(),
+        cross: grad.cross.clone(),
+        cost: 0.5 * (acc.sumsq + prior_sumsq),
+    })
+}
+
+/// Runs every block through the accumulators of `pool` (one thread each) and merges them into
+/// `pool[0]`. Returns the priors' sum of squares.
+fn run_blocks<P: Problem>(
+    problem: &P,
+    x: &[f64],
+    layout: &Layout,
+    priors: &[Prior],
+    pool: &mut [Accumulator],
+    observer: &mut dyn Observer,
+) -> Result<f64, Failure> {
+    let n_blocks = problem.n_blocks();
     for acc in pool.iter_mut() {
         acc.reset();
     }
@@ -135,7 +202,7 @@ pub(crate) fn evaluate<P: Problem>(
     let next = AtomicUsize::new(0);
     let abort = AtomicBool::new(false);
     let mut failures: Vec<Failure> = Vec::new();
-    if threads == 1 {
+    if pool.len() == 1 {
         let mut done = 0;
         let res = work(
             problem,
@@ -188,15 +255,7 @@ pub(crate) fn evaluate<P: Problem>(
         acc.merge(other);
     }
     acc.flush();
-    Ok(Lin {
-        order: layout.order.clone(),
-        r: acc.r.clone(),
-        z: acc.z.clone(),
-        rss: acc.rss,
-        cost: 0.5 * (acc.sumsq + prior_sumsq),
-        n_rows: acc.n_rows,
-        usage: acc.usage.clone(),
-    })
+    Ok(prior_sumsq)
 }
 
 /// One worker: takes blocks from the shared counter until none are left.

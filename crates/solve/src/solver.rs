@@ -3,7 +3,7 @@
 use crate::accumulate::{Accumulator, Fault, NONE};
 use crate::analysis::{Analysis, predicted};
 use crate::bounds::bounded_step;
-use crate::eval::{Failure, Layout, Lin, Prior, evaluate};
+use crate::eval::{Failure, GradientAt, Layout, Lin, Prior, evaluate, evaluate_gradient};
 use crate::{
     Linearization, Observer, Options, ParamSpec, Problem, Silent, Solution, SolveError,
     Termination, describe_null_space,
@@ -21,6 +21,23 @@ const EXACT_MODEL: f64 = 1e-3;
 /// there the model error is far below the step itself (the next step would be of the order of
 /// its square), so one more pass over millions of samples would only confirm it.
 const FINAL_STEP: f64 = 1e-3;
+/// When a trial point is checked with a gradient-only pass (no new factor, see [`solve`]), the
+/// factor of the previous point may stand in for the new one only if the squared norms of the
+/// probe directions changed by less than this: covariances and intervals then differ from those
+/// of a fresh factor by less than about half of it (relative).
+const METRIC_CHANGE: f64 = 1e-3;
+/// A chord step shorter than this (`‖R·dx‖`, standard deviations) ends the iteration without
+/// another pass. Longer than [`FINAL_STEP`]: the chord method only runs while the metric is
+/// unchanged (to [`METRIC_CHANGE`]) and the last step confirmed the linear model, so the error
+/// left after such a step is below `METRIC_CHANGE ·` its length, 10⁻⁵ σ.
+const CHORD_FINAL_STEP: f64 = 1e-2;
+/// Chord steps (gradient-only passes after an accepted trial point) before a new factor is
+/// computed instead.
+const MAX_CHORD_STEPS: usize = 4;
+/// Probe directions besides the step itself: the least determined singular directions and
+/// pseudo-random ones (plus one per null-space direction).
+const WEAK_PROBES: usize = 3;
+const RANDOM_PROBES: usize = 2;
 /// Damping after a rejected undamped step, relative to σ_max².
 const LAMBDA_START: f64 = 1e-4;
 /// Consecutive rejected steps before giving up.
@@ -178,12 +195,15 @@ struct Evaluator<'a, P: Problem> {
     setup: &'a Setup,
     layout: Layout,
     pool: Vec<Accumulator>,
+    gradient_pool: Vec<Accumulator>,
     evaluations: usize,
+    factorizations: usize,
 }
 
 impl<P: Problem> Evaluator<'_, P> {
     fn eval(&mut self, x: &[f64], observer: &mut dyn Observer) -> Result<Lin, Failure> {
         self.evaluations += 1;
+        self.factorizations += 1;
         let lin = evaluate(
             self.problem,
             x,
@@ -197,6 +217,36 @@ impl<P: Problem> Evaluator<'_, P> {
             return Err(Failure::Overflow);
         }
         Ok(lin)
+    }
+
+    /// The gradient and the probes' squared norms at `x`, without a factor, in the column
+    /// order `order` (that of the factor they are used with, which need not be the current
+    /// layout's: the first evaluation reorders it).
+    fn eval_gradient(
+        &mut self,
+        x: &[f64],
+        order: &[usize],
+        probes: &[f64],
+        n_cross: usize,
+        observer: &mut dyn Observer,
+    ) -> Result<GradientAt, Failure> {
+        self.evaluations += 1;
+        let layout = Layout::new(self.setup.n_params, order.to_vec());
+        let at = evaluate_gradient(
+            self.problem,
+            x,
+            &layout,
+            &self.setup.priors,
+            probes,
+            n_cross,
+            &mut self.gradient_pool,
+            self.setup.threads,
+            observer,
+        )?;
+        if !at.cost.is_finite() {
+            return Err(Failure::Overflow);
+        }
+        Ok(at)
     }
 
     /// Columns used by few blocks first, shared ones last: no fill-in in the streaming QR.
@@ -222,7 +272,9 @@ pub fn solve<P: Problem>(
         setup: &setup,
         layout: Layout::new(setup.n_params, setup.free.clone()),
         pool: Vec::new(),
+        gradient_pool: Vec::new(),
         evaluations: 0,
+        factorizations: 0,
     };
     let mut x = setup.x0.clone();
     let mut lin = ev.eval(&x, observer).map_err(|f| setup.error(f))?;
@@ -233,16 +285,22 @@ pub fn solve<P: Problem>(
     }
     ev.reorder(&lin.usage);
     let mut an = Analysis::new(&lin, options.rank_tolerance)?;
-    let mut lambda = if options.lm {
-        LAMBDA_START * an.s2max()
-    } else {
-        0.0
-    };
+    // The first step is undamped: most identification problems are nearly linear, and a
+    // Gauss–Newton step that fails costs no more than a damped one that falls short.
+    let mut lambda = 0.0;
     let mut nu = 2.0;
     // The damping to return to when an undamped step fails.
     let mut lambda_resume = LAMBDA_START * an.s2max();
     let mut iterations = 0;
     let mut model_exact = false;
+    // Whether the next undamped trial point is checked by a gradient-only pass first (see the
+    // module doc): at the start, and after steps the linear model predicted well.
+    let mut chord_failed = false;
+    // A rank-deficient start may be a degenerate point (all errors zero is often one): the
+    // first trial point then gets its own factor, and the chord method waits until two
+    // factors in a row agree on the rank.
+    let mut last_rank = an.rank;
+    let mut chord = an.rank == an.d.len() && options.lm && options.chord;
     observer.iteration(0, lin.cost, lambda);
     let termination = 'outer: loop {
         let gn = step(&an, &lin, &x, &setup, 0.0)?;
@@ -254,7 +312,9 @@ pub fn solve<P: Problem>(
         {
             break Termination::Converged;
         }
-        if model_exact && gn_change <= FINAL_STEP {
+        // A step the cost cannot verify (its promised drop is below the rounding of the cost)
+        // is as good as exact: take it without another pass.
+        if (model_exact && gn_change <= FINAL_STEP) || gn_pred <= ROUNDING * lin.cost {
             for (&p, d) in lin.order.iter().zip(&gn) {
                 x[p] = (x[p] + d).clamp(setup.lo[p], setup.hi[p]);
             }
@@ -279,10 +339,46 @@ pub fn solve<P: Problem>(
             for (&p, d) in lin.order.iter().zip(&dx) {
                 x_new[p] = (x[p] + d).clamp(setup.lo[p], setup.hi[p]);
             }
-            let rho = if pred > 0.0 {
-                match ev.eval(&x_new, observer) {
+            // A trial checked by a gradient-only pass that passes is accepted with a fresh factor
+            // (`None` from the check: evaluate fully).
+            let checked = if chord && lambda == 0.0 && pred > 0.0 {
+                match chord_check(
+                    &mut ev,
+                    &an,
+                    &lin,
+                    &x_new,
+                    &dx,
+                    pred,
+                    options.rank_tolerance,
+                    observer,
+                )
+                .map_err(|f| setup.error(f))?
+                {
+                    Chord::Converged { x: x_end, cost } => {
+                        x = x_end;
+                        lin.cost = cost;
+                        iterations += 2;
+                        observer.iteration(iterations, lin.cost, 0.0);
+                        break 'outer Termination::Converged;
+                    }
+                    Chord::Rejected => Some(None),
+                    Chord::Refactor { x: reached, rho } => {
+                        // The chord method did not finish here; the Jacobian changes too much
+                        // along the path for it to pay later either.
+                        chord_failed = true;
+                        x_new = reached;
+                        Some(Some(rho))
+                    }
+                }
+            } else {
+                None
+            };
+            let rho = match checked {
+                Some(None) => None,
+                _ if pred <= 0.0 => None,
+                _ => match ev.eval(&x_new, observer) {
                     Ok(new) => {
-                        let rho = (lin.cost - new.cost) / pred;
+                        let rho = checked.flatten().unwrap_or((lin.cost - new.cost) / pred);
                         if rho > ACCEPT {
                             x = x_new;
                             lin = new;
@@ -293,14 +389,13 @@ pub fn solve<P: Problem>(
                     }
                     Err(f) if f.is_numerical() => None,
                     Err(f) => return Err(setup.error(f)),
-                }
-            } else {
-                None
+                },
             };
             if let Some(rho) = rho {
                 // Nielsen's update: shrink λ by up to 3 after good steps, keep it after poor ones.
                 lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                model_exact = (rho - 1.0).abs() < EXACT_MODEL;
+                model_exact = exact(rho, pred, lin.cost);
+                chord = model_exact && !chord_failed && options.lm && options.chord;
                 if model_exact && lambda > 0.0 {
                     lambda_resume = lambda;
                     lambda = 0.0;
@@ -330,6 +425,8 @@ pub fn solve<P: Problem>(
         iterations += 1;
         observer.iteration(iterations, lin.cost, lambda);
         an = Analysis::new(&lin, options.rank_tolerance)?;
+        chord &= an.rank >= last_rank;
+        last_rank = an.rank;
     };
     Ok(assemble(
         &setup,
@@ -337,9 +434,99 @@ pub fn solve<P: Problem>(
         &lin,
         &an,
         iterations,
-        ev.evaluations,
+        (ev.evaluations, ev.factorizations),
         termination,
     ))
+}
+
+/// Whether a step whose cost drop was `rho` times the predicted `pred` confirms the linear
+/// model: to within [`EXACT_MODEL`] of the prediction, or of the rounding of the cost itself
+/// (tiny steps of a large sum of squares cannot do better).
+fn exact(rho: f64, pred: f64, cost: f64) -> bool {
+    (rho - 1.0).abs() * pred <= EXACT_MODEL * pred + ROUNDING * cost
+}
+
+/// What gradient-only passes from a trial point found.
+enum Chord {
+    /// The trial point is acceptable and the Gauss–Newton steps from it, computed with the old
+    /// factor, converged while the metric did not change: the solution.
+    Converged { x: Vec<f64>, cost: f64 },
+    /// The cost did not drop enough.
+    Rejected,
+    /// Acceptable (`rho`: actual over predicted drop of the trial step), but the point `x` it
+    /// reached (the trial point or a later chord step) needs its own factor.
+    Refactor { x: Vec<f64>, rho: f64 },
+}
+
+/// Checks the trial point `x + dx` with a gradient-only pass: its cost decides acceptance as a
+/// full evaluation would. The probes (see [`Analysis::probes`]) check that the metric did not
+/// change, and [`Analysis::null_space_kept`] that no unidentified direction became identified. When the linear model was exact there and the probes show the metric
+/// of the data unchanged, the chord method continues: Gauss–Newton steps with the factor of `x`
+/// and the gradient of the new point, each checked by another gradient-only pass, until one is
+/// below [`CHORD_FINAL_STEP`]; that point is the solution and the factor of `x` serves for its
+/// covariance. A gradient-only pass skips the `O(n²)` fold per row, the larger part of a full
+/// pass. Non-numerical failures are returned; numerical ones reject (or end the chord steps).
+// The iteration's state at the trial point, passed as it is at the call site.
+#[allow(clippy::too_many_arguments)]
+fn chord_check<P: Problem>(
+    ev: &mut Evaluator<'_, P>,
+    an: &Analysis,
+    lin: &Lin,
+    x_new: &[f64],
+    dx: &[f64],
+    pred: f64,
+    rank_tolerance: f64,
+    observer: &mut dyn Observer,
+) -> Result<Chord, Failure> {
+    let (lo, hi) = (&ev.setup.lo, &ev.setup.hi);
+    let (probes, n_null) = an.probes(lin, dx, WEAK_PROBES, RANDOM_PROBES);
+    let mut at = match ev.eval_gradient(x_new, &lin.order, &probes, n_null, observer) {
+        Ok(at) => at,
+        Err(f) if f.is_numerical() => return Ok(Chord::Rejected),
+        Err(f) => return Err(f),
+    };
+    let rho = (lin.cost - at.cost) / pred;
+    if rho <= ACCEPT {
+        return Ok(Chord::Rejected);
+    }
+    let mut x = x_new.to_vec();
+    if !exact(rho, pred, at.cost) {
+        return Ok(Chord::Refactor { x, rho });
+    }
+    for _ in 0..MAX_CHORD_STEPS {
+        let kept = &at.probe_sq[..at.probe_sq.len() - n_null];
+        let metric_kept = kept.iter().all(|q| (q - 1.0).abs() <= METRIC_CHANGE)
+            && an.null_space_kept(&at.cross, rank_tolerance);
+        if !metric_kept {
+            break;
+        }
+        let (step, len) = an.chord_step(&at.g);
+        let mut x_next = x.clone();
+        for (&p, d) in lin.order.iter().zip(&step) {
+            x_next[p] += d;
+        }
+        // A chord step that leaves the bounds is the bounded solver's job.
+        if (0..x_next.len()).any(|p| !(lo[p]..=hi[p]).contains(&x_next[p])) {
+            break;
+        }
+        let promised = 0.5 * len * len;
+        if len <= CHORD_FINAL_STEP {
+            return Ok(Chord::Converged {
+                x: x_next,
+                cost: (at.cost - promised).max(0.0),
+            });
+        }
+        let next = match ev.eval_gradient(&x_next, &lin.order, &probes, n_null, observer) {
+            Ok(next) => next,
+            Err(f) if f.is_numerical() => break,
+            Err(f) => return Err(f),
+        };
+        if at.cost - next.cost <= ACCEPT * promised {
+            break;
+        }
+        (x, at) = (x_next, next);
+    }
+    Ok(Chord::Refactor { x, rho })
 }
 
 /// The (damped, bounded) step in the column order of `lin`.
@@ -373,7 +560,7 @@ fn assemble(
     lin: &Lin,
     an: &Analysis,
     iterations: usize,
-    evaluations: usize,
+    (evaluations, factorizations): (usize, usize),
     termination: Termination,
 ) -> Solution {
     let n = setup.n_params;
@@ -437,6 +624,7 @@ fn assemble(
         chi2_reduced: if dof > 0 { chi2 / dof as f64 } else { 0.0 },
         iterations,
         evaluations,
+        factorizations,
         converged: termination == Termination::Converged,
         termination,
         rank,
