@@ -5,9 +5,9 @@
 //! Per sample the machine model gives the actual tool pose, the set-up predicts the readings
 //! and their derivatives with respect to that pose and its nuisance parameters, and the chain
 //! rule joins them: `∂r/∂c = ∂r/∂pose · ∂pose/∂c`, computed by the model on the projected rows
-//! (`MachineModel::project_tool_jacobian`, cheaper than the full pose Jacobian). Rows of one run share their columns (all
-//! estimated machine coefficients + the run's set-up's free nuisance parameters), which is
-//! the structure the streaming solver exploits.
+//! (`MachineModel::project_tool_jacobian`, cheaper than the full pose Jacobian). Rows of one
+//! run share their columns (all estimated machine coefficients + the run's set-up's free
+//! nuisance parameters), which is the structure the streaming solver exploits.
 
 use crate::study::Study;
 use mtcal_instrument::At;
@@ -109,9 +109,9 @@ pub(crate) struct SampleEval<'a> {
     /// `∂pose/∂coefficient` projected on each channel's `∂reading/∂pose`: channels × fit
     /// coefficients, row-major.
     jac: Vec<f64>,
-    proj: Vec<[f64; 6]>,
     pub pred: Vec<f64>,
-    d_pose: Vec<f64>,
+    /// `∂reading/∂pose`, one row of six per channel.
+    d_pose: Vec<[f64; 6]>,
     d_nuis: Vec<f64>,
     pub sigma: Vec<f64>,
     scratch: Vec<f64>,
@@ -129,9 +129,8 @@ impl<'a> SampleEval<'a> {
             nuis: study.nuisance_from(study.runs[run].setup, x),
             ws: study.fit_model.workspace(),
             jac: vec![0.0; nch * study.fit_model.n_coeffs()],
-            proj: vec![[0.0; 6]; nch],
             pred: vec![0.0; nch],
-            d_pose: vec![0.0; 6 * nch],
+            d_pose: vec![[0.0; 6]; nch],
             d_nuis: vec![0.0; nch * nn],
             sigma: setup.channels().iter().map(|c| c.sigma).collect(),
             scratch: vec![0.0; 2 * nch],
@@ -165,13 +164,15 @@ impl<'a> SampleEval<'a> {
         if !derivatives {
             return;
         }
-        if !setup.derivatives(&at, &self.nuis, &mut self.d_pose, &mut self.d_nuis) {
+        if !setup.derivatives(
+            &at,
+            &self.nuis,
+            self.d_pose.as_flattened_mut(),
+            &mut self.d_nuis,
+        ) {
             self.finite_differences(q, run.table.t[i], &pose);
         }
-        for (p, d) in self.proj.iter_mut().zip(self.d_pose.chunks_exact(6)) {
-            p.copy_from_slice(d);
-        }
-        model.project_tool_jacobian(&self.ws, &self.proj, &mut self.jac);
+        model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
     }
 
     /// Central differences of the set-up's predictions, for plugins without analytic
@@ -197,7 +198,7 @@ impl<'a> SampleEval<'a> {
             setup.predict(&At { q, t, w_t_t: &pp }, &self.nuis, plus);
             setup.predict(&At { q, t, w_t_t: &pm }, &self.nuis, minus);
             for c in 0..nch {
-                self.d_pose[c * 6 + k] = (plus[c] - minus[c]) / (2.0 * h);
+                self.d_pose[c][k] = (plus[c] - minus[c]) / (2.0 * h);
             }
         }
         let nn = self.nuis.len();
