@@ -88,6 +88,9 @@ struct AxisPlan {
     legendre_stroke: (f64, f64),
     /// Highest Legendre degree evaluated for the axis (`None`: no shared Legendre component).
     legendre_max: Option<usize>,
+    /// Shared Fourier functions `1, cos q, sin q, cos 2q, …` the axis' Fourier components use
+    /// (0: none).
+    fourier_terms: usize,
     comp: [Slot; 6],
     /// Coefficient offsets of the location errors that go into the location factor.
     loc: [Option<usize>; 6],
@@ -99,18 +102,49 @@ struct AxisPlan {
 /// Highest Legendre degree + 1 the packed fast path handles; axes beyond it use the general one.
 const PACKED_TERMS: usize = 8;
 
+/// Shared Fourier functions the packed fast path handles (harmonics up to 16); axes beyond it
+/// use the general one.
+const FOURIER_TERMS: usize = 33;
+
 /// An axis' error values in local coordinates (`r0t` applied) as dense polynomials in the
 /// shared Legendre basis: `[δ; ε](q) = Σ_k comp[k]·P_k(u)`, location `[lt; lw] = loc`.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct PackedAxis {
     /// Monomial coefficients in the normalised position `u ∈ [−1, 1]` (converted from the
     /// Legendre ones when packing): Horner's rule then evaluates all six directions with a
     /// short dependency chain, where the Legendre recurrence is a long serial one.
     mono: [[f64; 6]; PACKED_TERMS],
     terms: usize,
+    /// Coefficients of the shared Fourier functions (`1, cos q, sin q, cos 2q, …`), local
+    /// directions: one sine and cosine per sample serve all six directions.
+    fourier: [[f64; 6]; FOURIER_TERMS],
+    fourier_terms: usize,
     loc: [f64; 6],
-    /// Some component is not a shared-stroke Legendre polynomial: use the general path.
+    /// The location factor `L = (exp([lw]×), lt)` and its inverse, and a linear axis' actual
+    /// direction of motion `R_L·a`: constant for one set of coefficients, so the chain walk
+    /// does not recompute them at every pose.
+    l_factor: Rigid,
+    l_inverse: Rigid,
+    motion_dir: Vector3<f64>,
+    /// Some component is neither a shared-stroke Legendre polynomial nor a Fourier series:
+    /// use the general path.
     general: bool,
+}
+
+impl Default for PackedAxis {
+    fn default() -> Self {
+        Self {
+            mono: [[0.0; 6]; PACKED_TERMS],
+            terms: 0,
+            fourier: [[0.0; 6]; FOURIER_TERMS],
+            fourier_terms: 0,
+            loc: [0.0; 6],
+            l_factor: Rigid::IDENTITY,
+            l_inverse: Rigid::IDENTITY,
+            motion_dir: Vector3::zeros(),
+            general: false,
+        }
+    }
 }
 
 /// A component error slot of an axis.
@@ -123,6 +157,14 @@ enum Slot {
         offset: usize,
         len: usize,
         min: usize,
+    },
+    /// Fourier series: coefficients `offset..offset+len` multiply the axis' shared Fourier
+    /// functions `first..first+len` (`param` for the general path).
+    Fourier {
+        offset: usize,
+        len: usize,
+        first: usize,
+        param: usize,
     },
     /// Any other basis, evaluated through [`crate::Basis`] (index into the parameters).
     General {
@@ -164,6 +206,7 @@ impl AxisPlan {
         // back to the general path.
         let mut stroke = None;
         let mut legendre_max = None;
+        let mut fourier_terms = 0;
         let mut comp = [Slot::Empty; 6];
         for (d, slot) in comp.iter_mut().enumerate() {
             let Some(p) = errors.component(i, d) else {
@@ -200,6 +243,29 @@ impl AxisPlan {
                     legendre_max = Some(legendre_max.unwrap_or(0).max(*max_degree));
                 }
             }
+            if let Role::Component {
+                basis:
+                    crate::Basis::Fourier {
+                        min_harmonic,
+                        max_harmonic,
+                    },
+                ..
+            } = &p.role
+            {
+                // Function order 1, cos q, sin q, cos 2q, …: harmonic k ≥ 1 starts at 2k − 1.
+                let first = if *min_harmonic == 0 {
+                    0
+                } else {
+                    2 * min_harmonic - 1
+                };
+                *slot = Slot::Fourier {
+                    offset: p.offset,
+                    len: p.len,
+                    first,
+                    param,
+                };
+                fourier_terms = fourier_terms.max(2 * max_harmonic + 1);
+            }
         }
         let own = ax.own_cartesian();
         let mut loc = [None; 6];
@@ -233,6 +299,7 @@ impl AxisPlan {
             }),
             legendre_stroke: stroke.unwrap_or((0.0, 1.0)),
             legendre_max,
+            fourier_terms,
             comp,
             loc,
             own_loc,
@@ -285,6 +352,8 @@ pub struct Workspace {
     packed: Vec<PackedAxis>,
     packed_tool: Vector3<f64>,
     packed_wp: (Vector3<f64>, Vector3<f64>),
+    /// The workpiece set-up error as a transform, `(exp([wp_rot]×), wp_trans)`.
+    wp_error: Rigid,
     phi: Vec<f64>,
     dphi: Vec<f64>,
     comp: Vec<[f64; 6]>,
@@ -345,6 +414,7 @@ impl MachineModel {
             packed: vec![PackedAxis::default(); n],
             packed_tool: Vector3::zeros(),
             packed_wp: (Vector3::zeros(), Vector3::zeros()),
+            wp_error: Rigid::IDENTITY,
             phi: vec![0.0; m],
             dphi: vec![0.0; m],
             comp: vec![[0.0; 6]; n],
@@ -474,10 +544,25 @@ impl MachineModel {
         for (i, ap) in self.plan.axes.iter().enumerate() {
             let mut pa = PackedAxis::default();
             let terms = ap.legendre_max.map_or(1, |m| m + 1);
-            pa.general =
-                terms > PACKED_TERMS || ap.comp.iter().any(|s| matches!(s, Slot::General { .. }));
+            pa.general = terms > PACKED_TERMS
+                || ap.fourier_terms > FOURIER_TERMS
+                || ap.comp.iter().any(|s| matches!(s, Slot::General { .. }));
             pa.terms = terms.min(PACKED_TERMS);
             if !pa.general {
+                pa.fourier_terms = ap.fourier_terms;
+                for j in 0..pa.fourier_terms {
+                    let mut machine_dir = [0.0; 6];
+                    for d in 0..6 {
+                        if let Slot::Fourier {
+                            offset, len, first, ..
+                        } = ap.comp[d]
+                            && (first..first + len).contains(&j)
+                        {
+                            machine_dir[d] = coeffs[offset + j - first];
+                        }
+                    }
+                    pa.fourier[j] = to_local(&ap.r0t, &machine_dir);
+                }
                 let mut machine_dir = [[0.0; 6]; PACKED_TERMS];
                 for d in 0..6 {
                     if let Slot::Legendre { offset, len, min } = ap.comp[d] {
@@ -506,6 +591,9 @@ impl MachineModel {
                 }
             }
             pa.loc = to_local(&ap.r0t, &l);
+            pa.l_factor = Rigid::new(exp_so3(&v3(&pa.loc, 3)), v3(&pa.loc, 0));
+            pa.l_inverse = pa.l_factor.inverse();
+            pa.motion_dir = mv(&pa.l_factor.r, self.machine.axes()[i].direction());
             ws.packed[i] = pa;
         }
         ws.packed_tool = Vector3::new(
@@ -514,6 +602,7 @@ impl MachineModel {
             opt(self.plan.tool[2], coeffs),
         );
         ws.packed_wp = (ws_wp(&self.plan, coeffs, 0), ws_wp(&self.plan, coeffs, 3));
+        ws.wp_error = Rigid::new(exp_so3(&ws.packed_wp.1), ws.packed_wp.0);
         ws.packed_from.copy_from_slice(coeffs);
     }
 
@@ -541,6 +630,15 @@ impl MachineModel {
                 c[d] = c[d] * u + m[d];
             }
         }
+        if pa.fourier_terms > 0 {
+            let mut f = [0.0; FOURIER_TERMS];
+            fourier_values(q, &mut f[..pa.fourier_terms]);
+            for (fj, m) in f.iter().zip(&pa.fourier[..pa.fourier_terms]) {
+                for d in 0..6 {
+                    c[d] += fj * m[d];
+                }
+            }
+        }
         (c, pa.loc)
     }
 
@@ -566,7 +664,10 @@ impl MachineModel {
                 Slot::Legendre { offset, len, min } => {
                     c[d] = dot(&coeffs[offset..offset + len], &legendre[min..min + len]);
                 }
-                Slot::General { offset, len, param } => {
+                Slot::General { offset, len, param }
+                | Slot::Fourier {
+                    offset, len, param, ..
+                } => {
                     let Role::Component { basis, .. } = &self.errors.params()[param].role else {
                         unreachable!("component slot holds a component")
                     };
@@ -707,11 +808,16 @@ impl MachineModel {
             }
             let rot_dirs = ap.times_r0t(&left_jacobian(&js.e_rot));
             let unit_cols = twist_columns(&m, ap, &rot_dirs, &js.e_trans, &p, rot_map);
-            // A packed axis' basis values are its shared Legendre values (not copied to `phi`).
+            // A packed axis' basis values are its shared Legendre and Fourier values (not copied
+            // to `phi`).
             let packed = !ws.packed[i].general;
             let mut legendre = [0.0; PACKED_TERMS];
             if let (true, Some(max)) = (packed, ap.legendre_max) {
                 legendre_values(ap.legendre_stroke, js.q, &mut legendre[..=max]);
+            }
+            let mut fourier = [0.0; FOURIER_TERMS];
+            if packed && ap.fourier_terms > 0 {
+                fourier_values(js.q, &mut fourier[..ap.fourier_terms]);
             }
             for (d, unit_col) in unit_cols.iter().enumerate() {
                 let (offset, len, basis) = match ap.comp[d] {
@@ -719,7 +825,12 @@ impl MachineModel {
                     Slot::Legendre { offset, len, min } if packed => {
                         (offset, len, &legendre[min..min + len])
                     }
-                    Slot::Legendre { offset, len, .. } | Slot::General { offset, len, .. } => {
+                    Slot::Fourier {
+                        offset, len, first, ..
+                    } if packed => (offset, len, &fourier[first..first + len]),
+                    Slot::Legendre { offset, len, .. }
+                    | Slot::Fourier { offset, len, .. }
+                    | Slot::General { offset, len, .. } => {
                         (offset, len, &ws.phi[offset..offset + len])
                     }
                 };
@@ -880,7 +991,10 @@ impl MachineModel {
                 Slot::Legendre { offset, len, min } => {
                     ws.phi[offset..offset + len].copy_from_slice(&ws.legendre[min..min + len]);
                 }
-                Slot::General { offset, len, param } => {
+                Slot::General { offset, len, param }
+                | Slot::Fourier {
+                    offset, len, param, ..
+                } => {
                     let Role::Component { basis, .. } = &self.errors.params()[param].role else {
                         unreachable!("component slot holds a component")
                     };
@@ -893,6 +1007,8 @@ impl MachineModel {
     /// Component and location values per axis through [`crate::Basis`] one component at a time:
     /// the derivative fill (axis Jacobian), which is not on the identification hot path.
     fn eval_values_generic(&self, q: &[f64], coeffs: &[f64], ws: &mut Workspace, fill: Fill) {
+        // The chain walk takes the location factors from the packed coefficients.
+        self.ensure_packed(coeffs, ws);
         for (i, ax) in self.machine.axes().iter().enumerate() {
             let mut c = [0.0; 6];
             let mut dc = [0.0; 6];
@@ -958,7 +1074,7 @@ impl MachineModel {
             match side {
                 Side::Workpiece => {
                     ws.wp_end = t;
-                    t = t.compose(&Rigid::new(exp_so3(&ws.wp_rot), ws.wp_trans));
+                    t = t.compose(&ws.wp_error);
                     ws.f_t_w = t;
                 }
                 Side::Tool => {
@@ -986,20 +1102,20 @@ impl MachineModel {
         };
         let t = self.after_origin(i, &t);
         js.before_a = t;
+        let pa = &ws.packed[i];
         match ax.kind() {
             AxisKind::Linear => {
-                js.motion_dir = mv(&exp_so3(&js.l_rot), ax.direction());
+                js.motion_dir = pa.motion_dir;
                 js.before_b = t.translated(&(js.motion_dir * q));
                 js.after = js.before_b.compose(&js.e_body);
                 js.after
             }
             AxisKind::Rotary => {
-                let lr = Rigid::new(exp_so3(&js.l_rot), js.l_trans);
                 js.before_b = t.compose(&js.e_body);
-                js.before_r = js.before_b.compose(&lr);
+                js.before_r = js.before_b.compose(&pa.l_factor);
                 // before_r · Rot(q) · L⁻¹, with Rot(q) applied to the columns.
                 let turned = Rigid::new(ws.turns[i].right_of(&js.before_r.r), js.before_r.t);
-                js.after = turned.compose(&lr.inverse());
+                js.after = turned.compose(&pa.l_inverse);
                 js.after
             }
         }
@@ -1229,6 +1345,23 @@ fn legendre_values(stroke: (f64, f64), q: f64, out: &mut [f64]) {
             let p_next = ((2 * k + 1) as f64 * u * p - k as f64 * p_prev) * recip(k + 1);
             (p_prev, p) = (p, p_next);
         }
+    }
+}
+
+/// The shared Fourier functions `1, cos q, sin q, cos 2q, sin 2q, …` at `q` into `out`: the
+/// same angle-addition recurrence and rounding as [`crate::Basis`]'s Fourier evaluation.
+#[inline]
+fn fourier_values(q: f64, out: &mut [f64]) {
+    let Some((one, harmonics)) = out.split_first_mut() else {
+        return;
+    };
+    *one = 1.0;
+    let (s1, c1) = q.sin_cos();
+    let (mut c, mut s) = (1.0, 0.0);
+    for pair in harmonics.chunks_exact_mut(2) {
+        (c, s) = (c * c1 - s * s1, s * c1 + c * s1);
+        pair[0] = c;
+        pair[1] = s;
     }
 }
 

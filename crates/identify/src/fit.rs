@@ -70,13 +70,11 @@ impl Problem for FitProblem<'_> {
             .collect();
         sink.columns(&cols);
         let nch = eval.n_channels();
-        let inv_sigma: Vec<f64> = eval.sigma.iter().map(|s| 1.0 / s).collect();
         let mut row = vec![0.0; cols.len()];
         for i in start..end {
             eval.at(i, true);
             for c in 0..nch {
-                let sigma = eval.sigma[c];
-                let res = (eval.pred[c] - readings[i * nch + c]) / sigma;
+                let res = (eval.pred[c] - readings[i * nch + c]) * eval.inv_sigma[c];
                 if !res.is_finite() {
                     return Err(EvalError::new(format!(
                         "run {}: sample {} (CSV line {}) channel {}: the model gives no finite \
@@ -87,9 +85,7 @@ impl Problem for FitProblem<'_> {
                         study.channels(r)[c].name
                     )));
                 }
-                eval.jacobian_row(c, &mut row);
-                let w = inv_sigma[c];
-                row.iter_mut().for_each(|v| *v *= w);
+                eval.whitened_row(c, &mut row);
                 sink.row(res, &row);
             }
         }
@@ -98,22 +94,24 @@ impl Problem for FitProblem<'_> {
 }
 
 /// Evaluates one run's samples at one parameter vector: predictions and, on request, the
-/// Jacobian of the predictions with respect to the estimated coefficients and the set-up's
-/// free nuisance parameters. Allocates once, per run.
+/// Jacobian of the whitened predictions (divided by each channel's σ) with respect to the
+/// estimated coefficients and the set-up's free nuisance parameters. Allocates once, per run.
 pub(crate) struct SampleEval<'a> {
     study: &'a Study,
     run: usize,
     coeffs: Vec<f64>,
     nuis: Vec<f64>,
     ws: mtcal_kinematics::Workspace,
-    /// `∂pose/∂coefficient` projected on each channel's `∂reading/∂pose`: channels × fit
+    /// `∂pose/∂coefficient` projected on each channel's `∂reading/∂pose / σ`: channels × fit
     /// coefficients, row-major.
     jac: Vec<f64>,
+    /// The estimated coefficients are the fit model's, in its order: rows are plain copies.
+    estimated_in_order: bool,
     pub pred: Vec<f64>,
-    /// `∂reading/∂pose`, one row of six per channel.
+    /// `∂reading/∂pose`, one row of six per channel (whitened after the set-up wrote it).
     d_pose: Vec<[f64; 6]>,
     d_nuis: Vec<f64>,
-    pub sigma: Vec<f64>,
+    pub inv_sigma: Vec<f64>,
     scratch: Vec<f64>,
 }
 
@@ -129,10 +127,16 @@ impl<'a> SampleEval<'a> {
             nuis: study.nuisance_from(study.runs[run].setup, x),
             ws: study.fit_model.workspace(),
             jac: vec![0.0; nch * study.fit_model.n_coeffs()],
+            estimated_in_order: study.estimated_in_fit.len() == study.fit_model.n_coeffs()
+                && study
+                    .estimated_in_fit
+                    .iter()
+                    .enumerate()
+                    .all(|(i, &k)| i == k),
             pred: vec![0.0; nch],
             d_pose: vec![[0.0; 6]; nch],
             d_nuis: vec![0.0; nch * nn],
-            sigma: setup.channels().iter().map(|c| c.sigma).collect(),
+            inv_sigma: setup.channels().iter().map(|c| 1.0 / c.sigma).collect(),
             scratch: vec![0.0; 2 * nch],
         }
     }
@@ -171,6 +175,14 @@ impl<'a> SampleEval<'a> {
             &mut self.d_nuis,
         ) {
             self.finite_differences(q, run.table.t[i], &pose);
+        }
+        // Whitening the pose rows whitens the projected Jacobian for free.
+        let nn = self.nuis.len();
+        for (c, &w) in self.inv_sigma.iter().enumerate() {
+            self.d_pose[c].iter_mut().for_each(|v| *v *= w);
+            self.d_nuis[c * nn..(c + 1) * nn]
+                .iter_mut()
+                .for_each(|v| *v *= w);
         }
         model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
     }
@@ -215,14 +227,18 @@ impl<'a> SampleEval<'a> {
         }
     }
 
-    /// The Jacobian row of channel `c` (unwhitened) over the run's columns: estimated machine
+    /// The whitened Jacobian row of channel `c` over the run's columns: estimated machine
     /// coefficients, then the set-up's free nuisance parameters.
-    pub fn jacobian_row(&self, c: usize, row: &mut [f64]) {
+    pub fn whitened_row(&self, c: usize, row: &mut [f64]) {
         let study = self.study;
         let n = study.fit_model.n_coeffs();
         let jac = &self.jac[c * n..(c + 1) * n];
-        for (o, &k) in row.iter_mut().zip(&study.estimated_in_fit) {
-            *o = jac[k];
+        if self.estimated_in_order {
+            row[..n].copy_from_slice(jac);
+        } else {
+            for (o, &k) in row.iter_mut().zip(&study.estimated_in_fit) {
+                *o = jac[k];
+            }
         }
         let slot = &study.setups[study.runs[self.run].setup];
         let nn = self.nuis.len();
@@ -235,13 +251,58 @@ impl<'a> SampleEval<'a> {
 
 /// Predicted readings (SI, row-major `samples × channels`) of run `r` at parameters `x`.
 pub fn predict_run(study: &Study, r: usize, x: &[f64]) -> Vec<f64> {
-    let mut eval = SampleEval::new(study, r, x);
-    let nch = eval.n_channels();
-    let n = study.runs[r].len();
-    let mut out = Vec::with_capacity(n * nch);
-    for i in 0..n {
-        eval.at(i, false);
-        out.extend_from_slice(&eval.pred);
+    predict_runs(study, x, |i| i == r)
+        .swap_remove(r)
+        .expect("the wanted run is predicted")
+}
+
+/// Samples per task of [`predict_runs`].
+const PREDICT_CHUNK: usize = 8192;
+
+/// Predicted readings of every run `r` with `wanted(r)` at parameters `x` (as
+/// [`predict_run`]; `None` for the others), the samples spread over the available cores.
+pub fn predict_runs(
+    study: &Study,
+    x: &[f64],
+    wanted: impl Fn(usize) -> bool,
+) -> Vec<Option<Vec<f64>>> {
+    let mut out: Vec<Option<Vec<f64>>> = (0..study.runs.len())
+        .map(|r| wanted(r).then(|| vec![0.0; study.runs[r].len() * study.channels(r).len()]))
+        .collect();
+    // Tasks: (run, first sample, its output rows), disjoint slices of the outputs.
+    let mut tasks = Vec::new();
+    for (r, pred) in out.iter_mut().enumerate() {
+        let Some(pred) = pred else { continue };
+        let nch = study.channels(r).len();
+        for (k, chunk) in pred.chunks_mut(PREDICT_CHUNK * nch).enumerate() {
+            tasks.push((r, k * PREDICT_CHUNK, chunk));
+        }
     }
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(tasks.len())
+        .max(1);
+    let queue = std::sync::Mutex::new(tasks.into_iter());
+    let worker = || {
+        loop {
+            let task = queue.lock().map(|mut q| q.next());
+            // A poisoned queue means another worker panicked: its panic is re-raised at join.
+            let Ok(Some((r, first, chunk))) = task else {
+                return;
+            };
+            let mut eval = SampleEval::new(study, r, x);
+            let nch = eval.n_channels();
+            for (j, row) in chunk.chunks_exact_mut(nch).enumerate() {
+                eval.at(first + j, false);
+                row.copy_from_slice(&eval.pred);
+            }
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 1..threads {
+            s.spawn(worker);
+        }
+        worker();
+    });
     out
 }

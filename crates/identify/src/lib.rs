@@ -20,7 +20,7 @@ pub mod report;
 pub mod simulate;
 pub mod study;
 
-pub use fit::{FitProblem, predict_run};
+pub use fit::{FitProblem, predict_run, predict_runs};
 pub use report::Identification;
 pub use study::Study;
 

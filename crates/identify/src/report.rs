@@ -2,7 +2,7 @@
 //! unidentifiable combinations (never numbers), fit statistics per run and channel, validation
 //! predictions; the FORMATS.md `mtcal.identify/1` JSON and a plain-text summary.
 
-use crate::fit::predict_run;
+use crate::fit::predict_runs;
 use crate::study::Study;
 use mtcal_instrument::Evaluation;
 use mtcal_kinematics::model::Role;
@@ -153,14 +153,7 @@ impl Identification {
         let component_errors = component_curves(study, solution);
         let mut runs = Vec::new();
         let mut validation = Vec::new();
-        let predictions: Vec<Option<Vec<f64>>> = (0..study.runs.len())
-            .map(|r| {
-                study.runs[r]
-                    .readings
-                    .is_some()
-                    .then(|| predict_run(study, r, &x))
-            })
-            .collect();
+        let predictions = predict_runs(study, &x, |r| study.runs[r].readings.is_some());
         let analysis = crate::mismatch::analyse(study, &predictions)?;
         for (r, pred) in predictions.iter().enumerate() {
             let Some(fit) = pred.as_ref().map(|p| run_fit(study, r, p)) else {

@@ -134,6 +134,12 @@ impl Collected {
         });
         self.sources.push(source);
     }
+
+    fn append(&mut self, mut other: Collected) {
+        self.records.append(&mut other.records);
+        self.sources.append(&mut other.sources);
+        self.skipped.append(&mut other.skipped);
+    }
 }
 
 /// Is there a mismatch between model and recordings, and where?
@@ -155,8 +161,8 @@ pub fn locate(runs: &[RunResiduals<'_>], options: &Options) -> Result<Analysis, 
         run.validate(options.min_samples)?;
     }
     let mut collected = Collected::default();
-    for (index, run) in runs.iter().enumerate() {
-        test_run(index, run, options, &mut collected);
+    for per_run in test_runs(runs, options) {
+        collected.append(per_run);
     }
     holm(&mut collected, options);
     let locations = locations(runs, &collected);
@@ -169,6 +175,32 @@ pub fn locate(runs: &[RunResiduals<'_>], options: &Options) -> Result<Analysis, 
         skipped: collected.skipped,
         options: options.clone(),
     })
+}
+
+/// Every run's tests, the runs spread over the available cores; in run order.
+fn test_runs(runs: &[RunResiduals<'_>], options: &Options) -> Vec<Collected> {
+    let mut out: Vec<Collected> = runs.iter().map(|_| Collected::default()).collect();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(runs.len())
+        .max(1);
+    let queue = std::sync::Mutex::new(out.iter_mut().enumerate());
+    let worker = || {
+        loop {
+            // A poisoned queue means another worker panicked: its panic is re-raised at join.
+            let Ok(Some((index, collected))) = queue.lock().map(|mut q| q.next()) else {
+                return;
+            };
+            test_run(index, &runs[index], options, collected);
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 1..threads {
+            s.spawn(worker);
+        }
+        worker();
+    });
+    out
 }
 
 /// Sample indices sorted by value (stable: ties keep sample order, which depends on the context

@@ -100,17 +100,28 @@ pub(crate) struct Accumulator {
 /// Gradient-only accumulation: `g = Jᵀr` and, for a few probe directions `u_k`, `‖J·u_k‖²`,
 /// in the column order of the layout. A row costs `O(n·k)` instead of the fold's `O(n²)`: this
 /// is how the solver checks a step with a factor it already has (see `solver`). Rows are staged
-/// in chunks and reduced with matrix products.
+/// in chunks as the caller gives them (the current group's column order: a plain copy) and
+/// reduced with matrix products against the probes gathered into that order; the group's
+/// sums are scattered into layout order when a chunk is reduced.
 #[derive(Debug, Clone)]
 pub(crate) struct Gradient {
     pub(crate) g: Vec<f64>,
     /// `n × k`, column-major (probe-major).
     probes: Vec<f64>,
     pub(crate) probe_sq: Vec<f64>,
-    /// Staged rows, row-major `CHUNK × (n + 1)`: the Jacobian row, then the residual.
+    /// The current group: `(index in the caller's row, column of the layout)` and the row width.
+    pairs: Vec<(usize, usize)>,
+    width: usize,
+    /// The probes in the group's order: `width × k`, column-major (zero for entries of fixed
+    /// parameters).
+    group_probes: Vec<f64>,
+    /// Staged rows, row-major `CHUNK × (width + 1)`: the Jacobian row, then the residual.
     stage: Vec<f64>,
     /// `CHUNK × k` products of the staged rows with the probes.
     dots: Vec<f64>,
+    /// A chunk's `Jᵀr` and `Jᵀ(J·u)` in the group's order, before the scatter.
+    group_g: Vec<f64>,
+    group_cross: Vec<f64>,
     rows: usize,
     /// The last `n_cross` probes also get `Jᵀ(J·u_k)`: `n × n_cross`, column-major.
     n_cross: usize,
@@ -129,8 +140,13 @@ impl Gradient {
             g: vec![0.0; n],
             probes: probes.to_vec(),
             probe_sq: vec![0.0; k],
-            stage: vec![0.0; CHUNK * (n + 1)],
+            pairs: Vec::new(),
+            width: 0,
+            group_probes: Vec::new(),
+            stage: Vec::new(),
             dots: vec![0.0; CHUNK * k],
+            group_g: Vec::new(),
+            group_cross: Vec::new(),
             rows: 0,
         }
     }
@@ -140,38 +156,80 @@ impl Gradient {
         self.probe_sq.fill(0.0);
         self.cross.fill(0.0);
         self.rows = 0;
+        self.pairs.clear();
+        self.width = 0;
     }
 
-    /// Stages one row whose entries `jac[s]` belong to columns `c` for `(s, c)` in `pairs`.
-    fn add_row(&mut self, r: f64, jac: &[f64], pairs: &[(usize, usize)]) {
-        let n = self.g.len();
-        let row = &mut self.stage[self.rows * (n + 1)..(self.rows + 1) * (n + 1)];
-        row.fill(0.0);
-        for &(s, c) in pairs {
-            row[c] = jac[s];
+    /// Starts a group of rows of `width` entries, entry `s` belonging to layout column `c` for
+    /// `(s, c)` in `pairs` (entries not in `pairs` belong to fixed parameters).
+    fn set_group(&mut self, pairs: &[(usize, usize)], width: usize) {
+        self.flush();
+        let (n, k) = (self.g.len(), self.probe_sq.len());
+        self.pairs.clear();
+        self.pairs.extend_from_slice(pairs);
+        self.width = width;
+        self.group_probes.clear();
+        self.group_probes.resize(width * k, 0.0);
+        for j in 0..k {
+            for &(s, c) in pairs {
+                self.group_probes[j * width + s] = self.probes[j * n + c];
+            }
         }
-        row[n] = r;
+        self.stage.resize(CHUNK * (width + 1), 0.0);
+        self.group_g.resize(width, 0.0);
+        self.group_cross.resize(width * self.n_cross, 0.0);
+    }
+
+    /// Stages one row of the current group (a copy: no scatter per row).
+    fn add_row(&mut self, r: f64, jac: &[f64]) {
+        let w = self.width;
+        let row = &mut self.stage[self.rows * (w + 1)..(self.rows + 1) * (w + 1)];
+        row[..w].copy_from_slice(jac);
+        row[w] = r;
         self.rows += 1;
         if self.rows == CHUNK {
             self.flush();
         }
     }
 
+    /// A row with the single entry `w` in layout column `c` (a prior), summed directly.
+    fn add_diagonal_row(&mut self, c: usize, w: f64, r: f64) {
+        let (n, k) = (self.g.len(), self.probe_sq.len());
+        self.g[c] += w * r;
+        for j in 0..k {
+            let d = w * self.probes[j * n + c];
+            self.probe_sq[j] += d * d;
+            if j >= k - self.n_cross {
+                self.cross[(j - (k - self.n_cross)) * n + c] += w * d;
+            }
+        }
+    }
+
     fn flush(&mut self) {
-        let (n, k, m) = (self.g.len(), self.probe_sq.len(), self.rows);
+        let (n, k, m, w) = (self.g.len(), self.probe_sq.len(), self.rows, self.width);
         if m == 0 {
             return;
         }
         self.rows = 0;
-        let stage = &self.stage[..m * (n + 1)];
-        let a = faer::MatRef::from_row_major_slice_with_stride(stage, m, n, n + 1);
-        let r = faer::MatRef::from_row_major_slice_with_stride(&stage[n..], m, 1, n + 1);
-        let g = faer::MatMut::from_column_major_slice_mut(&mut self.g, n, 1);
-        faer::linalg::matmul::matmul(g, faer::Accum::Add, a.transpose(), r, 1.0, faer::Par::Seq);
+        let stage = &self.stage[..m * (w + 1)];
+        let a = faer::MatRef::from_row_major_slice_with_stride(stage, m, w, w + 1);
+        let r = faer::MatRef::from_row_major_slice_with_stride(&stage[w..], m, 1, w + 1);
+        let g = faer::MatMut::from_column_major_slice_mut(&mut self.group_g, w, 1);
+        faer::linalg::matmul::matmul(
+            g,
+            faer::Accum::Replace,
+            a.transpose(),
+            r,
+            1.0,
+            faer::Par::Seq,
+        );
+        for &(s, c) in &self.pairs {
+            self.g[c] += self.group_g[s];
+        }
         if k == 0 {
             return;
         }
-        let p = faer::MatRef::from_column_major_slice(&self.probes, n, k);
+        let p = faer::MatRef::from_column_major_slice(&self.group_probes, w, k);
         let d = faer::MatMut::from_column_major_slice_mut(&mut self.dots[..m * k], m, k);
         faer::linalg::matmul::matmul(d, faer::Accum::Replace, a, p, 1.0, faer::Par::Seq);
         for (q, col) in self
@@ -184,15 +242,20 @@ impl Gradient {
         if self.n_cross > 0 {
             let c = self.n_cross;
             let jw = faer::MatRef::from_column_major_slice(&self.dots[(k - c) * m..k * m], m, c);
-            let cross = faer::MatMut::from_column_major_slice_mut(&mut self.cross, n, c);
+            let cross = faer::MatMut::from_column_major_slice_mut(&mut self.group_cross, w, c);
             faer::linalg::matmul::matmul(
                 cross,
-                faer::Accum::Add,
+                faer::Accum::Replace,
                 a.transpose(),
                 jw,
                 1.0,
                 faer::Par::Seq,
             );
+            for j in 0..c {
+                for &(s, col) in &self.pairs {
+                    self.cross[j * n + col] += self.group_cross[j * w + s];
+                }
+            }
         }
     }
 
@@ -285,7 +348,7 @@ impl Accumulator {
     pub(crate) fn set_diagonal_rows(&mut self, rows: &[(usize, f64, f64)]) {
         if let Some(grad) = &mut self.gradient {
             for &(c, w, r) in rows {
-                grad.add_row(r, &[w], &[(0, c)]);
+                grad.add_diagonal_row(c, w, r);
             }
             return;
         }
@@ -348,8 +411,9 @@ impl Accumulator {
                 self.pairs.push((s, c));
             }
         }
-        if self.gradient.is_none() {
-            self.begin_group();
+        match &mut self.gradient {
+            None => self.begin_group(),
+            Some(grad) => grad.set_group(&self.pairs, cols.len()),
         }
         self.group_valid = true;
         self.in_group = true;
@@ -440,7 +504,7 @@ impl Accumulator {
             return;
         }
         if let Some(grad) = &mut self.gradient {
-            grad.add_row(r, jac, &self.pairs);
+            grad.add_row(r, jac);
             self.sumsq += r * r;
             self.n_rows += 1;
             self.row_in_block += 1;

@@ -68,12 +68,20 @@
 //! acceptance as before. If the step confirmed the linear model and the metric of the data is
 //! unchanged — every `‖J·u‖²` within 10⁻³ of 1, and the Schur complement of the null space
 //! still below the rank threshold (no unidentified direction became identified) — the chord
-//! method continues with Gauss–Newton steps `−(RᵀR)⁺g` on the old factor, each checked by
-//! another gradient-only pass, until one is shorter than 0.01 σ: that is the solution, and the
-//! old factor gives its covariance (uncertainties within about 0.05 % of a fresh factor's).
-//! Otherwise the point gets a factor of its own. A start with a rank-deficient factor (all
-//! errors zero is often a degenerate point) always gets a second factor first, and the chord
-//! method is not tried again once it had to hand over.
+//! method continues with Gauss–Newton steps `−(RᵀR)⁺g` on the old factor (simplified Newton),
+//! each checked by another gradient-only pass, until one is expected to leave an error below
+//! 0.01 σ: the iteration contracts the error by about the relative metric change `δ` per step,
+//! so a step of length `L` leaves about `δ·L` (taken ten times over, as the probes sample only
+//! some directions). The point that step reaches is the solution, and the old factor gives its
+//! covariance (uncertainties within about 0.05 % of a fresh factor's). On a nearly linear
+//! problem (an R-test identification: `δ ≈ 10⁻⁴`) the first chord step already ends it: one
+//! factor and two passes in all.
+//! Otherwise the point gets a factor of its own, and the chord method is not tried again. The
+//! one exception is a direction that the old factor left unidentified becoming identified:
+//! all errors zero is often such a degenerate point (a second-order effect separates two
+//! set-up parameters only once some error is non-zero). That point gets a factor of its own
+//! and the chord method resumes from it. A rank-deficient start with a constant null space
+//! (ball height and tool length entering only together) keeps its first factor to the end.
 //!
 //! # Identifiability, combinations and covariance
 //!

@@ -26,11 +26,18 @@ const FINAL_STEP: f64 = 1e-3;
 /// probe directions changed by less than this: covariances and intervals then differ from those
 /// of a fresh factor by less than about half of it (relative).
 const METRIC_CHANGE: f64 = 1e-3;
-/// A chord step shorter than this (`‖R·dx‖`, standard deviations) ends the iteration without
-/// another pass. Longer than [`FINAL_STEP`]: the chord method only runs while the metric is
-/// unchanged (to [`METRIC_CHANGE`]) and the last step confirmed the linear model, so the error
-/// left after such a step is below `METRIC_CHANGE ·` its length, 10⁻⁵ σ.
+/// A chord step ends the iteration without another pass when it is shorter than this
+/// (standard deviations of the estimate), or when the error it leaves is expected to be below
+/// it. The chord iteration contracts the error by about the relative change `δ` of the metric
+/// per step (simplified Newton; the stopping rule of Hairer & Wanner for its iterations): a
+/// step of length `L` (`‖R·dx‖`) leaves about `δ/(1 − δ)·L`. `δ` is the largest change the
+/// probes measured, taken [`CHORD_SAFETY`] times over because the probes sample only some
+/// directions. Since the chord method runs only while `δ ≤` [`METRIC_CHANGE`], steps up to
+/// about 1 σ always end it. Where the residuals scatter less than the stated noise (simulated
+/// noise-free data) σ is scaled down with them, so such fits still end at rounding level.
 const CHORD_FINAL_STEP: f64 = 1e-2;
+/// Margin on the measured metric change in the error estimate of a final chord step.
+const CHORD_SAFETY: f64 = 10.0;
 /// Chord steps (gradient-only passes after an accepted trial point) before a new factor is
 /// computed instead.
 const MAX_CHORD_STEPS: usize = 4;
@@ -297,10 +304,10 @@ pub fn solve<P: Problem>(
     // module doc): at the start, and after steps the linear model predicted well.
     let mut chord_failed = false;
     // A rank-deficient start may be a degenerate point (all errors zero is often one): the
-    // first trial point then gets its own factor, and the chord method waits until two
-    // factors in a row agree on the rank.
+    // null-space check of the first trial point then sees a direction become identified and
+    // hands over to a new factor.
     let mut last_rank = an.rank;
-    let mut chord = an.rank == an.d.len() && options.lm && options.chord;
+    let mut chord = options.lm && options.chord;
     observer.iteration(0, lin.cost, lambda);
     let termination = 'outer: loop {
         let gn = step(&an, &lin, &x, &setup, 0.0)?;
@@ -362,10 +369,15 @@ pub fn solve<P: Problem>(
                         break 'outer Termination::Converged;
                     }
                     Chord::Rejected => Some(None),
-                    Chord::Refactor { x: reached, rho } => {
-                        // The chord method did not finish here; the Jacobian changes too much
-                        // along the path for it to pay later either.
-                        chord_failed = true;
+                    Chord::Refactor {
+                        x: reached,
+                        rho,
+                        rank_gained,
+                    } => {
+                        // The chord method did not finish here. Unless a direction unidentified
+                        // at the old point became identified (a degenerate start), the Jacobian
+                        // changes too much along the path for it to pay later either.
+                        chord_failed |= !rank_gained;
                         x_new = reached;
                         Some(Some(rho))
                     }
@@ -454,17 +466,23 @@ enum Chord {
     /// The cost did not drop enough.
     Rejected,
     /// Acceptable (`rho`: actual over predicted drop of the trial step), but the point `x` it
-    /// reached (the trial point or a later chord step) needs its own factor.
-    Refactor { x: Vec<f64>, rho: f64 },
+    /// reached (the trial point or a later chord step) needs its own factor; `rank_gained`: only
+    /// because a direction the old factor left unidentified is identified there.
+    Refactor {
+        x: Vec<f64>,
+        rho: f64,
+        rank_gained: bool,
+    },
 }
 
 /// Checks the trial point `x + dx` with a gradient-only pass: its cost decides acceptance as a
 /// full evaluation would. The probes (see [`Analysis::probes`]) check that the metric did not
-/// change, and [`Analysis::null_space_kept`] that no unidentified direction became identified. When the linear model was exact there and the probes show the metric
-/// of the data unchanged, the chord method continues: Gauss–Newton steps with the factor of `x`
-/// and the gradient of the new point, each checked by another gradient-only pass, until one is
-/// below [`CHORD_FINAL_STEP`]; that point is the solution and the factor of `x` serves for its
-/// covariance. A gradient-only pass skips the `O(n²)` fold per row, the larger part of a full
+/// change, and [`Analysis::null_space_kept`] that no unidentified direction became identified.
+/// When the linear model was exact there and the probes show the metric of the data unchanged,
+/// the chord method continues: Gauss–Newton steps with the factor of `x` and the gradient of the
+/// new point, each checked by another gradient-only pass, until one is expected to leave an
+/// error below [`CHORD_FINAL_STEP`]; the point it reaches is the solution and the factor of `x`
+/// serves for its covariance. A gradient-only pass skips the `O(n²)` fold per row, the larger part of a full
 /// pass. Non-numerical failures are returned; numerical ones reject (or end the chord steps).
 // The iteration's state at the trial point, passed as it is at the call site.
 #[allow(clippy::too_many_arguments)]
@@ -490,14 +508,22 @@ fn chord_check<P: Problem>(
         return Ok(Chord::Rejected);
     }
     let mut x = x_new.to_vec();
+    let mut rank_gained = false;
     if !exact(rho, pred, at.cost) {
-        return Ok(Chord::Refactor { x, rho });
+        return Ok(Chord::Refactor {
+            x,
+            rho,
+            rank_gained,
+        });
     }
     for _ in 0..MAX_CHORD_STEPS {
         let kept = &at.probe_sq[..at.probe_sq.len() - n_null];
-        let metric_kept = kept.iter().all(|q| (q - 1.0).abs() <= METRIC_CHANGE)
-            && an.null_space_kept(&at.cross, rank_tolerance);
-        if !metric_kept {
+        let metric_change = kept.iter().map(|q| (q - 1.0).abs()).fold(0.0, f64::max);
+        if metric_change > METRIC_CHANGE {
+            break;
+        }
+        if !an.null_space_kept(&at.cross, rank_tolerance) {
+            rank_gained = true;
             break;
         }
         let (step, len) = an.chord_step(&at.g);
@@ -510,7 +536,13 @@ fn chord_check<P: Problem>(
             break;
         }
         let promised = 0.5 * len * len;
-        if len <= CHORD_FINAL_STEP {
+        let delta = CHORD_SAFETY * metric_change;
+        // Measured in the scatter of the residuals where that is below the stated noise (a
+        // simulated noise-free session is then solved to rounding, not to 1 % of a σ it does
+        // not have).
+        let dof = lin.n_rows.saturating_sub(an.rank).max(1) as f64;
+        let scatter = (2.0 * at.cost / dof).min(1.0).sqrt();
+        if len <= CHORD_FINAL_STEP || delta / (1.0 - delta) * len <= CHORD_FINAL_STEP * scatter {
             return Ok(Chord::Converged {
                 x: x_next,
                 cost: (at.cost - promised).max(0.0),
@@ -526,7 +558,11 @@ fn chord_check<P: Problem>(
         }
         (x, at) = (x_next, next);
     }
-    Ok(Chord::Refactor { x, rho })
+    Ok(Chord::Refactor {
+        x,
+        rho,
+        rank_gained,
+    })
 }
 
 /// The (damped, bounded) step in the column order of `lin`.

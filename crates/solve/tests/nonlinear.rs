@@ -373,3 +373,75 @@ fn a_rank_gained_away_from_a_degenerate_start_is_kept() {
         assert!((s - chord.sigma[i].unwrap()).abs() < 1e-3 * s, "σ[{i}]");
     }
 }
+
+/// `y = (a + b)·t + c·t² + 0.0001·c²·t³`: `a` and `b` enter only as their sum everywhere (a genuine
+/// null direction, as a ball height and a tool length do), and `c` is nonlinear. The rank is the
+/// same at the start as at the solution, so the chord method runs from the first factor: one
+/// factorisation, two passes, and the answer of the solve that factors every point.
+struct SumAndSquare {
+    t: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Problem for SumAndSquare {
+    fn n_params(&self) -> usize {
+        3
+    }
+    fn n_blocks(&self) -> usize {
+        self.t.len().div_ceil(32)
+    }
+    fn eval_block(&self, b: usize, x: &[f64], sink: &mut RowSink<'_>) -> Result<(), EvalError> {
+        sink.columns(&[0, 1, 2]);
+        let s = 0.01;
+        let c = x[2];
+        for (&t, &y) in self.t.iter().zip(&self.y).skip(32 * b).take(32) {
+            let model = (x[0] + x[1]) * t + c * t * t + 0.0001 * c * c * t * t * t;
+            let dc = t * t + 0.0002 * c * t * t * t;
+            sink.row((model - y) / s, &[t / s, t / s, dc / s]);
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn a_constant_null_space_from_the_start_needs_one_factor() {
+    let mut g = rng(5);
+    let t: Vec<f64> = (0..400).map(|i| i as f64 / 400.0).collect();
+    let y = t
+        .iter()
+        .map(|t| 1.5 * t + 0.4 * t * t + 0.000016 * t * t * t + 0.01 * normal(&mut g))
+        .collect();
+    let p = SumAndSquare { t, y };
+    let start = vec![
+        ParamSpec::new("a", 0.0),
+        ParamSpec::new("b", 0.0),
+        ParamSpec::new("c", 0.0),
+    ];
+    let full = solve(
+        &p,
+        &start,
+        &Options {
+            chord: false,
+            ..options(1)
+        },
+        &mut Silent,
+    )
+    .unwrap();
+    let chord = solve(&p, &start, &options(1), &mut Silent).unwrap();
+    assert!(full.converged && chord.converged);
+    assert_eq!((full.rank, chord.rank), (2, 2));
+    assert_eq!(chord.factorizations, 1, "{} evaluations", chord.evaluations);
+    // Nearly linear: the first chord step leaves an error far below 1 % of σ and ends it
+    // without another pass.
+    assert_eq!(chord.evaluations, 2);
+    assert!(full.factorizations > 1);
+    assert_eq!(chord.combinations.len(), 1);
+    assert_eq!(chord.combinations[0].params, full.combinations[0].params);
+    assert_eq!(chord.combinations[0].why, full.combinations[0].why);
+    let (sf, sc) = (full.sigma[2].unwrap(), chord.sigma[2].unwrap());
+    assert!((full.x[2] - chord.x[2]).abs() < 1e-3 * sf, "c");
+    assert!((sf - sc).abs() < 1e-3 * sf, "σ(c) {sf} vs {sc}");
+    // The sum is determined; its parts are not (no σ for them).
+    assert!(((full.x[0] + full.x[1]) - (chord.x[0] + chord.x[1])).abs() < 1e-3 * sf);
+    assert!(chord.sigma[0].is_none() && chord.sigma[1].is_none());
+}

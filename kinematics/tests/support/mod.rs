@@ -91,7 +91,10 @@ pub fn machine(mix: Mix) -> impl Strategy<Value = Machine> {
 fn basis(kind: AxisKind, stroke: (f64, f64), pick: u8, n: usize) -> Basis {
     let (lo, hi) = stroke;
     match (kind, pick % 4) {
-        (AxisKind::Rotary, 3) => Basis::fourier(pick as usize % 2, n.clamp(1, 3)).unwrap(),
+        (AxisKind::Rotary, 3) => {
+            let min = (pick as usize / 4) % 3;
+            Basis::fourier(min, n.clamp(1, 3).max(min)).unwrap()
+        }
         (_, 0) | (AxisKind::Linear, 3) => {
             Basis::legendre(lo, hi, pick as usize % 2, n.clamp(1, 4)).unwrap()
         }
@@ -113,13 +116,17 @@ pub fn config(machine: &Machine, seed: &[u8]) -> Vec<ParamConfig> {
     let mut next = move || bytes.next().unwrap_or(0);
     let mut out = Vec::new();
     for (i, ax) in machine.axes().iter().enumerate() {
+        // Half the rotary axes have Fourier series only (the packed fast path of a turntable's
+        // error motions); the others mix bases.
+        let fourier_only = ax.kind() == AxisKind::Rotary && next() % 2 == 0;
         for d in Direction::ALL {
             let b = next();
             if b % 4 != 0 {
                 let n = (next() % 5) as usize + 1;
+                let pick = if fourier_only { 3 + 4 * (b % 3) } else { b };
                 out.push(ParamConfig {
                     name: ParamName::component(d, ax.letter()),
-                    basis: Some(basis(ax.kind(), default_stroke(machine, i), b, n)),
+                    basis: Some(basis(ax.kind(), default_stroke(machine, i), pick, n)),
                 });
             }
             let allowed = match ax.kind() {
