@@ -743,7 +743,6 @@ impl MachineModel {
     pub fn project_tool_jacobian(&self, ws: &Workspace, proj: &[[f64; 6]], out: &mut [f64]) {
         let n = self.n_coeffs();
         assert_eq!(out.len(), proj.len() * n, "projected jacobian buffer size");
-        out.fill(0.0);
         self.param_columns(ws, &mut ProjectedColumns { proj, out, n }, None);
     }
 

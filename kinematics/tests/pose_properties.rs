@@ -278,7 +278,8 @@ proptest! {
     ) {
         let mut ws = model.workspace();
         let n = model.n_coeffs();
-        let mut jac = vec![0.0; 6 * n];
+        // NaN-filled: every column must be written (neither path clears its output first).
+        let mut jac = vec![f64::NAN; 6 * n];
         let pose = model.tool_pose_jacobian(&q, &c, &mut ws, &mut jac);
         let mut projected = vec![f64::NAN; rows.len() * n];
         prop_assert_eq!(model.tool_pose_for_jacobian(&q, &c, &mut ws), pose);
