@@ -115,10 +115,6 @@ struct PackedAxis {
     /// short dependency chain, where the Legendre recurrence is a long serial one.
     mono: [[f64; 6]; PACKED_TERMS],
     terms: usize,
-    /// Coefficients of the shared Fourier functions (`1, cos q, sin q, cos 2q, …`), local
-    /// directions: one sine and cosine per sample serve all six directions.
-    fourier: [[f64; 6]; FOURIER_TERMS],
-    fourier_terms: usize,
     loc: [f64; 6],
     /// The location factor `L = (exp([lw]×), lt)` and its inverse, and a linear axis' actual
     /// direction of motion `R_L·a`: constant for one set of coefficients, so the chain walk
@@ -129,6 +125,11 @@ struct PackedAxis {
     /// Some component is neither a shared-stroke Legendre polynomial nor a Fourier series:
     /// use the general path.
     general: bool,
+    fourier_terms: usize,
+    /// Coefficients of the shared Fourier functions (`1, cos q, sin q, cos 2q, …`), local
+    /// directions: one sine and cosine per sample serve all six directions. Last: most axes
+    /// never read it, and the fields above stay on a few cache lines.
+    fourier: [[f64; 6]; FOURIER_TERMS],
 }
 
 impl Default for PackedAxis {
@@ -814,10 +815,16 @@ impl MachineModel {
             if let (true, Some(max)) = (packed, ap.legendre_max) {
                 legendre_values(ap.legendre_stroke, js.q, &mut legendre[..=max]);
             }
-            let mut fourier = [0.0; FOURIER_TERMS];
-            if packed && ap.fourier_terms > 0 {
-                fourier_values(js.q, &mut fourier[..ap.fourier_terms]);
-            }
+            // Only axes with Fourier components pay for the buffer.
+            let fourier_buf;
+            let fourier: &[f64] = if packed && ap.fourier_terms > 0 {
+                let mut f = [0.0; FOURIER_TERMS];
+                fourier_values(js.q, &mut f[..ap.fourier_terms]);
+                fourier_buf = f;
+                &fourier_buf[..ap.fourier_terms]
+            } else {
+                &[]
+            };
             for (d, unit_col) in unit_cols.iter().enumerate() {
                 let (offset, len, basis) = match ap.comp[d] {
                     Slot::Empty => (0, 0, &ws.phi[..0]),
