@@ -114,9 +114,11 @@ mod bounds;
 mod combos;
 mod eval;
 mod qr;
+pub mod score;
 mod solver;
 
 pub use combos::describe_null_space;
+pub use score::{Score, ScoreSink, ScoredProblem, score_candidates};
 pub use solver::{linearize, solve};
 
 use accumulate::Accumulator;
@@ -425,6 +427,9 @@ pub enum SolveError {
         /// The value.
         value: f64,
     },
+    /// Candidate scoring ([`score_candidates`]) got inconsistent input.
+    #[error("candidate scores: {0}")]
+    Score(String),
     /// `eval_block` failed at the starting point.
     #[error("block {block}: evaluation failed: {source}")]
     Eval {
