@@ -55,6 +55,36 @@ impl Problem for FitProblem<'_> {
     }
 
     fn eval_block(&self, b: usize, x: &[f64], sink: &mut RowSink<'_>) -> Result<(), EvalError> {
+        self.walk_rows(b, x, sink)
+    }
+}
+
+/// Where [`FitProblem::walk_rows`] sends a block's rows.
+pub(crate) trait RowTarget {
+    /// The block's column set (estimated coefficients, then the set-up's free nuisance).
+    fn columns(&mut self, cols: &[usize]);
+    /// One whitened residual and Jacobian row, with the sample's evaluation, the sample index
+    /// and the channel (the channels of one sample come in order).
+    fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize);
+}
+
+impl RowTarget for RowSink<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        RowSink::columns(self, cols);
+    }
+    fn row(&mut self, res: f64, row: &[f64], _: &SampleEval<'_>, _: usize, _: usize) {
+        RowSink::row(self, res, row);
+    }
+}
+
+impl FitProblem<'_> {
+    /// The rows of block `b` at `x` into `target`.
+    pub(crate) fn walk_rows(
+        &self,
+        b: usize,
+        x: &[f64],
+        target: &mut impl RowTarget,
+    ) -> Result<(), EvalError> {
         let (r, start, end) = self.blocks[b];
         let study = self.study;
         let run = &study.runs[r];
@@ -68,7 +98,7 @@ impl Problem for FitProblem<'_> {
         let cols: Vec<usize> = (0..m)
             .chain(slot.x_offset..slot.x_offset + slot.free.len())
             .collect();
-        sink.columns(&cols);
+        target.columns(&cols);
         let nch = eval.n_channels();
         let mut row = vec![0.0; cols.len()];
         for i in start..end {
@@ -86,7 +116,7 @@ impl Problem for FitProblem<'_> {
                     )));
                 }
                 eval.whitened_row(c, &mut row);
-                sink.row(res, &row);
+                target.row(res, &row, &eval, i, c);
             }
         }
         Ok(())
@@ -98,7 +128,7 @@ impl Problem for FitProblem<'_> {
 /// estimated coefficients and the set-up's free nuisance parameters. Allocates once, per run.
 pub(crate) struct SampleEval<'a> {
     study: &'a Study,
-    run: usize,
+    pub(crate) run: usize,
     coeffs: Vec<f64>,
     nuis: Vec<f64>,
     ws: mtcal_kinematics::Workspace,
@@ -109,7 +139,7 @@ pub(crate) struct SampleEval<'a> {
     estimated_in_order: bool,
     pub pred: Vec<f64>,
     /// `∂reading/∂pose`, one row of six per channel (whitened after the set-up wrote it).
-    d_pose: Vec<[f64; 6]>,
+    pub(crate) d_pose: Vec<[f64; 6]>,
     d_nuis: Vec<f64>,
     pub inv_sigma: Vec<f64>,
     scratch: Vec<f64>,

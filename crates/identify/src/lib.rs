@@ -17,6 +17,7 @@
 pub mod fit;
 pub mod mismatch;
 pub mod report;
+pub mod search;
 pub mod simulate;
 pub mod study;
 
@@ -90,8 +91,17 @@ pub fn identify(
     options: &Options,
     observer: &mut dyn Observer,
 ) -> Result<Identification, IdentifyError> {
+    let specs = param_specs(study);
+    let problem = FitProblem::new(study);
+    let solution = mtcal_solve::solve(&problem, &specs, options, observer)?;
+    Ok(Identification::new(study, &solution)?)
+}
+
+/// The solver's parameter specs of `study`: start values, and priors from the plugins'
+/// nuisance declarations.
+pub fn param_specs(study: &Study) -> Vec<ParamSpec> {
     let x0 = study.initial_x();
-    let specs: Vec<ParamSpec> = (0..study.n_x)
+    (0..study.n_x)
         .map(|i| {
             let info = study.param_info(i);
             ParamSpec {
@@ -102,10 +112,7 @@ pub fn identify(
                 ..ParamSpec::default()
             }
         })
-        .collect();
-    let problem = FitProblem::new(study);
-    let solution = mtcal_solve::solve(&problem, &specs, options, observer)?;
-    Ok(Identification::new(study, &solution)?)
+        .collect()
 }
 
 /// Loads and identifies `session` with default options and no progress output.

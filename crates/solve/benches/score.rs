@@ -137,7 +137,7 @@ fn bench_score(c: &mut Criterion) {
         .map(|i| ParamSpec::new(format!("p{i}"), 0.0))
         .collect();
     let fit = solve(&session, &specs, &Options::default(), &mut Silent).unwrap();
-    let scores = score_candidates(&session, &fit, 0.05, 0).unwrap();
+    let scores = score_candidates(&session, &specs, &fit, 0.05, 0).unwrap();
     let claimed: Vec<usize> = (0..scores.len())
         .filter(|&k| scores[k].significant)
         .collect();
@@ -150,7 +150,7 @@ fn bench_score(c: &mut Criterion) {
     let mut g = c.benchmark_group("score");
     g.sample_size(10);
     g.bench_function("120_candidates_1e5_rows_100_parameters", |b| {
-        b.iter(|| black_box(score_candidates(&session, &fit, 0.05, 0).unwrap()))
+        b.iter(|| black_box(score_candidates(&session, &specs, &fit, 0.05, 0).unwrap()))
     });
     g.finish();
 }

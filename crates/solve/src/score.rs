@@ -7,7 +7,12 @@
 //! - `u = Zᵀr − ZᵀJ·C·Jᵀr`: the candidate's gradient, orthogonal to what the fit can absorb
 //!   (`Jᵀr ≈ 0` at a converged solution; kept for robustness),
 //! - `S = ZᵀZ − ZᵀJ·C·JᵀZ`: what is left of the candidate's columns once the fitted parameters
-//!   have taken their share (`C = (JᵀJ)⁺`, the fit's covariance).
+//!   have taken their share (`C = (JᵀJ + priors)⁺` on the fit's rank).
+//!
+//! `JᵀJ` is summed in the same pass as `ZᵀZ` and `ZᵀJ`, at the solution: the fit's own
+//! covariance may come from a factor of an earlier point (the chord method), close enough for
+//! uncertainties but not for the difference `S` of a candidate the fit nearly absorbs, whose
+//! projection must be exact to the rounding of the sums.
 //!
 //! Under the null hypothesis (the candidate's parameters are zero) `s` is χ² with `rank(S)`
 //! degrees of freedom; for a linear model it is exactly the drop in χ² that fitting the
@@ -21,12 +26,12 @@
 //! span of the fitted model (concealed: the data cannot tell it from a shift of those
 //! parameters), and its test has no power.
 //!
-//! One pass over the data at `x̂` accumulates `Zᵀr`, `Jᵀr`, `JᵀZ` and each candidate's own
-//! `ZₖᵀZₖ` (not the cross terms between candidates): `O(n·E)` per row for `E` candidate
-//! columns, a matrix product per chunk of rows. Holm's method corrects the p-values for the
+//! One pass over the data at `x̂` accumulates `Zᵀr`, `Jᵀr`, `JᵀJ`, `JᵀZ` and each candidate's
+//! own `ZₖᵀZₖ` (not the cross terms between candidates): `O(n·(n + E))` per row for `E`
+//! candidate columns, matrix products per chunk of rows. Holm's method corrects the p-values for the
 //! number of candidates.
 
-use crate::{EvalError, Solution, SolveError};
+use crate::{EvalError, ParamSpec, Solution, SolveError};
 use faer::Mat;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -109,10 +114,13 @@ struct ScoreAcc {
     rows: usize,
     /// `JᵀZ`, `n × e` column-major; `Jᵀr`; `Zᵀr`; per candidate its `ZₖᵀZₖ` (row-major).
     jz: Vec<f64>,
+    /// `JᵀJ`, `n × n` column-major.
+    jj: Vec<f64>,
     jr: Vec<f64>,
     zr: Vec<f64>,
     zz: Vec<Vec<f64>>,
     group_jz: Vec<f64>,
+    group_jj: Vec<f64>,
     fault: Option<String>,
 }
 
@@ -134,9 +142,11 @@ impl ScoreAcc {
             stage: Vec::new(),
             rows: 0,
             jz: vec![0.0; n * e],
+            jj: vec![0.0; n * n],
             jr: vec![0.0; n],
             zr: vec![0.0; e],
             group_jz: Vec::new(),
+            group_jj: Vec::new(),
             fault: None,
         }
     }
@@ -159,6 +169,7 @@ impl ScoreAcc {
         let w = cols.len();
         self.stage.resize(CHUNK * (w + self.e + 1), 0.0);
         self.group_jz.resize(w * self.e, 0.0);
+        self.group_jj.resize(w * w, 0.0);
     }
 
     fn row(&mut self, r: f64, jac: &[f64], extra: &[f64]) {
@@ -233,6 +244,20 @@ impl ScoreAcc {
                 self.jz[col * self.n + p] += self.group_jz[col * w + s];
             }
         }
+        let gjj = faer::MatMut::from_column_major_slice_mut(&mut self.group_jj, w, w);
+        faer::linalg::matmul::matmul(
+            gjj,
+            faer::Accum::Replace,
+            j.transpose(),
+            j,
+            1.0,
+            faer::Par::Seq,
+        );
+        for (t, &pt) in self.cols.iter().enumerate() {
+            for (s, &ps) in self.cols.iter().enumerate() {
+                self.jj[pt * self.n + ps] += self.group_jj[t * w + s];
+            }
+        }
         for (s, &p) in self.cols.iter().enumerate() {
             self.jr[p] += (0..m)
                 .map(|i| stage[i * stride + s] * stage[i * stride + w + e])
@@ -244,6 +269,9 @@ impl ScoreAcc {
         other.flush();
         self.flush();
         for (a, b) in self.jz.iter_mut().zip(&other.jz) {
+            *a += b;
+        }
+        for (a, b) in self.jj.iter_mut().zip(&other.jj) {
             *a += b;
         }
         for (a, b) in self.jr.iter_mut().zip(&other.jr) {
@@ -264,27 +292,40 @@ impl ScoreAcc {
 }
 
 /// Scores every candidate of `problem` against the fit `solution` (of the same rows without
-/// the candidate columns); Holm's correction at family-wise level `alpha`. `threads = 0` uses
-/// every core.
+/// the candidate columns, with the parameter specs `params` of that fit: their priors and
+/// fixed parameters); Holm's correction at family-wise level `alpha`. `threads = 0` uses every
+/// core.
 pub fn score_candidates<P: ScoredProblem>(
     problem: &P,
+    params: &[ParamSpec],
     solution: &Solution,
     alpha: f64,
     threads: usize,
 ) -> Result<Vec<Score>, SolveError> {
     let n = problem.n_params();
-    if solution.x.len() != n || solution.covariance.len() != n * n {
+    if solution.x.len() != n || params.len() != n {
         return Err(SolveError::Score(format!(
-            "the solution has {} parameters, the problem {n}",
-            solution.x.len()
+            "the solution has {} parameters and {} specs, the problem {n}",
+            solution.x.len(),
+            params.len()
         )));
     }
     let widths = problem.candidate_widths();
     let acc = accumulate(problem, &solution.x, &widths, threads)?;
-    let cov = &solution.covariance;
-    // C·Jᵀr, shared by every candidate.
+    let cov = covariance(&acc.jj, params, solution.rank)?;
+    let cov = &cov;
+    // The whole gradient, prior rows included (at the optimum it is zero, not the data part
+    // alone), and C times it, shared by every candidate.
+    let grad: Vec<f64> = (0..n)
+        .map(|i| match params[i].prior {
+            Some((mu, sigma)) if !params[i].fixed => {
+                acc.jr[i] + (solution.x[i] - mu) / (sigma * sigma)
+            }
+            _ => acc.jr[i],
+        })
+        .collect();
     let c_jr: Vec<f64> = (0..n)
-        .map(|i| (0..n).map(|j| cov[i * n + j] * acc.jr[j]).sum())
+        .map(|i| (0..n).map(|j| cov[i * n + j] * grad[j]).sum())
         .collect();
     let mut scores: Vec<Score> = acc
         .ranges
@@ -294,6 +335,43 @@ pub fn score_candidates<P: ScoredProblem>(
         .collect();
     holm(&mut scores, alpha);
     Ok(scores)
+}
+
+/// `(JᵀJ + priors)⁺` over the free parameters, on the `rank` largest eigenvalues of the
+/// column-scaled matrix (the fit's rank); zero rows and columns for fixed parameters.
+fn covariance(jj: &[f64], params: &[ParamSpec], rank: usize) -> Result<Vec<f64>, SolveError> {
+    let n = params.len();
+    let free: Vec<usize> = (0..n).filter(|&i| !params[i].fixed).collect();
+    let f = free.len();
+    let mut g = Mat::from_fn(f, f, |a, b| jj[free[a] * n + free[b]]);
+    for (a, &i) in free.iter().enumerate() {
+        if let Some((_, sigma)) = params[i].prior {
+            g[(a, a)] += 1.0 / (sigma * sigma);
+        }
+    }
+    let d: Vec<f64> = (0..f)
+        .map(|a| {
+            let v = g[(a, a)].sqrt();
+            if v > 0.0 { v } else { 1.0 }
+        })
+        .collect();
+    let scaled = Mat::from_fn(f, f, |a, b| g[(a, b)] / (d[a] * d[b]));
+    if !scaled.as_ref().is_all_finite() {
+        return Err(SolveError::Score("the Gram matrix is not finite".into()));
+    }
+    let (v, l) = symmetric_eigen(&scaled);
+    let mut cov = vec![0.0; n * n];
+    for k in 0..rank.min(f) {
+        if l[k] <= 0.0 {
+            continue;
+        }
+        for a in 0..f {
+            for b in 0..f {
+                cov[free[a] * n + free[b]] += v[(a, k)] * v[(b, k)] / (l[k] * d[a] * d[b]);
+            }
+        }
+    }
+    Ok(cov)
 }
 
 /// One pass over the data at `x`, in parallel.

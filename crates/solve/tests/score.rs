@@ -127,11 +127,14 @@ fn session(seed: u64, planted: impl Fn(f64) -> f64) -> Line {
     }
 }
 
-fn fit(p: &Line) -> mtcal_solve::Solution {
-    let specs: Vec<ParamSpec> = (0..p.n_fit())
+fn specs(p: &Line) -> Vec<ParamSpec> {
+    (0..p.n_fit())
         .map(|i| ParamSpec::new(format!("p{i}"), 0.0))
-        .collect();
-    solve(p, &specs, &options(2), &mut Silent).unwrap()
+        .collect()
+}
+
+fn fit(p: &Line) -> mtcal_solve::Solution {
+    solve(p, &specs(p), &options(2), &mut Silent).unwrap()
 }
 
 #[test]
@@ -140,7 +143,7 @@ fn the_score_is_the_drop_in_chi2_of_the_refit_with_its_amplitude_and_shifts() {
     let planted = |t: f64| 0.05 * (std::f64::consts::TAU * t / 0.25 + 0.7).sin() + 0.02 * t * t;
     let mut p = session(1, planted);
     let base = fit(&p);
-    let scores = score_candidates(&p, &base, 0.05, 2).unwrap();
+    let scores = score_candidates(&p, &specs(&p), &base, 0.05, 2).unwrap();
     assert_eq!(scores.len(), 5);
     for k in [0, 1, 2, 4] {
         p.fitted_candidates = vec![k];
@@ -184,7 +187,7 @@ fn the_score_is_the_drop_in_chi2_of_the_refit_with_its_amplitude_and_shifts() {
 fn a_candidate_inside_the_fitted_span_is_absorbed_and_untestable() {
     let p = session(2, |t| 0.1 * (2.0 - 3.0 * t));
     let base = fit(&p);
-    let scores = score_candidates(&p, &base, 0.05, 1).unwrap();
+    let scores = score_candidates(&p, &specs(&p), &base, 0.05, 1).unwrap();
     let s = &scores[3];
     assert_eq!(s.df, 0, "{s:?}");
     assert!(s.absorbed > 1.0 - 1e-9, "{s:?}");
@@ -206,7 +209,7 @@ fn clean_sessions_raise_a_claim_in_about_alpha_of_them() {
         .filter(|&seed| {
             let p = session(1000 + seed, |_| 0.0);
             let base = fit(&p);
-            score_candidates(&p, &base, 0.05, 1)
+            score_candidates(&p, &specs(&p), &base, 0.05, 1)
                 .unwrap()
                 .iter()
                 .any(|s| s.significant)
@@ -224,8 +227,8 @@ fn clean_sessions_raise_a_claim_in_about_alpha_of_them() {
 fn the_result_does_not_depend_on_threads() {
     let p = session(3, |t| 0.03 * t * t);
     let base = fit(&p);
-    let one = score_candidates(&p, &base, 0.05, 1).unwrap();
-    let two = score_candidates(&p, &base, 0.05, 2).unwrap();
+    let one = score_candidates(&p, &specs(&p), &base, 0.05, 1).unwrap();
+    let two = score_candidates(&p, &specs(&p), &base, 0.05, 2).unwrap();
     for (a, b) in one.iter().zip(&two) {
         assert!((a.statistic - b.statistic).abs() <= 1e-9 * (1.0 + a.statistic));
         assert_eq!(a.df, b.df);
@@ -237,7 +240,7 @@ fn a_solution_of_another_problem_is_an_error() {
     let p = session(4, |_| 0.0);
     let mut base = fit(&p);
     base.x.push(0.0);
-    let err = score_candidates(&p, &base, 0.05, 1).unwrap_err();
+    let err = score_candidates(&p, &specs(&p), &base, 0.05, 1).unwrap_err();
     assert!(err.to_string().contains("parameters"), "{err}");
 }
 
@@ -274,8 +277,12 @@ impl ScoredProblem for Broken {
 fn malformed_rows_are_errors_not_panics() {
     let p = session(5, |_| 0.0);
     let base = fit(&p);
-    for (case, expected) in [(0, "before `columns`"), (1, "expected 2 and 1"), (2, "not finite")] {
-        let err = score_candidates(&Broken(case), &base, 0.05, 1).unwrap_err();
+    for (case, expected) in [
+        (0, "before `columns`"),
+        (1, "expected 2 and 1"),
+        (2, "not finite"),
+    ] {
+        let err = score_candidates(&Broken(case), &specs(&p), &base, 0.05, 1).unwrap_err();
         assert!(err.to_string().contains(expected), "{err}");
         assert!(err.to_string().contains("block 0"), "{err}");
     }

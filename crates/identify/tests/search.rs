@@ -1,0 +1,157 @@
+//! The physics search's first piece on simulated R-test sessions: a component error the fit
+//! left out is named first and significant, with the fitted parameters it biased; a session
+//! whose truth is inside the fitted model raises no claim.
+
+use mtcal_identify::search::{omitted_parameters, rank};
+use mtcal_identify::{Study, identify, simulate::simulate};
+use mtcal_solve::{Options, Silent};
+// Links every instrument plugin (inventory drops crates nobody names).
+use mtcal_plugins as _;
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+const ELEVEN: &str =
+    r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
+
+const RUNS: &str = r#"
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+ball_free = false
+tool_length_free = false
+[setup.high]
+ball = [100.0, 0.0, 300.0]
+ball_free = false
+tool_length_free = false
+[[run]]
+name = "xyc-a0"
+instrument = "rtest"
+setup = "low"
+noise = 0.5
+path = { kind = "xyc", samples = 73 }
+[[run]]
+name = "xyc-a+30"
+instrument = "rtest"
+setup = "low"
+noise = 0.5
+path = { kind = "xyc", samples = 73, hold = { A = 30.0 } }
+[[run]]
+name = "xyc-a-30"
+instrument = "rtest"
+setup = "low"
+noise = 0.5
+path = { kind = "xyc", samples = 73, hold = { A = -30.0 } }
+[[run]]
+name = "yza"
+instrument = "rtest"
+setup = "low"
+noise = 0.5
+path = { kind = "yza", samples = 61 }
+[[run]]
+name = "xyc-high"
+instrument = "rtest"
+setup = "high"
+noise = 0.5
+path = { kind = "xyc", samples = 73 }
+"#;
+
+/// Simulates the plan with `extra` added to the example's truth (the 11-error set) into
+/// `dir/session`.
+fn simulated(dir: &Path, extra: &str, seed: u64) -> PathBuf {
+    let truth = std::fs::read_to_string(repo().join("examples/five-axis/truth.params.toml"))
+        .unwrap()
+        + extra;
+    let truth_path = dir.join("truth.params.toml");
+    std::fs::write(&truth_path, truth).unwrap();
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let plan = format!(
+        "machine = {machine:?}\ntruth = {truth_path:?}\nseed = {seed}\n[identify]\nparameters = {ELEVEN}\n{RUNS}"
+    );
+    let plan_path = dir.join("plan.toml");
+    std::fs::write(&plan_path, plan).unwrap();
+    let out = dir.join("session");
+    simulate(&plan_path, &out).unwrap();
+    out
+}
+
+/// Fits `session` (its `[identify]` parameters, with `also` added) and ranks the held-out
+/// parameters.
+fn ranked(session: &Path, also: &[&str]) -> Vec<mtcal_identify::search::Ranked> {
+    let manifest = session.join("session.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let mut names: Vec<String> = ELEVEN
+        .trim_matches(|c| c == '[' || c == ']')
+        .split(", ")
+        .map(str::to_string)
+        .collect();
+    names.extend(also.iter().map(|n| format!("\"{n}\"")));
+    let wanted = format!("parameters = [{}]", names.join(", "));
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("parameters = ") {
+                wanted.clone()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&manifest, text + "\n").unwrap();
+    let study = Study::load(session).unwrap();
+    let specs = mtcal_identify::param_specs(&study);
+    let problem = mtcal_identify::FitProblem::new(&study);
+    let solution = mtcal_solve::solve(&problem, &specs, &Options::default(), &mut Silent).unwrap();
+    // The report path works on the same study (and agrees on the parameters).
+    identify(&study, &Options::default(), &mut Silent).unwrap();
+    let candidates = omitted_parameters(&study);
+    assert_eq!(
+        candidates.len(),
+        31 - also.len(),
+        "30 component errors and the tool length, less those fitted"
+    );
+    rank(&study, &solution, candidates, 0.05).unwrap()
+}
+
+#[test]
+fn an_omitted_axial_error_of_c_is_named_first_and_significant() {
+    let dir = tempfile::tempdir().unwrap();
+    // 3 µm of axial motion of C at twice per turn: outside the 11-error model.
+    let extra = "\n[component.EZC]\nfunction = { kind = \"sine\", amplitude = 3.0, harmonic = 2, phase_deg = 20.0 }\n";
+    let session = simulated(dir.path(), extra, 5);
+    let ranked = ranked(&session, &[]);
+    let best = &ranked[0];
+    assert_eq!(best.candidate.name, "EZC", "{}", best.describe());
+    assert!(best.score.significant, "{}", best.describe());
+    // Its once-per-turn part looks like the location errors of C (tilts move the ball's height
+    // once per turn): partly absorbed, and the fit without it biased them.
+    assert!(
+        best.score.absorbed > 0.1 && best.score.absorbed < 0.99,
+        "{}",
+        best.describe()
+    );
+    assert!(!best.biased.is_empty(), "{}", best.describe());
+    // Candidates that resemble it light up too (scored one at a time against the same
+    // residuals), but less; once it is fitted, nothing is left to claim.
+    assert!(ranked[1].score.statistic < 0.5 * best.score.statistic);
+    let after = ranked_claims(&session, &["EZC"]);
+    assert!(after.is_empty(), "{after:?}");
+}
+
+fn ranked_claims(session: &Path, also: &[&str]) -> Vec<String> {
+    ranked(session, also)
+        .iter()
+        .filter(|r| r.score.significant)
+        .map(|r| r.describe())
+        .collect()
+}
+
+#[test]
+fn a_session_inside_the_fitted_model_raises_no_claim() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = simulated(dir.path(), "", 4);
+    let claims = ranked_claims(&session, &[]);
+    assert!(claims.is_empty(), "{claims:?}");
+}
