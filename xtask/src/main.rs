@@ -62,6 +62,10 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Also rank the parameters of the machine's full error model that the fit held out:
+        /// which of them would explain the residuals (score tests at the solution).
+        #[arg(long)]
+        search: bool,
     },
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
@@ -157,7 +161,18 @@ fn run(cli: Cli) -> Result<()> {
             predict,
             quiet,
             threads,
-        } => identify(&mut stdout, &session, json, predict, quiet, threads),
+            search,
+        } => identify(
+            &mut stdout,
+            &session,
+            IdentifyOutputs {
+                json,
+                predict,
+                search,
+            },
+            quiet,
+            threads,
+        ),
         Command::Simulate { plan, out } => {
             let sim = mtcal_identify::simulate::simulate(&plan, &out)?;
             writeln!(
@@ -235,14 +250,28 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// What `identify` writes besides the summary.
+struct IdentifyOutputs {
+    json: Option<PathBuf>,
+    predict: Option<PathBuf>,
+    search: bool,
+}
+
+/// Candidates printed by `identify --search` besides the significant ones.
+const SEARCH_SHOWN: usize = 5;
+
 fn identify(
     out: &mut impl std::io::Write,
     session: &std::path::Path,
-    json: Option<PathBuf>,
-    predict: Option<PathBuf>,
+    outputs: IdentifyOutputs,
     quiet: bool,
     threads: usize,
 ) -> Result<()> {
+    let IdentifyOutputs {
+        json,
+        predict,
+        search,
+    } = outputs;
     let study = mtcal_identify::Study::load(session)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
     writeln!(
@@ -261,9 +290,30 @@ fn identify(
         ..Default::default()
     };
     let mut progress = Progress::new(quiet);
-    let id = mtcal_identify::identify(&study, &options, &mut progress)?;
+    let (id, solution) = mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
     progress.finish();
     write!(out, "{}", id.summary())?;
+    if search {
+        let candidates = mtcal_identify::search::omitted_parameters(&study);
+        let count = candidates.len();
+        let ranked = mtcal_identify::search::rank(&study, &solution, candidates, 0.05)?;
+        writeln!(
+            out,
+            "\nheld-out parameters of the error model, strongest first ({count} scored, \
+             family-wise α = 5 %):"
+        )?;
+        for (i, r) in ranked.iter().enumerate() {
+            if i < SEARCH_SHOWN || r.score.significant {
+                writeln!(out, "  {}", r.describe())?;
+            }
+        }
+        if ranked.iter().all(|r| !r.score.significant) {
+            writeln!(
+                out,
+                "  none of them is significant: nothing the model left out shows"
+            )?;
+        }
+    }
     if let Some(path) = json {
         mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;

@@ -91,10 +91,19 @@ pub fn identify(
     options: &Options,
     observer: &mut dyn Observer,
 ) -> Result<Identification, IdentifyError> {
+    Ok(identify_with_solution(study, options, observer)?.0)
+}
+
+/// [`identify`], also returning the solver's solution (for [`search::rank`]).
+pub fn identify_with_solution(
+    study: &Study,
+    options: &Options,
+    observer: &mut dyn Observer,
+) -> Result<(Identification, mtcal_solve::Solution), IdentifyError> {
     let specs = param_specs(study);
     let problem = FitProblem::new(study);
     let solution = mtcal_solve::solve(&problem, &specs, options, observer)?;
-    Ok(Identification::new(study, &solution)?)
+    Ok((Identification::new(study, &solution)?, solution))
 }
 
 /// The solver's parameter specs of `study`: start values, and priors from the plugins'

@@ -49,13 +49,24 @@ impl Ranked {
             s.adjusted_p,
             if s.significant { ", significant" } else { "" }
         );
+        let names: Vec<&str> = self.biased.iter().map(|(n, _)| n.as_str()).collect();
+        if s.absorbed > 0.99 && !names.is_empty() {
+            // Concealed: only its sliver outside the fitted span is tested, and fitting it
+            // would trade it against those parameters.
+            text += &format!(
+                "; {:.1} % of it looks like {}: these data cannot tell it from them",
+                100.0 * s.absorbed,
+                names.join(", ")
+            );
+            return text;
+        }
         if s.absorbed > 0.5 {
             text += &format!(
                 "; {:.0} % of it looks like the fitted parameters",
                 100.0 * s.absorbed
             );
         }
-        if !self.biased.is_empty() {
+        if s.significant && !self.biased.is_empty() {
             let moved: Vec<String> = self
                 .biased
                 .iter()
