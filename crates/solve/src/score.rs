@@ -33,7 +33,6 @@
 
 use crate::{EvalError, ParamSpec, Solution, SolveError};
 use faer::Mat;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Rows staged before they are reduced with matrix products.
 const CHUNK: usize = 256;
@@ -312,8 +311,11 @@ pub fn score_candidates<P: ScoredProblem>(
     }
     let widths = problem.candidate_widths();
     let acc = accumulate(problem, &solution.x, &widths, threads)?;
-    let cov = covariance(&acc.jj, params, solution.rank)?;
+    let (cov, kappa) = covariance(&acc.jj, params, solution.rank)?;
     let cov = &cov;
+    // Rounding in `S = D − B·C·Bᵀ` grows with the condition of the fit's Gram matrix: directions
+    // a candidate shares with the fit beyond this (relative to its own size) are untestable.
+    let tol = (100.0 * f64::EPSILON * kappa).max(1e-10);
     // The whole gradient, prior rows included (at the optimum it is zero, not the data part
     // alone), and C times it, shared by every candidate.
     let grad: Vec<f64> = (0..n)
@@ -331,15 +333,20 @@ pub fn score_candidates<P: ScoredProblem>(
         .ranges
         .iter()
         .zip(&acc.zz)
-        .map(|(range, zz)| candidate(&acc, range.clone(), zz, cov, &c_jr))
+        .map(|(range, zz)| candidate(&acc, range.clone(), zz, cov, &c_jr, tol))
         .collect();
     holm(&mut scores, alpha);
     Ok(scores)
 }
 
 /// `(JᵀJ + priors)⁺` over the free parameters, on the `rank` largest eigenvalues of the
-/// column-scaled matrix (the fit's rank); zero rows and columns for fixed parameters.
-fn covariance(jj: &[f64], params: &[ParamSpec], rank: usize) -> Result<Vec<f64>, SolveError> {
+/// column-scaled matrix (the fit's rank); zero rows and columns for fixed parameters. Also the
+/// condition number of that matrix over the rank.
+fn covariance(
+    jj: &[f64],
+    params: &[ParamSpec],
+    rank: usize,
+) -> Result<(Vec<f64>, f64), SolveError> {
     let n = params.len();
     let free: Vec<usize> = (0..n).filter(|&i| !params[i].fixed).collect();
     let f = free.len();
@@ -360,6 +367,11 @@ fn covariance(jj: &[f64], params: &[ParamSpec], rank: usize) -> Result<Vec<f64>,
         return Err(SolveError::Score("the Gram matrix is not finite".into()));
     }
     let (v, l) = symmetric_eigen(&scaled);
+    let used = rank.min(f);
+    let kappa = match (l.first(), used.checked_sub(1).map(|k| l[k])) {
+        (Some(&hi), Some(lo)) if lo > 0.0 => hi / lo,
+        _ => 1.0,
+    };
     let mut cov = vec![0.0; n * n];
     for k in 0..rank.min(f) {
         if l[k] <= 0.0 {
@@ -371,7 +383,7 @@ fn covariance(jj: &[f64], params: &[ParamSpec], rank: usize) -> Result<Vec<f64>,
             }
         }
     }
-    Ok(cov)
+    Ok((cov, kappa))
 }
 
 /// One pass over the data at `x`, in parallel.
@@ -389,13 +401,10 @@ fn accumulate<P: ScoredProblem>(
     }
     .min(problem.n_blocks())
     .max(1);
-    let next = AtomicUsize::new(0);
-    let work = |acc: &mut ScoreAcc| -> Result<(), SolveError> {
-        loop {
-            let b = next.fetch_add(1, Ordering::Relaxed);
-            if b >= problem.n_blocks() {
-                return Ok(());
-            }
+    // Blocks dealt to the workers in a fixed pattern (worker k takes k, k + T, …) and merged in
+    // worker order: the sums, and so the scores, are the same from run to run.
+    let work = |k: usize, acc: &mut ScoreAcc| -> Result<(), SolveError> {
+        for b in (k..problem.n_blocks()).step_by(threads) {
             problem
                 .eval_block(b, x, &mut ScoreSink { acc })
                 .map_err(|source| SolveError::Eval { block: b, source })?;
@@ -403,12 +412,17 @@ fn accumulate<P: ScoredProblem>(
                 return Err(SolveError::Score(format!("block {b}: {fault}")));
             }
         }
+        Ok(())
     };
     let mut pool: Vec<ScoreAcc> = (0..threads).map(|_| ScoreAcc::new(n, widths)).collect();
     let results: Vec<Result<(), SolveError>> = std::thread::scope(|s| {
         let (first, rest) = pool.split_at_mut(1);
-        let handles: Vec<_> = rest.iter_mut().map(|acc| s.spawn(|| work(acc))).collect();
-        let mut out = vec![work(&mut first[0])];
+        let handles: Vec<_> = rest
+            .iter_mut()
+            .enumerate()
+            .map(|(k, acc)| s.spawn(move || work(k + 1, acc)))
+            .collect();
+        let mut out = vec![work(0, &mut first[0])];
         for h in handles {
             match h.join() {
                 Ok(r) => out.push(r),
@@ -437,6 +451,7 @@ fn candidate(
     zz: &[f64],
     cov: &[f64],
     c_jr: &[f64],
+    tol_rel: f64,
 ) -> Score {
     let (n, k) = (acc.n, range.len());
     let jz = |p: usize, i: usize| acc.jz[(range.start + i) * acc.n + p];
@@ -459,7 +474,7 @@ fn candidate(
     // on the scale of D: directions the fitted parameters absorb completely are not counted.
     let scale: f64 = (0..k).map(|i| d[(i, i)]).fold(0.0, f64::max);
     let (vecs, vals) = symmetric_eigen(&s);
-    let tol = 1e-10 * scale;
+    let tol = tol_rel * scale;
     let mut theta = vec![0.0; k];
     let mut s_pinv = Mat::<f64>::zeros(k, k);
     let mut df = 0;
