@@ -118,8 +118,8 @@ struct ScoreAcc {
     jr: Vec<f64>,
     zr: Vec<f64>,
     zz: Vec<Vec<f64>>,
-    group_jz: Vec<f64>,
-    group_jj: Vec<f64>,
+    /// A chunk's `Jᵀ·[J Z r]` in the group's order (`w × (w + e + 1)`), before the scatter.
+    group: Vec<f64>,
     fault: Option<String>,
 }
 
@@ -144,8 +144,7 @@ impl ScoreAcc {
             jj: vec![0.0; n * n],
             jr: vec![0.0; n],
             zr: vec![0.0; e],
-            group_jz: Vec::new(),
-            group_jj: Vec::new(),
+            group: Vec::new(),
             fault: None,
         }
     }
@@ -167,8 +166,7 @@ impl ScoreAcc {
         self.in_group = true;
         let w = cols.len();
         self.stage.resize(CHUNK * (w + self.e + 1), 0.0);
-        self.group_jz.resize(w * self.e, 0.0);
-        self.group_jj.resize(w * w, 0.0);
+        self.group.resize(w * (w + self.e + 1), 0.0);
     }
 
     fn row(&mut self, r: f64, jac: &[f64], extra: &[f64]) {
@@ -229,38 +227,29 @@ impl ScoreAcc {
         if w == 0 {
             return;
         }
-        let gjz = faer::MatMut::from_column_major_slice_mut(&mut self.group_jz, w, e);
+        // The staged rows are `[J Z r]`: one product gives JᵀJ, JᵀZ and Jᵀr.
+        let all = faer::MatRef::from_row_major_slice_with_stride(stage, m, stride, stride);
+        let g = faer::MatMut::from_column_major_slice_mut(&mut self.group, w, stride);
         faer::linalg::matmul::matmul(
-            gjz,
+            g,
             faer::Accum::Replace,
             j.transpose(),
-            z,
-            1.0,
-            faer::Par::Seq,
-        );
-        for col in 0..e {
-            for (s, &p) in self.cols.iter().enumerate() {
-                self.jz[col * self.n + p] += self.group_jz[col * w + s];
-            }
-        }
-        let gjj = faer::MatMut::from_column_major_slice_mut(&mut self.group_jj, w, w);
-        faer::linalg::matmul::matmul(
-            gjj,
-            faer::Accum::Replace,
-            j.transpose(),
-            j,
+            all,
             1.0,
             faer::Par::Seq,
         );
         for (t, &pt) in self.cols.iter().enumerate() {
             for (s, &ps) in self.cols.iter().enumerate() {
-                self.jj[pt * self.n + ps] += self.group_jj[t * w + s];
+                self.jj[pt * self.n + ps] += self.group[t * w + s];
+            }
+        }
+        for col in 0..e {
+            for (s, &p) in self.cols.iter().enumerate() {
+                self.jz[col * self.n + p] += self.group[(w + col) * w + s];
             }
         }
         for (s, &p) in self.cols.iter().enumerate() {
-            self.jr[p] += (0..m)
-                .map(|i| stage[i * stride + s] * stage[i * stride + w + e])
-                .sum::<f64>();
+            self.jr[p] += self.group[(w + e) * w + s];
         }
     }
 
@@ -373,7 +362,7 @@ fn covariance(
         _ => 1.0,
     };
     let mut cov = vec![0.0; n * n];
-    for k in 0..rank.min(f) {
+    for k in 0..used {
         if l[k] <= 0.0 {
             continue;
         }
