@@ -62,8 +62,9 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long, default_value_t = 0)]
         threads: usize,
-        /// Also rank the parameters of the machine's full error model that the fit held out:
-        /// which of them would explain the residuals (score tests at the solution).
+        /// Run the physics search: find the effects the model left out (thermal drift,
+        /// backlash, cyclic errors, omitted parameters…), add those that improve held-out
+        /// prediction, and report them as discoveries.
         #[arg(long)]
         search: bool,
     },
@@ -257,9 +258,6 @@ struct IdentifyOutputs {
     search: bool,
 }
 
-/// Candidates printed by `identify --search` besides the significant ones.
-const SEARCH_SHOWN: usize = 5;
-
 fn identify(
     out: &mut impl std::io::Write,
     session: &std::path::Path,
@@ -290,30 +288,25 @@ fn identify(
         ..Default::default()
     };
     let mut progress = Progress::new(quiet);
-    let (id, solution) = mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
-    progress.finish();
-    write!(out, "{}", id.summary())?;
-    if search {
-        let candidates = mtcal_identify::search::omitted_parameters(&study);
-        let count = candidates.len();
-        let ranked = mtcal_identify::search::rank(&study, &solution, candidates, 0.05)?;
-        writeln!(
-            out,
-            "\nheld-out parameters of the error model, strongest first ({count} scored, \
-             family-wise α = 5 %):"
-        )?;
-        for (i, r) in ranked.iter().enumerate() {
-            if i < SEARCH_SHOWN || r.score.significant {
-                writeln!(out, "  {}", r.describe())?;
-            }
-        }
-        if ranked.iter().all(|r| !r.score.significant) {
-            writeln!(
-                out,
-                "  none of them is significant: nothing the model left out shows"
-            )?;
-        }
-    }
+    let (id, study) = if search {
+        progress.finish();
+        let options = mtcal_identify::search::SearchOptions {
+            solver: options,
+            ..Default::default()
+        };
+        let result = mtcal_identify::search::search(study, &options)?;
+        writeln!(out, "before the physics search:")?;
+        write!(out, "{}", result.initial.summary())?;
+        write!(out, "\n{}", result.identification.search_summary())?;
+        writeln!(out, "\nafter the physics search:")?;
+        write!(out, "{}", result.identification.summary())?;
+        (result.identification, result.study)
+    } else {
+        let id = mtcal_identify::identify(&study, &options, &mut progress)?;
+        progress.finish();
+        write!(out, "{}", id.summary())?;
+        (id, study)
+    };
     if let Some(path) = json {
         mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;

@@ -10,10 +10,13 @@
 //! nuisance parameters), which is the structure the streaming solver exploits.
 
 use crate::study::Study;
+use mtcal_effects::prepared::shape_values;
+use mtcal_effects::{PreparedEffects, SampleEffects};
 use mtcal_instrument::At;
 use mtcal_kinematics::Rigid;
 use mtcal_kinematics::rigid::exp_so3;
 use mtcal_solve::{EvalError, Problem, RowSink};
+use std::sync::{Arc, Mutex};
 
 /// Samples per block of parallel evaluation.
 const BLOCK_SAMPLES: usize = 2048;
@@ -24,10 +27,41 @@ pub struct FitProblem<'a> {
     study: &'a Study,
     /// (run, first sample, end sample).
     blocks: Vec<(usize, usize, usize)>,
+    /// Samples left out (held-out validation): sample `i` of run `r` is skipped when
+    /// `fold_of(r, i) == Some(k)` for the held-out fold `k`.
+    held_out: Option<Folds>,
+    /// The effects prepared at the last shape parameters asked for (a pass evaluates every
+    /// block at one `x`: the first block prepares, the others reuse).
+    prepared: PreparedCache,
+}
+
+/// Effects prepared at some shape parameters, and those parameters.
+type PreparedCache = Mutex<Option<(Vec<f64>, Arc<PreparedEffects>)>>;
+
+/// Contiguous time blocks of every fitted run, for blocked cross-validation: sample `i` of a
+/// run of `n` samples is in fold `⌊k·i/n⌋` of `k`. Every run (and so every set-up) keeps
+/// samples in every training set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Folds {
+    pub count: usize,
+    /// The fold left out.
+    pub held: usize,
+}
+
+impl Folds {
+    /// The fold of sample `i` of a run of `n` samples.
+    pub fn fold_of(count: usize, i: usize, n: usize) -> usize {
+        (count * i) / n.max(1)
+    }
 }
 
 impl<'a> FitProblem<'a> {
     pub fn new(study: &'a Study) -> Self {
+        Self::with_folds(study, None)
+    }
+
+    /// The problem without the samples of fold `folds.held` (blocked cross-validation).
+    pub fn with_folds(study: &'a Study, held_out: Option<Folds>) -> Self {
         let mut blocks = Vec::new();
         for (r, run) in study.runs.iter().enumerate() {
             if !run.fit {
@@ -41,8 +75,44 @@ impl<'a> FitProblem<'a> {
                 s = e;
             }
         }
-        Self { study, blocks }
+        Self {
+            study,
+            blocks,
+            held_out,
+            prepared: Mutex::new(None),
+        }
     }
+
+    /// The study's effects prepared at the shape parameters of `x` (`None` without effects).
+    pub(crate) fn effects_at(&self, x: &[f64]) -> Option<Arc<PreparedEffects>> {
+        prepared_at(self.study, x, Some(&self.prepared))
+    }
+}
+
+/// `study`'s effects prepared at `x`, reusing `cache` when the shape parameters are the same.
+fn prepared_at(
+    study: &Study,
+    x: &[f64],
+    cache: Option<&PreparedCache>,
+) -> Option<Arc<PreparedEffects>> {
+    if study.effects().is_empty() {
+        return None;
+    }
+    let params = study.effect_params(x);
+    let shapes = shape_values(study.effects(), params);
+    let build = || Arc::new(PreparedEffects::new(study.effects(), study.view(), params));
+    let Some(cache) = cache else {
+        return Some(build());
+    };
+    let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((s, p)) = guard.as_ref()
+        && *s == shapes
+    {
+        return Some(Arc::clone(p));
+    }
+    let p = build();
+    *guard = Some((shapes, Arc::clone(&p)));
+    Some(p)
 }
 
 impl Problem for FitProblem<'_> {
@@ -93,15 +163,22 @@ impl FitProblem<'_> {
             .readings
             .as_ref()
             .expect("fitted runs have readings (checked when loading)");
-        let mut eval = SampleEval::new(study, r, x);
+        let mut eval = SampleEval::new(study, r, x, self.effects_at(x));
         let m = study.estimated.len();
         let cols: Vec<usize> = (0..m)
             .chain(slot.x_offset..slot.x_offset + slot.free.len())
+            .chain(study.effect_offset..study.n_x)
             .collect();
         target.columns(&cols);
         let nch = eval.n_channels();
         let mut row = vec![0.0; cols.len()];
+        let n = run.len();
         for i in start..end {
+            if let Some(f) = self.held_out
+                && Folds::fold_of(f.count, i, n) == f.held
+            {
+                continue;
+            }
             eval.at(i, true);
             for c in 0..nch {
                 let res = (eval.pred[c] - readings[i * nch + c]) * eval.inv_sigma[c];
@@ -140,17 +217,64 @@ pub(crate) struct SampleEval<'a> {
     pub pred: Vec<f64>,
     /// `∂reading/∂pose`, one row of six per channel (whitened after the set-up wrote it).
     pub(crate) d_pose: Vec<[f64; 6]>,
-    d_nuis: Vec<f64>,
+    pub(crate) d_nuis: Vec<f64>,
     pub inv_sigma: Vec<f64>,
     scratch: Vec<f64>,
+    effects: Option<EffectEval>,
+}
+
+/// What evaluating effects at a sample needs.
+struct EffectEval {
+    prepared: Arc<PreparedEffects>,
+    /// The effects' parameters (SI).
+    params: Vec<f64>,
+    out: SampleEffects,
+    /// The set-up's prediction before the effects' gain and direct changes.
+    raw: Vec<f64>,
+    /// `∂pose/∂q` at the nominal machine, 6 × axes column-major.
+    axis_jac: Vec<f64>,
+    /// Nuisance values with the effects' perturbation.
+    nuis: Vec<f64>,
+    /// Per effect parameter, the twist its axis columns give (6 each).
+    twists: Vec<[f64; 6]>,
 }
 
 impl<'a> SampleEval<'a> {
-    pub fn new(study: &'a Study, run: usize, x: &[f64]) -> Self {
+    pub fn new(
+        study: &'a Study,
+        run: usize,
+        x: &[f64],
+        prepared: Option<Arc<PreparedEffects>>,
+    ) -> Self {
         let setup = &study.setups[study.runs[run].setup].setup;
         let nch = setup.channels().len();
         let nn = setup.nuisance().len();
+        let na = study.fit_model.machine().n_axes();
+        let effects = prepared.map(|prepared| {
+            let max_nuis = study
+                .setups
+                .iter()
+                .map(|s| s.setup.nuisance().len())
+                .max()
+                .unwrap_or(0);
+            let max_ch = study
+                .setups
+                .iter()
+                .map(|s| s.setup.channels().len())
+                .max()
+                .unwrap_or(0);
+            EffectEval {
+                out: prepared.scratch(na, max_nuis, max_ch),
+                params: study.effect_params(x).to_vec(),
+                twists: vec![[0.0; 6]; prepared.n_params()],
+                prepared,
+                raw: vec![0.0; nch],
+                axis_jac: vec![0.0; 6 * na],
+                nuis: vec![0.0; nn],
+            }
+        });
         Self {
+            effects,
             study,
             run,
             coeffs: study.fit_coeffs_from(x),
@@ -184,37 +308,75 @@ impl<'a> SampleEval<'a> {
         let model = &study.fit_model;
         let na = model.machine().n_axes();
         let q = &run.q[i * na..(i + 1) * na];
-        let pose = if derivatives {
+        let mut pose = if derivatives {
             model.tool_pose_for_jacobian(q, &self.coeffs, &mut self.ws)
         } else {
             model.tool_pose(q, &self.coeffs, &mut self.ws)
         };
-        let at = At {
-            q,
-            t: run.table.t[i],
-            w_t_t: &pose,
-        };
-        setup.predict(&at, &self.nuis, &mut self.pred);
-        if !derivatives {
-            return;
+        let t = run.table.t[i];
+        let mut nuis = std::mem::take(&mut self.nuis);
+        if let Some(fx) = self.effects.as_mut() {
+            // The effects act on the axes (through the axis Jacobian, first order), on the
+            // set-up's nuisance parameters and on the readings.
+            fx.prepared
+                .sample(self.run, run.setup, i, &fx.params, &mut fx.out);
+            if fx.out.axes_touched {
+                fx.axis_jac
+                    .copy_from_slice(study.axis_jacobian(self.run, i));
+                let twist = axis_twist(&fx.axis_jac, &fx.out.dq);
+                pose.t += nalgebra::Vector3::new(twist[0], twist[1], twist[2]);
+                pose.r = exp_so3(&nalgebra::Vector3::new(twist[3], twist[4], twist[5])) * pose.r;
+            }
+            fx.nuis.copy_from_slice(&nuis);
+            for (v, d) in fx.nuis.iter_mut().zip(&fx.out.dn) {
+                *v += d;
+            }
+            std::mem::swap(&mut nuis, &mut fx.nuis);
         }
-        if !setup.derivatives(
-            &at,
-            &self.nuis,
-            self.d_pose.as_flattened_mut(),
-            &mut self.d_nuis,
-        ) {
-            self.finite_differences(q, run.table.t[i], &pose);
+        let at = At { q, t, w_t_t: &pose };
+        setup.predict(&at, &nuis, &mut self.pred);
+        if let Some(fx) = self.effects.as_mut() {
+            // reading = (1 + gain)·prediction + direct change.
+            fx.raw.copy_from_slice(&self.pred);
+            for (c, p) in self.pred.iter_mut().enumerate() {
+                *p = *p * (1.0 + fx.out.gain[c]) + fx.out.dr[c];
+            }
         }
-        // Whitening the pose rows whitens the projected Jacobian for free.
-        let nn = self.nuis.len();
-        for (c, &w) in self.inv_sigma.iter().enumerate() {
-            self.d_pose[c].iter_mut().for_each(|v| *v *= w);
-            self.d_nuis[c * nn..(c + 1) * nn]
-                .iter_mut()
-                .for_each(|v| *v *= w);
+        if derivatives {
+            if !setup.derivatives(&at, &nuis, self.d_pose.as_flattened_mut(), &mut self.d_nuis) {
+                self.nuis = nuis;
+                self.finite_differences(q, t, &pose);
+                nuis = std::mem::take(&mut self.nuis);
+            }
+            // Whitening the pose rows whitens the projected Jacobian for free; a gain error
+            // scales the reading's every derivative.
+            let nn = nuis.len();
+            for (c, &w) in self.inv_sigma.iter().enumerate() {
+                let w = w * self.effects.as_ref().map_or(1.0, |fx| 1.0 + fx.out.gain[c]);
+                self.d_pose[c].iter_mut().for_each(|v| *v *= w);
+                self.d_nuis[c * nn..(c + 1) * nn]
+                    .iter_mut()
+                    .for_each(|v| *v *= w);
+            }
+            model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
+            if let Some(fx) = self.effects.as_mut() {
+                for (j, tw) in fx.twists.iter_mut().enumerate() {
+                    *tw = if fx.out.axes_touched {
+                        axis_twist(
+                            &fx.axis_jac,
+                            &fx.out.jq[j * fx.out.n_axes..][..fx.out.n_axes],
+                        )
+                    } else {
+                        [0.0; 6]
+                    };
+                }
+            }
         }
-        model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
+        // Put the unperturbed nuisance values back.
+        if let Some(fx) = self.effects.as_mut() {
+            std::mem::swap(&mut nuis, &mut fx.nuis);
+        }
+        self.nuis = nuis;
     }
 
     /// Central differences of the set-up's predictions, for plugins without analytic
@@ -276,6 +438,20 @@ impl<'a> SampleEval<'a> {
         for (j, &i) in slot.free.iter().enumerate() {
             row[m + j] = self.d_nuis[c * nn + i];
         }
+        if let Some(fx) = &self.effects {
+            // Effect parameters: through the axes, the nuisance parameters and the reading.
+            let base = m + slot.free.len();
+            let d_nuis = &self.d_nuis[c * nn..(c + 1) * nn];
+            let out = &fx.out;
+            for (j, tw) in fx.twists.iter().enumerate() {
+                let mut v: f64 = (0..6).map(|k| self.d_pose[c][k] * tw[k]).sum();
+                let jn = &out.jn[j * out.n_nuis..][..nn];
+                v += d_nuis.iter().zip(jn).map(|(a, b)| a * b).sum::<f64>();
+                v += (out.jr[j * out.n_ch + c] + out.jg[j * out.n_ch + c] * fx.raw[c])
+                    * self.inv_sigma[c];
+                row[base + j] = v;
+            }
+        }
     }
 }
 
@@ -313,6 +489,7 @@ pub fn predict_runs(
         .min(tasks.len())
         .max(1);
     let queue = std::sync::Mutex::new(tasks.into_iter());
+    let prepared = prepared_at(study, x, None);
     let worker = || {
         loop {
             let task = queue.lock().map(|mut q| q.next());
@@ -320,7 +497,7 @@ pub fn predict_runs(
             let Ok(Some((r, first, chunk))) = task else {
                 return;
             };
-            let mut eval = SampleEval::new(study, r, x);
+            let mut eval = SampleEval::new(study, r, x, prepared.clone());
             let nch = eval.n_channels();
             for (j, row) in chunk.chunks_exact_mut(nch).enumerate() {
                 eval.at(first + j, false);
@@ -335,4 +512,18 @@ pub fn predict_runs(
         worker();
     });
     out
+}
+
+/// The pose twist (translation, rotation; workpiece frame) of axis perturbations `dq` through
+/// the axis Jacobian `jac` (6 × axes, column-major).
+fn axis_twist(jac: &[f64], dq: &[f64]) -> [f64; 6] {
+    let mut tw = [0.0; 6];
+    for (a, &d) in dq.iter().enumerate() {
+        if d != 0.0 {
+            for (k, t) in tw.iter_mut().enumerate() {
+                *t += jac[6 * a + k] * d;
+            }
+        }
+    }
+    tw
 }

@@ -106,22 +106,66 @@ pub fn identify_with_solution(
     Ok((Identification::new(study, &solution)?, solution))
 }
 
-/// The solver's parameter specs of `study`: start values, and priors from the plugins'
-/// nuisance declarations.
+/// The solver's parameter specs of `study`: start values, priors from the plugins' nuisance
+/// declarations, bounds of the effects' shape parameters.
 pub fn param_specs(study: &Study) -> Vec<ParamSpec> {
-    let x0 = study.initial_x();
+    param_specs_from(study, &study.initial_x())
+}
+
+/// [`param_specs`] starting from `x0` instead of the study's own start.
+pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
     (0..study.n_x)
         .map(|i| {
             let info = study.param_info(i);
+            let effect = study.effect_param(i);
+            // Plausible ranges: a millimetre or milliradian of machine or set-up error, a 1 %
+            // gain; an effect says its own.
+            let scale = match effect {
+                Some(d) => d.scale,
+                None if info.unit == "ppm" => 1e-2,
+                None => 1e-3,
+            };
             ParamSpec {
                 name: info.name,
                 initial: x0[i],
                 prior: info.prior_sigma.map(|s| (0.0, s)),
-                group: (!info.machine).then(|| "set-up".to_string()),
+                bounds: effect.and_then(|d| d.bounds),
+                group: (!info.machine && effect.is_none()).then(|| "set-up".to_string()),
+                scale: Some(scale),
                 ..ParamSpec::default()
             }
         })
         .collect()
+}
+
+/// Solves `study` from `x0` in two stages when it has effects with shape parameters: first
+/// with the shapes held (the problem is then linear in the effects' amplitudes, so they come
+/// out right even from zero), then with everything free. A shape parameter's column is its
+/// amplitude times a derivative: next to a zero amplitude a Gauss–Newton step along it is
+/// arbitrarily long.
+pub fn solve_from(
+    study: &Study,
+    x0: &[f64],
+    options: &Options,
+    observer: &mut dyn Observer,
+) -> Result<mtcal_solve::Solution, IdentifyError> {
+    let problem = FitProblem::new(study);
+    let mut specs = param_specs_from(study, x0);
+    let shapes: Vec<usize> = (0..study.n_x)
+        .filter(|&i| {
+            study
+                .effect_param(i)
+                .is_some_and(|p| p.kind == mtcal_effects::ParamKind::Shape)
+        })
+        .collect();
+    if !shapes.is_empty() {
+        for &i in &shapes {
+            specs[i].fixed = true;
+        }
+        let first = mtcal_solve::solve(&problem, &specs, options, observer)?;
+        specs = param_specs_from(study, &first.x);
+    }
+    Ok(mtcal_solve::solve(&problem, &specs, options, observer)?)
 }
 
 /// Loads and identifies `session` with default options and no progress output.

@@ -108,6 +108,16 @@ pub struct Identification {
     /// JSON as `mismatch_tests`.
     #[serde(rename = "mismatch_tests")]
     pub mismatch_detail: Vec<String>,
+    /// Every structure test behind `mismatch` (for the physics search's sentences).
+    #[serde(skip)]
+    pub tests: Vec<mtcal_mismatch::TestRecord>,
+    /// What the physics search added, in the order it added them (FORMATS.md `discoveries`);
+    /// empty without `--search`.
+    pub discoveries: Vec<crate::search::Discovery>,
+    /// How the search went: candidates, every trial and why it was kept or not, effects the
+    /// data cannot tell from the fitted parameters. Only with `--search`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search: Option<crate::search::SearchReport>,
     pub solver: SolverReport,
     /// The solution vector (SI), for predictions; not written to the JSON.
     #[serde(skip)]
@@ -132,11 +142,13 @@ impl Identification {
             let info = study.param_info(i);
             parameters.push(ParameterValue {
                 name: info.name,
-                value: xi * 1e6,
+                value: xi * info.per_si,
                 unit: info.unit,
-                u95: K95 * sigma * 1e6,
+                u95: K95 * sigma * info.per_si,
                 kind: if info.machine {
                     "machine".into()
+                } else if i >= study.effect_offset {
+                    "effect".into()
                 } else {
                     study.setups[setup_of(study, i)].name.clone()
                 },
@@ -190,6 +202,9 @@ impl Identification {
             validation,
             mismatch: analysis.mismatch.clone(),
             mismatch_detail: analysis.describe(),
+            tests: analysis.tests.clone(),
+            discoveries: Vec::new(),
+            search: None,
             solver: SolverReport {
                 iterations: solution.iterations,
                 passes: solution.evaluations,

@@ -1,29 +1,90 @@
-//! The physics search, first piece: which parameters of the machine's full error model that the
-//! fit held out would explain what the fit leaves (FORMATS.md effect `omitted-parameter`),
-//! each scored against the solution without refitting ([`mtcal_solve::score_candidates`]):
-//! the predicted drop in χ², a p-value corrected for the number of candidates, the share of the
-//! candidate the fitted parameters absorb (concealment) and which fitted parameters it would
-//! move, in their own standard deviations.
+//! The physics search: when the identified model and the recordings disagree, find which
+//! physics the model left out, add it, and show the fit improve on data it did not train on.
 //!
-//! A candidate's columns are the readings' derivatives with respect to its coefficients, through
-//! the full model at the solution (held-out parameters are zero there, so the pose is the
-//! fit's).
+//! # The loop
+//! 1. **Rank.** Every registered effect family ([`mtcal_effects::families`]) proposes its
+//!    candidates for the session (thermal drifts at a grid of time constants, reversal of each
+//!    axis that reverses, cyclic errors at screw pitches, the model's held-out parameters…).
+//!    Each is scored against the current fit without refitting ([`mtcal_solve::score_candidates`],
+//!    a Lagrange-multiplier test): the predicted drop in χ², Holm's correction over all
+//!    candidates, the share of it the fitted parameters absorb, the fitted parameters it would
+//!    move.
+//! 2. **Fit and check.** The significant candidates, strongest first (at most
+//!    [`SearchOptions::tries`]), are added one at a time and the model is refitted, shape
+//!    parameters (τ, pitch…) included. A candidate is accepted only if the information criterion
+//!    agrees (`Δχ²/max(1, χ²_red) > Δk·ln n`, BIC with the noise scale re-estimated when the fit
+//!    is worse than the stated noise) **and** it predicts held-out data better: blocked
+//!    cross-validation over [`SearchOptions::folds`] contiguous time blocks of every fitted run
+//!    (each fold fitted without its samples, then predicted), whitened mean square lower by at
+//!    least [`SearchOptions::min_heldout_gain`].
+//! 3. **Repeat** with the accepted effect in the model, until no candidate is significant or
+//!    none that is helps.
+//!
+//! # What it reports
+//! Each accepted step is a [`Discovery`] (FORMATS.md `discoveries`): the effect, its
+//! parameters with 95 % intervals from the final fit, the fit and held-out RMS before and
+//! after, the share of the excess χ² it explains, the machine parameters it had biased (before
+//! and after), where the residuals showed it, and a sentence. Candidates the data cannot tell
+//! from the fitted parameters (almost wholly absorbed) are listed as [`Concealed`], with the
+//! parameters they hide behind and the measurement that would separate them.
+//!
+//! # Columns of a candidate
+//! Effects give their columns through [`mtcal_effects::PreparedEffects`] (axis perturbations
+//! through the machine's axis Jacobian, set-up parameters through the instrument's nuisance
+//! derivatives, readings directly); model changes through the projected Jacobian of the
+//! machine model with the candidate parameters added (held-out parameters are zero at the
+//! solution, so the pose is the fit's).
 
-use crate::IdentifyError;
-use crate::fit::{FitProblem, RowTarget, SampleEval};
-use crate::study::Study;
-use mtcal_kinematics::Workspace;
-use mtcal_solve::{EvalError, Problem, Score, ScoreSink, ScoredProblem, Solution};
+use crate::fit::{FitProblem, Folds, RowTarget, SampleEval};
+use crate::report::{Identification, K95};
+use crate::study::{Changes, Study};
+use crate::{IdentifyError, param_specs, param_specs_from};
+use mtcal_effects::{
+    Candidate, Effect, EffectInfo, Features, ParamDef, PreparedEffects, SampleEffects, SessionView,
+    Term,
+};
+use mtcal_kinematics::{MachineModel, Workspace};
+use mtcal_solve::{EvalError, Options, Problem, Score, ScoreSink, ScoredProblem, Silent, Solution};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::sync::Arc;
 
-/// A candidate effect: a name for people and the model coefficients it adds.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Candidate {
-    /// FORMATS.md effect name (`omitted-parameter`).
-    pub effect: &'static str,
-    /// The ISO 230-1 parameter (`EZC`, `EX0C`).
-    pub name: String,
-    /// Its coefficients in the full model (`Study::model`).
-    coeffs: Vec<usize>,
+/// Settings of [`search`].
+#[derive(Debug, Clone)]
+pub struct SearchOptions {
+    /// Family-wise level of the score tests (Holm).
+    pub alpha: f64,
+    /// Effects added at most.
+    pub max_steps: usize,
+    /// Significant candidates refitted per step, strongest first, before giving up.
+    pub tries: usize,
+    /// Contiguous time blocks per fitted run for the held-out check.
+    pub folds: usize,
+    /// Relative drop of the held-out mean square a candidate must bring (0: any drop; the score
+    /// test and the information criterion already ask for evidence).
+    pub min_heldout_gain: f64,
+    /// Only candidates of these families (`None`: every registered family).
+    pub families: Option<Vec<String>>,
+    /// Solver settings of every fit.
+    pub solver: Options,
+    /// Memory for candidates' cached series (bytes) per scoring pass: more candidates are
+    /// scored in several passes.
+    pub cache_bytes: usize,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        Self {
+            alpha: 0.05,
+            max_steps: 10,
+            tries: 3,
+            folds: 5,
+            min_heldout_gain: 0.0,
+            families: None,
+            solver: Options::default(),
+            cache_bytes: 256 << 20,
+        }
+    }
 }
 
 /// A candidate and its test.
@@ -34,25 +95,47 @@ pub struct Ranked {
     /// Fitted parameters the candidate would move by more than one of their standard
     /// deviations, largest first: name and shift in σ.
     pub biased: Vec<(String, f64)>,
+    /// Fitted parameters the candidate hides behind, largest share first (see
+    /// [`Score::mimicked_by`]).
+    pub mimics: Vec<(String, f64)>,
 }
 
 impl Ranked {
+    /// The candidate's name with its starting shape (`thermal-drift Z (t), τ₀ = 600 s`).
+    pub fn name(&self) -> String {
+        match &self.candidate {
+            Candidate::Effect(e) => {
+                let shapes: Vec<String> = e
+                    .params()
+                    .iter()
+                    .filter(|p| p.kind == mtcal_effects::ParamKind::Shape)
+                    .map(|p| format!("{} = {:.4} {}", p.name, p.initial * p.per_si, p.unit))
+                    .collect();
+                if shapes.is_empty() {
+                    e.info().label.clone()
+                } else {
+                    format!("{}, from {}", e.info().label, shapes.join(", "))
+                }
+            }
+            Candidate::Model(m) => format!("{} ({})", m.label(), m.class),
+        }
+    }
+
     /// One sentence for the report.
     pub fn describe(&self) -> String {
         let s = &self.score;
         let mut text = format!(
-            "{} ({}): χ² would drop by {:.1} ({} degrees of freedom, adjusted p = {:.2e}){}",
-            self.candidate.name,
-            self.candidate.effect,
+            "{}: χ² would drop by {:.1} ({} degrees of freedom, adjusted p = {:.2e}){}",
+            self.name(),
             s.statistic,
             s.df,
             s.adjusted_p,
             if s.significant { ", significant" } else { "" }
         );
-        let names: Vec<&str> = self.biased.iter().map(|(n, _)| n.as_str()).collect();
-        if s.absorbed > 0.99 && !names.is_empty() {
+        if s.absorbed > 0.99 && !self.mimics.is_empty() {
             // Concealed: only its sliver outside the fitted span is tested, and fitting it
             // would trade it against those parameters.
+            let names: Vec<&str> = self.mimics.iter().map(|(n, _)| n.as_str()).collect();
             text += &format!(
                 "; {:.1} % of it looks like {}: these data cannot tell it from them",
                 100.0 * s.absorbed,
@@ -78,64 +161,106 @@ impl Ranked {
     }
 }
 
-/// Every parameter of the full error model none of whose coefficients the fit estimates.
-pub fn omitted_parameters(study: &Study) -> Vec<Candidate> {
-    let mut estimated = vec![false; study.model.n_coeffs()];
-    for &k in &study.estimated {
-        estimated[k] = true;
-    }
-    study
-        .model
-        .errors()
-        .params()
-        .iter()
-        .filter(|p| !(p.offset..p.offset + p.len).any(|k| estimated[k]))
-        .map(|p| Candidate {
-            effect: "omitted-parameter",
-            name: p.name.to_string(),
-            coeffs: (p.offset..p.offset + p.len).collect(),
-        })
+/// Every registered family's candidates for `study` (only `families`, if given).
+pub fn candidates(study: &Study, families: Option<&[String]>) -> Vec<Candidate> {
+    let view = study.view();
+    mtcal_effects::families()
+        .into_iter()
+        .filter(|f| families.is_none_or(|names| names.iter().any(|n| n == f.name)))
+        .flat_map(|f| (f.candidates)(view))
         .collect()
 }
 
+/// The `omitted-parameter` candidates of `study`: parameters of the full error model the fit
+/// holds.
+pub fn omitted_parameters(study: &Study) -> Vec<Candidate> {
+    candidates(study, Some(&["omitted-parameter".to_string()]))
+}
+
 /// Scores `candidates` against `solution` (the fit of `study`), Holm's correction at
-/// family-wise level `alpha`; strongest first.
+/// family-wise level `alpha` over all of them; strongest first.
 pub fn rank(
     study: &Study,
     solution: &Solution,
     candidates: Vec<Candidate>,
     alpha: f64,
 ) -> Result<Vec<Ranked>, IdentifyError> {
+    rank_with(study, solution, candidates, alpha, 256 << 20)
+}
+
+fn rank_with(
+    study: &Study,
+    solution: &Solution,
+    candidates: Vec<Candidate>,
+    alpha: f64,
+    cache_bytes: usize,
+) -> Result<Vec<Ranked>, IdentifyError> {
     if candidates.is_empty() {
         return Ok(Vec::new());
     }
-    let problem = Scoring {
-        fit: FitProblem::new(study),
-        study,
-        coeffs: candidates.iter().flat_map(|c| c.coeffs.clone()).collect(),
-        widths: candidates.iter().map(|c| c.coeffs.len()).collect(),
-    };
-    let specs = crate::param_specs(study);
-    let scores = mtcal_solve::score_candidates(&problem, &specs, solution, alpha, 0)?;
+    let specs = param_specs(study);
+    let samples: usize = study.runs.iter().map(|r| r.len()).sum();
+    // Candidates go in passes: every model change and the effects whose cached series fit
+    // the budget together.
+    let per_series = (samples.max(1) * 16).max(1);
+    let budget = (cache_bytes / per_series).max(1);
+    let mut passes: Vec<Vec<usize>> = vec![Vec::new()];
+    let mut keys: Vec<String> = Vec::new();
+    for (i, c) in candidates.iter().enumerate() {
+        if let Candidate::Effect(e) = c {
+            let new: Vec<String> = e
+                .cached_series()
+                .into_iter()
+                .filter(|k| !keys.contains(k))
+                .collect();
+            if !new.is_empty() && keys.len() + new.len() > budget && !keys.is_empty() {
+                passes.push(Vec::new());
+                keys.clear();
+                study.view().clear_caches();
+            }
+            keys.extend(new);
+        }
+        passes.last_mut().expect("one pass at least").push(i);
+    }
+    let mut scores: Vec<Option<Score>> = vec![None; candidates.len()];
+    for pass in &passes {
+        let chosen: Vec<&Candidate> = pass.iter().map(|&i| &candidates[i]).collect();
+        let problem = Scoring::new(study, &chosen, solution)?;
+        let s = mtcal_solve::score_candidates(&problem, &specs, solution, alpha, 0)?;
+        for (&i, score) in pass.iter().zip(s) {
+            scores[i] = Some(score);
+        }
+        study.view().clear_caches();
+    }
+    let mut scores: Vec<Score> = scores
+        .into_iter()
+        .map(|s| s.expect("every candidate scored"))
+        .collect();
+    mtcal_solve::holm(&mut scores, alpha);
     let mut ranked: Vec<Ranked> = candidates
         .into_iter()
         .zip(scores)
         .map(|(candidate, score)| {
-            let mut biased: Vec<(String, f64)> = score
-                .shift
-                .iter()
-                .enumerate()
-                .filter_map(|(i, d)| {
-                    let z = d / solution.sigma[i]?;
-                    (z.abs() > 1.0).then(|| (study.param_info(i).name, z))
-                })
-                .collect();
-            biased.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
-            biased.truncate(3);
+            let named = |values: &[f64], scale: &dyn Fn(usize) -> Option<f64>, floor: f64| {
+                let mut out: Vec<(String, f64)> = values
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, d)| {
+                        let z = d / scale(i)?;
+                        (z.abs() > floor).then(|| (study.param_info(i).name, z))
+                    })
+                    .collect();
+                out.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+                out.truncate(3);
+                out
+            };
+            let biased = named(&score.shift, &|i| solution.sigma[i], 1.0);
+            let mimics = named(&score.mimicked_by, &|_| Some(1.0), 0.2);
             Ranked {
                 candidate,
                 score,
                 biased,
+                mimics,
             }
         })
         .collect();
@@ -143,13 +268,182 @@ pub fn rank(
     Ok(ranked)
 }
 
-/// The fit's rows with the candidates' columns.
+// ---------------------------------------------------------------------------------------------
+// Scoring: the fit's rows with the candidates' columns
+
+/// The model with the model-change candidates' parameters added.
+struct Augmented {
+    model: MachineModel,
+    /// The fit's coefficients in the augmented model's layout.
+    coeffs: Vec<f64>,
+}
+
+/// Where an extra column comes from.
+#[derive(Clone, Copy)]
+enum Source {
+    /// A coefficient of the augmented model.
+    Model(usize),
+    /// An amplitude parameter of the prepared effect candidates.
+    Effect(usize),
+}
+
 struct Scoring<'a> {
     fit: FitProblem<'a>,
     study: &'a Study,
-    /// The candidates' coefficients in the full model, concatenated.
-    coeffs: Vec<usize>,
+    aug: Option<Augmented>,
+    effects: Option<(Arc<PreparedEffects>, Vec<f64>)>,
+    sources: Vec<Source>,
     widths: Vec<usize>,
+}
+
+impl<'a> Scoring<'a> {
+    fn new(
+        study: &'a Study,
+        candidates: &[&Candidate],
+        solution: &Solution,
+    ) -> Result<Self, IdentifyError> {
+        let model_changes: Vec<&mtcal_effects::ModelChange> = candidates
+            .iter()
+            .filter_map(|c| match c {
+                Candidate::Model(m) => Some(m),
+                Candidate::Effect(_) => None,
+            })
+            .collect();
+        let aug = if model_changes.is_empty() {
+            None
+        } else {
+            Some(augmented(study, &model_changes, &solution.x)?)
+        };
+        let effects: Vec<Arc<dyn Effect>> = candidates
+            .iter()
+            .filter_map(|c| match c {
+                Candidate::Effect(e) => Some(Arc::clone(e)),
+                Candidate::Model(_) => None,
+            })
+            .collect();
+        let mut effect_params = Vec::new();
+        for e in &effects {
+            effect_params.extend(e.params().iter().map(|p| p.initial));
+        }
+        let prepared = (!effects.is_empty()).then(|| {
+            (
+                Arc::new(PreparedEffects::new(&effects, study.view(), &effect_params)),
+                effect_params,
+            )
+        });
+        let mut sources = Vec::new();
+        let mut widths = Vec::new();
+        let mut effect_offset = 0;
+        for c in candidates {
+            match c {
+                Candidate::Model(m) => {
+                    let aug = aug.as_ref().expect("built for model changes");
+                    let cols = model_change_columns(study, &aug.model, m);
+                    widths.push(cols.len());
+                    sources.extend(cols.into_iter().map(Source::Model));
+                }
+                Candidate::Effect(e) => {
+                    let amps: Vec<usize> = e
+                        .params()
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, p)| p.kind == mtcal_effects::ParamKind::Amplitude)
+                        .map(|(j, _)| effect_offset + j)
+                        .collect();
+                    widths.push(amps.len());
+                    sources.extend(amps.into_iter().map(Source::Effect));
+                    effect_offset += e.params().len();
+                }
+            }
+        }
+        Ok(Self {
+            fit: FitProblem::new(study),
+            study,
+            aug,
+            effects: prepared,
+            sources,
+            widths,
+        })
+    }
+}
+
+/// The study's full model with every model change applied at once, and the fit's coefficients
+/// in its layout (by coefficient label; the added ones zero).
+fn augmented(
+    study: &Study,
+    changes: &[&mtcal_effects::ModelChange],
+    x: &[f64],
+) -> Result<Augmented, IdentifyError> {
+    let mut config = study.machine.config.clone();
+    for &(name, extra) in &study.changes().raise {
+        // Already in `study.model`'s configuration? The machine's config is the session's:
+        // apply the study's own raises first.
+        raise(&mut config, &name, extra)?;
+    }
+    for m in changes.iter().filter(|m| m.extra_order > 0) {
+        raise(&mut config, &m.param, m.extra_order)?;
+    }
+    let model = MachineModel::new(study.machine.machine.clone(), &config).map_err(|e| {
+        IdentifyError::Model {
+            source_name: study.machine.config_source.clone(),
+            message: e.to_string(),
+        }
+    })?;
+    let current = study.coeffs_from(x);
+    let index: HashMap<&str, usize> = study
+        .coeff_labels
+        .iter()
+        .enumerate()
+        .map(|(k, l)| (l.as_str(), k))
+        .collect();
+    let coeffs = model
+        .errors()
+        .coefficient_labels()
+        .iter()
+        .map(|l| index.get(l.as_str()).map_or(0.0, |&k| current[k]))
+        .collect();
+    Ok(Augmented { model, coeffs })
+}
+
+fn raise(
+    config: &mut [mtcal_kinematics::ParamConfig],
+    name: &mtcal_kinematics::ParamName,
+    extra: usize,
+) -> Result<(), IdentifyError> {
+    use mtcal_kinematics::Basis;
+    let Some(entry) = config.iter_mut().find(|c| &c.name == name) else {
+        return Ok(());
+    };
+    entry.basis = match entry.basis.take() {
+        Some(Basis::Legendre {
+            lo,
+            hi,
+            min_degree,
+            max_degree,
+        }) => Basis::legendre(lo, hi, min_degree, max_degree + extra).ok(),
+        Some(Basis::Fourier {
+            min_harmonic,
+            max_harmonic,
+        }) => Basis::fourier(min_harmonic, max_harmonic + extra).ok(),
+        other => other,
+    };
+    Ok(())
+}
+
+/// The augmented model's coefficients a model change adds: all of an omitted parameter's, or
+/// the ones a higher order adds (labels the study's model does not have).
+fn model_change_columns(
+    study: &Study,
+    model: &MachineModel,
+    change: &mtcal_effects::ModelChange,
+) -> Vec<usize> {
+    let Some(p) = model.errors().find(&change.param) else {
+        return Vec::new();
+    };
+    let labels = model.errors().coefficient_labels();
+    (p.offset..p.offset + p.len)
+        .filter(|&k| change.extra_order == 0 || !study.coeff_labels.contains(&labels[k]))
+        .collect()
 }
 
 impl ScoredProblem for Scoring<'_> {
@@ -163,30 +457,61 @@ impl ScoredProblem for Scoring<'_> {
         self.fit.n_blocks()
     }
     fn eval_block(&self, b: usize, x: &[f64], sink: &mut ScoreSink<'_>) -> Result<(), EvalError> {
-        let model = &self.study.model;
+        let na = self.study.model.machine().n_axes();
+        let effects = self.effects.as_ref().map(|(prepared, params)| {
+            let max_nuis = self
+                .study
+                .setups
+                .iter()
+                .map(|s| s.setup.nuisance().len())
+                .max()
+                .unwrap_or(0);
+            let max_ch = self
+                .study
+                .setups
+                .iter()
+                .map(|s| s.setup.channels().len())
+                .max()
+                .unwrap_or(0);
+            CandidateEffects {
+                out: prepared.scratch(na, max_nuis, max_ch),
+                prepared: Arc::clone(prepared),
+                params: params.clone(),
+                axis_jac: vec![0.0; 6 * na],
+                twists: vec![[0.0; 6]; prepared.n_params()],
+            }
+        });
         let mut target = Target {
             sink,
             study: self.study,
-            coeffs: &self.coeffs,
-            full: self.study.coeffs_from(x),
-            ws: model.workspace(),
+            aug: self.aug.as_ref().map(|a| (a, a.model.workspace())),
             jac: Vec::new(),
-            extra: vec![0.0; self.coeffs.len()],
+            effects,
+            sources: &self.sources,
+            extra: vec![0.0; self.sources.len()],
         };
         self.fit.walk_rows(b, x, &mut target)
     }
+}
+
+/// Effect candidates at one sample.
+struct CandidateEffects {
+    prepared: Arc<PreparedEffects>,
+    params: Vec<f64>,
+    out: SampleEffects,
+    axis_jac: Vec<f64>,
+    twists: Vec<[f64; 6]>,
 }
 
 /// Adds the candidate columns to the fit's rows.
 struct Target<'a, 's> {
     sink: &'a mut ScoreSink<'s>,
     study: &'a Study,
-    coeffs: &'a [usize],
-    /// The full model's coefficients at the solution.
-    full: Vec<f64>,
-    ws: Workspace,
-    /// The sample's readings' derivatives by every full-model coefficient (channels × n).
+    aug: Option<(&'a Augmented, Workspace)>,
+    /// The sample's readings' derivatives by every augmented-model coefficient (channels × n).
     jac: Vec<f64>,
+    effects: Option<CandidateEffects>,
+    sources: &'a [Source],
     extra: Vec<f64>,
 }
 
@@ -196,21 +521,1156 @@ impl RowTarget for Target<'_, '_> {
     }
 
     fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
-        let model = &self.study.model;
-        let n = model.n_coeffs();
+        let run = &self.study.runs[eval.run];
+        let na = self.study.model.machine().n_axes();
+        let q = &run.q[sample * na..(sample + 1) * na];
         if channel == 0 {
-            let run = &self.study.runs[eval.run];
-            let na = model.machine().n_axes();
-            let q = &run.q[sample * na..(sample + 1) * na];
-            model.tool_pose_for_jacobian(q, &self.full, &mut self.ws);
-            self.jac.resize(eval.d_pose.len() * n, 0.0);
-            // The pose rows are whitened already: so are these columns.
-            model.project_tool_jacobian(&self.ws, &eval.d_pose, &mut self.jac);
+            if let Some((aug, ws)) = self.aug.as_mut() {
+                let n = aug.model.n_coeffs();
+                aug.model.tool_pose_for_jacobian(q, &aug.coeffs, ws);
+                self.jac.resize(eval.d_pose.len() * n, 0.0);
+                // The pose rows are whitened already: so are these columns.
+                aug.model
+                    .project_tool_jacobian(ws, &eval.d_pose, &mut self.jac);
+            }
+            if let Some(fx) = self.effects.as_mut() {
+                fx.prepared
+                    .sample(eval.run, run.setup, sample, &fx.params, &mut fx.out);
+                if fx.out.axes_touched {
+                    fx.axis_jac
+                        .copy_from_slice(self.study.axis_jacobian(eval.run, sample));
+                }
+                for (j, tw) in fx.twists.iter_mut().enumerate() {
+                    *tw = [0.0; 6];
+                    if !fx.out.axes_touched {
+                        continue;
+                    }
+                    for a in 0..na {
+                        let d = fx.out.jq[j * na + a];
+                        if d != 0.0 {
+                            for (k, t) in tw.iter_mut().enumerate() {
+                                *t += fx.axis_jac[6 * a + k] * d;
+                            }
+                        }
+                    }
+                }
+            }
         }
-        let jac = &self.jac[channel * n..(channel + 1) * n];
-        for (e, &k) in self.extra.iter_mut().zip(self.coeffs) {
-            *e = jac[k];
+        let n_aug = self.aug.as_ref().map_or(0, |(a, _)| a.model.n_coeffs());
+        let nn = eval.d_nuis.len() / eval.n_channels().max(1);
+        for (e, src) in self.extra.iter_mut().zip(self.sources) {
+            *e = match *src {
+                Source::Model(k) => self.jac[channel * n_aug + k],
+                Source::Effect(j) => {
+                    let fx = self.effects.as_ref().expect("effect sources have effects");
+                    let out = &fx.out;
+                    let tw = &fx.twists[j];
+                    let mut v: f64 = (0..6).map(|k| eval.d_pose[channel][k] * tw[k]).sum();
+                    let d_nuis = &eval.d_nuis[channel * nn..(channel + 1) * nn];
+                    let jn = &out.jn[j * out.n_nuis..][..nn];
+                    v += d_nuis.iter().zip(jn).map(|(a, b)| a * b).sum::<f64>();
+                    let direct = out.jr[j * out.n_ch + channel]
+                        + out.jg[j * out.n_ch + channel] * eval.pred[channel];
+                    v + direct * eval.inv_sigma[channel]
+                }
+            };
         }
         self.sink.row(res, row, &self.extra);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The loop
+
+/// One fitted model.
+struct Fitted {
+    study: Study,
+    solution: Solution,
+    id: Identification,
+    heldout: Heldout,
+}
+
+/// Blocked cross-validation of a model on its fitted runs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Heldout {
+    /// Mean square of the whitened held-out residuals (1 for a model as good as the noise).
+    pub mean_square: f64,
+    /// RMS of the held-out residuals in the channels' units (µm).
+    pub rms_um: f64,
+    pub samples: usize,
+}
+
+/// A parameter of a discovery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiscoveryParameter {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    /// 95 % half-width; `null` when the data cannot separate it.
+    pub u95: Option<f64>,
+}
+
+/// A machine parameter an omitted effect had biased.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Correction {
+    pub name: String,
+    pub unit: String,
+    /// Before the effect was added.
+    pub before: f64,
+    /// With the effect (the final fit).
+    pub after: f64,
+    pub u95: f64,
+}
+
+/// One effect the search added (FORMATS.md `discoveries`, with mtcal's additions).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Discovery {
+    pub effect: String,
+    pub axis: Option<String>,
+    pub component: Option<String>,
+    pub driver: Option<String>,
+    /// Its label (the prefix of its parameters' names).
+    pub label: String,
+    pub parameters: Vec<DiscoveryParameter>,
+    pub rms_before_um: f64,
+    pub rms_after_um: f64,
+    pub heldout_rms_before_um: f64,
+    pub heldout_rms_after_um: f64,
+    /// RMS over the validation runs (`use = "validate"`) with readings, before and after.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_rms_before_um: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_rms_after_um: Option<f64>,
+    /// Share of the excess χ² (beyond the noise) it removed.
+    pub share_of_excess: f64,
+    /// The score test that proposed it.
+    pub statistic: f64,
+    pub adjusted_p: f64,
+    /// Share of it the fitted parameters could imitate.
+    pub absorbed: f64,
+    /// Machine parameters that moved by more than two of their standard deviations when it
+    /// was added.
+    pub corrected: Vec<Correction>,
+    /// Where the residuals showed it before it was added, if the structure tests saw it.
+    #[serde(rename = "where", skip_serializing_if = "Option::is_none")]
+    pub location: Option<mtcal_mismatch::Location>,
+    pub explanation: String,
+}
+
+/// A trial of one candidate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Trial {
+    pub candidate: String,
+    pub effect: String,
+    pub statistic: f64,
+    pub adjusted_p: f64,
+    pub absorbed: f64,
+    pub accepted: bool,
+    /// Why it was kept or not.
+    pub why: String,
+}
+
+/// A candidate the data cannot tell from the fitted parameters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Concealed {
+    pub candidate: String,
+    pub effect: String,
+    pub absorbed: f64,
+    /// The fitted parameters that imitate it.
+    pub hides_behind: Vec<String>,
+    /// A measurement that would separate it from them.
+    pub measurement: String,
+}
+
+/// How the search went.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct SearchReport {
+    /// Candidates scored at the first step.
+    pub candidates: usize,
+    /// Per step, every candidate refitted.
+    pub steps: Vec<Vec<Trial>>,
+    pub stopped: String,
+    pub concealed: Vec<Concealed>,
+    /// The final ranking's strongest candidates, one sentence each.
+    pub ranking: Vec<String>,
+}
+
+/// What [`search`] returns: the final study (the session with the discoveries added), its
+/// fit, and the report (with `discoveries` and `search` filled).
+#[derive(Debug)]
+pub struct SearchResult {
+    pub study: Study,
+    pub solution: Solution,
+    pub identification: Identification,
+    /// The fit before the search added anything.
+    pub initial: Identification,
+}
+
+/// One accepted step.
+struct Stage {
+    ranked: Ranked,
+    before_id: Identification,
+    before_solution: Solution,
+    before_heldout: Heldout,
+    before_params: Vec<(String, f64, String)>,
+    after_heldout: Heldout,
+    after_id: Identification,
+    after_solution: Solution,
+}
+
+/// Runs the physics search on `study` (see the module documentation).
+pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
+    let mut current = fit(study, None, options)?;
+    let initial = current.id.clone();
+    let mut report = SearchReport::default();
+    let mut stages: Vec<Stage> = Vec::new();
+    let mut last_ranking: Option<Vec<Ranked>> = None;
+    report.stopped = format!("{} effects added (the most allowed)", options.max_steps);
+    for step in 0..options.max_steps {
+        let cands = candidates(&current.study, options.families.as_deref());
+        if step == 0 {
+            report.candidates = cands.len();
+        }
+        let ranked = rank_with(
+            &current.study,
+            &current.solution,
+            cands,
+            options.alpha,
+            options.cache_bytes,
+        )?;
+        // The strongest significant candidates of different effects (the same drift at two
+        // starting time constants is one explanation): each is refitted with its shape
+        // parameters refined, and the best that passes the checks wins. Their scores at grid
+        // starting values cannot decide between a drift in time and a lagged temperature that
+        // follows it; refitted, the right one explains more.
+        let mut tries: Vec<Ranked> = Vec::new();
+        for r in ranked
+            .iter()
+            .filter(|r| r.score.significant && r.score.df > 0)
+        {
+            if tries.len() == options.tries {
+                break;
+            }
+            if !tries
+                .iter()
+                .any(|t| t.candidate.label() == r.candidate.label())
+            {
+                tries.push(r.clone());
+            }
+        }
+        if tries.is_empty() {
+            report.stopped = if step == 0 {
+                "no candidate is significant: the model explains the recordings".into()
+            } else {
+                "no further candidate is significant".into()
+            };
+            last_ranking = Some(ranked);
+            break;
+        }
+        let mut trials = Vec::new();
+        let mut accepted: Option<(Ranked, Fitted, usize)> = None;
+        for r in tries {
+            let (trial, fitted) = try_candidate(&current, &r, options)?;
+            if let Some(f) = fitted {
+                // Among those that pass, the information criterion decides: the better fit
+                // unless it pays for it with parameters (stick-slip with an endless decay is a
+                // reversal error with one parameter more).
+                let better = accepted
+                    .as_ref()
+                    .is_none_or(|(_, best, _)| bic(&f.solution) < bic(&best.solution));
+                if better {
+                    accepted = Some((r, f, trials.len()));
+                }
+            }
+            trials.push(trial);
+        }
+        // Only the winner is added; the others passed the checks but explain less.
+        if let Some((_, _, winner)) = &accepted {
+            for (k, t) in trials.iter_mut().enumerate() {
+                if t.accepted && k != *winner {
+                    t.accepted = false;
+                    t.why = format!("passed, but another candidate predicts better; {}", t.why);
+                }
+            }
+        }
+        let accepted = accepted.map(|(r, f, _)| (r, f));
+        report.steps.push(trials);
+        let Some((ranked_ok, fitted)) = accepted else {
+            report.stopped =
+                "no significant candidate improved the held-out prediction and the information criterion"
+                    .into();
+            last_ranking = Some(ranked);
+            break;
+        };
+        let before_params = machine_values(&current.study, &current.solution);
+        let Fitted {
+            study,
+            solution,
+            id,
+            heldout,
+        } = fitted;
+        stages.push(Stage {
+            ranked: ranked_ok,
+            before_id: current.id,
+            before_solution: current.solution,
+            before_heldout: current.heldout,
+            before_params,
+            after_heldout: heldout,
+            after_id: id.clone(),
+            after_solution: solution.clone(),
+        });
+        current = Fitted {
+            study,
+            solution,
+            id,
+            heldout,
+        };
+    }
+    let last_ranking = match last_ranking {
+        Some(r) => r,
+        None => rank_with(
+            &current.study,
+            &current.solution,
+            candidates(&current.study, options.families.as_deref()),
+            options.alpha,
+            options.cache_bytes,
+        )?,
+    };
+    report.concealed = concealed(&last_ranking);
+    report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
+    let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();
+    let mut identification = current.id;
+    identification.discoveries = discoveries;
+    identification.search = Some(report);
+    Ok(SearchResult {
+        study: current.study,
+        solution: current.solution,
+        identification,
+        initial,
+    })
+}
+
+/// Fits `study` (from `x0` or its own start) and cross-validates it.
+fn fit(
+    study: Study,
+    x0: Option<Vec<f64>>,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let specs = match &x0 {
+        Some(x) => param_specs_from(&study, x),
+        None => param_specs(&study),
+    };
+    let solution = {
+        let problem = FitProblem::new(&study);
+        mtcal_solve::solve(&problem, &specs, &options.solver, &mut Silent)?
+    };
+    let id = Identification::new(&study, &solution)?;
+    let heldout = heldout(&study, &solution.x, options)?;
+    Ok(Fitted {
+        study,
+        solution,
+        id,
+        heldout,
+    })
+}
+
+/// Blocked cross-validation: each fold of contiguous samples of every fitted run is left out,
+/// the model refitted on the rest and the left-out samples predicted.
+///
+/// The refit is the Gauss–Newton step from the full fit `x` (where the model is linear to the
+/// accuracy that matters here): with every fold's normal equations `A_k = J_kᵀJ_k`,
+/// `g_k = J_kᵀr_k` summed in one pass, leaving fold `k` out moves the parameters by
+/// `δ_k = −(A − A_k)⁺(g − g_k)` and its residuals become `r_k + J_k·δ_k`, whose sum of squares
+/// is `r_kᵀr_k + 2δ_kᵀg_k + δ_kᵀA_kδ_k`. One pass over the data instead of one fit per fold.
+pub fn heldout(
+    study: &Study,
+    x: &[f64],
+    options: &SearchOptions,
+) -> Result<Heldout, IdentifyError> {
+    let folds = options.folds.max(2);
+    let specs = param_specs_from(study, x);
+    let n = study.n_x;
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(blocks)
+        .max(1);
+    // Blocks dealt to the workers in a fixed pattern and merged in order: the same sums from
+    // run to run.
+    let work = |w: usize| -> Result<FoldSums, IdentifyError> {
+        let mut sums = FoldSums::new(folds, n);
+        for b in (w..blocks).step_by(threads) {
+            let mut target = FoldTarget {
+                sums: &mut sums,
+                cols: Vec::new(),
+                study,
+                folds,
+            };
+            problem
+                .walk_rows(b, x, &mut target)
+                .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source })?;
+        }
+        Ok(sums)
+    };
+    let parts: Vec<Result<FoldSums, IdentifyError>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (1..threads).map(|w| s.spawn(move || work(w))).collect();
+        let mut out = vec![work(0)];
+        for h in handles {
+            match h.join() {
+                Ok(r) => out.push(r),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        out
+    });
+    let mut total = FoldSums::new(folds, n);
+    for part in parts {
+        total.add(&part?);
+    }
+    // The whole problem's normal equations, priors included (they stay in every fold's fit).
+    let mut a_all = vec![0.0; n * n];
+    let mut g_all = vec![0.0; n];
+    for k in 0..folds {
+        for (t, v) in a_all.iter_mut().zip(&total.a[k * n * n..(k + 1) * n * n]) {
+            *t += v;
+        }
+        for (t, v) in g_all.iter_mut().zip(&total.g[k * n..(k + 1) * n]) {
+            *t += v;
+        }
+    }
+    for (i, spec) in specs.iter().enumerate() {
+        if let Some((mean, sigma)) = spec.prior {
+            a_all[i * n + i] += 1.0 / (sigma * sigma);
+            g_all[i] += (x[i] - mean) / (sigma * sigma);
+        }
+    }
+    let floors: Vec<f64> = specs
+        .iter()
+        .map(|p| p.scale.filter(|s| *s > 0.0).map_or(0.0, |s| 1.0 / s))
+        .collect();
+    let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
+    for k in 0..folds {
+        let ak = &total.a[k * n * n..(k + 1) * n * n];
+        let gk = &total.g[k * n..(k + 1) * n];
+        let m: Vec<f64> = a_all.iter().zip(ak).map(|(a, b)| a - b).collect();
+        let h: Vec<f64> = g_all.iter().zip(gk).map(|(a, b)| a - b).collect();
+        let delta = pseudo_solve(&m, &h, &floors, options.solver.rank_tolerance);
+        let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
+            let mut q = rr;
+            for i in 0..n {
+                q += 2.0 * delta[i] * g[i];
+                for j in 0..n {
+                    q += delta[i] * a[i * n + j] * delta[j];
+                }
+            }
+            q.max(0.0)
+        };
+        sum_w += quad(ak, gk, total.rr[k]);
+        sum_u += quad(
+            &total.au[k * n * n..(k + 1) * n * n],
+            &total.gu[k * n..(k + 1) * n],
+            total.rru[k],
+        );
+        count += total.count[k];
+    }
+    let c = count.max(1) as f64;
+    Ok(Heldout {
+        mean_square: sum_w / c,
+        rms_um: (sum_u / c).sqrt() * 1e6,
+        samples: count,
+    })
+}
+
+/// `−M⁺h` for a symmetric positive semi-definite `M` (normal equations), column-scaled by
+/// `max(√Mᵢᵢ, floorᵢ)` and truncated at `tol` relative to the largest eigenvalue's square root
+/// (the solver's rank rule).
+fn pseudo_solve(m: &[f64], h: &[f64], floors: &[f64], tol: f64) -> Vec<f64> {
+    let n = h.len();
+    let d: Vec<f64> = (0..n)
+        .map(|i| {
+            let v = m[i * n + i].max(0.0).sqrt().max(floors[i]);
+            if v > 0.0 { v } else { 1.0 }
+        })
+        .collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| m[i * n + j] / (d[i] * d[j]));
+    let eig = nalgebra::SymmetricEigen::new(scaled);
+    let lmax = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let hs: Vec<f64> = (0..n).map(|i| h[i] / d[i]).collect();
+    let mut y = vec![0.0; n];
+    for (l, &lam) in eig.eigenvalues.iter().enumerate() {
+        // Singular values of the scaled factor are the square roots of these eigenvalues.
+        if lam <= 0.0 || lam.sqrt() <= tol * lmax.sqrt() {
+            continue;
+        }
+        let v = eig.eigenvectors.column(l);
+        let proj: f64 = (0..n).map(|i| v[i] * hs[i]).sum::<f64>() / lam;
+        for i in 0..n {
+            y[i] -= v[i] * proj;
+        }
+    }
+    (0..n).map(|i| y[i] / d[i]).collect()
+}
+
+/// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the
+/// channels' units (`au`, `gu`, `rru`, SI), and the number of rows.
+struct FoldSums {
+    n: usize,
+    a: Vec<f64>,
+    g: Vec<f64>,
+    rr: Vec<f64>,
+    au: Vec<f64>,
+    gu: Vec<f64>,
+    rru: Vec<f64>,
+    count: Vec<usize>,
+}
+
+impl FoldSums {
+    fn new(folds: usize, n: usize) -> Self {
+        Self {
+            n,
+            a: vec![0.0; folds * n * n],
+            g: vec![0.0; folds * n],
+            rr: vec![0.0; folds],
+            au: vec![0.0; folds * n * n],
+            gu: vec![0.0; folds * n],
+            rru: vec![0.0; folds],
+            count: vec![0; folds],
+        }
+    }
+
+    fn add(&mut self, other: &FoldSums) {
+        for (a, b) in [
+            (&mut self.a, &other.a),
+            (&mut self.g, &other.g),
+            (&mut self.rr, &other.rr),
+            (&mut self.au, &other.au),
+            (&mut self.gu, &other.gu),
+            (&mut self.rru, &other.rru),
+        ] {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+        }
+        for (x, y) in self.count.iter_mut().zip(&other.count) {
+            *x += y;
+        }
+    }
+}
+
+/// Sends a block's rows into their fold's sums.
+struct FoldTarget<'a> {
+    sums: &'a mut FoldSums,
+    cols: Vec<usize>,
+    study: &'a Study,
+    folds: usize,
+}
+
+impl RowTarget for FoldTarget<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        self.cols.clear();
+        self.cols.extend_from_slice(cols);
+    }
+
+    fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
+        let n = self.sums.n;
+        let len = self.study.runs[eval.run].len();
+        let k = Folds::fold_of(self.folds, sample, len);
+        let sigma = 1.0 / eval.inv_sigma[channel];
+        let s2 = sigma * sigma;
+        let (a, au) = (
+            &mut self.sums.a[k * n * n..(k + 1) * n * n],
+            &mut self.sums.au[k * n * n..(k + 1) * n * n],
+        );
+        for (p, &i) in self.cols.iter().enumerate() {
+            let ri = row[p];
+            if ri == 0.0 {
+                continue;
+            }
+            for (q, &j) in self.cols.iter().enumerate() {
+                let v = ri * row[q];
+                a[i * n + j] += v;
+                au[i * n + j] += v * s2;
+            }
+            self.sums.g[k * n + i] += ri * res;
+            self.sums.gu[k * n + i] += ri * res * s2;
+        }
+        self.sums.rr[k] += res * res;
+        self.sums.rru[k] += res * res * s2;
+        self.sums.count[k] += 1;
+    }
+}
+
+/// The Bayesian information criterion of a fit with known noise: `χ² + k·ln n`, `k` the
+/// identified parameters.
+fn bic(solution: &Solution) -> f64 {
+    solution.chi2 + solution.rank as f64 * (solution.n_rows.max(2) as f64).ln()
+}
+
+/// Adds `ranked`'s candidate to the current model, refits, and decides.
+fn try_candidate(
+    current: &Fitted,
+    ranked: &Ranked,
+    options: &SearchOptions,
+) -> Result<(Trial, Option<Fitted>), IdentifyError> {
+    let mut changes: Changes = current.study.changes().clone();
+    let mut trial = Trial {
+        candidate: ranked.name(),
+        effect: ranked.candidate.class().to_string(),
+        statistic: ranked.score.statistic,
+        adjusted_p: ranked.score.adjusted_p,
+        absorbed: ranked.score.absorbed,
+        accepted: false,
+        why: String::new(),
+    };
+    match &ranked.candidate {
+        Candidate::Model(m) if m.extra_order == 0 => changes.estimate.push(m.param),
+        Candidate::Model(m) => changes.raise.push((m.param, m.extra_order)),
+        Candidate::Effect(e) => changes.effects.push(unique(e, &changes.effects)),
+    }
+    let study = current.study.rebuild(changes)?;
+    let mut x0 = carry_over(&current.study, &current.solution.x, &study);
+    if let Candidate::Effect(e) = &ranked.candidate {
+        // Start the new amplitudes where the score test put them.
+        let offset = study.n_x - e.params().len();
+        let mut a = ranked.score.amplitude.iter();
+        for (j, p) in e.params().iter().enumerate() {
+            if p.kind == mtcal_effects::ParamKind::Amplitude {
+                x0[offset + j] = a.next().copied().unwrap_or(0.0);
+            }
+        }
+    }
+    let specs = param_specs_from(&study, &x0);
+    let solution = {
+        let problem = FitProblem::new(&study);
+        match mtcal_solve::solve(&problem, &specs, &options.solver, &mut Silent) {
+            Ok(s) => s,
+            Err(e) => {
+                trial.why = format!("the refit failed: {e}");
+                return Ok((trial, None));
+            }
+        }
+    };
+    let before = &current.solution;
+    let drop = before.chi2 - solution.chi2;
+    let added = study.n_x.saturating_sub(current.study.n_x).max(1);
+    let scale = solution.chi2_reduced.max(1.0);
+    let penalty = added as f64 * (solution.n_rows.max(2) as f64).ln();
+    if drop / scale <= penalty {
+        trial.why = format!(
+            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added} parameters",
+            drop / scale
+        );
+        return Ok((trial, None));
+    }
+    let held = heldout(&study, &solution.x, options)?;
+    let gain = 1.0 - held.mean_square / current.heldout.mean_square;
+    if gain < options.min_heldout_gain {
+        trial.why = format!(
+            "held-out prediction did not improve enough: RMS {:.3} → {:.3} µm (mean square {:+.2} %)",
+            current.heldout.rms_um,
+            held.rms_um,
+            -100.0 * gain
+        );
+        return Ok((trial, None));
+    }
+    let id = Identification::new(&study, &solution)?;
+    trial.accepted = true;
+    trial.why = format!(
+        "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm",
+        before.chi2, solution.chi2, current.heldout.rms_um, held.rms_um
+    );
+    Ok((
+        trial,
+        Some(Fitted {
+            study,
+            solution,
+            id,
+            heldout: held,
+        }),
+    ))
+}
+
+/// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at
+/// their starting values.
+fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
+    let known: HashMap<String, f64> = (0..from.n_x)
+        .map(|i| (from.param_info(i).name, x[i]))
+        .collect();
+    let start = to.initial_x();
+    (0..to.n_x)
+        .map(|i| *known.get(&to.param_info(i).name).unwrap_or(&start[i]))
+        .collect()
+}
+
+/// `effect`, relabelled `… #2` if an effect of that label is in `existing` already.
+fn unique(effect: &Arc<dyn Effect>, existing: &[Arc<dyn Effect>]) -> Arc<dyn Effect> {
+    let label = &effect.info().label;
+    let same = existing
+        .iter()
+        .filter(|e| e.info().label == *label || e.info().label.starts_with(&format!("{label} #")))
+        .count();
+    if same == 0 {
+        return Arc::clone(effect);
+    }
+    let mut info = effect.info().clone();
+    info.label = format!("{label} #{}", same + 1);
+    Arc::new(Relabelled {
+        inner: Arc::clone(effect),
+        info,
+    })
+}
+
+/// An effect under another label (a second time constant of the same drift).
+#[derive(Debug)]
+struct Relabelled {
+    inner: Arc<dyn Effect>,
+    info: EffectInfo,
+}
+
+impl Effect for Relabelled {
+    fn info(&self) -> &EffectInfo {
+        &self.info
+    }
+    fn params(&self) -> &[ParamDef] {
+        self.inner.params()
+    }
+    fn terms(&self) -> &[Term] {
+        self.inner.terms()
+    }
+    fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
+        self.inner.prepare(view, shape)
+    }
+    fn describe(&self, values: &[f64], u95: &[Option<f64>]) -> String {
+        self.inner.describe(values, u95)
+    }
+    fn cached_series(&self) -> Vec<String> {
+        self.inner.cached_series()
+    }
+}
+
+/// The machine parameters of a fit: name, value and unit (reported units).
+fn machine_values(study: &Study, solution: &Solution) -> Vec<(String, f64, String)> {
+    (0..study.estimated.len())
+        .map(|i| {
+            let info = study.param_info(i);
+            (info.name, solution.x[i] * info.per_si, info.unit)
+        })
+        .collect()
+}
+
+/// The discovery of one accepted step, with its parameters from the final fit.
+fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
+    let study = &last.study;
+    let sol = &last.solution;
+    let (info, parameters, words) = match &stage.ranked.candidate {
+        Candidate::Effect(e) => {
+            // Find the effect in the final study by its place: effects are only appended.
+            let label = &e.info().label;
+            let mut offset = study.effect_offset;
+            let mut found = None;
+            for fx in study.effects() {
+                let n = fx.params().len();
+                if found.is_none()
+                    && (fx.info().label == *label
+                        || fx.info().label.starts_with(&format!("{label} #")))
+                    && stage_effect_matches(stage, fx)
+                {
+                    found = Some((Arc::clone(fx), offset));
+                }
+                offset += n;
+            }
+            let (fx, offset) = found.unwrap_or((Arc::clone(e), study.effect_offset));
+            let values: Vec<f64> = (0..fx.params().len()).map(|j| sol.x[offset + j]).collect();
+            let u95: Vec<Option<f64>> = (0..fx.params().len())
+                .map(|j| sol.sigma[offset + j].map(|s| K95 * s))
+                .collect();
+            let params = fx
+                .params()
+                .iter()
+                .enumerate()
+                .map(|(j, p)| DiscoveryParameter {
+                    name: p.name.clone(),
+                    value: values[j] * p.per_si,
+                    unit: p.unit.clone(),
+                    u95: u95[j].map(|u| u * p.per_si),
+                })
+                .collect();
+            (fx.info().clone(), params, fx.describe(&values, &u95))
+        }
+        Candidate::Model(m) => {
+            let prefix = format!("{}", m.param);
+            let params: Vec<DiscoveryParameter> = (0..study.estimated.len())
+                .filter_map(|i| {
+                    let info = study.param_info(i);
+                    let base = info.name.split('.').next().unwrap_or(&info.name);
+                    (base == prefix).then(|| DiscoveryParameter {
+                        name: info.name.clone(),
+                        value: sol.x[i] * info.per_si,
+                        unit: info.unit.clone(),
+                        u95: sol.sigma[i].map(|s| K95 * s * info.per_si),
+                    })
+                })
+                .collect();
+            let list: Vec<String> = params
+                .iter()
+                .map(|p| match p.u95 {
+                    Some(u) => format!("{} = {:.3} ± {:.3} {}", p.name, p.value, u, p.unit),
+                    None => format!("{} (not separable)", p.name),
+                })
+                .collect();
+            let words = if m.extra_order == 0 {
+                format!(
+                    "the error {} the model left out: {}",
+                    m.param,
+                    list.join(", ")
+                )
+            } else {
+                format!(
+                    "{} needs {} more orders: {}",
+                    m.param,
+                    m.extra_order,
+                    list.join(", ")
+                )
+            };
+            let axis = m.param.axis().map(|a| a.as_char());
+            (
+                EffectInfo {
+                    class: m.class,
+                    axis,
+                    component: Some(m.param.to_string()),
+                    driver: axis.map(|a| a.to_string()),
+                    label: m.label(),
+                },
+                params,
+                words,
+            )
+        }
+    };
+    let excess =
+        (stage.before_solution.chi2 - stage.before_solution.dof as f64).max(f64::MIN_POSITIVE);
+    let removed = stage.before_solution.chi2 - stage.after_solution.chi2;
+    let share = (removed / excess).clamp(0.0, 1.0);
+    let corrected = corrections(stage, study, sol);
+    let location = locate(stage, &info);
+    let validation = |id: &Identification| {
+        let (mut ss, mut n) = (0.0, 0usize);
+        for r in &id.validation {
+            let k = r.channels.iter().map(|c| c.samples).sum::<usize>();
+            ss += r.rms_um * r.rms_um * k as f64;
+            n += k;
+        }
+        (n > 0).then(|| (ss / n as f64).sqrt())
+    };
+    let (val_before, val_after) = (validation(&stage.before_id), validation(&stage.after_id));
+    let mut explanation = match &location {
+        Some(loc) => where_words(loc, &stage.before_id),
+        None => {
+            "the residuals' structure tests did not show it (it hides below the noise or inside \
+             the fitted parameters); the score test did"
+                .to_string()
+        }
+    };
+    explanation += &format!(
+        "; {words} explains {:.0} % of the excess χ²; held-out RMS {:.3} → {:.3} µm",
+        100.0 * share,
+        stage.before_heldout.rms_um,
+        stage.after_heldout.rms_um
+    );
+    if let (Some(a), Some(b)) = (val_before, val_after) {
+        explanation += &format!(", validation RMS {a:.3} → {b:.3} µm");
+    }
+    if stage.ranked.score.absorbed > 0.5 {
+        explanation += &format!(
+            "; {:.0} % of it looked like the fitted parameters",
+            100.0 * stage.ranked.score.absorbed
+        );
+    }
+    if !corrected.is_empty() {
+        let list: Vec<String> = corrected
+            .iter()
+            .take(4)
+            .map(|c| {
+                format!(
+                    "{} was biased by {:+.3} {} and is now {:.3} ± {:.3} {}",
+                    c.name,
+                    c.before - c.after,
+                    c.unit,
+                    c.after,
+                    c.u95,
+                    c.unit
+                )
+            })
+            .collect();
+        explanation += &format!("; {}", list.join(", "));
+    }
+    Discovery {
+        effect: info.class.to_string(),
+        axis: info.axis.map(|a| a.to_string()),
+        component: info.component.clone(),
+        driver: info.driver.clone(),
+        label: info.label.clone(),
+        parameters,
+        rms_before_um: stage.before_id.fit.rms_um,
+        rms_after_um: stage.after_id.fit.rms_um,
+        heldout_rms_before_um: stage.before_heldout.rms_um,
+        heldout_rms_after_um: stage.after_heldout.rms_um,
+        validation_rms_before_um: val_before,
+        validation_rms_after_um: val_after,
+        share_of_excess: share,
+        statistic: stage.ranked.score.statistic,
+        adjusted_p: stage.ranked.score.adjusted_p,
+        absorbed: stage.ranked.score.absorbed,
+        corrected,
+        location,
+        explanation,
+    }
+}
+
+/// Whether `fx` (an effect of the final study) is the stage's effect: same label stem and
+/// same starting shape.
+fn stage_effect_matches(stage: &Stage, fx: &Arc<dyn Effect>) -> bool {
+    let Candidate::Effect(e) = &stage.ranked.candidate else {
+        return false;
+    };
+    e.params()
+        .iter()
+        .zip(fx.params())
+        .all(|(a, b)| a.name == b.name && a.initial == b.initial)
+}
+
+/// Machine parameters that moved by more than two standard deviations (of the final fit) when
+/// the stage's effect was added: before is the fit without it, after the final fit.
+fn corrections(stage: &Stage, study: &Study, sol: &Solution) -> Vec<Correction> {
+    let before: HashMap<&str, f64> = stage
+        .before_params
+        .iter()
+        .map(|(n, v, _)| (n.as_str(), *v))
+        .collect();
+    let mut out: Vec<(f64, Correction)> = (0..study.estimated.len())
+        .filter_map(|i| {
+            let info = study.param_info(i);
+            let sigma = sol.sigma[i]? * info.per_si;
+            let b = *before.get(info.name.as_str())?;
+            let a = sol.x[i] * info.per_si;
+            let z = (b - a).abs() / sigma;
+            (z > 2.0).then_some((
+                z,
+                Correction {
+                    name: info.name,
+                    unit: info.unit,
+                    before: b,
+                    after: a,
+                    u95: K95 * sigma,
+                },
+            ))
+        })
+        .collect();
+    out.sort_by(|a, b| b.0.total_cmp(&a.0));
+    out.into_iter().map(|(_, c)| c).collect()
+}
+
+/// The mismatch location (before the step) that matches the effect's driver best.
+fn locate(stage: &Stage, info: &EffectInfo) -> Option<mtcal_mismatch::Location> {
+    let m = &stage.before_id.mismatch;
+    if !m.detected {
+        return None;
+    }
+    let driver = info.driver.clone().unwrap_or_default();
+    let matches = |along: &str| {
+        along == driver
+            || (driver.len() == 1 && along == format!("{driver} direction"))
+            || (driver == "S^2" && along == "S")
+            || (driver.contains('*') && driver.split('*').any(|d| d == along))
+    };
+    m.locations
+        .iter()
+        .find(|l| l.along.as_deref().is_some_and(matches))
+        .or(m.locations.first())
+        .cloned()
+}
+
+/// "run X's residuals are structured along t (lag-1 autocorrelation 0.93)".
+fn where_words(loc: &mtcal_mismatch::Location, id: &Identification) -> String {
+    let Some(along) = &loc.along else {
+        return format!(
+            "run {}'s channel {} is off by more than the noise",
+            loc.run, loc.channel
+        );
+    };
+    let ac = id.tests.iter().find(|t| {
+        t.run == loc.run
+            && t.channel == loc.channel
+            && t.along.as_deref() == Some(along)
+            && t.test == mtcal_mismatch::TestKind::LjungBox
+    });
+    let span = match (loc.from, loc.to) {
+        (Some(a), Some(b)) if a != b => format!(" between {along} = {} and {}", num(a), num(b)),
+        _ => String::new(),
+    };
+    let detail = ac.map_or_else(String::new, |t| {
+        format!(" (lag-1 autocorrelation {:.2})", t.detail)
+    });
+    format!(
+        "run {}'s {} residuals are structured along {along}{detail}, {:.0} % of their excess{span}",
+        loc.run,
+        loc.channel,
+        100.0 * loc.share
+    )
+}
+
+/// `x` with at most four decimals, trailing zeros dropped.
+fn num(x: f64) -> String {
+    let s = format!("{x:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.to_string() }
+}
+
+/// Candidates the data cannot tell from the fitted parameters (more than 99 % absorbed), one per
+/// effect class and target, most absorbed first. A candidate that hides behind an effect of its
+/// own label already fitted (the same drift at another starting τ) is that effect, not a
+/// concealed one.
+fn concealed(ranking: &[Ranked]) -> Vec<Concealed> {
+    let mut out: Vec<Concealed> = Vec::new();
+    let mut seen: Vec<(String, Option<String>, Option<char>)> = Vec::new();
+    let mut sorted: Vec<&Ranked> = ranking
+        .iter()
+        .filter(|r| r.score.absorbed > 0.99 && !r.mimics.is_empty())
+        .filter(|r| {
+            let own = r.candidate.label();
+            !r.mimics.iter().any(|(n, _)| {
+                n.starts_with(&format!("{own}.")) || n.starts_with(&format!("{own} #"))
+            })
+        })
+        .collect();
+    sorted.sort_by(|a, b| b.score.absorbed.total_cmp(&a.score.absorbed));
+    for r in sorted {
+        let key = match &r.candidate {
+            Candidate::Effect(e) => (
+                e.info().class.to_string(),
+                e.info().component.clone(),
+                e.info().axis,
+            ),
+            Candidate::Model(m) => (m.class.to_string(), Some(m.param.to_string()), None),
+        };
+        if seen.contains(&key) {
+            continue;
+        }
+        seen.push(key);
+        let names: Vec<String> = r.mimics.iter().map(|(n, _)| n.clone()).collect();
+        out.push(Concealed {
+            candidate: r.name(),
+            effect: r.candidate.class().to_string(),
+            absorbed: r.score.absorbed,
+            measurement: separating_measurement(&r.candidate, &names),
+            hides_behind: names,
+        });
+        if out.len() == 12 {
+            break;
+        }
+    }
+    out
+}
+
+/// The measurement that would separate a concealed candidate from the parameters it hides
+/// behind.
+pub fn separating_measurement(candidate: &Candidate, hides_behind: &[String]) -> String {
+    let setup = hides_behind.iter().any(|n| {
+        n.contains("tool_length")
+            || n.contains("ball_")
+            || n.contains("pivot")
+            || n.contains("TOOL")
+    });
+    match candidate.class() {
+        "thermal-drift" | "temperature-coupling" | "setup-drift" => {
+            "repeat a reference point (or the first run) at the end of the session, or measure \
+             the runs in random order: a drift in time then no longer follows the path"
+                .into()
+        }
+        "reversal" | "stick-slip" => {
+            "measure each path in both directions (CW and CCW, up and down): a reversal error \
+             flips with the direction, geometry does not"
+                .into()
+        }
+        "servo-lag" => {
+            "repeat a path at a second feed: a lag grows with the velocity, geometry does not"
+                .into()
+        }
+        "cyclic" => "step the axis finer than a quarter of the pitch over several pitches".into(),
+        "cross-coupling" => "repeat the measurement at a second position of the other axes".into(),
+        "instrument-scale" => {
+            "measure the same motion with the instrument turned or at a second range (or \
+             against a calibrated reference)"
+                .into()
+        }
+        _ if setup => {
+            "a second ball height (or a second tool length): set-up offsets then no longer \
+             move with the axis like this error"
+                .into()
+        }
+        _ => "a second ball position at another radius or height, and the axis over its whole \
+             stroke"
+            .into(),
+    }
+}
+
+impl Identification {
+    /// The physics search in words: what was added and why, what was tried and not kept,
+    /// what the data cannot tell apart. Empty without a search.
+    pub fn search_summary(&self) -> String {
+        use std::fmt::Write as _;
+        let Some(report) = &self.search else {
+            return String::new();
+        };
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "physics search: {} candidates scored (family-wise α = 5 %); {}",
+            report.candidates, report.stopped
+        );
+        for (k, trials) in report.steps.iter().enumerate() {
+            for t in trials {
+                let _ = writeln!(
+                    s,
+                    "  step {}: {} [{}] {}: {}",
+                    k + 1,
+                    if t.accepted { "added" } else { "not kept" },
+                    t.effect,
+                    t.candidate,
+                    t.why
+                );
+            }
+        }
+        if self.discoveries.is_empty() {
+            let _ = writeln!(s, "discoveries: none");
+        } else {
+            let _ = writeln!(s, "discoveries:");
+            for d in &self.discoveries {
+                let _ = writeln!(s, "  {} — {}", d.label, d.explanation);
+            }
+        }
+        if !report.concealed.is_empty() {
+            let _ = writeln!(
+                s,
+                "concealed (these data cannot tell them from the fitted parameters):"
+            );
+            for c in &report.concealed {
+                let _ = writeln!(
+                    s,
+                    "  {} ({:.1} % like {}): {}",
+                    c.candidate,
+                    100.0 * c.absorbed,
+                    c.hides_behind.join(", "),
+                    c.measurement
+                );
+            }
+        }
+        if !report.ranking.is_empty() {
+            let _ = writeln!(s, "strongest remaining candidates:");
+            for line in &report.ranking {
+                let _ = writeln!(s, "  {line}");
+            }
+        }
+        s
     }
 }

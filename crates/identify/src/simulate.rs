@@ -39,6 +39,7 @@
 //! pose) and adds to the noise-free readings. The physics search plants thermal drift,
 //! backlash, … this way.
 
+use mtcal_effects::{AxisView, PreparedEffects, RunView, SessionView, SetupView};
 use mtcal_instrument::{At, PathSpec, SetupContext};
 use mtcal_kinematics::{AxisKind, MachineModel, Rigid};
 use mtcal_machine::{load_machine, params, topology::Reading};
@@ -47,11 +48,16 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Keys of a plan's top level and of its runs.
 const PLAN_KEYS: &[&str] = &[
     "machine",
     "truth",
+    "truth_errors",
+    "pause_s",
+    "context",
+    "effect",
     "seed",
     "interval_s",
     "identify",
@@ -123,7 +129,33 @@ pub fn simulate(plan: &Path, out: &Path) -> Result<Simulated, SimulateError> {
     simulate_with(plan, out, &[])
 }
 
-/// [`simulate`] with planted effects.
+/// One run of a plan, ready to be measured.
+struct PlannedRun {
+    name: String,
+    instrument: String,
+    setup_ref: SetupRef,
+    /// Index into the plan's distinct set-ups.
+    setup: usize,
+    use_: RunUse,
+    poses: Vec<Vec<f64>>,
+    t: Vec<f64>,
+    /// Context columns sampled at `t` (file units).
+    context: Vec<(String, Vec<f64>)>,
+    noise: Vec<f64>,
+    with_readings: bool,
+    feed: f64,
+}
+
+/// One distinct set-up of a plan.
+struct PlannedSetup {
+    name: String,
+    instrument: String,
+    setup: Box<dyn mtcal_instrument::Setup>,
+    /// True nuisance values (SI).
+    nuis: Vec<f64>,
+}
+
+/// [`simulate`] with planted effects (besides the plan's own `[[effect]]` tables).
 pub fn simulate_with(
     plan_path: &Path,
     out: &Path,
@@ -165,7 +197,18 @@ pub fn simulate_with(
         Reading::default(),
     )
     .map_err(|e| plan_err(format!("machine: {e}")))?;
-    let model = MachineModel::new(loaded.machine.clone(), &loaded.config)
+    // The truth may have a richer error model than the session's (a planted higher order).
+    let truth_config = match plan.get("truth_errors") {
+        None => loaded.config.clone(),
+        Some(v) => {
+            let f = v.as_str().ok_or_else(|| {
+                plan_err(format!("`truth_errors` must be a file name, found {v}"))
+            })?;
+            mtcal_machine::config::load_config(&base.join(f), &loaded.machine)
+                .map_err(|e| plan_err(format!("truth_errors: {e}")))?
+        }
+    };
+    let model = MachineModel::new(loaded.machine.clone(), &truth_config)
         .map_err(|e| plan_err(format!("error model: {e}")))?;
     let truth = match plan.get("truth") {
         None => vec![0.0; model.n_coeffs()],
@@ -179,6 +222,15 @@ pub fn simulate_with(
     };
     let seed = int_key(&plan, "seed", plan_path)?.unwrap_or(0);
     let interval = float_key(&plan, "interval_s", plan_path)?.unwrap_or(0.5);
+    let pause = match plan.get("pause_s") {
+        None => 10.0,
+        Some(v) => v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .filter(|x| x.is_finite() && *x >= 0.0)
+            .ok_or_else(|| plan_err(format!("`pause_s` must be a number ≥ 0, found {v}")))?,
+    };
+    let schedules = context_schedules(&plan, plan_path)?;
     let setups: BTreeMap<String, toml::Table> = match plan.get("setup") {
         None => BTreeMap::new(),
         Some(toml::Value::Table(t)) => t
@@ -200,21 +252,10 @@ pub fn simulate_with(
         .and_then(|v| v.as_array())
         .ok_or_else(|| plan_err("no [[run]]".into()))?;
 
-    std::fs::create_dir_all(out).map_err(|e| SimulateError::Io {
-        path: out.to_path_buf(),
-        source: e,
-    })?;
-    let machine_in_session = if is_file {
-        copy_machine(&machine_file, out)?;
-        "machine.urdf".to_string()
-    } else {
-        machine_arg.to_string()
-    };
-
-    let mut ws = model.workspace();
-    let mut manifest_runs = Vec::new();
+    // Phase 1: every run's path, times and context.
+    let mut planned: Vec<PlannedRun> = Vec::new();
+    let mut distinct: Vec<PlannedSetup> = Vec::new();
     let mut t0 = 0.0;
-    let mut total = 0;
     for (ri, run) in runs.iter().enumerate() {
         let run = run
             .as_table()
@@ -352,29 +393,129 @@ pub fn simulate_with(
                 .ok_or_else(|| run_err(format!("`interval_s` must be > 0, found {v}")))?,
             None => interval,
         };
+        let feed = match run.get("feed_mm_min") {
+            None => 1000.0,
+            Some(v) => v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .filter(|x| x.is_finite() && *x > 0.0)
+                .ok_or_else(|| run_err(format!("`feed_mm_min` must be > 0, found {v}")))?,
+        };
+        let n = poses.len();
+        let t: Vec<f64> = (0..n).map(|i| t0 + i as f64 * dt).collect();
+        t0 += n as f64 * dt + pause;
+        let context = schedules
+            .iter()
+            .map(|(name, schedule)| (name.clone(), t.iter().map(|&ti| schedule.at(ti)).collect()))
+            .collect();
+        let setup_index = match distinct.iter().position(|d| d.name == setup_name) {
+            Some(i) => i,
+            None => {
+                distinct.push(PlannedSetup {
+                    name: setup_name.clone(),
+                    instrument: instrument.to_string(),
+                    setup,
+                    nuis,
+                });
+                distinct.len() - 1
+            }
+        };
+        planned.push(PlannedRun {
+            name,
+            instrument: instrument.to_string(),
+            setup_ref,
+            setup: setup_index,
+            use_,
+            poses,
+            t,
+            context,
+            noise,
+            with_readings,
+            feed,
+        });
+    }
+
+    // Phase 2: the plan's planted effects, on the whole session.
+    let effects = planted_effects(&plan, plan_path, &model, &distinct, &planned)?;
+
+    // Phase 3: the readings.
+    std::fs::create_dir_all(out).map_err(|e| SimulateError::Io {
+        path: out.to_path_buf(),
+        source: e,
+    })?;
+    let machine_in_session = if is_file {
+        copy_machine(&machine_file, out)?;
+        "machine.urdf".to_string()
+    } else {
+        machine_arg.to_string()
+    };
+    let mut ws = model.workspace();
+    let mut manifest_runs = Vec::new();
+    let mut total = 0;
+    for (ri, run) in planned.iter().enumerate() {
+        let run_err = |message: String| SimulateError::Run {
+            file: plan_path.to_path_buf(),
+            run: run.name.clone(),
+            message,
+        };
+        let PlannedSetup { setup, nuis, .. } = &distinct[run.setup];
+        let channels = setup.channels();
+        let nch = channels.len();
         let mut rng =
             rand_chacha::ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1_000_003) + ri as u64);
-        let n = poses.len();
-        let nch = channels.len();
-        let mut t = Vec::with_capacity(n);
-        let mut positions = Vec::with_capacity(n * poses[0].len());
+        let n = run.poses.len();
+        let mut positions = Vec::with_capacity(n * run.poses[0].len());
         let mut values = Vec::with_capacity(n * nch);
         let mut pred = vec![0.0; nch];
-        for (i, q) in poses.iter().enumerate() {
-            let ti = t0 + i as f64 * dt;
-            let pose = model.tool_pose(q, &truth, &mut ws);
+        let mut fx = effects.as_ref().map(|(prepared, params)| {
+            let max_nuis = distinct.iter().map(|d| d.nuis.len()).max().unwrap_or(0);
+            let max_ch = distinct
+                .iter()
+                .map(|d| d.setup.channels().len())
+                .max()
+                .unwrap_or(0);
+            (
+                prepared,
+                params,
+                prepared.scratch(model.machine().n_axes(), max_nuis, max_ch),
+            )
+        });
+        let mut shifted_q = vec![0.0; model.machine().n_axes()];
+        let mut shifted_nuis = nuis.clone();
+        for (i, q) in run.poses.iter().enumerate() {
+            let ti = run.t[i];
+            let mut pose = model.tool_pose(q, &truth, &mut ws);
+            let mut current_nuis: &[f64] = nuis;
+            if let Some((prepared, params, out)) = fx.as_mut() {
+                // Planted effects act exactly: the axes really are elsewhere, the set-up's
+                // parameters really have moved.
+                prepared.sample(ri, run.setup, i, params, out);
+                for ((s, &qi), d) in shifted_q.iter_mut().zip(q).zip(&out.dq) {
+                    *s = qi + d;
+                }
+                for ((s, &v), d) in shifted_nuis.iter_mut().zip(nuis).zip(&out.dn) {
+                    *s = v + d;
+                }
+                pose = model.tool_pose(&shifted_q, &truth, &mut ws);
+                current_nuis = &shifted_nuis;
+            }
             setup.predict(
                 &At {
                     q,
                     t: ti,
                     w_t_t: &pose,
                 },
-                &nuis,
+                current_nuis,
                 &mut pred,
             );
+            if let Some((_, _, out)) = fx.as_ref() {
+                for (c, p) in pred.iter_mut().enumerate() {
+                    *p = *p * (1.0 + out.gain[c]) + out.dr[c];
+                }
+            }
             let sample = PlantSample {
-                run: &name,
-                instrument,
+                run: &run.name,
+                instrument: &run.instrument,
                 run_index: ri,
                 sample: i,
                 t: ti,
@@ -385,8 +526,8 @@ pub fn simulate_with(
                 p.apply(&sample, &mut pred);
             }
             for (c, ch) in channels.iter().enumerate() {
-                let e = if noise[c] > 0.0 {
-                    Normal::new(0.0, noise[c])
+                let e = if run.noise[c] > 0.0 {
+                    Normal::new(0.0, run.noise[c])
                         .expect("finite positive σ")
                         .sample(&mut rng)
                 } else {
@@ -394,7 +535,6 @@ pub fn simulate_with(
                 };
                 values.push((pred[c] + e) * ch.unit.per_si());
             }
-            t.push(ti);
             for (v, ax) in q.iter().zip(model.machine().axes()) {
                 positions.push(match ax.kind() {
                     AxisKind::Linear => v * 1e3,
@@ -402,33 +542,24 @@ pub fn simulate_with(
                 });
             }
         }
-        let feed = match run.get("feed_mm_min") {
-            None => 1000.0,
-            Some(v) => v
-                .as_float()
-                .or_else(|| v.as_integer().map(|i| i as f64))
-                .filter(|x| x.is_finite() && *x > 0.0)
-                .ok_or_else(|| run_err(format!("`feed_mm_min` must be > 0, found {v}")))?,
-        };
         let program = mtcal_instrument::program::nc_program(
             model.machine(),
-            &poses,
-            feed,
-            &format!("mtcal {instrument} run {name}"),
+            &run.poses,
+            run.feed,
+            &format!("mtcal {} run {}", run.instrument, run.name),
         );
         let programs = out.join("programs");
         std::fs::create_dir_all(&programs).map_err(|e| SimulateError::Io {
             path: programs.clone(),
             source: e,
         })?;
-        let nc = programs.join(format!("{name}.nc"));
+        let nc = programs.join(format!("{}.nc", run.name));
         mtcal_machine::write_atomically(&nc, program.as_bytes()).map_err(|e| {
             SimulateError::Io {
                 path: nc,
                 source: e,
             }
         })?;
-        t0 += n as f64 * dt + 10.0;
         total += n;
         let axes: Vec<char> = model
             .machine()
@@ -438,22 +569,27 @@ pub fn simulate_with(
             .collect();
         let readings: Vec<String> = channels.iter().map(|c| c.name.clone()).collect();
         let table = RunTable {
-            path: out.join(format!("{name}.csv")),
+            path: out.join(format!("{}.csv", run.name)),
             columns: Vec::new(),
-            t,
+            t: run.t.clone(),
             axes,
             positions,
-            readings: if with_readings { readings } else { Vec::new() },
-            values: with_readings.then_some(values),
-            context: Vec::new(),
+            readings: if run.with_readings {
+                readings
+            } else {
+                Vec::new()
+            },
+            values: run.with_readings.then_some(values),
+            context: run.context.clone(),
         };
-        write_run(&out.join(format!("{name}.csv")), &table).map_err(|e| run_err(e.to_string()))?;
+        write_run(&out.join(format!("{}.csv", run.name)), &table)
+            .map_err(|e| run_err(e.to_string()))?;
         manifest_runs.push(ManifestRun {
-            name: name.clone(),
-            instrument: instrument.to_string(),
-            file: format!("{name}.csv"),
-            use_,
-            setup: setup_ref,
+            name: run.name.clone(),
+            instrument: run.instrument.clone(),
+            file: format!("{}.csv", run.name),
+            use_: run.use_,
+            setup: run.setup_ref.clone(),
             extra: toml::Table::new(),
         });
     }
@@ -473,6 +609,162 @@ pub fn simulate_with(
         runs: runs.len(),
         samples: total,
     })
+}
+
+/// A context column's programme over session time.
+#[derive(Debug, Clone)]
+struct Schedule {
+    /// `(time s, value)`, increasing in time.
+    points: Vec<(f64, f64)>,
+    /// Steps (spindle speed, feed: the value holds until the next point) or linear
+    /// interpolation (temperatures).
+    steps: bool,
+}
+
+impl Schedule {
+    fn at(&self, t: f64) -> f64 {
+        let p = &self.points;
+        let k = p.partition_point(|(ti, _)| *ti <= t);
+        if k == 0 {
+            return p[0].1;
+        }
+        if self.steps || k == p.len() {
+            return p[k - 1].1;
+        }
+        let ((t0, v0), (t1, v1)) = (p[k - 1], p[k]);
+        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    }
+}
+
+/// The plan's `[context]` table: per column a list of `[time_s, value]` points.
+fn context_schedules(
+    plan: &toml::Table,
+    file: &Path,
+) -> Result<Vec<(String, Schedule)>, SimulateError> {
+    let err = |message: String| SimulateError::Plan {
+        file: file.to_path_buf(),
+        message,
+    };
+    let Some(v) = plan.get("context") else {
+        return Ok(Vec::new());
+    };
+    let table = v
+        .as_table()
+        .ok_or_else(|| err("`context` must be a table of columns".into()))?;
+    let mut out = Vec::new();
+    for (name, v) in table {
+        let steps = match name.as_str() {
+            "S" | "F" => true,
+            n if n.starts_with("T_") && n.len() > 2 => false,
+            _ => {
+                return Err(err(format!(
+                    "[context] `{name}`: context columns are S, F and T_<name>"
+                )));
+            }
+        };
+        let bad = || {
+            err(format!(
+                "[context] `{name}` must be a list of [time_s, value] pairs, increasing in time"
+            ))
+        };
+        let list = v.as_array().ok_or_else(bad)?;
+        let mut points = Vec::with_capacity(list.len());
+        for item in list {
+            let pair = item.as_array().filter(|a| a.len() == 2).ok_or_else(bad)?;
+            let num = |x: &toml::Value| {
+                x.as_float()
+                    .or_else(|| x.as_integer().map(|i| i as f64))
+                    .filter(|x| x.is_finite())
+            };
+            let (t, value) = (
+                num(&pair[0]).ok_or_else(bad)?,
+                num(&pair[1]).ok_or_else(bad)?,
+            );
+            if points.last().is_some_and(|(tp, _): &(f64, f64)| *tp >= t) {
+                return Err(bad());
+            }
+            points.push((t, value));
+        }
+        if points.is_empty() {
+            return Err(bad());
+        }
+        out.push((name.clone(), Schedule { points, steps }));
+    }
+    Ok(out)
+}
+
+/// The plan's `[[effect]]` tables, prepared on the planned session.
+fn planted_effects(
+    plan: &toml::Table,
+    file: &Path,
+    model: &MachineModel,
+    setups: &[PlannedSetup],
+    runs: &[PlannedRun],
+) -> Result<Option<(PreparedEffects, Vec<f64>)>, SimulateError> {
+    let Some(v) = plan.get("effect") else {
+        return Ok(None);
+    };
+    let err = |message: String| SimulateError::Plan {
+        file: file.to_path_buf(),
+        message,
+    };
+    let list = v
+        .as_array()
+        .ok_or_else(|| err("`effect` must be a list of [[effect]] tables".into()))?;
+    let machine = model.machine();
+    let view = Arc::new(SessionView::new(
+        machine
+            .axes()
+            .iter()
+            .enumerate()
+            .map(|(a, ax)| AxisView {
+                letter: ax.letter().as_char(),
+                rotary: ax.kind() == AxisKind::Rotary,
+                stroke: ax
+                    .limits()
+                    .filter(|(lo, hi)| hi > lo)
+                    .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(machine, a)),
+            })
+            .collect(),
+        setups
+            .iter()
+            .map(|s| SetupView {
+                name: s.name.clone(),
+                instrument: s.instrument.clone(),
+                channels: s.setup.channels().to_vec(),
+                reads_pose: (0..s.setup.channels().len())
+                    .map(|c| s.setup.reads_pose(c))
+                    .collect(),
+                nuisance: s.setup.nuisance().to_vec(),
+            })
+            .collect(),
+        runs.iter()
+            .map(|r| RunView {
+                name: r.name.clone(),
+                setup: r.setup,
+                fit: r.use_ == RunUse::Fit,
+                t: r.t.clone(),
+                q: r.poses.iter().flat_map(|q| q.iter().copied()).collect(),
+                context: r.context.clone(),
+            })
+            .collect(),
+        Vec::new(),
+    ));
+    let mut effects: Vec<Arc<dyn mtcal_effects::Effect>> = Vec::new();
+    let mut values = Vec::new();
+    for (k, item) in list.iter().enumerate() {
+        let table = item
+            .as_table()
+            .ok_or_else(|| err(format!("effect {} is not a table", k + 1)))?;
+        let (effect, v) = mtcal_effects::plant(table, &view)
+            .map_err(|m| err(format!("[[effect]] {}: {m}", k + 1)))?;
+        effects.push(effect);
+        values.extend(v);
+    }
+    Ok(Some((
+        PreparedEffects::new(&effects, &view, &values),
+        values,
+    )))
 }
 
 /// Copies a URDF (and its `.errors.toml`, if any) into the session as `machine.urdf`.

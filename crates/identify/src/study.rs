@@ -2,12 +2,17 @@
 //! every distinct set-up with its nuisance parameters, and every run's samples in SI units.
 
 use crate::IdentifyError;
+use mtcal_effects::{
+    AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
+};
 use mtcal_instrument::{Channel, InstrumentPlugin, Nuisance, Setup, SetupContext};
+use mtcal_kinematics::Basis;
 use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
 use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
 use mtcal_session::{RunColumns, RunTable, RunUse, Session, SetupRef, load_session, read_run};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
 
 /// Keys of the manifest's `[identify]` table.
 pub const IDENTIFY_KEYS: &[&str] = &["parameters", "start"];
@@ -74,9 +79,27 @@ pub struct Study {
     pub coeff_labels: Vec<String>,
     pub setups: Vec<SetupSlot>,
     pub runs: Vec<RunSlot>,
+    /// Where the effects' parameters start in the parameter vector.
+    pub effect_offset: usize,
     /// Length of the parameter vector: estimated machine coefficients, then every set-up's free
-    /// nuisance parameters.
+    /// nuisance parameters, then the effects' parameters.
     pub n_x: usize,
+    changes: Changes,
+    /// The session as the effects see it, built on first use.
+    view: OnceLock<Arc<SessionView>>,
+    /// Per run, the nominal machine's axis Jacobian at every sample (built on first use).
+    axis_jacobians: OnceLock<Vec<Vec<f64>>>,
+}
+
+/// How a rebuilt study differs from the session as written: what the physics search adds.
+#[derive(Clone, Debug, Default)]
+pub struct Changes {
+    /// Parameters of the error model to estimate besides `[identify] parameters`.
+    pub estimate: Vec<ParamName>,
+    /// Component errors whose basis gets more orders (Legendre degree or Fourier harmonics).
+    pub raise: Vec<(ParamName, usize)>,
+    /// Effects fitted along with the machine (their parameters come last in `x`).
+    pub effects: Vec<Arc<dyn Effect>>,
 }
 
 impl Study {
@@ -84,12 +107,43 @@ impl Study {
     pub fn load(dir: &Path) -> Result<Study, IdentifyError> {
         let session = load_session(dir)?;
         let machine = load_session_machine(&session)?;
-        let model = MachineModel::new(machine.machine.clone(), &machine.config).map_err(|e| {
-            IdentifyError::Model {
+        Self::assemble(session, machine, None, Changes::default())
+    }
+
+    /// The same session with `changes` (from the study as loaded, not from this one's
+    /// changes): run files are not read again.
+    pub fn rebuild(&self, changes: Changes) -> Result<Study, IdentifyError> {
+        let tables = self.runs.iter().map(|r| r.table.clone()).collect();
+        Self::assemble(
+            self.session.clone(),
+            self.machine.clone(),
+            Some(tables),
+            changes,
+        )
+    }
+
+    /// What this study changes from the session as written.
+    pub fn changes(&self) -> &Changes {
+        &self.changes
+    }
+
+    fn assemble(
+        session: Session,
+        mut machine: LoadedMachine,
+        tables: Option<Vec<RunTable>>,
+        changes: Changes,
+    ) -> Result<Study, IdentifyError> {
+        let model_error =
+            |machine: &LoadedMachine, e: &dyn std::fmt::Display| IdentifyError::Model {
                 source_name: machine.config_source.clone(),
                 message: e.to_string(),
-            }
-        })?;
+            };
+        for (name, extra) in &changes.raise {
+            raise_order(&mut machine.config, name, *extra)
+                .map_err(|m| model_error(&machine, &m))?;
+        }
+        let model = MachineModel::new(machine.machine.clone(), &machine.config)
+            .map_err(|e| model_error(&machine, &e))?;
         check_identify_keys(&session)?;
         let base_coeffs = match session.identify.get("start") {
             None => vec![0.0; model.n_coeffs()],
@@ -105,7 +159,18 @@ impl Study {
             }
         };
         let coeff_labels = model.errors().coefficient_labels();
-        let estimated = estimated_coefficients(&session, &model)?;
+        let mut estimated = estimated_coefficients(&session, &model)?;
+        for name in &changes.estimate {
+            let p = model.errors().find(name).ok_or_else(|| {
+                model_error(
+                    &machine,
+                    &format!("{name} is not in this machine's error model"),
+                )
+            })?;
+            estimated.extend(p.offset..p.offset + p.len);
+        }
+        estimated.sort_unstable();
+        estimated.dedup();
         let (fit_model, fit_coeffs) = reduced_model(&machine, &model, &estimated, &base_coeffs)?;
         let mut in_fit = vec![usize::MAX; model.n_coeffs()];
         for (j, &k) in fit_coeffs.iter().enumerate() {
@@ -116,6 +181,7 @@ impl Study {
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
         let mut n_x = estimated.len();
+        let mut tables = tables.map(Vec::into_iter);
         for spec in &session.runs {
             let plugin = mtcal_instrument::find(&spec.instrument).ok_or_else(|| {
                 IdentifyError::UnknownInstrument {
@@ -178,26 +244,31 @@ impl Study {
                 }
             };
             let fit = spec.use_ == RunUse::Fit;
-            let channels: Vec<&str> = setups[setup_index]
-                .setup
-                .channels()
-                .iter()
-                .map(|c| c.name.as_str())
-                .collect();
-            let letters: Vec<char> = model
-                .machine()
-                .axes()
-                .iter()
-                .map(|a| a.letter().as_char())
-                .collect();
-            let table = read_run(
-                &spec.file,
-                &RunColumns {
-                    axes: &letters,
-                    readings: &channels,
-                    readings_optional: !fit,
-                },
-            )?;
+            let table = match tables.as_mut().and_then(Iterator::next) {
+                Some(t) => t,
+                None => {
+                    let channels: Vec<&str> = setups[setup_index]
+                        .setup
+                        .channels()
+                        .iter()
+                        .map(|c| c.name.as_str())
+                        .collect();
+                    let letters: Vec<char> = model
+                        .machine()
+                        .axes()
+                        .iter()
+                        .map(|a| a.letter().as_char())
+                        .collect();
+                    read_run(
+                        &spec.file,
+                        &RunColumns {
+                            axes: &letters,
+                            readings: &channels,
+                            readings_optional: !fit,
+                        },
+                    )?
+                }
+            };
             let q = positions_si(&model, &table);
             let readings = table.values.as_ref().map(|v| {
                 let ch = setups[setup_index].setup.channels();
@@ -219,6 +290,8 @@ impl Study {
                 manifest: session.manifest.clone(),
             });
         }
+        let effect_offset = n_x;
+        n_x += mtcal_effects::prepared::n_params(&changes.effects);
         Ok(Study {
             session,
             machine,
@@ -231,7 +304,11 @@ impl Study {
             coeff_labels,
             setups,
             runs,
+            effect_offset,
             n_x,
+            changes,
+            view: OnceLock::new(),
+            axis_jacobians: OnceLock::new(),
         })
     }
 
@@ -266,7 +343,137 @@ impl Study {
         for (i, &k) in self.estimated.iter().enumerate() {
             x[i] = self.base_coeffs[k];
         }
+        let mut o = self.effect_offset;
+        for e in self.effects() {
+            for p in e.params() {
+                x[o] = p.initial;
+                o += 1;
+            }
+        }
         x
+    }
+
+    /// The effects fitted along with the machine.
+    pub fn effects(&self) -> &[Arc<dyn Effect>] {
+        &self.changes.effects
+    }
+
+    /// The effects' parameters in `x`.
+    pub fn effect_params<'x>(&self, x: &'x [f64]) -> &'x [f64] {
+        &x[self.effect_offset..self.n_x]
+    }
+
+    /// The effect parameter's definition, for parameter `i` of the parameter vector (`None` for
+    /// machine and set-up parameters).
+    pub fn effect_param(&self, i: usize) -> Option<&mtcal_effects::ParamDef> {
+        (i >= self.effect_offset && i < self.n_x).then(|| self.effect_at(i).1)
+    }
+
+    /// The effect and its parameter of parameter `i` (≥ `effect_offset`).
+    fn effect_at(&self, i: usize) -> (&Arc<dyn Effect>, &mtcal_effects::ParamDef) {
+        let mut o = self.effect_offset;
+        for e in self.effects() {
+            let n = e.params().len();
+            if i < o + n {
+                return (e, &e.params()[i - o]);
+            }
+            o += n;
+        }
+        panic!("parameter {i} is past the parameter vector ({})", self.n_x)
+    }
+
+    /// `∂pose/∂q` of the nominal machine at sample `i` of run `r` (6 × axes, column-major):
+    /// how an effect that displaces an axis moves the tool. The commanded positions are fixed,
+    /// so it is computed once per study.
+    pub fn axis_jacobian(&self, r: usize, i: usize) -> &[f64] {
+        let all = self.axis_jacobians.get_or_init(|| {
+            let model = &self.fit_model;
+            let na = model.machine().n_axes();
+            let zeros = vec![0.0; model.n_coeffs()];
+            let mut ws = model.workspace();
+            self.runs
+                .iter()
+                .map(|run| {
+                    let mut out = vec![0.0; run.len() * 6 * na];
+                    for (q, jac) in run.q.chunks_exact(na).zip(out.chunks_exact_mut(6 * na)) {
+                        model.tool_jacobian(q, &zeros, &mut ws, jac);
+                    }
+                    out
+                })
+                .collect()
+        });
+        let na = self.model.machine().n_axes();
+        &all[r][i * 6 * na..(i + 1) * 6 * na]
+    }
+
+    /// The session as the effects see it (built once).
+    pub fn view(&self) -> &Arc<SessionView> {
+        self.view.get_or_init(|| Arc::new(self.build_view()))
+    }
+
+    fn build_view(&self) -> SessionView {
+        let machine = self.model.machine();
+        let axes = machine
+            .axes()
+            .iter()
+            .enumerate()
+            .map(|(a, ax)| AxisView {
+                letter: ax.letter().as_char(),
+                rotary: ax.kind() == AxisKind::Rotary,
+                stroke: ax
+                    .limits()
+                    .filter(|(lo, hi)| hi > lo)
+                    .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(machine, a)),
+            })
+            .collect();
+        let setups = self
+            .setups
+            .iter()
+            .map(|s| SetupView {
+                name: s.name.clone(),
+                instrument: s.plugin.name.to_string(),
+                channels: s.setup.channels().to_vec(),
+                reads_pose: (0..s.setup.channels().len())
+                    .map(|c| s.setup.reads_pose(c))
+                    .collect(),
+                nuisance: s.setup.nuisance().to_vec(),
+            })
+            .collect();
+        let runs = self
+            .runs
+            .iter()
+            .map(|r| RunView {
+                name: r.name.clone(),
+                setup: r.setup,
+                fit: r.fit,
+                t: r.table.t.clone(),
+                q: r.q.clone(),
+                context: r.table.context.clone(),
+            })
+            .collect();
+        let mut is_estimated = vec![false; self.model.n_coeffs()];
+        for &k in &self.estimated {
+            is_estimated[k] = true;
+        }
+        let model = self
+            .model
+            .errors()
+            .params()
+            .iter()
+            .map(|p| ModelParamView {
+                name: p.name,
+                estimated: (p.offset..p.offset + p.len).any(|k| is_estimated[k]),
+                order: match &p.role {
+                    mtcal_kinematics::model::Role::Component { basis, .. } => match basis {
+                        Basis::Legendre { max_degree, .. } => BasisOrder::Legendre(*max_degree),
+                        Basis::Fourier { max_harmonic, .. } => BasisOrder::Fourier(*max_harmonic),
+                        _ => BasisOrder::Other,
+                    },
+                    _ => BasisOrder::Other,
+                },
+            })
+            .collect();
+        SessionView::new(axes, setups, runs, model)
     }
 
     /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.
@@ -283,14 +490,26 @@ impl Study {
             return ParamInfo {
                 name: label.clone(),
                 unit,
+                per_si: 1e6,
                 prior_sigma: None,
                 machine: true,
+            };
+        }
+        if i >= self.effect_offset {
+            let (effect, def) = self.effect_at(i);
+            return ParamInfo {
+                name: format!("{}.{}", effect.info().label, def.name),
+                unit: def.unit.clone(),
+                per_si: def.per_si,
+                prior_sigma: None,
+                machine: false,
             };
         }
         let (slot, nuis) = self.nuisance_at(i);
         ParamInfo {
             name: format!("{}.{}", slot.name, nuis.name),
             unit: nuis.unit.as_str().to_string(),
+            per_si: nuis.unit.per_si(),
             prior_sigma: nuis.prior_sigma,
             machine: false,
         }
@@ -301,7 +520,7 @@ impl Study {
             .setups
             .iter()
             .rev()
-            .find(|s| s.x_offset <= i)
+            .find(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
             .expect("index past the machine coefficients belongs to a set-up");
         let nuis = &slot.setup.nuisance()[slot.free[i - slot.x_offset]];
         (slot, nuis)
@@ -317,8 +536,10 @@ impl Study {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamInfo {
     pub name: String,
-    /// `um`, `urad` or `ppm`: the unit it is reported in (SI × 1e6).
+    /// The unit it is reported in (`um`, `urad`, `ppm`, an effect's `s`, `um/K`…).
     pub unit: String,
+    /// Factor from SI to `unit`.
+    pub per_si: f64,
     pub prior_sigma: Option<f64>,
     /// A machine error coefficient (not a set-up nuisance parameter).
     pub machine: bool,
@@ -354,6 +575,40 @@ fn identify_key(session: &Session, key: &str, message: &str) -> IdentifyError {
         key: key.to_string(),
         message: message.to_string(),
     }
+}
+
+/// Raises the order of component error `name` in `config` by `extra` (Legendre degree or
+/// Fourier harmonics).
+fn raise_order(
+    config: &mut [mtcal_kinematics::ParamConfig],
+    name: &ParamName,
+    extra: usize,
+) -> Result<(), String> {
+    let entry = config
+        .iter_mut()
+        .find(|c| &c.name == name)
+        .ok_or_else(|| format!("{name} is not in the error model: its order cannot be raised"))?;
+    entry.basis = match entry.basis.take() {
+        Some(Basis::Legendre {
+            lo,
+            hi,
+            min_degree,
+            max_degree,
+        }) => Some(
+            Basis::legendre(lo, hi, min_degree, max_degree + extra).map_err(|e| e.to_string())?,
+        ),
+        Some(Basis::Fourier {
+            min_harmonic,
+            max_harmonic,
+        }) => Some(Basis::fourier(min_harmonic, max_harmonic + extra).map_err(|e| e.to_string())?),
+        other => {
+            entry.basis = other;
+            return Err(format!(
+                "{name}: only Legendre and Fourier bases have an order to raise"
+            ));
+        }
+    };
+    Ok(())
 }
 
 /// The model restricted to the parameters that are estimated or have a nonzero base value, and

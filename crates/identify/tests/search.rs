@@ -123,7 +123,7 @@ fn an_omitted_axial_error_of_c_is_named_first_and_significant() {
     let session = simulated(dir.path(), extra, 5);
     let ranked = ranked(&session, &[]);
     let best = &ranked[0];
-    assert_eq!(best.candidate.name, "EZC", "{}", best.describe());
+    assert_eq!(best.candidate.label(), "EZC", "{}", best.describe());
     assert!(best.score.significant, "{}", best.describe());
     // Its once-per-turn part looks like the location errors of C (tilts move the ball's height
     // once per turn): partly absorbed, and the fit without it biased them.

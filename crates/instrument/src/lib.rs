@@ -125,6 +125,15 @@ pub trait Setup: fmt::Debug + Send + Sync {
         }
     }
 
+    /// Whether reading channel `channel` depends on the tool pose at all. A channel that does
+    /// not (a displacement sensor whose direction is unknown, say) is modelled on its own: the
+    /// physics search gives it effects of its own (drift, temperature coupling) instead of
+    /// effects through the machine's axes.
+    fn reads_pose(&self, channel: usize) -> bool {
+        let _ = channel;
+        true
+    }
+
     /// Predicted readings (SI) at one sample, for nuisance values `nuis` (SI deviations).
     fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]);
 

@@ -7,6 +7,7 @@
 //! name in the test below.
 
 use mtcal_ballbar as _;
+use mtcal_displacement as _;
 use mtcal_rtest as _;
 
 pub use mtcal_instrument::{find, plugins};
@@ -22,7 +23,7 @@ mod tests {
 
     #[test]
     fn every_plugin_is_registered_exactly_once() {
-        assert_eq!(names(), ["ballbar", "rtest"]);
+        assert_eq!(names(), ["ballbar", "displacement", "rtest"]);
         for name in names() {
             assert_eq!(find(name).map(|p| p.name), Some(name));
             assert!(!find(name).expect("registered").about.is_empty());

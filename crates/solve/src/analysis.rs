@@ -21,12 +21,16 @@ pub(crate) struct Analysis {
 }
 
 impl Analysis {
-    pub(crate) fn new(lin: &Lin, rank_tolerance: f64) -> Result<Self, SolveError> {
+    /// `floor[p]` (per parameter, 0 for none) is the least column scale of parameter `p`
+    /// (`1/ParamSpec::scale`).
+    pub(crate) fn new(lin: &Lin, rank_tolerance: f64, floor: &[f64]) -> Result<Self, SolveError> {
         let n = lin.n();
         let d: Vec<f64> = (0..n)
             .map(|j| {
                 let norm = crate::qr::norm2(&lin.r[j * n..j * n + j + 1]);
-                if norm > 0.0 { norm } else { 1.0 }
+                let f = floor.get(lin.order[j]).copied().unwrap_or(0.0);
+                let d = norm.max(f);
+                if d > 0.0 { d } else { 1.0 }
             })
             .collect();
         let rs = Mat::<f64>::from_fn(
@@ -277,7 +281,7 @@ mod tests {
             n_rows: 3,
             usage: vec![1; 3],
         };
-        let an = Analysis::new(&lin, 1e-9).unwrap();
+        let an = Analysis::new(&lin, 1e-9, &[]).unwrap();
         (lin, an)
     }
 
@@ -336,7 +340,7 @@ mod tests {
             n_rows: 2,
             usage: vec![1; 2],
         };
-        let an = Analysis::new(&lin, 1e-9).unwrap();
+        let an = Analysis::new(&lin, 1e-9, &[]).unwrap();
         // g = Rᵀz
         let g = [2.0 * 0.3, 0.5 * 0.3 + 1.0 * -0.7];
         let (chord, len) = an.chord_step(&g);

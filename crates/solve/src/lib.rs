@@ -87,7 +87,9 @@
 //!
 //! At the solution the same scaled SVD decides what the data determine. The numerical rank is
 //! the number of singular values above `rank_tolerance · σ_max`; the condition number is
-//! `σ_max/σ_rank`. Right singular vectors beyond the rank span the null space: moving the
+//! `σ_max/σ_rank`. A parameter with a [`ParamSpec::scale`] is scaled by no less than
+//! `1/scale`, so one the data cannot see over its plausible range falls below the threshold
+//! instead of being blown up to unit size. Right singular vectors beyond the rank span the null space: moving the
 //! parameters along them changes no residual. The null space is turned into readable
 //! [`Combination`]s by [`describe_null_space`]: a reduced row echelon form with complete pivoting
 //! makes the basis sparse (independent groups of parameters separate), tiny entries are dropped,
@@ -118,7 +120,7 @@ pub mod score;
 mod solver;
 
 pub use combos::describe_null_space;
-pub use score::{Score, ScoreSink, ScoredProblem, score_candidates};
+pub use score::{Score, ScoreSink, ScoredProblem, holm, score_candidates};
 pub use solver::{linearize, solve};
 
 use accumulate::Accumulator;
@@ -238,6 +240,14 @@ pub struct ParamSpec {
     /// and a hint for the column order before the first evaluation: grouped (block-local)
     /// parameters are placed before ungrouped (shared) ones.
     pub group: Option<String>,
+    /// The largest change of the parameter that is still plausible (SI; e.g. a millimetre for
+    /// a set-up offset, a milliradian for a squareness). A parameter the data cannot see over
+    /// this range — moving it by `scale` changes the whitened residuals by less than the rank
+    /// threshold — is not identified, however small its own column is: without it, a column
+    /// that is zero to first order at the start (a ball-bar pivot's height in a circle at that
+    /// height) is scaled up to unit size and the Gauss–Newton step moves it by kilometres.
+    /// `None`: the column's own norm decides (scale-free).
+    pub scale: Option<f64>,
 }
 
 impl ParamSpec {

@@ -72,6 +72,10 @@ pub struct Score {
     pub absorbed: f64,
     /// Per fitted parameter: how far it moves when the candidate is fitted, `−C·JᵀZ·θ̂`.
     pub shift: Vec<f64>,
+    /// Per fitted parameter: how much of the candidate's first column it reproduces in the
+    /// fit's best imitation of that column, `(C·JᵀZ)ₚ·‖Jₚ‖/‖Z₀‖` (0 for an all-zero column):
+    /// the parameters a concealed candidate hides behind have the largest magnitudes.
+    pub mimicked_by: Vec<f64>,
 }
 
 /// Receives the rows of one block (see [`ScoredProblem::eval_block`]).
@@ -345,9 +349,14 @@ fn covariance(
             g[(a, a)] += 1.0 / (sigma * sigma);
         }
     }
+    // The solver's column scaling, floors included (so `rank` counts the same directions).
     let d: Vec<f64> = (0..f)
         .map(|a| {
-            let v = g[(a, a)].sqrt();
+            let floor = params[free[a]]
+                .scale
+                .filter(|s| *s > 0.0 && s.is_finite())
+                .map_or(0.0, |s| 1.0 / s);
+            let v = g[(a, a)].sqrt().max(floor);
             if v > 0.0 { v } else { 1.0 }
         })
         .collect();
@@ -489,7 +498,18 @@ fn candidate(
     let shift = (0..n)
         .map(|p| -(0..k).map(|i| c_jz[i][p] * theta[i]).sum::<f64>())
         .collect();
+    let z0 = if k > 0 { zz[0].sqrt() } else { 0.0 };
+    let mimicked_by = (0..n)
+        .map(|p| {
+            if z0 > 0.0 {
+                c_jz[0][p] * acc.jj[p * n + p].max(0.0).sqrt() / z0
+            } else {
+                0.0
+            }
+        })
+        .collect();
     Score {
+        mimicked_by,
         statistic,
         df,
         p_value,
@@ -547,7 +567,7 @@ fn chi2_sf(x: f64, df: usize) -> f64 {
 }
 
 /// Holm's step-down adjustment over all scores; marks those below `alpha`.
-fn holm(scores: &mut [Score], alpha: f64) {
+pub fn holm(scores: &mut [Score], alpha: f64) {
     let mut order: Vec<usize> = (0..scores.len()).collect();
     order.sort_by(|&a, &b| scores[a].p_value.total_cmp(&scores[b].p_value));
     let m = scores.len();

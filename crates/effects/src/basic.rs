@@ -1,0 +1,428 @@
+//! The effect most families are made of: one feature, one target, amplitudes and (for some
+//! features) one shape parameter. `Δ = Σ amplitudeₖ · featureₖ` on the target.
+
+use crate::view::{Input, SessionView};
+use crate::{Effect, EffectInfo, Features, ParamDef, ParamKind, Target, Term};
+use std::f64::consts::TAU;
+use std::sync::Arc;
+
+/// What the effect follows. Features are dimensionless unless said otherwise; the amplitude
+/// carries the unit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Feature {
+    /// `1 − exp(−(t − t₀)/τ)`, `t₀` the session's first sample: a first-order thermal drift
+    /// from the start of the session. Shape: τ (s).
+    Saturating,
+    /// `(t − t₀)/3600`: hours since the session started (a steady drift).
+    Hours,
+    /// Hours since set-up `s` was first used; zero in other set-ups' runs.
+    SetupHours(usize),
+    /// The input itself (static coupling): `T − T₀` in K, or `S/1000 rpm`.
+    Static(Input),
+    /// First-order lag of the input (a thermal node driven by it). Shape: τ (s).
+    Lag(Input),
+    /// Half the direction of the last motion of axis `a` (±½): a backlash `B` shifts the axis
+    /// by `±B/2`.
+    Reversal(usize),
+    /// `sin(2π q/p)` and `cos(2π q/p)` of axis `a`'s position: two terms. Shape: the pitch `p`
+    /// (m or rad).
+    Cyclic(usize),
+    /// `−v` of axis `a` (SI per second): the amplitude is a lag time (s).
+    Velocity(usize),
+    /// `s · exp(−d/λ)` of axis `a`: direction `s` (±1) and travel `d` since the last reversal.
+    /// Shape: λ (m or rad).
+    StickSlip(usize),
+    /// `û_a · û_b`, positions normalised to `[−1, 1]` over their strokes.
+    Bilinear(usize, usize),
+    /// One: the amplitude itself (a constant gain error, on a [`Target::Gain`]).
+    Constant,
+}
+
+/// An effect of one [`Feature`] on one target.
+#[derive(Clone, Debug)]
+pub struct Basic {
+    info: EffectInfo,
+    params: Vec<ParamDef>,
+    terms: Vec<Term>,
+    feature: Feature,
+    /// How the target is named in words (`Z`, `channel d_ch1`, `ball-low's ball_x`).
+    target_words: String,
+}
+
+/// The unit of an amplitude on a target, and its factor from SI.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AmplitudeUnit {
+    pub unit: String,
+    pub per_si: f64,
+}
+
+impl AmplitudeUnit {
+    pub fn um() -> Self {
+        Self {
+            unit: "um".into(),
+            per_si: 1e6,
+        }
+    }
+    pub fn urad() -> Self {
+        Self {
+            unit: "urad".into(),
+            per_si: 1e6,
+        }
+    }
+}
+
+impl Basic {
+    /// An effect of `feature` on `target`. `unit` is the target's unit (µm for a linear axis
+    /// or a µm channel, µrad for a rotary axis); `shape` the starting value of the shape
+    /// parameter if the feature has one.
+    pub fn new(
+        info: EffectInfo,
+        feature: Feature,
+        target: Target,
+        target_words: String,
+        unit: AmplitudeUnit,
+        shape: Option<f64>,
+    ) -> Self {
+        // Plausible sizes: a millimetre (or milliradian) of error, a 10 % gain, a second of lag.
+        let amp = |name: &str, unit: String, per_si: f64| ParamDef {
+            name: name.to_string(),
+            scale: match unit.as_str() {
+                "ppm" => 0.1,
+                "ms" => 1.0,
+                _ => 1e-3,
+            },
+            unit,
+            per_si,
+            kind: ParamKind::Amplitude,
+            initial: 0.0,
+            bounds: None,
+        };
+        let shape_def = |name: &str, unit: &str, per_si: f64, lo: f64, hi: f64| ParamDef {
+            name: name.to_string(),
+            unit: unit.to_string(),
+            per_si,
+            kind: ParamKind::Shape,
+            initial: shape.unwrap_or(0.0),
+            bounds: Some((lo, hi)),
+            scale: shape.unwrap_or(1.0).abs().max(lo),
+        };
+        let u = &unit.unit;
+        let k = unit.per_si;
+        let rotary_shape = unit.unit == "urad";
+        let tau = || shape_def("tau_s", "s", 1.0, 1.0, 1e8);
+        let params = match &feature {
+            Feature::Saturating => vec![amp(&format!("amplitude_{u}"), u.clone(), k), tau()],
+            Feature::Hours | Feature::SetupHours(_) => {
+                vec![amp(&format!("rate_{u}_per_h"), format!("{u}/h"), k)]
+            }
+            Feature::Static(input) | Feature::Lag(input) => {
+                let (name, unit_name) = match input {
+                    Input::Speed => (format!("gain_{u}_per_krpm"), format!("{u}/krpm")),
+                    Input::SpeedSquared => (format!("gain_{u}_per_krpm2"), format!("{u}/krpm²")),
+                    Input::Context(_) => (format!("gain_{u}_per_K"), format!("{u}/K")),
+                };
+                let mut p = vec![amp(&name, unit_name, k)];
+                if matches!(feature, Feature::Lag(_)) {
+                    p.push(tau());
+                }
+                p
+            }
+            Feature::Reversal(_) => vec![amp(&format!("backlash_{u}"), u.clone(), k)],
+            Feature::Cyclic(_) => {
+                let pitch = if rotary_shape {
+                    shape_def("period_deg", "deg", 180.0 / std::f64::consts::PI, 1e-3, 7.0)
+                } else {
+                    shape_def("pitch_mm", "mm", 1e3, 1e-5, 10.0)
+                };
+                vec![
+                    amp(&format!("sin_{u}"), u.clone(), k),
+                    amp(&format!("cos_{u}"), u.clone(), k),
+                    pitch,
+                ]
+            }
+            Feature::Velocity(_) => vec![amp("lag_ms", "ms".into(), 1e3)],
+            Feature::StickSlip(_) => {
+                // Beyond a few centimetres (or degrees) of travel the catching up never ends:
+                // that is a reversal error, the simpler explanation, not stick-slip.
+                let decay = if rotary_shape {
+                    shape_def("decay_deg", "deg", 180.0 / std::f64::consts::PI, 1e-6, 0.35)
+                } else {
+                    shape_def("decay_mm", "mm", 1e3, 1e-7, 0.02)
+                };
+                vec![amp(&format!("height_{u}"), u.clone(), k), decay]
+            }
+            Feature::Bilinear(..) => vec![amp(&format!("corner_{u}"), u.clone(), k)],
+            Feature::Constant => vec![amp("gain_ppm", "ppm".into(), 1e6)],
+        };
+        let terms = match &feature {
+            Feature::Cyclic(_) => vec![
+                Term {
+                    amplitude: 0,
+                    target: target.clone(),
+                },
+                Term {
+                    amplitude: 1,
+                    target,
+                },
+            ],
+            _ => vec![Term {
+                amplitude: 0,
+                target,
+            }],
+        };
+        Self {
+            info,
+            params,
+            terms,
+            feature,
+            target_words,
+        }
+    }
+
+    pub fn feature(&self) -> &Feature {
+        &self.feature
+    }
+}
+
+impl Effect for Basic {
+    fn info(&self) -> &EffectInfo {
+        &self.info
+    }
+
+    fn params(&self) -> &[ParamDef] {
+        &self.params
+    }
+
+    fn terms(&self) -> &[Term] {
+        &self.terms
+    }
+
+    fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
+        let shape_value = shape.first().copied().unwrap_or(0.0);
+        let lag = match &self.feature {
+            Feature::Lag(input) => Some(view.lag(input, shape_value)),
+            _ => None,
+        };
+        let input = match &self.feature {
+            Feature::Static(input) => Some(view.input(input)),
+            _ => None,
+        };
+        let setup_start = match self.feature {
+            Feature::SetupHours(s) => view
+                .runs_in_time_order()
+                .iter()
+                .find(|&&r| view.runs[r].setup == s)
+                .and_then(|&r| view.runs[r].t.first().copied())
+                .unwrap_or(0.0),
+            _ => 0.0,
+        };
+        Box::new(BasicFeatures {
+            view: Arc::clone(view),
+            feature: self.feature.clone(),
+            shape: shape_value,
+            lag,
+            input,
+            setup_start,
+        })
+    }
+
+    fn cached_series(&self) -> Vec<String> {
+        match &self.feature {
+            Feature::Lag(input) => vec![format!(
+                "{input:?}/{}",
+                self.params
+                    .iter()
+                    .find(|p| p.kind == ParamKind::Shape)
+                    .map_or(0.0, |p| p.initial)
+            )],
+            _ => Vec::new(),
+        }
+    }
+
+    fn describe(&self, v: &[f64], u: &[Option<f64>]) -> String {
+        let p = |i: usize| Quantity {
+            value: v[i] * self.params[i].per_si,
+            u95: u[i].map(|x| x * self.params[i].per_si),
+            unit: self.params[i].unit.clone(),
+        };
+        let tau = |i: usize| duration(v[i], u[i]);
+        let target = &self.target_words;
+        match &self.feature {
+            Feature::Saturating => format!(
+                "a first-order thermal drift of {target} from the start of the session with τ = {} and {} amplitude",
+                tau(1),
+                p(0)
+            ),
+            Feature::Hours => format!("a steady drift of {target} of {}", p(0)),
+            Feature::SetupHours(_) => format!("a drift of {target} of {}", p(0)),
+            Feature::Static(Input::Context(name)) => {
+                format!(
+                    "a coupling of {target} to the temperature {name} of {}",
+                    p(0)
+                )
+            }
+            Feature::Static(_) => format!("a coupling of {target} to spindle speed of {}", p(0)),
+            Feature::Lag(input) => {
+                let to = match input {
+                    Input::Speed => "spindle speed".to_string(),
+                    Input::SpeedSquared => "the square of spindle speed".to_string(),
+                    Input::Context(name) => format!("the temperature {name}"),
+                };
+                format!(
+                    "a first-order thermal response of {target} to {to} with τ = {} and a gain of {}",
+                    tau(1),
+                    p(0)
+                )
+            }
+            Feature::Reversal(_) => format!("a reversal error (backlash) of {target} of {}", p(0)),
+            Feature::Cyclic(_) => {
+                let amplitude = v[0].hypot(v[1]) * self.params[0].per_si;
+                format!(
+                    "a cyclic error of {target} with a period of {} and {:.3} {} amplitude (sine {}, cosine {})",
+                    p(2),
+                    amplitude,
+                    self.params[0].unit,
+                    p(0),
+                    p(1)
+                )
+            }
+            Feature::Velocity(_) => format!(
+                "a servo lag of {target} of {} (the error grows with the axis' velocity and flips with its direction)",
+                p(0)
+            ),
+            Feature::StickSlip(_) => format!(
+                "stick-slip of {target} after reversals: {} decaying over {} of travel",
+                p(0),
+                p(1)
+            ),
+            Feature::Bilinear(..) => format!(
+                "a cross-coupling: {target}, {} at the corners of the strokes",
+                p(0)
+            ),
+            Feature::Constant => format!("a scale error of {target} of {}", p(0)),
+        }
+    }
+}
+
+/// A value with its 95 % half-width, for sentences.
+struct Quantity {
+    value: f64,
+    u95: Option<f64>,
+    unit: String,
+}
+
+impl std::fmt::Display for Quantity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let digits = significant_decimals(self.u95.unwrap_or(self.value.abs() * 1e-3));
+        match self.u95 {
+            Some(u) => write!(
+                f,
+                "{:.*} ± {:.*} {}",
+                digits, self.value, digits, u, self.unit
+            ),
+            None => write!(
+                f,
+                "{:.*} {} (not separable from the fitted parameters)",
+                digits, self.value, self.unit
+            ),
+        }
+    }
+}
+
+/// Decimals that show two significant digits of `u`.
+fn significant_decimals(u: f64) -> usize {
+    if !(u.is_finite()) || u <= 0.0 {
+        return 2;
+    }
+    (1.0 - u.log10().floor()).clamp(0.0, 6.0) as usize
+}
+
+/// A time constant in the unit that reads best.
+fn duration(value_s: f64, u95_s: Option<f64>) -> String {
+    let (scale, unit) = if value_s < 120.0 {
+        (1.0, "s")
+    } else if value_s < 2.0 * 3600.0 {
+        (60.0, "min")
+    } else {
+        (3600.0, "h")
+    };
+    Quantity {
+        value: value_s / scale,
+        u95: u95_s.map(|u| u / scale),
+        unit: unit.into(),
+    }
+    .to_string()
+}
+
+struct BasicFeatures {
+    view: Arc<SessionView>,
+    feature: Feature,
+    shape: f64,
+    lag: Option<Arc<crate::lag::LagSeries>>,
+    input: Option<Arc<Vec<f64>>>,
+    setup_start: f64,
+}
+
+impl Features for BasicFeatures {
+    fn eval(&self, r: usize, i: usize, f: &mut [f64], df: &mut [f64]) {
+        let view = &*self.view;
+        let run = &view.runs[r];
+        match &self.feature {
+            Feature::Saturating => {
+                let t = run.t[i] - view.t0();
+                let tau = self.shape;
+                let e = (-t / tau).exp();
+                f[0] = 1.0 - e;
+                df[0] = -e * t / (tau * tau);
+            }
+            Feature::Hours => f[0] = (run.t[i] - view.t0()) / 3600.0,
+            Feature::SetupHours(s) => {
+                f[0] = if run.setup == *s {
+                    (run.t[i] - self.setup_start) / 3600.0
+                } else {
+                    0.0
+                }
+            }
+            Feature::Static(_) => {
+                let u = self
+                    .input
+                    .as_ref()
+                    .expect("static features have their input");
+                f[0] = u[view.timeline_index(r, i)];
+            }
+            Feature::Lag(_) => {
+                let lag = self.lag.as_ref().expect("lag features have their series");
+                let k = view.timeline_index(r, i);
+                f[0] = lag.y[k];
+                df[0] = lag.dy_dtau[k];
+            }
+            Feature::Reversal(a) => f[0] = 0.5 * f64::from(view.motion(r, *a).direction[i]),
+            Feature::Cyclic(a) => {
+                let q = view.q(r, i, *a);
+                let p = self.shape;
+                let (s, c) = (TAU * q / p).sin_cos();
+                let dphase = -TAU * q / (p * p);
+                f[0] = s;
+                f[1] = c;
+                df[0] = c * dphase;
+                df[1] = -s * dphase;
+            }
+            Feature::Velocity(a) => f[0] = -view.motion(r, *a).velocity[i],
+            Feature::StickSlip(a) => {
+                let m = view.motion(r, *a);
+                let lambda = self.shape;
+                let e = f64::from(m.direction[i]) * (-m.travel[i] / lambda).exp();
+                f[0] = e;
+                df[0] = e * m.travel[i] / (lambda * lambda);
+            }
+            Feature::Bilinear(a, b) => {
+                let u = |k: usize| {
+                    let (lo, hi) = view.axes[k].stroke;
+                    (2.0 * view.q(r, i, k) - lo - hi) / (hi - lo)
+                };
+                f[0] = u(*a) * u(*b);
+            }
+            Feature::Constant => f[0] = 1.0,
+        }
+    }
+}

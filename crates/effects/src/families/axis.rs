@@ -1,0 +1,315 @@
+//! Effects of an axis' motion. Each acts on the axis itself (it is effectively displaced along
+//! its own motion, µm, or turned about its own axis, µrad), driven by the axis.
+//!
+//! - **`reversal`**: the axis lags by half its backlash `B` behind the commanded position in
+//!   the direction it last moved, `±B/2` (plant key `backlash_um`).
+//! - **`cyclic`**: a screw (or worm) error periodic in the axis position, `a·sin(2πq/p) +
+//!   b·cos(2πq/p)` (plant keys `sin_um`, `cos_um`, `pitch_mm`; rotary `sin_urad`, `cos_urad`,
+//!   `period_deg`).
+//! - **`servo-lag`**: the axis trails the command by a lag time, `−T·v` (plant key `lag_ms`).
+//! - **`stick-slip`**: after a reversal the axis sticks and catches up, `h·s·exp(−d/λ)` with
+//!   `s` the direction and `d` the travel since the reversal (plant keys `height_um`,
+//!   `decay_mm`).
+//! - **`cross-coupling`**: an error of axis `L` that grows with the product of two axes'
+//!   positions, `c·û_K·û_M` (positions normalised to ±1 over the strokes; `c` is the value at
+//!   the corners): the table sagging under an overhanging carriage. Plant keys `axis = "L"`,
+//!   `driver = "K*M"`, `corner_um`.
+//!
+//! Candidates need the right motion in some fitted run: reversals for `reversal` and
+//! `stick-slip`, travel over at least one pitch with four samples per pitch for `cyclic`,
+//! motion for `servo-lag`, both driving axes moving for `cross-coupling`.
+
+use super::{axis_aim, moves, number, plant_aim, plant_values, reverses, single_letter, string};
+use crate::basic::{Basic, Feature};
+use crate::view::SessionView;
+use crate::{Candidate, EffectFamily, Planted, Target};
+use std::sync::Arc;
+
+/// Screw pitches tried (mm).
+const PITCHES_MM: [f64; 15] = [
+    2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 16.0, 20.0, 25.0, 32.0, 40.0, 50.0,
+];
+/// Cycles per turn tried for rotary axes (periods of 360°/n).
+const CYCLES_PER_TURN: [u32; 16] = [3, 4, 5, 6, 8, 9, 10, 12, 15, 18, 20, 24, 30, 36, 45, 60];
+/// Decay lengths of stick-slip tried (mm, or degrees on a rotary axis).
+const DECAYS: [f64; 5] = [0.2, 0.5, 1.0, 2.0, 5.0];
+
+fn on_axis(
+    view: &SessionView,
+    a: usize,
+    class: &'static str,
+    feature: Feature,
+    shape: Option<f64>,
+) -> Basic {
+    let aim = axis_aim(view, a);
+    Basic::new(
+        aim.info(class, Some(view.axes[a].letter.to_string())),
+        feature,
+        aim.target,
+        aim.words,
+        aim.unit,
+        shape,
+    )
+}
+
+fn wrap(effects: Vec<Basic>) -> Vec<Candidate> {
+    effects
+        .into_iter()
+        .map(|e| Candidate::Effect(Arc::new(e)))
+        .collect()
+}
+
+fn pose_axes(view: &SessionView) -> Vec<usize> {
+    if view.any_pose_reading() {
+        (0..view.axes.len()).collect()
+    } else {
+        Vec::new()
+    }
+}
+
+fn plant_axis(table: &toml::Table, view: &SessionView) -> Result<usize, String> {
+    let aim = plant_aim(table, view)?;
+    match aim.target {
+        Target::Axis(a) => Ok(a),
+        _ => Err("this effect acts on an axis: give `axis = \"X\"`".into()),
+    }
+}
+
+fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
+    wrap(
+        pose_axes(view)
+            .into_iter()
+            .filter(|&a| reverses(view, a))
+            .map(|a| on_axis(view, a, "reversal", Feature::Reversal(a), None))
+            .collect(),
+    )
+}
+
+fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let a = plant_axis(table, view)?;
+    let e = on_axis(view, a, "reversal", Feature::Reversal(a), None);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+/// Harmonics of a rotary axis' angular positioning error that the error model already
+/// covers: those of its Fourier basis (estimated, or proposed as an omitted parameter) and, if
+/// estimated, the higher orders `component-order` proposes. A cyclic error at those periods is
+/// that component error, proposed by those families.
+fn covered_harmonics(view: &SessionView, a: usize) -> u32 {
+    let letter = view.axes[a].letter;
+    let Some(name) = super::positioning_name(letter, true) else {
+        return 0;
+    };
+    view.model
+        .iter()
+        .find(|p| p.name.to_string() == name)
+        .map_or(0, |p| match p.order {
+            crate::BasisOrder::Fourier(h) if p.estimated => (h + super::model::EXTRA_ORDERS) as u32,
+            crate::BasisOrder::Fourier(h) => h as u32,
+            _ => 0,
+        })
+}
+
+/// Pitches (SI) a run can show on axis `a`: at least one period travelled, four samples per
+/// period.
+fn pitches(view: &SessionView, a: usize) -> Vec<f64> {
+    let grid: Vec<f64> = if view.axes[a].rotary {
+        let covered = covered_harmonics(view, a);
+        CYCLES_PER_TURN
+            .iter()
+            .filter(|&&n| n > covered)
+            .map(|&n| std::f64::consts::TAU / f64::from(n))
+            .collect()
+    } else {
+        PITCHES_MM.iter().map(|p| p * 1e-3).collect()
+    };
+    grid.into_iter()
+        .filter(|&p| {
+            (0..view.runs.len()).any(|r| {
+                let m = view.motion(r, a);
+                view.runs[r].fit && m.moves && m.range.1 - m.range.0 >= p && 4.0 * m.step <= p
+            })
+        })
+        .collect()
+}
+
+fn cyclic_candidates(view: &SessionView) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for a in pose_axes(view) {
+        for p in pitches(view, a) {
+            out.push(on_axis(view, a, "cyclic", Feature::Cyclic(a), Some(p)));
+        }
+    }
+    wrap(out)
+}
+
+fn cyclic_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let a = plant_axis(table, view)?;
+    let shape = if view.axes[a].rotary {
+        number(table, "period_deg", 180.0 / std::f64::consts::PI)?
+    } else {
+        number(table, "pitch_mm", 1e3)?
+    };
+    let e = on_axis(view, a, "cyclic", Feature::Cyclic(a), shape);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+fn servo_candidates(view: &SessionView) -> Vec<Candidate> {
+    wrap(
+        pose_axes(view)
+            .into_iter()
+            .filter(|&a| moves(view, a))
+            .map(|a| on_axis(view, a, "servo-lag", Feature::Velocity(a), None))
+            .collect(),
+    )
+}
+
+fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let a = plant_axis(table, view)?;
+    let e = on_axis(view, a, "servo-lag", Feature::Velocity(a), None);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+fn decay_per_si(view: &SessionView, a: usize) -> f64 {
+    if view.axes[a].rotary {
+        180.0 / std::f64::consts::PI
+    } else {
+        1e3
+    }
+}
+
+fn stick_candidates(view: &SessionView) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for a in pose_axes(view) {
+        if !reverses(view, a) {
+            continue;
+        }
+        for d in DECAYS {
+            let lambda = d / decay_per_si(view, a);
+            out.push(on_axis(
+                view,
+                a,
+                "stick-slip",
+                Feature::StickSlip(a),
+                Some(lambda),
+            ));
+        }
+    }
+    wrap(out)
+}
+
+fn stick_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let a = plant_axis(table, view)?;
+    let key = if view.axes[a].rotary {
+        "decay_deg"
+    } else {
+        "decay_mm"
+    };
+    let lambda = number(table, key, decay_per_si(view, a))?;
+    let e = on_axis(view, a, "stick-slip", Feature::StickSlip(a), lambda);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+fn coupling_effect(view: &SessionView, l: usize, k: usize, m: usize) -> Basic {
+    let aim = axis_aim(view, l);
+    let (kl, ml) = (view.axes[k].letter, view.axes[m].letter);
+    Basic::new(
+        aim.info("cross-coupling", Some(format!("{kl}*{ml}"))),
+        Feature::Bilinear(k, m),
+        aim.target,
+        format!(
+            "{} error growing with the product of {kl} and {ml}",
+            view.axes[l].letter
+        ),
+        aim.unit,
+        None,
+    )
+}
+
+fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
+    let linear: Vec<usize> = pose_axes(view)
+        .into_iter()
+        .filter(|&a| !view.axes[a].rotary)
+        .collect();
+    let mut out = Vec::new();
+    for &l in &linear {
+        for (i, &k) in linear.iter().enumerate() {
+            for &m in &linear[i + 1..] {
+                if moves(view, k) && moves(view, m) {
+                    out.push(coupling_effect(view, l, k, m));
+                }
+            }
+        }
+    }
+    wrap(out)
+}
+
+fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let l = plant_axis(table, view)?;
+    let driver = string(table, "driver")?
+        .ok_or_else(|| "a cross-coupling needs `driver = \"K*M\"` (two axes)".to_string())?;
+    let (k, m) = driver
+        .split_once('*')
+        .ok_or_else(|| format!("`driver = \"{driver}\"`: expected two axes as \"K*M\""))?;
+    let index = |s: &str| -> Result<usize, String> {
+        let c = single_letter(s.trim())?;
+        view.axis_index(c)
+            .ok_or_else(|| format!("`driver`: the machine has no axis {c}"))
+    };
+    let (k, m) = (index(k)?, index(m)?);
+    if k == m {
+        return Err("`driver`: a cross-coupling needs two different axes".into());
+    }
+    let e = coupling_effect(view, l, k.min(m), k.max(m));
+    let v = plant_values(&e, table, &["driver"])?;
+    Ok((Arc::new(e), v))
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "reversal",
+        about: "backlash: an axis lags by half its lost motion behind the command, flipping with its direction",
+        candidates: reversal_candidates,
+        plant: Some(reversal_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "cyclic",
+        about: "a cyclic error of an axis at a screw pitch (or worm period)",
+        candidates: cyclic_candidates,
+        plant: Some(cyclic_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "servo-lag",
+        about: "an axis trailing its command by a lag time: proportional to velocity, flipping with direction",
+        candidates: servo_candidates,
+        plant: Some(servo_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "stick-slip",
+        about: "an axis sticking after a reversal and catching up over a decay length",
+        candidates: stick_candidates,
+        plant: Some(stick_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "cross-coupling",
+        about: "an error of one axis growing with the product of two axes' positions (sag)",
+        candidates: coupling_candidates,
+        plant: Some(coupling_plant),
+    }
+}

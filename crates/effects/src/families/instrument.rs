@@ -1,0 +1,133 @@
+//! Effects of the measuring set-up and the instrument.
+//!
+//! - **`setup-drift`**: a set-up parameter (the R-test head, the ball-bar pivot, a sensor's
+//!   zero) creeps steadily from the set-up's first use, `rate·(t − t_s)`; driver `t`. Plant
+//!   keys `setup`, `nuisance`, `rate_um_per_h`.
+//! - **`instrument-scale`**: a reading channel's gain is off, `g·reading` (an R-test sensor's
+//!   scale, a laser's wavelength compensation, a ball-bar transducer); shared by every set-up
+//!   of that instrument. Plant keys `instrument` (optional when unambiguous), `channel`,
+//!   `gain_ppm`.
+
+use super::{channel_aim, nuisance_aim, plant_aim, plant_values};
+use crate::basic::{AmplitudeUnit, Basic, Feature};
+use crate::view::SessionView;
+use crate::{Candidate, EffectFamily, Planted, Target};
+use std::sync::Arc;
+
+fn drift(view: &SessionView, s: usize, index: usize) -> Basic {
+    let aim = nuisance_aim(view, s, index);
+    Basic::new(
+        aim.info("setup-drift", Some("t".into())),
+        Feature::SetupHours(s),
+        aim.target,
+        aim.words,
+        aim.unit,
+        None,
+    )
+}
+
+fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for (s, setup) in view.setups.iter().enumerate() {
+        // The set-up must be in use for a while in fitted runs: a first and a later time.
+        let times: Vec<f64> = view
+            .runs
+            .iter()
+            .filter(|r| r.setup == s && r.fit)
+            .flat_map(|r| [r.t.first().copied(), r.t.last().copied()])
+            .flatten()
+            .collect();
+        let span = times.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - times.iter().copied().fold(f64::INFINITY, f64::min);
+        if span.is_nan() || span <= 0.0 {
+            continue;
+        }
+        for (j, n) in setup.nuisance.iter().enumerate() {
+            if n.unit == mtcal_instrument::Unit::Um {
+                out.push(Candidate::Effect(Arc::new(drift(view, s, j))));
+            }
+        }
+    }
+    out
+}
+
+fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let aim = plant_aim(table, view)?;
+    let Target::Nuisance { setup, index } = aim.target else {
+        return Err(
+            "a set-up drift acts on a set-up parameter: give `setup` and `nuisance`".into(),
+        );
+    };
+    let e = drift(view, setup, index);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+fn scale(view: &SessionView, instrument: &str, channel: &str) -> Option<Basic> {
+    let aim = channel_aim(view, instrument, channel)?;
+    let Target::Channel { per_setup } = aim.target.clone() else {
+        unreachable!("channel targets are channels")
+    };
+    Some(Basic::new(
+        aim.info("instrument-scale", None),
+        Feature::Constant,
+        Target::Gain { per_setup },
+        format!("the {instrument} channel {channel}"),
+        AmplitudeUnit {
+            unit: "ppm".into(),
+            per_si: 1e6,
+        },
+        None,
+    ))
+}
+
+fn scale_candidates(view: &SessionView) -> Vec<Candidate> {
+    let mut seen: Vec<(String, String)> = Vec::new();
+    for s in &view.setups {
+        for (c, ch) in s.channels.iter().enumerate() {
+            let key = (s.instrument.clone(), ch.name.clone());
+            if s.reads_pose[c] && !seen.contains(&key) {
+                seen.push(key);
+            }
+        }
+    }
+    seen.iter()
+        .filter_map(|(i, c)| scale(view, i, c))
+        .map(|e| Candidate::Effect(Arc::new(e)))
+        .collect()
+}
+
+fn scale_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let aim = plant_aim(table, view)?;
+    let Some(component) = aim
+        .component
+        .as_deref()
+        .filter(|_| matches!(aim.target, Target::Channel { .. }))
+    else {
+        return Err("an instrument scale acts on a channel: give `channel`".into());
+    };
+    let (instrument, channel) = component
+        .split_once('.')
+        .expect("channel targets are named instrument.channel");
+    let e = scale(view, instrument, channel).expect("the target exists");
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "setup-drift",
+        about: "a set-up parameter (head, pivot, sensor zero) creeping steadily in time",
+        candidates: drift_candidates,
+        plant: Some(drift_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "instrument-scale",
+        about: "a reading channel's gain error, shared by every set-up of the instrument",
+        candidates: scale_candidates,
+        plant: Some(scale_plant),
+    }
+}

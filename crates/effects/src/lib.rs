@@ -1,0 +1,279 @@
+//! The physics search's library of candidate effects: what a model of a machine-tool
+//! measurement may have left out, each effect with its parameters, its Jacobian columns and a
+//! sentence that names it in words.
+//!
+//! # How an effect enters a fit
+//! An effect adds, at every sample, small perturbations in up to three places, each a sum of
+//! *terms* `amplitude × feature`:
+//! - an **axis** is effectively somewhere else than commanded (`Δq`, SI: m or rad): a thermal
+//!   drift of Z, the backlash of X, a cyclic screw error, a servo lag. The identification core
+//!   carries it through the machine's axis Jacobian (`∂pose/∂q`), so it acts exactly as the
+//!   axis would: through the workpiece-side rotary axes, with its Abbe arms;
+//! - a set-up's **nuisance** parameter drifts (`Δn`): the R-test head or the ball-bar pivot
+//!   creeping on the table;
+//! - a **reading** changes directly (`Δr`): a displacement sensor's own thermal drift; or its
+//!   **gain** does (`reading·(1 + Δg)`): an instrument's scale error.
+//!
+//! Features may depend on time, on the axis positions and their history (direction of motion,
+//! velocity, travel since a reversal) and on the context columns (spindle speed, temperatures)
+//! through first-order thermal lags computed over the whole session in time order
+//! ([`view::SessionView`]); some have *shape* parameters (a time constant τ, a screw pitch, a
+//! decay length) that the fit refines along with the amplitudes. Every effect is linear in its
+//! amplitudes, so a candidate can be scored against a fit without refitting (its amplitude
+//! columns at the shape parameters' starting values).
+//!
+//! # Families and the registry
+//! An [`EffectFamily`] (registered with `inventory`, like the instrument plugins) proposes the
+//! candidates it would test on a session ([`EffectFamily::candidates`]) and builds a planted
+//! effect from a test plan's `[[effect]]` table ([`EffectFamily::plant`]). The families are the
+//! FORMATS.md effect names: [`families`] lists them. Two of them (`omitted-parameter`,
+//! `component-order`) change the machine's error model instead ([`ModelChange`]): the
+//! identification core turns those into columns of its kinematic model.
+//!
+//! # Adding an effect
+//! Usually a new [`Feature`] variant of [`basic::Basic`] and a family module that proposes
+//! candidates and parses plant tables (see `families/`); or any type implementing [`Effect`].
+//! Submit an [`EffectFamily`] with `inventory::submit!` and add its name to the registry test.
+
+pub mod basic;
+mod families;
+pub mod lag;
+pub mod prepared;
+pub mod view;
+
+pub use basic::{Basic, Feature};
+pub use prepared::{PreparedEffects, SampleEffects};
+pub use view::{AxisView, BasisOrder, Input, ModelParamView, RunView, SessionView, SetupView};
+
+use mtcal_kinematics::ParamName;
+use std::fmt;
+use std::sync::Arc;
+
+/// Where a term of an effect acts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Target {
+    /// Axis `a` (index into [`SessionView::axes`]) is effectively at `q + Δ` (SI).
+    Axis(usize),
+    /// Nuisance parameter `index` of set-up `setup` deviates by `Δ` (SI).
+    Nuisance { setup: usize, index: usize },
+    /// A reading changes by `Δ` (SI): per set-up, the channel it acts on (`None`: the term
+    /// does nothing in that set-up's runs).
+    Channel { per_setup: Vec<Option<usize>> },
+    /// A reading's gain changes by `Δ` (dimensionless): the reading becomes `(1 + Δ)·reading`.
+    Gain { per_setup: Vec<Option<usize>> },
+}
+
+/// One term: `params[amplitude] × feature`, acting on `target`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Term {
+    pub amplitude: usize,
+    pub target: Target,
+}
+
+/// Linear amplitude or nonlinear shape parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    Amplitude,
+    Shape,
+}
+
+/// One parameter of an effect.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamDef {
+    /// Its name with its unit (`tau_s`, `amplitude_um`, `gain_um_per_K`), also the key of a
+    /// plant table.
+    pub name: String,
+    /// The unit it is reported in (`s`, `um`, `um/K`, `ppm`).
+    pub unit: String,
+    /// Factor from SI to the reported unit.
+    pub per_si: f64,
+    pub kind: ParamKind,
+    /// Starting value (SI): zero for amplitudes, the grid value for shapes.
+    pub initial: f64,
+    /// Box bounds (SI) for shape parameters.
+    pub bounds: Option<(f64, f64)>,
+    /// The largest plausible value (SI): a millimetre of drift, a 10 % gain error, the
+    /// starting value of a time constant (`mtcal_solve::ParamSpec::scale`).
+    pub scale: f64,
+}
+
+/// How an effect is named in reports and in FORMATS.md `discoveries`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EffectInfo {
+    /// The FORMATS.md effect name (`thermal-drift`, `reversal`, …).
+    pub class: &'static str,
+    /// The axis it acts on, if one.
+    pub axis: Option<char>,
+    /// The ISO 230-1 component or the set-up parameter / channel it acts on, if one.
+    pub component: Option<String>,
+    /// What it follows: `t`, a context column (`S`, `T_spindle`), an axis letter.
+    pub driver: Option<String>,
+    /// A short unique label (`thermal-drift Z (t)`), the prefix of its parameters' names.
+    pub label: String,
+}
+
+/// An effect: parameters, terms, and features at given shape parameters.
+pub trait Effect: fmt::Debug + Send + Sync {
+    fn info(&self) -> &EffectInfo;
+    fn params(&self) -> &[ParamDef];
+    fn terms(&self) -> &[Term];
+    /// The features at shape parameters `shape` (SI, in the order of the shape parameters in
+    /// [`Effect::params`]).
+    fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features>;
+    /// The effect in words, for fitted values (SI) and their 95 % half-widths (SI; `None`
+    /// where the data cannot tell).
+    fn describe(&self, values: &[f64], u95: &[Option<f64>]) -> String;
+    /// Keys of the session-long series [`Effect::prepare`] caches in the view (a lag of an
+    /// input at a time constant): effects sharing a key share the memory. The search batches
+    /// candidates by it.
+    fn cached_series(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// An effect's features at fixed shape parameters.
+pub trait Features: Send + Sync {
+    /// At sample `i` of run `r`: per term its feature `f[term]`, and per term and shape
+    /// parameter the derivative `df[term·n_shape + s]`.
+    fn eval(&self, r: usize, i: usize, f: &mut [f64], df: &mut [f64]);
+}
+
+/// A change of the machine's error model the search may propose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelChange {
+    /// `omitted-parameter` (estimate a parameter the fit held) or `component-order` (raise a
+    /// component error's basis by `extra_order`).
+    pub class: &'static str,
+    pub param: ParamName,
+    pub extra_order: usize,
+}
+
+impl ModelChange {
+    pub fn label(&self) -> String {
+        match self.extra_order {
+            0 => self.param.to_string(),
+            k => format!("{} +{k} orders", self.param),
+        }
+    }
+}
+
+/// A candidate of the search.
+#[derive(Clone, Debug)]
+pub enum Candidate {
+    Effect(Arc<dyn Effect>),
+    Model(ModelChange),
+}
+
+impl Candidate {
+    pub fn class(&self) -> &'static str {
+        match self {
+            Candidate::Effect(e) => e.info().class,
+            Candidate::Model(m) => m.class,
+        }
+    }
+    pub fn label(&self) -> String {
+        match self {
+            Candidate::Effect(e) => e.info().label.clone(),
+            Candidate::Model(m) => m.label(),
+        }
+    }
+}
+
+/// An effect planted by a test plan, with its true parameter values (SI).
+pub type Planted = (Arc<dyn Effect>, Vec<f64>);
+
+/// A family's builder of planted effects from a plan's `[[effect]]` table.
+pub type PlantFn = fn(&toml::Table, &SessionView) -> Result<Planted, String>;
+
+/// A registered family of effects.
+#[derive(Debug)]
+pub struct EffectFamily {
+    /// The FORMATS.md effect name.
+    pub name: &'static str,
+    /// One line for people.
+    pub about: &'static str,
+    /// The candidates this family would test on a session.
+    pub candidates: fn(&SessionView) -> Vec<Candidate>,
+    /// Builds a planted effect from a test plan's `[[effect]]` table (its keys are documented
+    /// in the family's module); `None` for families planted another way (model changes are
+    /// planted through the truth parameter file).
+    pub plant: Option<PlantFn>,
+}
+
+inventory::collect!(EffectFamily);
+
+/// Every registered family, sorted by name.
+pub fn families() -> Vec<&'static EffectFamily> {
+    let mut all: Vec<_> = inventory::iter::<EffectFamily>.into_iter().collect();
+    all.sort_by_key(|f| f.name);
+    all
+}
+
+/// The family registered under `name`.
+pub fn find(name: &str) -> Option<&'static EffectFamily> {
+    inventory::iter::<EffectFamily>
+        .into_iter()
+        .find(|f| f.name == name)
+}
+
+/// Every family's candidates for `view`.
+pub fn candidates(view: &SessionView) -> Vec<Candidate> {
+    families()
+        .iter()
+        .flat_map(|f| (f.candidates)(view))
+        .collect()
+}
+
+/// Builds the planted effect of a plan's `[[effect]]` table (`effect = "<family>"` plus the
+/// family's keys).
+pub fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let name = match table.get("effect") {
+        Some(toml::Value::String(s)) => s.as_str(),
+        Some(v) => return Err(format!("`effect` must be a family name, found {v}")),
+        None => return Err("missing `effect = \"<family>\"`".into()),
+    };
+    let family = find(name).ok_or_else(|| {
+        format!(
+            "unknown effect `{name}`; known: {}",
+            families()
+                .iter()
+                .map(|f| f.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?;
+    let plant = family.plant.ok_or_else(|| {
+        format!("`{name}` is planted through the truth parameter file, not an [[effect]] table")
+    })?;
+    plant(table, view)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_formats_effect_is_registered_once() {
+        let names: Vec<&str> = families().iter().map(|f| f.name).collect();
+        assert_eq!(
+            names,
+            [
+                "component-order",
+                "cross-coupling",
+                "cyclic",
+                "instrument-scale",
+                "omitted-parameter",
+                "reversal",
+                "servo-lag",
+                "setup-drift",
+                "stick-slip",
+                "temperature-coupling",
+                "thermal-drift",
+            ]
+        );
+        for name in names {
+            assert_eq!(find(name).map(|f| f.name), Some(name));
+            assert!(!find(name).expect("registered").about.is_empty());
+        }
+    }
+}

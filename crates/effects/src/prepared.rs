@@ -1,0 +1,240 @@
+//! Effects at one parameter vector, evaluated sample by sample: the total perturbation of the
+//! axes, the set-up's nuisance parameters and the readings, and its derivative by every effect
+//! parameter. This is what the identification core calls in its hot loop; it allocates
+//! nothing per sample.
+
+use crate::view::SessionView;
+use crate::{Effect, Features, ParamKind, Target};
+use std::sync::Arc;
+
+/// A set of effects with their parameters laid out one after another, prepared at given
+/// values of their shape parameters.
+pub struct PreparedEffects {
+    effects: Vec<Arc<dyn Effect>>,
+    features: Vec<Box<dyn Features>>,
+    /// Per effect: where its parameters start.
+    offsets: Vec<usize>,
+    /// Per effect: indices (within the effect) of its shape parameters.
+    shapes: Vec<Vec<usize>>,
+    n_params: usize,
+}
+
+impl std::fmt::Debug for PreparedEffects {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PreparedEffects")
+            .field("effects", &self.effects)
+            .field("n_params", &self.n_params)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Number of parameters of `effects`, laid out one after another.
+pub fn n_params(effects: &[Arc<dyn Effect>]) -> usize {
+    effects.iter().map(|e| e.params().len()).sum()
+}
+
+/// The shape parameters' values of `effects` in `params` (all effects' parameters, laid out
+/// one after another): what decides whether a prepared set is still valid.
+pub fn shape_values(effects: &[Arc<dyn Effect>], params: &[f64]) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut o = 0;
+    for e in effects {
+        for (j, p) in e.params().iter().enumerate() {
+            if p.kind == ParamKind::Shape {
+                out.push(params[o + j]);
+            }
+        }
+        o += e.params().len();
+    }
+    out
+}
+
+impl PreparedEffects {
+    /// Prepares `effects` at the shape parameters in `params`.
+    pub fn new(effects: &[Arc<dyn Effect>], view: &Arc<SessionView>, params: &[f64]) -> Self {
+        let mut offsets = Vec::with_capacity(effects.len());
+        let mut shapes = Vec::with_capacity(effects.len());
+        let mut features = Vec::with_capacity(effects.len());
+        let mut o = 0;
+        for e in effects {
+            let idx: Vec<usize> = e
+                .params()
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.kind == ParamKind::Shape)
+                .map(|(j, _)| j)
+                .collect();
+            let values: Vec<f64> = idx.iter().map(|&j| params[o + j]).collect();
+            features.push(e.prepare(view, &values));
+            offsets.push(o);
+            shapes.push(idx);
+            o += e.params().len();
+        }
+        Self {
+            effects: effects.to_vec(),
+            features,
+            offsets,
+            shapes,
+            n_params: o,
+        }
+    }
+
+    pub fn n_params(&self) -> usize {
+        self.n_params
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.effects.is_empty()
+    }
+
+    /// Scratch for [`Self::sample`], sized for `n_axes` axes and up to `max_nuisance`
+    /// nuisance parameters and `max_channels` channels per set-up.
+    pub fn scratch(
+        &self,
+        n_axes: usize,
+        max_nuisance: usize,
+        max_channels: usize,
+    ) -> SampleEffects {
+        let max_terms = self
+            .effects
+            .iter()
+            .map(|e| e.terms().len())
+            .max()
+            .unwrap_or(0);
+        let max_shapes = self.shapes.iter().map(Vec::len).max().unwrap_or(0);
+        let np = self.n_params;
+        SampleEffects {
+            n_axes,
+            n_nuis: max_nuisance,
+            n_ch: max_channels,
+            dq: vec![0.0; n_axes],
+            dn: vec![0.0; max_nuisance],
+            dr: vec![0.0; max_channels],
+            gain: vec![0.0; max_channels],
+            jq: vec![0.0; np * n_axes],
+            jn: vec![0.0; np * max_nuisance],
+            jr: vec![0.0; np * max_channels],
+            jg: vec![0.0; np * max_channels],
+            axes_touched: false,
+            f: vec![0.0; max_terms],
+            df: vec![0.0; max_terms * max_shapes.max(1)],
+        }
+    }
+
+    /// The effects at sample `i` of run `r` (set-up `setup`), for effect parameters
+    /// `params`: totals and derivatives into `out`.
+    pub fn sample(
+        &self,
+        r: usize,
+        setup: usize,
+        i: usize,
+        params: &[f64],
+        out: &mut SampleEffects,
+    ) {
+        out.clear();
+        for (e, effect) in self.effects.iter().enumerate() {
+            let terms = effect.terms();
+            let shapes = &self.shapes[e];
+            let ns = shapes.len();
+            let o = self.offsets[e];
+            self.features[e].eval(r, i, &mut out.f, &mut out.df);
+            for (k, term) in terms.iter().enumerate() {
+                let amp_index = o + term.amplitude;
+                let amp = params[amp_index];
+                let f = out.f[k];
+                // The slot of the term's target in the three blocks, if it acts here.
+                let slot = match &term.target {
+                    Target::Axis(a) => Some(Slot::Axis(*a)),
+                    Target::Nuisance { setup: s, index } => {
+                        (*s == setup).then_some(Slot::Nuisance(*index))
+                    }
+                    Target::Channel { per_setup } => {
+                        per_setup.get(setup).copied().flatten().map(Slot::Channel)
+                    }
+                    Target::Gain { per_setup } => {
+                        per_setup.get(setup).copied().flatten().map(Slot::Gain)
+                    }
+                };
+                let Some(slot) = slot else { continue };
+                out.add(slot, None, amp * f);
+                out.add(slot, Some(amp_index), f);
+                for (s, &j) in shapes.iter().enumerate() {
+                    out.add(slot, Some(o + j), amp * out.df[k * ns + s]);
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Slot {
+    Axis(usize),
+    Nuisance(usize),
+    Channel(usize),
+    Gain(usize),
+}
+
+/// The effects at one sample.
+#[derive(Clone, Debug)]
+pub struct SampleEffects {
+    pub n_axes: usize,
+    /// Row stride of `jn` (the largest nuisance count of a set-up).
+    pub n_nuis: usize,
+    /// Row stride of `jr` (the largest channel count of a set-up).
+    pub n_ch: usize,
+    /// Totals: axis perturbations (SI), nuisance perturbations, reading changes, gain changes
+    /// per channel. The reading becomes `(1 + gain)·prediction + dr`.
+    pub dq: Vec<f64>,
+    pub dn: Vec<f64>,
+    pub dr: Vec<f64>,
+    pub gain: Vec<f64>,
+    /// Per effect parameter, row-major: `∂dq/∂p` (`n_params × n_axes`), `∂dn/∂p`, `∂dr/∂p`,
+    /// `∂gain/∂p`.
+    pub jq: Vec<f64>,
+    pub jn: Vec<f64>,
+    pub jr: Vec<f64>,
+    pub jg: Vec<f64>,
+    /// Whether any term acted on an axis (the caller needs the axis Jacobian only then).
+    pub axes_touched: bool,
+    f: Vec<f64>,
+    df: Vec<f64>,
+}
+
+impl SampleEffects {
+    fn clear(&mut self) {
+        for v in [
+            &mut self.dq,
+            &mut self.dn,
+            &mut self.dr,
+            &mut self.gain,
+            &mut self.jq,
+            &mut self.jn,
+            &mut self.jr,
+            &mut self.jg,
+        ] {
+            v.fill(0.0);
+        }
+        self.axes_touched = false;
+    }
+
+    /// Adds `v` to the total (`param` None) or to parameter `param`'s derivative.
+    #[inline]
+    fn add(&mut self, slot: Slot, param: Option<usize>, v: f64) {
+        match (slot, param) {
+            (Slot::Axis(a), None) => {
+                self.dq[a] += v;
+                self.axes_touched = true;
+            }
+            (Slot::Axis(a), Some(p)) => {
+                self.jq[p * self.n_axes + a] += v;
+                self.axes_touched = true;
+            }
+            (Slot::Nuisance(j), None) => self.dn[j] += v,
+            (Slot::Nuisance(j), Some(p)) => self.jn[p * self.n_nuis + j] += v,
+            (Slot::Channel(c), None) => self.dr[c] += v,
+            (Slot::Channel(c), Some(p)) => self.jr[p * self.n_ch + c] += v,
+            (Slot::Gain(c), None) => self.gain[c] += v,
+            (Slot::Gain(c), Some(p)) => self.jg[p * self.n_ch + c] += v,
+        }
+    }
+}

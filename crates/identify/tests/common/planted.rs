@@ -1,0 +1,166 @@
+//! Planted-effect sessions for the physics search: a five-axis R-test + ball-bar session whose
+//! runs interleave three set-ups over about 14 minutes (so drifts, set-ups and temperatures do
+//! not all follow one another), with a spindle-speed programme, a bed temperature that swings
+//! without a trend and a spindle temperature that rises during one XYC run and falls during
+//! another, one repeated reference run at the end, and an XYZAC validation run.
+//! The truth is the example's 11-error set plus the planted effects.
+
+#![allow(dead_code)]
+
+use mtcal_identify::search::{SearchOptions, SearchResult, search};
+use mtcal_identify::{Study, simulate::simulate};
+use std::path::{Path, PathBuf};
+
+/// Noise of every reading (µm): R-test and ball-bar.
+pub const NOISE_UM: f64 = 0.5;
+
+/// The example's truth (µm, µrad).
+pub const TRUTH: [(&str, f64); 11] = [
+    ("EC0Y", 12.0),
+    ("EB0Z", -8.0),
+    ("EA0Z", 15.0),
+    ("EY0A", 18.0),
+    ("EZ0A", -25.0),
+    ("EB0A", 20.0),
+    ("EC0A", -10.0),
+    ("EX0C", 12.0),
+    ("EY0C", -6.0),
+    ("EA0C", 30.0),
+    ("EB0C", -15.0),
+];
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The plan's set-ups, context and runs (`{dt}` the interval, `{k}` multiplies the samples,
+/// `{also}` adds parameters to estimate).
+pub const RUNS: &str = r#"
+interval_s = {dt}
+[identify]
+parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"{also}]
+[context]
+S = [[0.0, 0.0], [150.0, 4000.0], [500.0, 8000.0], [700.0, 2000.0]]
+T_spindle = [[0.0, 20.0], [264.0, 20.0], [336.0, 23.0], [516.0, 23.0], [588.0, 20.0]]
+T_bed = [[0.0, 20.5], [150.0, 21.5], [300.0, 20.5], [450.0, 19.5], [600.0, 20.5], [750.0, 21.5], [900.0, 20.5], [1050.0, 19.5], [1200.0, 20.5], [1350.0, 21.5], [1500.0, 20.5]]
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+[setup.high]
+ball = [100.0, 0.0, 300.0]
+[setup.bar]
+pivot = [0.0, 0.0, 250.0]
+length = 100.0
+sigma_um = 0.5
+[nuisance.low]
+ball_x = 4.0
+ball_z = -3.0
+tool_length = 2.0
+[[run]]
+name = "xyc-a0"
+instrument = "rtest"
+setup = "low"
+path = { kind = "xyc", samples = {n145} }
+[[run]]
+name = "bb-ccw"
+instrument = "ballbar"
+setup = "bar"
+path = { kind = "circle", plane = "XY", direction = "ccw", samples = {n181} }
+[[run]]
+name = "xyc-high"
+instrument = "rtest"
+setup = "high"
+path = { kind = "xyc", samples = {n145} }
+[[run]]
+name = "xyc-a+30"
+instrument = "rtest"
+setup = "low"
+path = { kind = "xyc", samples = 145, hold = { A = 30.0 } }
+[[run]]
+name = "bb-cw"
+instrument = "ballbar"
+setup = "bar"
+path = { kind = "circle", plane = "XY", direction = "cw", samples = {n181} }
+[[run]]
+name = "yza"
+instrument = "rtest"
+setup = "low"
+path = { kind = "yza", samples = {n121} }
+[[run]]
+name = "xyc-a-30"
+instrument = "rtest"
+setup = "low"
+path = { kind = "xyc", samples = 145, hold = { A = -30.0 } }
+[[run]]
+name = "xyc-high-again"
+instrument = "rtest"
+setup = "high"
+path = { kind = "xyc", samples = {n145} }
+[[run]]
+name = "xyc-a0-again"
+instrument = "rtest"
+setup = "low"
+path = { kind = "xyc", samples = {n145} }
+[[run]]
+name = "xyzac"
+instrument = "rtest"
+setup = "low"
+use = "validate"
+path = { kind = "xyzac", samples = {n97} }
+"#;
+
+/// What a case changes in the session besides its `[[effect]]` tables.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Variant {
+    /// Appended to the truth parameter file (component errors, more values).
+    pub truth: &'static str,
+    /// Appended to the machine's error model for the truth only (a richer truth: a higher
+    /// order than the session's model).
+    pub truth_model: &'static str,
+    /// Parameters estimated besides the 11-error set (`, "ECC"`).
+    pub also: &'static str,
+    /// Twice the samples at half the interval (same duration).
+    pub dense: bool,
+}
+
+/// Simulates the session with `effects` (`[[effect]]` tables), `variant` and noise seed `seed`
+/// into `dir/session`.
+pub fn session(dir: &Path, effects: &str, seed: u64, variant: Variant) -> PathBuf {
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let truth_file = dir.join("truth.params.toml");
+    let truth = std::fs::read_to_string(repo().join("examples/five-axis/truth.params.toml"))
+        .unwrap()
+        + "\n"
+        + variant.truth;
+    std::fs::write(&truth_file, truth).unwrap();
+    let mut plan = format!("machine = {machine:?}\ntruth = {truth_file:?}\nseed = {seed}\n");
+    if !variant.truth_model.is_empty() {
+        let model = std::fs::read_to_string(repo().join("machines/mcu630-cafyxz.errors.toml"))
+            .unwrap()
+            + "\n"
+            + variant.truth_model;
+        let file = dir.join("truth.errors.toml");
+        std::fs::write(&file, model).unwrap();
+        plan += &format!("truth_errors = {file:?}\n");
+    }
+    let k = if variant.dense { 2 } else { 1 };
+    let mut runs = RUNS
+        .replace("{dt}", if variant.dense { "0.25" } else { "0.5" })
+        .replace("{also}", variant.also);
+    for n in [145, 181, 121, 97] {
+        runs = runs.replace(&format!("{{n{n}}}"), &(k * n - (k - 1)).to_string());
+    }
+    plan += &runs;
+    plan += effects;
+    let file = dir.join("plan.toml");
+    std::fs::write(&file, plan).unwrap();
+    let out = dir.join("session");
+    simulate(&file, &out).unwrap();
+    out
+}
+
+/// Simulates and searches.
+pub fn searched(effects: &str, seed: u64, variant: Variant) -> SearchResult {
+    let dir = tempfile::tempdir().unwrap();
+    let study = Study::load(&session(dir.path(), effects, seed, variant)).unwrap();
+    search(study, &SearchOptions::default()).unwrap()
+}
