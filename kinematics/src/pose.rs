@@ -348,6 +348,9 @@ pub struct Workspace {
     legendre: Vec<f64>,
     /// The coefficients [`Self::packed`] was built from (NaN before the first build).
     packed_from: Vec<f64>,
+    /// Whether [`Self::packed`] was built at all: a model without coefficients has an empty
+    /// `packed_from`, equal to every (empty) coefficient set, yet must be packed once.
+    packed_once: bool,
     /// Per axis: the component and location values as dense local-frame polynomials, rebuilt
     /// only when the coefficients change (a map or a fit evaluates one set at many poses).
     packed: Vec<PackedAxis>,
@@ -412,6 +415,7 @@ impl MachineModel {
         Workspace {
             legendre: vec![0.0; self.plan.max_legendre],
             packed_from: vec![f64::NAN; m],
+            packed_once: false,
             packed: vec![PackedAxis::default(); n],
             packed_tool: Vector3::zeros(),
             packed_wp: (Vector3::zeros(), Vector3::zeros()),
@@ -532,7 +536,7 @@ impl MachineModel {
     #[inline(always)]
     fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
         // The check inline (it runs on every evaluation), the rebuild out of line.
-        if !bitwise_equal(&ws.packed_from, coeffs) {
+        if !ws.packed_once || !bitwise_equal(&ws.packed_from, coeffs) {
             self.pack(coeffs, ws);
         }
     }
@@ -605,6 +609,7 @@ impl MachineModel {
         ws.packed_wp = (ws_wp(&self.plan, coeffs, 0), ws_wp(&self.plan, coeffs, 3));
         ws.wp_error = Rigid::new(exp_so3(&ws.packed_wp.1), ws.packed_wp.0);
         ws.packed_from.copy_from_slice(coeffs);
+        ws.packed_once = true;
     }
 
     /// Local-frame component values `[δ; ε]` and location values `[lt; lw]` of axis `i` at
@@ -625,8 +630,13 @@ impl MachineModel {
         }
         let terms = pa.terms;
         let u = normalised(self.plan.axes[i].legendre_stroke, q);
-        let mut c = pa.mono[terms - 1];
-        for m in pa.mono[..terms - 1].iter().rev() {
+        // A model without coefficients (nothing estimated, nothing set) packs no terms.
+        let mut c = if terms == 0 {
+            [0.0; 6]
+        } else {
+            pa.mono[terms - 1]
+        };
+        for m in pa.mono[..terms.saturating_sub(1)].iter().rev() {
             for d in 0..6 {
                 c[d] = c[d] * u + m[d];
             }

@@ -543,3 +543,39 @@ fn component_errors_are_tool_relative_to_workpiece() {
         );
     }
 }
+
+/// A model without any error parameter (a session that estimates nothing of the machine, e.g. a
+/// thermal test of fixed sensors) evaluates to the nominal machine on every path, including the
+/// Jacobian ones, instead of indexing an empty packed polynomial.
+#[test]
+fn a_model_without_parameters_is_the_nominal_machine() {
+    let m = machine(
+        vec![
+            lin('X', [-1.0, 0.0, 0.0]),
+            rot('C', [0.0, 0.0, -1.0], [0.1, 0.0, 0.0]),
+        ],
+        vec![lin('Y', [0.0, 1.0, 0.0]), lin('Z', [0.0, 0.0, 1.0])],
+    );
+    let model = MachineModel::new(m.clone(), &[]).unwrap();
+    assert_eq!(model.n_coeffs(), 0);
+    let mut ws = model.workspace();
+    for q in [[0.0, 0.0, 0.0, 0.0], [0.1, -0.2, 0.05, 1.3]] {
+        let nominal = m.tool_in_workpiece(&q);
+        let a = model.tool_pose(&q, &[], &mut ws);
+        let b = model.tool_pose_for_jacobian(&q, &[], &mut ws);
+        for pose in [a, b] {
+            assert!(
+                (pose.t - nominal.t).norm() < 1e-12,
+                "{:?} vs {:?}",
+                pose.t,
+                nominal.t
+            );
+            assert!((pose.r - nominal.r).norm() < 1e-15);
+        }
+        let e = model.pose_error(&q, &[], &mut ws).to_array();
+        assert!(e.iter().all(|v| v.abs() < 1e-15), "{e:?}");
+        let mut jac = vec![0.0; 6 * 4];
+        model.tool_jacobian(&q, &[], &mut ws, &mut jac);
+        assert!(jac.iter().all(|v| v.is_finite()));
+    }
+}

@@ -42,7 +42,7 @@ pub mod prepared;
 pub mod view;
 
 pub use basic::{Basic, Feature};
-pub use prepared::{PreparedEffects, SampleEffects};
+pub use prepared::{Entry, PreparedEffects, SampleEffects, Slot};
 pub use view::{AxisView, BasisOrder, Input, ModelParamView, RunView, SessionView, SetupView};
 
 use mtcal_kinematics::ParamName;
@@ -179,10 +179,12 @@ impl Candidate {
     }
 }
 
-/// An effect planted by a test plan, with its true parameter values (SI).
-pub type Planted = (Arc<dyn Effect>, Vec<f64>);
+/// An effect built from a table, with the parameter values the table gives (SI; `None` where
+/// it gives none).
+pub type Planted = (Arc<dyn Effect>, Vec<Option<f64>>);
 
-/// A family's builder of planted effects from a plan's `[[effect]]` table.
+/// A family's builder of effects from an `[[effect]]` table (a test plan's planted effect, or
+/// an effect a session's `[identify]` starts from).
 pub type PlantFn = fn(&toml::Table, &SessionView) -> Result<Planted, String>;
 
 /// A registered family of effects.
@@ -225,8 +227,37 @@ pub fn candidates(view: &SessionView) -> Vec<Candidate> {
 }
 
 /// Builds the planted effect of a plan's `[[effect]]` table (`effect = "<family>"` plus the
-/// family's keys).
-pub fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+/// family's keys): every parameter's value is required (SI).
+pub fn plant(
+    table: &toml::Table,
+    view: &SessionView,
+) -> Result<(Arc<dyn Effect>, Vec<f64>), String> {
+    let (effect, values) = build(table, view)?;
+    let values = values
+        .iter()
+        .zip(effect.params())
+        .map(|(v, p)| v.ok_or_else(|| format!("missing `{}` ({})", p.name, p.unit)))
+        .collect::<Result<Vec<f64>, String>>()?;
+    Ok((effect, values))
+}
+
+/// Builds the effect of an `[[effect]]` table whose parameter values are starting values and
+/// may be left out (a session's `[[identify.effect]]`): missing ones start at the effect's own
+/// starting values.
+pub fn configure(
+    table: &toml::Table,
+    view: &SessionView,
+) -> Result<(Arc<dyn Effect>, Vec<f64>), String> {
+    let (effect, values) = build(table, view)?;
+    let values = values
+        .iter()
+        .zip(effect.params())
+        .map(|(v, p)| v.unwrap_or(p.initial))
+        .collect();
+    Ok((effect, values))
+}
+
+fn build(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
     let name = match table.get("effect") {
         Some(toml::Value::String(s)) => s.as_str(),
         Some(v) => return Err(format!("`effect` must be a family name, found {v}")),

@@ -121,6 +121,34 @@ impl PreparedEffects {
         }
     }
 
+    /// The amplitude columns only, sparse: one [`Entry`] per term acting at sample `i` of run
+    /// `r` (set-up `setup`), into `out` (cleared first). What scoring candidates needs: at zero
+    /// amplitude the shape parameters have no column, and most effects touch one slot.
+    /// `scratch` gives the feature buffers.
+    pub fn amplitude_entries(
+        &self,
+        r: usize,
+        setup: usize,
+        i: usize,
+        scratch: &mut SampleEffects,
+        out: &mut Vec<Entry>,
+    ) {
+        out.clear();
+        for (e, effect) in self.effects.iter().enumerate() {
+            self.features[e].eval(r, i, &mut scratch.f, &mut scratch.df);
+            let o = self.offsets[e];
+            for (k, term) in effect.terms().iter().enumerate() {
+                if let Some(slot) = slot_of(&term.target, setup) {
+                    out.push(Entry {
+                        param: o + term.amplitude,
+                        slot,
+                        value: scratch.f[k],
+                    });
+                }
+            }
+        }
+    }
+
     /// The effects at sample `i` of run `r` (set-up `setup`), for effect parameters
     /// `params`: totals and derivatives into `out`.
     pub fn sample(
@@ -166,12 +194,37 @@ impl PreparedEffects {
     }
 }
 
-#[derive(Clone, Copy)]
-enum Slot {
+/// The slot of a term's target in the runs of set-up `setup`, if it acts there.
+fn slot_of(target: &Target, setup: usize) -> Option<Slot> {
+    match target {
+        Target::Axis(a) => Some(Slot::Axis(*a)),
+        Target::Nuisance { setup: s, index } => (*s == setup).then_some(Slot::Nuisance(*index)),
+        Target::Channel { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Channel),
+        Target::Gain { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Gain),
+    }
+}
+
+/// Where a term acts at one sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    /// An axis (index into the machine's axes).
     Axis(usize),
+    /// A nuisance parameter of the sample's set-up.
     Nuisance(usize),
+    /// A reading channel of the sample's set-up.
     Channel(usize),
+    /// A reading channel's gain.
     Gain(usize),
+}
+
+/// The derivative of an effect's perturbation by one of its amplitudes at one sample: the
+/// amplitude `param` (in the parameters laid out one after another) times `value` acts on
+/// `slot`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Entry {
+    pub param: usize,
+    pub slot: Slot,
+    pub value: f64,
 }
 
 /// The effects at one sample.

@@ -145,6 +145,8 @@ pub struct SessionView {
     pub runs: Vec<RunView>,
     /// Every parameter of the machine's full error model.
     pub model: Vec<ModelParamView>,
+    /// The effects already in the model (families may propose refinements of them).
+    pub current: Vec<crate::EffectInfo>,
     /// Runs in time order, and where each starts in the timeline.
     order: Vec<usize>,
     start: Vec<usize>,
@@ -185,6 +187,7 @@ impl SessionView {
             setups,
             runs,
             model,
+            current: Vec::new(),
             order,
             start,
             times,
@@ -192,6 +195,17 @@ impl SessionView {
             inputs: Mutex::new(HashMap::new()),
             lags: Mutex::new(HashMap::new()),
         }
+    }
+
+    /// The view with `current` as the effects already in the model.
+    pub fn with_current(mut self, current: Vec<crate::EffectInfo>) -> Self {
+        self.current = current;
+        self
+    }
+
+    /// Whether an effect of this label is in the model.
+    pub fn has_current(&self, label: &str) -> bool {
+        self.current.iter().any(|e| e.label == label)
     }
 
     /// Time of the session's first sample (s).

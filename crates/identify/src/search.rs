@@ -9,16 +9,22 @@
 //!    a Lagrange-multiplier test): the predicted drop in χ², Holm's correction over all
 //!    candidates, the share of it the fitted parameters absorb, the fitted parameters it would
 //!    move.
-//! 2. **Fit and check.** The significant candidates, strongest first (at most
-//!    [`SearchOptions::tries`]), are added one at a time and the model is refitted, shape
-//!    parameters (τ, pitch…) included. A candidate is accepted only if the information criterion
-//!    agrees (`Δχ²/max(1, χ²_red) > Δk·ln n`, BIC with the noise scale re-estimated when the fit
-//!    is worse than the stated noise) **and** it predicts held-out data better: blocked
-//!    cross-validation over [`SearchOptions::folds`] contiguous time blocks of every fitted run
-//!    (each fold fitted without its samples, then predicted), whitened mean square lower by at
-//!    least [`SearchOptions::min_heldout_gain`].
+//! 2. **Fit and check.** The strongest significant candidates of different effects (at most
+//!    [`SearchOptions::tries`]) are each added to the model and refitted — in two stages, the
+//!    shape parameters (τ, pitch…) held first and then refined with everything else. A
+//!    candidate passes if the information criterion agrees (`Δχ²/max(1, χ²_red) > Δk·ln n`,
+//!    BIC with the noise scale re-estimated when the fit is worse than the stated noise) **and**
+//!    it predicts held-out data better: blocked cross-validation over
+//!    [`SearchOptions::folds`] contiguous time blocks of every fitted run, or
+//!    leave-one-run-out ([`SearchOptions::leave_runs_out`], `[identify] heldout = "runs"`), its
+//!    whitened mean square lower by more than [`SearchOptions::min_heldout_gain`]. The
+//!    cross-validation is the Gauss–Newton refit of each fold from the full fit, computed from
+//!    every fold's normal equations in one pass ([`heldout`]). Of those that pass, the lowest
+//!    BIC wins: scores at grid starting values cannot tell a drift in time from a lagged
+//!    temperature that follows it, their refits can; and of two that fit alike the one with
+//!    fewer parameters (a reversal error rather than stick-slip with an endless decay).
 //! 3. **Repeat** with the accepted effect in the model, until no candidate is significant or
-//!    none that is helps.
+//!    none that is passes.
 //!
 //! # What it reports
 //! Each accepted step is a [`Discovery`] (FORMATS.md `discoveries`): the effect, its
@@ -40,8 +46,8 @@ use crate::report::{Identification, K95};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs, param_specs_from};
 use mtcal_effects::{
-    Candidate, Effect, EffectInfo, Features, ParamDef, PreparedEffects, SampleEffects, SessionView,
-    Term,
+    Candidate, Effect, EffectInfo, Entry, Features, ParamDef, PreparedEffects, SampleEffects,
+    SessionView, Term,
 };
 use mtcal_kinematics::{MachineModel, Workspace};
 use mtcal_solve::{EvalError, Options, Problem, Score, ScoreSink, ScoredProblem, Silent, Solution};
@@ -58,7 +64,9 @@ pub struct SearchOptions {
     pub max_steps: usize,
     /// Significant candidates refitted per step, strongest first, before giving up.
     pub tries: usize,
-    /// Contiguous time blocks per fitted run for the held-out check.
+    /// How the held-out check divides the fitted data.
+    pub cross_validation: CrossValidation,
+    /// Number of blocks (per run, or of the timeline).
     pub folds: usize,
     /// Relative drop of the held-out mean square a candidate must bring (0: any drop; the score
     /// test and the information criterion already ask for evidence).
@@ -79,12 +87,29 @@ impl Default for SearchOptions {
             max_steps: 10,
             tries: 3,
             folds: 5,
+            cross_validation: CrossValidation::BlocksPerRun,
             min_heldout_gain: 0.0,
             families: None,
             solver: Options::default(),
             cache_bytes: 256 << 20,
         }
     }
+}
+
+/// How the held-out check divides the fitted data (`[identify] heldout` in a session).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CrossValidation {
+    /// `"blocks"`: every fitted run cut into [`SearchOptions::folds`] contiguous blocks; fold
+    /// `k` is the `k`-th block of every run (every set-up stays in every training set: right
+    /// for sessions of different runs, each telling something of its own).
+    BlocksPerRun,
+    /// `"runs"`: one fitted run at a time (leave-one-run-out): when runs repeat one experiment
+    /// and a model must carry over to a run it never saw.
+    Runs,
+    /// `"timeline"`: the fitted samples in time order cut into [`SearchOptions::folds`]
+    /// contiguous blocks: a long recording (a thermal test) where a model must predict hours it
+    /// did not see.
+    Timeline,
 }
 
 /// A candidate and its test.
@@ -278,21 +303,15 @@ struct Augmented {
     coeffs: Vec<f64>,
 }
 
-/// Where an extra column comes from.
-#[derive(Clone, Copy)]
-enum Source {
-    /// A coefficient of the augmented model.
-    Model(usize),
-    /// An amplitude parameter of the prepared effect candidates.
-    Effect(usize),
-}
-
 struct Scoring<'a> {
     fit: FitProblem<'a>,
     study: &'a Study,
     aug: Option<Augmented>,
-    effects: Option<(Arc<PreparedEffects>, Vec<f64>)>,
-    sources: Vec<Source>,
+    effects: Option<Arc<PreparedEffects>>,
+    /// Extra columns from the augmented model: (extra column, coefficient).
+    model_columns: Vec<(usize, usize)>,
+    /// Per parameter of the prepared effect candidates: its extra column (amplitudes only).
+    effect_columns: Vec<Option<usize>>,
     widths: Vec<usize>,
 }
 
@@ -325,14 +344,12 @@ impl<'a> Scoring<'a> {
         for e in &effects {
             effect_params.extend(e.params().iter().map(|p| p.initial));
         }
-        let prepared = (!effects.is_empty()).then(|| {
-            (
-                Arc::new(PreparedEffects::new(&effects, study.view(), &effect_params)),
-                effect_params,
-            )
-        });
-        let mut sources = Vec::new();
+        let prepared = (!effects.is_empty())
+            .then(|| Arc::new(PreparedEffects::new(&effects, study.view(), &effect_params)));
+        let mut model_columns = Vec::new();
+        let mut effect_columns = vec![None; effect_params.len()];
         let mut widths = Vec::new();
+        let mut column = 0;
         let mut effect_offset = 0;
         for c in candidates {
             match c {
@@ -340,18 +357,21 @@ impl<'a> Scoring<'a> {
                     let aug = aug.as_ref().expect("built for model changes");
                     let cols = model_change_columns(study, &aug.model, m);
                     widths.push(cols.len());
-                    sources.extend(cols.into_iter().map(Source::Model));
+                    for k in cols {
+                        model_columns.push((column, k));
+                        column += 1;
+                    }
                 }
                 Candidate::Effect(e) => {
-                    let amps: Vec<usize> = e
-                        .params()
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, p)| p.kind == mtcal_effects::ParamKind::Amplitude)
-                        .map(|(j, _)| effect_offset + j)
-                        .collect();
-                    widths.push(amps.len());
-                    sources.extend(amps.into_iter().map(Source::Effect));
+                    let mut width = 0;
+                    for (j, p) in e.params().iter().enumerate() {
+                        if p.kind == mtcal_effects::ParamKind::Amplitude {
+                            effect_columns[effect_offset + j] = Some(column);
+                            column += 1;
+                            width += 1;
+                        }
+                    }
+                    widths.push(width);
                     effect_offset += e.params().len();
                 }
             }
@@ -361,7 +381,8 @@ impl<'a> Scoring<'a> {
             study,
             aug,
             effects: prepared,
-            sources,
+            model_columns,
+            effect_columns,
             widths,
         })
     }
@@ -458,28 +479,19 @@ impl ScoredProblem for Scoring<'_> {
     }
     fn eval_block(&self, b: usize, x: &[f64], sink: &mut ScoreSink<'_>) -> Result<(), EvalError> {
         let na = self.study.model.machine().n_axes();
-        let effects = self.effects.as_ref().map(|(prepared, params)| {
-            let max_nuis = self
-                .study
-                .setups
-                .iter()
-                .map(|s| s.setup.nuisance().len())
-                .max()
-                .unwrap_or(0);
-            let max_ch = self
-                .study
-                .setups
-                .iter()
-                .map(|s| s.setup.channels().len())
-                .max()
-                .unwrap_or(0);
-            CandidateEffects {
-                out: prepared.scratch(na, max_nuis, max_ch),
-                prepared: Arc::clone(prepared),
-                params: params.clone(),
-                axis_jac: vec![0.0; 6 * na],
-                twists: vec![[0.0; 6]; prepared.n_params()],
-            }
+        let max_ch = self
+            .study
+            .setups
+            .iter()
+            .map(|s| s.setup.channels().len())
+            .max()
+            .unwrap_or(0);
+        let effects = self.effects.as_ref().map(|prepared| CandidateEffects {
+            scratch: prepared.scratch(na, 0, 0),
+            prepared: Arc::clone(prepared),
+            entries: Vec::new(),
+            placed: Vec::new(),
+            pose_axis: vec![0.0; max_ch * na],
         });
         let mut target = Target {
             sink,
@@ -487,8 +499,8 @@ impl ScoredProblem for Scoring<'_> {
             aug: self.aug.as_ref().map(|a| (a, a.model.workspace())),
             jac: Vec::new(),
             effects,
-            sources: &self.sources,
-            extra: vec![0.0; self.sources.len()],
+            model_columns: &self.model_columns,
+            effect_columns: &self.effect_columns,
         };
         self.fit.walk_rows(b, x, &mut target)
     }
@@ -497,10 +509,16 @@ impl ScoredProblem for Scoring<'_> {
 /// Effect candidates at one sample.
 struct CandidateEffects {
     prepared: Arc<PreparedEffects>,
-    params: Vec<f64>,
-    out: SampleEffects,
-    axis_jac: Vec<f64>,
-    twists: Vec<[f64; 6]>,
+    /// Feature buffers.
+    scratch: SampleEffects,
+    /// The sample's amplitude columns, sparse.
+    entries: Vec<Entry>,
+    /// The same with their extra column, those that have one (built once per sample, used by
+    /// every channel).
+    placed: Vec<(usize, Entry)>,
+    /// `∂reading_c/∂pose · ∂pose/∂q_a` (whitened), channels × axes: what displacing axis `a`
+    /// does to reading `c` at this sample.
+    pose_axis: Vec<f64>,
 }
 
 /// Adds the candidate columns to the fit's rows.
@@ -511,8 +529,8 @@ struct Target<'a, 's> {
     /// The sample's readings' derivatives by every augmented-model coefficient (channels × n).
     jac: Vec<f64>,
     effects: Option<CandidateEffects>,
-    sources: &'a [Source],
-    extra: Vec<f64>,
+    model_columns: &'a [(usize, usize)],
+    effect_columns: &'a [Option<usize>],
 }
 
 impl RowTarget for Target<'_, '_> {
@@ -523,9 +541,9 @@ impl RowTarget for Target<'_, '_> {
     fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
         let run = &self.study.runs[eval.run];
         let na = self.study.model.machine().n_axes();
-        let q = &run.q[sample * na..(sample + 1) * na];
         if channel == 0 {
             if let Some((aug, ws)) = self.aug.as_mut() {
+                let q = &run.q[sample * na..(sample + 1) * na];
                 let n = aug.model.n_coeffs();
                 aug.model.tool_pose_for_jacobian(q, &aug.coeffs, ws);
                 self.jac.resize(eval.d_pose.len() * n, 0.0);
@@ -534,48 +552,58 @@ impl RowTarget for Target<'_, '_> {
                     .project_tool_jacobian(ws, &eval.d_pose, &mut self.jac);
             }
             if let Some(fx) = self.effects.as_mut() {
-                fx.prepared
-                    .sample(eval.run, run.setup, sample, &fx.params, &mut fx.out);
-                if fx.out.axes_touched {
-                    fx.axis_jac
-                        .copy_from_slice(self.study.axis_jacobian(eval.run, sample));
-                }
-                for (j, tw) in fx.twists.iter_mut().enumerate() {
-                    *tw = [0.0; 6];
-                    if !fx.out.axes_touched {
-                        continue;
-                    }
-                    for a in 0..na {
-                        let d = fx.out.jq[j * na + a];
-                        if d != 0.0 {
-                            for (k, t) in tw.iter_mut().enumerate() {
-                                *t += fx.axis_jac[6 * a + k] * d;
-                            }
+                fx.prepared.amplitude_entries(
+                    eval.run,
+                    run.setup,
+                    sample,
+                    &mut fx.scratch,
+                    &mut fx.entries,
+                );
+                fx.placed.clear();
+                let columns = self.effect_columns;
+                fx.placed.extend(
+                    fx.entries
+                        .iter()
+                        .filter_map(|e| columns[e.param].map(|col| (col, *e))),
+                );
+                if fx
+                    .entries
+                    .iter()
+                    .any(|e| matches!(e.slot, mtcal_effects::Slot::Axis(_)))
+                {
+                    let jq = self.study.axis_jacobian(eval.run, sample);
+                    for (c, dp) in eval.d_pose.iter().enumerate() {
+                        for a in 0..na {
+                            fx.pose_axis[c * na + a] = (0..6).map(|k| dp[k] * jq[6 * a + k]).sum();
                         }
                     }
                 }
             }
         }
-        let n_aug = self.aug.as_ref().map_or(0, |(a, _)| a.model.n_coeffs());
-        let nn = eval.d_nuis.len() / eval.n_channels().max(1);
-        for (e, src) in self.extra.iter_mut().zip(self.sources) {
-            *e = match *src {
-                Source::Model(k) => self.jac[channel * n_aug + k],
-                Source::Effect(j) => {
-                    let fx = self.effects.as_ref().expect("effect sources have effects");
-                    let out = &fx.out;
-                    let tw = &fx.twists[j];
-                    let mut v: f64 = (0..6).map(|k| eval.d_pose[channel][k] * tw[k]).sum();
-                    let d_nuis = &eval.d_nuis[channel * nn..(channel + 1) * nn];
-                    let jn = &out.jn[j * out.n_nuis..][..nn];
-                    v += d_nuis.iter().zip(jn).map(|(a, b)| a * b).sum::<f64>();
-                    let direct = out.jr[j * out.n_ch + channel]
-                        + out.jg[j * out.n_ch + channel] * eval.pred[channel];
-                    v + direct * eval.inv_sigma[channel]
+        let (aug, jac, effects) = (&self.aug, &self.jac, &self.effects);
+        let model_columns = self.model_columns;
+        self.sink.row_with(res, row, |extra| {
+            if let Some((aug, _)) = aug {
+                let n_aug = aug.model.n_coeffs();
+                for &(col, k) in model_columns {
+                    extra[col] = jac[channel * n_aug + k];
                 }
-            };
-        }
-        self.sink.row(res, row, &self.extra);
+            }
+            if let Some(fx) = effects {
+                let nn = eval.d_nuis.len() / eval.n_channels().max(1);
+                let w = eval.inv_sigma[channel];
+                for &(col, e) in &fx.placed {
+                    let through = match e.slot {
+                        mtcal_effects::Slot::Axis(a) => fx.pose_axis[channel * na + a],
+                        mtcal_effects::Slot::Nuisance(j) => eval.d_nuis[channel * nn + j],
+                        mtcal_effects::Slot::Channel(c) if c == channel => w,
+                        mtcal_effects::Slot::Gain(c) if c == channel => eval.pred[channel] * w,
+                        _ => 0.0,
+                    };
+                    extra[col] += e.value * through;
+                }
+            }
+        });
     }
 }
 
@@ -720,6 +748,7 @@ struct Stage {
 
 /// Runs the physics search on `study` (see the module documentation).
 pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
+    let options = &with_session_options(&study, options)?;
     let mut current = fit(study, None, options)?;
     let initial = current.id.clone();
     let mut report = SearchReport::default();
@@ -768,7 +797,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             break;
         }
         let mut trials = Vec::new();
-        let mut accepted: Option<(Ranked, Fitted, usize)> = None;
+        let mut accepted: Option<(Ranked, Refitted, usize)> = None;
         for r in tries {
             let (trial, fitted) = try_candidate(&current, &r, options)?;
             if let Some(f) = fitted {
@@ -793,8 +822,22 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
                 }
             }
         }
-        let accepted = accepted.map(|(r, f, _)| (r, f));
         report.steps.push(trials);
+        let accepted = match accepted {
+            Some((r, f, _)) => {
+                let id = Identification::new(&f.study, &f.solution)?;
+                Some((
+                    r,
+                    Fitted {
+                        study: f.study,
+                        solution: f.solution,
+                        id,
+                        heldout: f.heldout,
+                    },
+                ))
+            }
+            None => None,
+        };
         let Some((ranked_ok, fitted)) = accepted else {
             report.stopped =
                 "no significant candidate improved the held-out prediction and the information criterion"
@@ -850,20 +893,64 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     })
 }
 
+/// `options` with the session's `[identify] heldout` (`"blocks"`, the default; `"runs"`;
+/// `"timeline"`) and `folds` (blocks: 5 per run, 16 of a timeline).
+fn with_session_options(
+    study: &Study,
+    options: &SearchOptions,
+) -> Result<SearchOptions, IdentifyError> {
+    let mut out = options.clone();
+    let bad = |key: &str, m: String| IdentifyError::Options {
+        manifest: study.session.manifest.clone(),
+        key: key.into(),
+        message: m,
+    };
+    match study.session.identify.get("heldout") {
+        None => {}
+        Some(toml::Value::String(s)) if s == "blocks" => {
+            out.cross_validation = CrossValidation::BlocksPerRun;
+        }
+        Some(toml::Value::String(s)) if s == "runs" => out.cross_validation = CrossValidation::Runs,
+        Some(toml::Value::String(s)) if s == "timeline" => {
+            out.cross_validation = CrossValidation::Timeline;
+            out.folds = 16;
+        }
+        Some(v) => {
+            return Err(bad(
+                "heldout",
+                format!("expected \"blocks\", \"runs\" or \"timeline\", found {v}"),
+            ));
+        }
+    }
+    match study.session.identify.get("folds") {
+        None => {}
+        Some(toml::Value::Integer(k)) if *k >= 2 => out.folds = *k as usize,
+        Some(v) => {
+            return Err(bad(
+                "folds",
+                format!("expected a whole number ≥ 2, found {v}"),
+            ));
+        }
+    }
+    if out.cross_validation == CrossValidation::Runs
+        && study.runs.iter().filter(|r| r.fit).count() < 2
+    {
+        return Err(bad(
+            "heldout",
+            "leaving runs out needs two fitted runs at least".into(),
+        ));
+    }
+    Ok(out)
+}
+
 /// Fits `study` (from `x0` or its own start) and cross-validates it.
 fn fit(
     study: Study,
     x0: Option<Vec<f64>>,
     options: &SearchOptions,
 ) -> Result<Fitted, IdentifyError> {
-    let specs = match &x0 {
-        Some(x) => param_specs_from(&study, x),
-        None => param_specs(&study),
-    };
-    let solution = {
-        let problem = FitProblem::new(&study);
-        mtcal_solve::solve(&problem, &specs, &options.solver, &mut Silent)?
-    };
+    let x0 = x0.unwrap_or_else(|| study.initial_x());
+    let solution = crate::solve_from(&study, &x0, &options.solver, &mut Silent)?;
     let id = Identification::new(&study, &solution)?;
     let heldout = heldout(&study, &solution.x, options)?;
     Ok(Fitted {
@@ -887,7 +974,7 @@ pub fn heldout(
     x: &[f64],
     options: &SearchOptions,
 ) -> Result<Heldout, IdentifyError> {
-    let folds = options.folds.max(2);
+    let (folds, assign) = fold_assignment(study, options);
     let specs = param_specs_from(study, x);
     let n = study.n_x;
     let problem = FitProblem::new(study);
@@ -904,8 +991,7 @@ pub fn heldout(
             let mut target = FoldTarget {
                 sums: &mut sums,
                 cols: Vec::new(),
-                study,
-                folds,
+                assign: &assign,
             };
             problem
                 .walk_rows(b, x, &mut target)
@@ -1062,8 +1148,81 @@ impl FoldSums {
 struct FoldTarget<'a> {
     sums: &'a mut FoldSums,
     cols: Vec<usize>,
-    study: &'a Study,
-    folds: usize,
+    assign: &'a FoldOf,
+}
+
+/// Which fold a sample of a fitted run is in.
+enum FoldOf {
+    /// Per run: `count` blocks of its own samples.
+    BlocksPerRun { count: usize, lengths: Vec<usize> },
+    /// Per run: one fold.
+    Run(Vec<usize>),
+    /// Per run: where it starts in the fitted timeline, the timeline's length, the blocks.
+    Timeline {
+        offsets: Vec<usize>,
+        total: usize,
+        count: usize,
+    },
+}
+
+impl FoldOf {
+    fn of(&self, run: usize, sample: usize) -> usize {
+        match self {
+            FoldOf::BlocksPerRun { count, lengths } => Folds::fold_of(*count, sample, lengths[run]),
+            FoldOf::Run(fold) => fold[run],
+            FoldOf::Timeline {
+                offsets,
+                total,
+                count,
+            } => Folds::fold_of(*count, offsets[run] + sample, *total),
+        }
+    }
+}
+
+/// The folds of `options`' cross-validation on `study`: their number and the assignment.
+fn fold_assignment(study: &Study, options: &SearchOptions) -> (usize, FoldOf) {
+    let fitted = study.runs.iter().filter(|r| r.fit).count();
+    match options.cross_validation {
+        CrossValidation::BlocksPerRun => (
+            options.folds.max(2),
+            FoldOf::BlocksPerRun {
+                count: options.folds.max(2),
+                lengths: study.runs.iter().map(|r| r.len()).collect(),
+            },
+        ),
+        CrossValidation::Runs => {
+            let mut k = 0;
+            let fold = study
+                .runs
+                .iter()
+                .map(|r| {
+                    let f = k;
+                    k += usize::from(r.fit);
+                    f
+                })
+                .collect();
+            (fitted.max(2), FoldOf::Run(fold))
+        }
+        CrossValidation::Timeline => {
+            let mut offsets = vec![0; study.runs.len()];
+            let mut total = 0;
+            for &r in study.view().runs_in_time_order() {
+                if study.runs[r].fit {
+                    offsets[r] = total;
+                    total += study.runs[r].len();
+                }
+            }
+            let count = options.folds.max(2);
+            (
+                count,
+                FoldOf::Timeline {
+                    offsets,
+                    total,
+                    count,
+                },
+            )
+        }
+    }
 }
 
 impl RowTarget for FoldTarget<'_> {
@@ -1074,8 +1233,7 @@ impl RowTarget for FoldTarget<'_> {
 
     fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
         let n = self.sums.n;
-        let len = self.study.runs[eval.run].len();
-        let k = Folds::fold_of(self.folds, sample, len);
+        let k = self.assign.of(eval.run, sample);
         let sigma = 1.0 / eval.inv_sigma[channel];
         let s2 = sigma * sigma;
         let (a, au) = (
@@ -1112,7 +1270,7 @@ fn try_candidate(
     current: &Fitted,
     ranked: &Ranked,
     options: &SearchOptions,
-) -> Result<(Trial, Option<Fitted>), IdentifyError> {
+) -> Result<(Trial, Option<Refitted>), IdentifyError> {
     let mut changes: Changes = current.study.changes().clone();
     let mut trial = Trial {
         candidate: ranked.name(),
@@ -1140,15 +1298,11 @@ fn try_candidate(
             }
         }
     }
-    let specs = param_specs_from(&study, &x0);
-    let solution = {
-        let problem = FitProblem::new(&study);
-        match mtcal_solve::solve(&problem, &specs, &options.solver, &mut Silent) {
-            Ok(s) => s,
-            Err(e) => {
-                trial.why = format!("the refit failed: {e}");
-                return Ok((trial, None));
-            }
+    let solution = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+        Ok(s) => s,
+        Err(e) => {
+            trial.why = format!("the refit failed: {e}");
+            return Ok((trial, None));
         }
     };
     let before = &current.solution;
@@ -1174,7 +1328,6 @@ fn try_candidate(
         );
         return Ok((trial, None));
     }
-    let id = Identification::new(&study, &solution)?;
     trial.accepted = true;
     trial.why = format!(
         "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm",
@@ -1182,13 +1335,19 @@ fn try_candidate(
     );
     Ok((
         trial,
-        Some(Fitted {
+        Some(Refitted {
             study,
             solution,
-            id,
             heldout: held,
         }),
     ))
+}
+
+/// A candidate's refit that passed the checks (its report is built only if it wins).
+struct Refitted {
+    study: Study,
+    solution: Solution,
+    heldout: Heldout,
 }
 
 /// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at
@@ -1204,7 +1363,7 @@ fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
 }
 
 /// `effect`, relabelled `… #2` if an effect of that label is in `existing` already.
-fn unique(effect: &Arc<dyn Effect>, existing: &[Arc<dyn Effect>]) -> Arc<dyn Effect> {
+pub(crate) fn unique(effect: &Arc<dyn Effect>, existing: &[Arc<dyn Effect>]) -> Arc<dyn Effect> {
     let label = &effect.info().label;
     let same = existing
         .iter()

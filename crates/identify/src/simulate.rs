@@ -34,10 +34,41 @@
 //! Noise is Gaussian, from a ChaCha8 generator seeded with `seed` and the run's index, so a
 //! plan gives byte-identical sessions on every machine.
 //!
+//! # More plan keys
+//! ```toml
+//! truth_errors = "rich.errors.toml"  # error model of the truth only (a higher order than the
+//!                                    # session's model: a planted `component-order` effect)
+//! pause_s = 10.0                     # time between runs (default 10 s)
+//!
+//! [context]                          # context columns written into every run, by session time
+//! S = [[0.0, 0.0], [150.0, 4000.0]]  # spindle speed, rpm: steps (held until the next point)
+//! T_bed = [[0.0, 20.5], [600.0, 21.5]]  # temperatures, °C: linear between points
+//!
+//! [[effect]]                         # a planted effect (any number)
+//! effect = "thermal-drift"           # a registered family (crates/effects)
+//! axis = "Z"                         # its target: axis, channel (+ instrument) or setup + nuisance
+//! amplitude_um = 3.0                 # every parameter, named with its unit
+//! tau_s = 400.0
+//! below_noise = 0.5                  # optional: scale the amplitudes so that the effect's
+//!                                    # largest change of any reading is 0.5 × its noise
+//! ```
+//!
 //! # Planting effects
-//! [`simulate_with`] takes [`Plant`]s: each sees every sample (run, time, axis positions, tool
-//! pose) and adds to the noise-free readings. The physics search plants thermal drift,
-//! backlash, … this way.
+//! A plan's `[[effect]]` tables are evaluated on the whole planned session (thermal states run
+//! over all runs in time order) and applied exactly: an effect on an axis displaces the axis in
+//! the truth model (the fit carries it through the axis Jacobian), one on a set-up parameter
+//! moves the parameter, one on a reading (or its gain) changes the reading. Each family's keys:
+//! `crates/effects/src/families/`.
+//!
+//! Concealing an effect: `below_noise` puts it under the single-sample noise; the rest is a
+//! matter of the plan: a
+//! timing that hides it in the fitted parameters (a drift with τ shorter than the first run
+//! rises while C turns once and looks like C's location errors; a temperature that changes
+//! during one XYC run); a larger effect of another class planted beside it. The planted-effect
+//! tests (`crates/identify/tests/physics_search.rs`) do all three for every family.
+//!
+//! [`simulate_with`] also takes [`Plant`]s: each sees every sample (run, time, axis positions,
+//! tool pose) and adds to the readings, for effects no family describes.
 
 use mtcal_effects::{AxisView, PreparedEffects, RunView, SessionView, SetupView};
 use mtcal_instrument::{At, PathSpec, SetupContext};
@@ -436,7 +467,7 @@ pub fn simulate_with(
     }
 
     // Phase 2: the plan's planted effects, on the whole session.
-    let effects = planted_effects(&plan, plan_path, &model, &distinct, &planned)?;
+    let effects = planted_effects(&plan, plan_path, &model, &truth, &distinct, &planned)?;
 
     // Phase 3: the readings.
     std::fs::create_dir_all(out).map_err(|e| SimulateError::Io {
@@ -698,6 +729,7 @@ fn planted_effects(
     plan: &toml::Table,
     file: &Path,
     model: &MachineModel,
+    truth: &[f64],
     setups: &[PlannedSetup],
     runs: &[PlannedRun],
 ) -> Result<Option<(PreparedEffects, Vec<f64>)>, SimulateError> {
@@ -753,11 +785,43 @@ fn planted_effects(
     let mut effects: Vec<Arc<dyn mtcal_effects::Effect>> = Vec::new();
     let mut values = Vec::new();
     for (k, item) in list.iter().enumerate() {
-        let table = item
+        let mut table = item
             .as_table()
-            .ok_or_else(|| err(format!("effect {} is not a table", k + 1)))?;
-        let (effect, v) = mtcal_effects::plant(table, &view)
+            .ok_or_else(|| err(format!("effect {} is not a table", k + 1)))?
+            .clone();
+        // `below_noise = f`: the amplitudes are scaled so that the effect's largest change of
+        // any reading is f times that reading's noise.
+        let below = match table.remove("below_noise") {
+            None => None,
+            Some(v) => Some(
+                v.as_float()
+                    .or_else(|| v.as_integer().map(|i| i as f64))
+                    .filter(|f| f.is_finite() && *f > 0.0)
+                    .ok_or_else(|| {
+                        err(format!(
+                            "[[effect]] {}: `below_noise` must be a positive number, found {v}",
+                            k + 1
+                        ))
+                    })?,
+            ),
+        };
+        let (effect, mut v) = mtcal_effects::plant(&table, &view)
             .map_err(|m| err(format!("[[effect]] {}: {m}", k + 1)))?;
+        if let Some(fraction) = below {
+            let single = PreparedEffects::new(std::slice::from_ref(&effect), &view, &v);
+            let largest = largest_change(model, truth, &single, &v, setups, runs);
+            if largest.is_nan() || largest <= 0.0 {
+                return Err(err(format!(
+                    "[[effect]] {}: `below_noise`: the effect changes no reading of this plan",
+                    k + 1
+                )));
+            }
+            for (x, p) in v.iter_mut().zip(effect.params()) {
+                if p.kind == mtcal_effects::ParamKind::Amplitude {
+                    *x *= fraction / largest;
+                }
+            }
+        }
         effects.push(effect);
         values.extend(v);
     }
@@ -765,6 +829,59 @@ fn planted_effects(
         PreparedEffects::new(&effects, &view, &values),
         values,
     )))
+}
+
+/// The largest change an effect makes to any reading of the plan, in units of that reading's
+/// noise (its channel's σ where the run is noise-free).
+fn largest_change(
+    model: &MachineModel,
+    truth: &[f64],
+    effect: &PreparedEffects,
+    values: &[f64],
+    setups: &[PlannedSetup],
+    runs: &[PlannedRun],
+) -> f64 {
+    let mut ws = model.workspace();
+    let na = model.machine().n_axes();
+    let max_nuis = setups.iter().map(|d| d.nuis.len()).max().unwrap_or(0);
+    let max_ch = setups
+        .iter()
+        .map(|d| d.setup.channels().len())
+        .max()
+        .unwrap_or(0);
+    let mut out = effect.scratch(na, max_nuis, max_ch);
+    let mut largest: f64 = 0.0;
+    for (r, run) in runs.iter().enumerate() {
+        let PlannedSetup { setup, nuis, .. } = &setups[run.setup];
+        let channels = setup.channels();
+        let (mut plain, mut with) = (vec![0.0; channels.len()], vec![0.0; channels.len()]);
+        let mut q2 = vec![0.0; na];
+        let mut n2 = nuis.clone();
+        for (i, q) in run.poses.iter().enumerate() {
+            let t = run.t[i];
+            let pose = model.tool_pose(q, truth, &mut ws);
+            setup.predict(&At { q, t, w_t_t: &pose }, nuis, &mut plain);
+            effect.sample(r, run.setup, i, values, &mut out);
+            for ((s, &a), d) in q2.iter_mut().zip(q).zip(&out.dq) {
+                *s = a + d;
+            }
+            for ((s, &a), d) in n2.iter_mut().zip(nuis).zip(&out.dn) {
+                *s = a + d;
+            }
+            let pose = model.tool_pose(&q2, truth, &mut ws);
+            setup.predict(&At { q, t, w_t_t: &pose }, &n2, &mut with);
+            for (c, ch) in channels.iter().enumerate() {
+                let changed = with[c] * (1.0 + out.gain[c]) + out.dr[c];
+                let sigma = if run.noise[c] > 0.0 {
+                    run.noise[c]
+                } else {
+                    ch.sigma
+                };
+                largest = largest.max((changed - plain[c]).abs() / sigma);
+            }
+        }
+    }
+    largest
 }
 
 /// Copies a URDF (and its `.errors.toml`, if any) into the session as `machine.urdf`.

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Keys of the manifest's `[identify]` table.
-pub const IDENTIFY_KEYS: &[&str] = &["parameters", "start"];
+pub const IDENTIFY_KEYS: &[&str] = &["parameters", "start", "effect", "heldout", "folds"];
 
 /// One distinct set-up: a shared `[setup.<name>]` or a run's own `[run.setup]`.
 #[derive(Debug)]
@@ -107,7 +107,38 @@ impl Study {
     pub fn load(dir: &Path) -> Result<Study, IdentifyError> {
         let session = load_session(dir)?;
         let machine = load_session_machine(&session)?;
-        Self::assemble(session, machine, None, Changes::default())
+        let study = Self::assemble(session, machine, None, Changes::default())?;
+        let effects = study.configured_effects()?;
+        if effects.is_empty() {
+            return Ok(study);
+        }
+        study.rebuild(Changes {
+            effects,
+            ..Changes::default()
+        })
+    }
+
+    /// The effects `[[identify.effect]]` puts in the model from the start (the baseline a
+    /// physics search adds to: source 003's temperature polynomial, say). Their parameter
+    /// values are starting values.
+    fn configured_effects(&self) -> Result<Vec<Arc<dyn Effect>>, IdentifyError> {
+        let Some(v) = self.session.identify.get("effect") else {
+            return Ok(Vec::new());
+        };
+        let bad = |m: String| identify_key(&self.session, "effect", &m);
+        let list = v
+            .as_array()
+            .ok_or_else(|| bad("expected a list of [[identify.effect]] tables".into()))?;
+        let mut effects: Vec<Arc<dyn Effect>> = Vec::new();
+        for (k, item) in list.iter().enumerate() {
+            let table = item
+                .as_table()
+                .ok_or_else(|| bad(format!("effect {} is not a table", k + 1)))?;
+            let (e, _) = mtcal_effects::configure(table, self.view())
+                .map_err(|m| bad(format!("effect {}: {m}", k + 1)))?;
+            effects.push(crate::search::unique(&e, &effects));
+        }
+        Ok(effects)
     }
 
     /// The same session with `changes` (from the study as loaded, not from this one's
@@ -474,6 +505,7 @@ impl Study {
             })
             .collect();
         SessionView::new(axes, setups, runs, model)
+            .with_current(self.effects().iter().map(|e| e.info().clone()).collect())
     }
 
     /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.

@@ -125,6 +125,7 @@ fn session(dir: &Path, noise: f64, effects: &str) -> PathBuf {
     if noise == 0.0 {
         plan = plan.replace("path = {", "noise = 0.0\npath = {");
     }
+    std::fs::create_dir_all(dir).unwrap();
     let file = dir.join("plan.toml");
     std::fs::write(&file, plan).unwrap();
     let out = dir.join("session");
@@ -291,4 +292,30 @@ fn every_family_proposes_candidates_on_a_rich_session() {
     names.sort();
     names.dedup();
     assert_eq!(names.len(), total);
+}
+
+/// `below_noise = 0.5` scales a planted effect so that its largest change of any reading is
+/// half that reading's noise (here the channels' σ: the runs are noise-free).
+#[test]
+fn below_noise_scales_a_planted_effect_to_the_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = Study::load(&session(&dir.path().join("a"), 0.0, "")).unwrap();
+    let planted = Study::load(&session(
+        &dir.path().join("b"),
+        0.0,
+        "[[effect]]\neffect = \"thermal-drift\"\naxis = \"Z\"\namplitude_um = 40.0\ntau_s = 300.0\nbelow_noise = 0.5\n",
+    ))
+    .unwrap();
+    let mut largest: f64 = 0.0;
+    for (r, run) in plain.runs.iter().enumerate() {
+        let (a, b) = (
+            run.readings.as_ref().unwrap(),
+            planted.runs[r].readings.as_ref().unwrap(),
+        );
+        let channels = plain.channels(r);
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            largest = largest.max((x - y).abs() / channels[k % channels.len()].sigma);
+        }
+    }
+    assert!((largest - 0.5).abs() < 1e-3, "largest change {largest} σ");
 }

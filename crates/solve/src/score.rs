@@ -95,6 +95,20 @@ impl ScoreSink<'_> {
     pub fn row(&mut self, r: f64, jac: &[f64], extra: &[f64]) {
         self.acc.row(r, jac, extra);
     }
+
+    /// [`Self::row`] with the candidate columns written in place by `fill` into a zeroed
+    /// slice of their number (no copy; for problems whose candidate columns are sparse).
+    pub fn row_with(&mut self, r: f64, jac: &[f64], fill: impl FnOnce(&mut [f64])) {
+        self.acc.row_with(
+            r,
+            jac,
+            |out| {
+                fill(out);
+                true
+            },
+            0,
+        );
+    }
 }
 
 impl std::fmt::Debug for ScoreSink<'_> {
@@ -108,6 +122,11 @@ struct ScoreAcc {
     n: usize,
     /// Candidate column ranges.
     ranges: Vec<std::ops::Range<usize>>,
+    /// Candidates of one column (most of them), as (candidate, column): their Gram "block" is
+    /// a sum of squares, summed without slicing.
+    single: Vec<(usize, usize)>,
+    /// The other candidates.
+    multi: Vec<usize>,
     e: usize,
     cols: Vec<usize>,
     /// `columns` has started a group.
@@ -124,6 +143,9 @@ struct ScoreAcc {
     zz: Vec<Vec<f64>>,
     /// A chunk's `Jᵀ·[J Z r]` in the group's order (`w × (w + e + 1)`), before the scatter.
     group: Vec<f64>,
+    /// Sum of the squares of the fitted entries and residuals staged: non-finite iff one of
+    /// them is.
+    finite_check: f64,
     fault: Option<String>,
 }
 
@@ -135,9 +157,18 @@ impl ScoreAcc {
             ranges.push(e..e + w);
             e += w;
         }
+        let single = ranges
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.len() == 1)
+            .map(|(k, r)| (k, r.start))
+            .collect();
+        let multi = (0..ranges.len()).filter(|&k| ranges[k].len() > 1).collect();
         Self {
             n,
             zz: widths.iter().map(|w| vec![0.0; w * w]).collect(),
+            single,
+            multi,
             ranges,
             e,
             cols: Vec::new(),
@@ -149,6 +180,7 @@ impl ScoreAcc {
             jr: vec![0.0; n],
             zr: vec![0.0; e],
             group: Vec::new(),
+            finite_check: 0.0,
             fault: None,
         }
     }
@@ -174,6 +206,30 @@ impl ScoreAcc {
     }
 
     fn row(&mut self, r: f64, jac: &[f64], extra: &[f64]) {
+        self.row_with(
+            r,
+            jac,
+            |out| {
+                if out.len() == extra.len() {
+                    out.copy_from_slice(extra);
+                    true
+                } else {
+                    false
+                }
+            },
+            extra.len(),
+        );
+    }
+
+    /// One row whose candidate entries `fill` writes into the staging area directly (zeroed
+    /// first); `fill` returns false if it cannot (`given` is then the wrong count it had).
+    fn row_with(
+        &mut self,
+        r: f64,
+        jac: &[f64],
+        fill: impl FnOnce(&mut [f64]) -> bool,
+        given: usize,
+    ) {
         if self.fault.is_some() {
             return;
         }
@@ -182,33 +238,46 @@ impl ScoreAcc {
             return;
         }
         let (w, e) = (self.cols.len(), self.e);
-        if jac.len() != w || extra.len() != e {
+        let stride = w + e + 1;
+        let row = &mut self.stage[self.rows * stride..(self.rows + 1) * stride];
+        let filled = {
+            let extra = &mut row[w..w + e];
+            extra.fill(0.0);
+            fill(extra)
+        };
+        if jac.len() != w || !filled {
             self.fault = Some(format!(
                 "a row has {} fitted and {} candidate entries, expected {w} and {e}",
                 jac.len(),
-                extra.len()
+                if filled { e } else { given }
             ));
             return;
         }
-        if !r.is_finite() || !jac.iter().chain(extra).all(|v| v.is_finite()) {
-            self.fault = Some("a row is not finite".into());
-            return;
-        }
-        let stride = w + e + 1;
-        let row = &mut self.stage[self.rows * stride..(self.rows + 1) * stride];
         row[..w].copy_from_slice(jac);
-        row[w..w + e].copy_from_slice(extra);
         row[w + e] = r;
-        // Each candidate's own Gram block, directly: Σ wₖ² per row, far below n·e.
-        for (range, zz) in self.ranges.iter().zip(&mut self.zz) {
-            let z = &extra[range.clone()];
-            let k = z.len();
-            for i in 0..k {
-                for j in 0..k {
-                    zz[i * k + j] += z[i] * z[j];
+        // Each candidate's own Gram block, directly: Σ wₖ² per row, far below n·e. A
+        // non-finite entry anywhere in the row poisons the sum of squares of its candidate or
+        // of the fitted part, which `rows_finite` checks (once per block, not per entry).
+        let extra = &row[w..w + e];
+        for &(k, col) in &self.single {
+            let z = extra[col];
+            self.zz[k][0] += z * z;
+        }
+        for &k in &self.multi {
+            let z = &extra[self.ranges[k].clone()];
+            let zz = &mut self.zz[k];
+            let n = z.len();
+            for i in 0..n {
+                for j in 0..n {
+                    zz[i * n + j] += z[i] * z[j];
                 }
             }
         }
+        let mut squares = r * r;
+        for &v in jac {
+            squares += v * v;
+        }
+        self.finite_check += squares;
         self.rows += 1;
         if self.rows == CHUNK {
             self.flush();
@@ -218,6 +287,10 @@ impl ScoreAcc {
     fn flush(&mut self) {
         let (m, w, e) = (self.rows, self.cols.len(), self.e);
         if m == 0 {
+            return;
+        }
+        if !self.rows_finite() {
+            self.rows = 0;
             return;
         }
         self.rows = 0;
@@ -255,6 +328,17 @@ impl ScoreAcc {
         for (s, &p) in self.cols.iter().enumerate() {
             self.jr[p] += self.group[(w + e) * w + s];
         }
+    }
+
+    /// Whether every row so far was finite; records the fault if not.
+    fn rows_finite(&mut self) -> bool {
+        if self.finite_check.is_finite() && self.zz.iter().flatten().all(|v| v.is_finite()) {
+            return true;
+        }
+        if self.fault.is_none() {
+            self.fault = Some("a row is not finite".into());
+        }
+        false
     }
 
     fn merge(&mut self, other: &mut ScoreAcc) {
@@ -406,6 +490,7 @@ fn accumulate<P: ScoredProblem>(
             problem
                 .eval_block(b, x, &mut ScoreSink { acc })
                 .map_err(|source| SolveError::Eval { block: b, source })?;
+            acc.rows_finite();
             if let Some(fault) = acc.fault.take() {
                 return Err(SolveError::Score(format!("block {b}: {fault}")));
             }

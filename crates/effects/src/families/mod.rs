@@ -277,12 +277,13 @@ pub(crate) fn single_letter(s: &str) -> Result<char, String> {
 }
 
 /// The parameter values (SI) of `effect` from a plant table: one key per parameter, in its
-/// unit; `structural` are the other keys the family read. Unknown keys are rejected.
+/// unit (`None` where the table has none); `structural` are the other keys the family read.
+/// Unknown keys are rejected.
 pub(crate) fn plant_values(
     effect: &dyn Effect,
     table: &toml::Table,
     structural: &[&str],
-) -> Result<Vec<f64>, String> {
+) -> Result<Vec<Option<f64>>, String> {
     let names: Vec<&str> = effect.params().iter().map(|p| p.name.as_str()).collect();
     for key in table.keys() {
         let known = key == "effect"
@@ -301,9 +302,9 @@ pub(crate) fn plant_values(
         .params()
         .iter()
         .map(|p| {
-            let v = table
-                .get(&p.name)
-                .ok_or_else(|| format!("missing `{}` ({})", p.name, p.unit))?;
+            let Some(v) = table.get(&p.name) else {
+                return Ok(None);
+            };
             let x = v
                 .as_float()
                 .or_else(|| v.as_integer().map(|i| i as f64))
@@ -321,7 +322,7 @@ pub(crate) fn plant_values(
                     p.unit
                 ));
             }
-            Ok(si)
+            Ok(Some(si))
         })
         .collect()
 }

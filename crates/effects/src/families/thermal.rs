@@ -12,7 +12,10 @@
 //! **`temperature-coupling`** — the error follows a recorded temperature `T_<name>`, static
 //! `g·(T − T₀)` or through a first-order lag `g·lag(T − T₀, τ)` (the sensor is not where the
 //! heat is); `T₀` is the column's first value in the session. Plant keys `driver = "T_<name>"`,
-//! `gain_um_per_K` and, for the lagged form, `tau_s`.
+//! `gain_um_per_K` and, for the lagged form, `tau_s`. The lagged form is proposed for a
+//! temperature the target already follows (is that sensor late?): every temperature at every
+//! time constant would be sixteen columns times eight lags of nearly the same curves, and the
+//! search would fit one of them to the noise of the cycles it saw.
 //!
 //! Targets: each linear axis (when some channel reads the tool pose) and each channel modelled
 //! on its own.
@@ -20,7 +23,7 @@
 use super::{Aim, drift_taus, lag_taus, number, plant_aim, plant_values, string, thermal_aims};
 use crate::basic::{Basic, Feature};
 use crate::view::{Input, SessionView};
-use crate::{Candidate, EffectFamily, Planted};
+use crate::{Candidate, Effect, EffectFamily, Planted};
 use std::sync::Arc;
 
 fn drift(aim: &Aim, feature: Feature, driver: &str, shape: Option<f64>) -> Basic {
@@ -93,14 +96,18 @@ fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
     for aim in thermal_aims(view) {
         for column in &columns {
             let input = Input::Context(column.clone());
-            out.push(coupling(&aim, Feature::Static(input.clone()), column, None));
-            for tau in lag_taus(view) {
-                out.push(coupling(
-                    &aim,
-                    Feature::Lag(input.clone()),
-                    column,
-                    Some(tau),
-                ));
+            let stat = coupling(&aim, Feature::Static(input.clone()), column, None);
+            let followed = view.has_current(&stat.info().label);
+            out.push(stat);
+            if followed {
+                for tau in lag_taus(view) {
+                    out.push(coupling(
+                        &aim,
+                        Feature::Lag(input.clone()),
+                        column,
+                        Some(tau),
+                    ));
+                }
             }
         }
     }
