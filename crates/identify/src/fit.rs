@@ -29,7 +29,7 @@ pub struct FitProblem<'a> {
     blocks: Vec<(usize, usize, usize)>,
     /// Samples left out (held-out validation): sample `i` of run `r` is skipped when
     /// `fold_of(r, i) == Some(k)` for the held-out fold `k`.
-    held_out: Option<Folds>,
+    held_out: Option<(FoldOf, usize)>,
     /// The effects prepared at the last shape parameters asked for (a pass evaluates every
     /// block at one `x`: the first block prepares, the others reuse).
     prepared: PreparedCache,
@@ -55,6 +55,36 @@ impl Folds {
     }
 }
 
+/// Which fold a sample of a fitted run is in, for cross-validation.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FoldOf {
+    /// Per run: `count` blocks of its own samples ([`Folds::fold_of`]).
+    BlocksPerRun { count: usize, lengths: Vec<usize> },
+    /// Per run: one fold.
+    Run(Vec<usize>),
+    /// Per run: where it starts in the fitted timeline; the timeline's length; the blocks.
+    Timeline {
+        offsets: Vec<usize>,
+        total: usize,
+        count: usize,
+    },
+}
+
+impl FoldOf {
+    /// The fold of sample `sample` of run `run`.
+    pub fn of(&self, run: usize, sample: usize) -> usize {
+        match self {
+            FoldOf::BlocksPerRun { count, lengths } => Folds::fold_of(*count, sample, lengths[run]),
+            FoldOf::Run(fold) => fold[run],
+            FoldOf::Timeline {
+                offsets,
+                total,
+                count,
+            } => Folds::fold_of(*count, offsets[run] + sample, *total),
+        }
+    }
+}
+
 impl<'a> FitProblem<'a> {
     pub fn new(study: &'a Study) -> Self {
         Self::with_folds(study, None)
@@ -62,6 +92,20 @@ impl<'a> FitProblem<'a> {
 
     /// The problem without the samples of fold `folds.held` (blocked cross-validation).
     pub fn with_folds(study: &'a Study, held_out: Option<Folds>) -> Self {
+        let assign = held_out.map(|f| {
+            (
+                FoldOf::BlocksPerRun {
+                    count: f.count,
+                    lengths: study.runs.iter().map(|r| r.len()).collect(),
+                },
+                f.held,
+            )
+        });
+        Self::without_fold(study, assign)
+    }
+
+    /// The problem without the samples of fold `held.1` of the assignment `held.0`.
+    pub fn without_fold(study: &'a Study, held_out: Option<(FoldOf, usize)>) -> Self {
         let mut blocks = Vec::new();
         for (r, run) in study.runs.iter().enumerate() {
             if !run.fit {
@@ -172,10 +216,9 @@ impl FitProblem<'_> {
         target.columns(&cols);
         let nch = eval.n_channels();
         let mut row = vec![0.0; cols.len()];
-        let n = run.len();
         for i in start..end {
-            if let Some(f) = self.held_out
-                && Folds::fold_of(f.count, i, n) == f.held
+            if let Some((assign, held)) = &self.held_out
+                && assign.of(r, i) == *held
             {
                 continue;
             }

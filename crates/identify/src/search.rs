@@ -41,7 +41,7 @@
 //! machine model with the candidate parameters added (held-out parameters are zero at the
 //! solution, so the pose is the fit's).
 
-use crate::fit::{FitProblem, Folds, RowTarget, SampleEval};
+use crate::fit::{FitProblem, FoldOf, RowTarget, SampleEval};
 use crate::report::{Identification, K95};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs, param_specs_from};
@@ -961,14 +961,17 @@ fn fit(
     })
 }
 
-/// Blocked cross-validation: each fold of contiguous samples of every fitted run is left out,
-/// the model refitted on the rest and the left-out samples predicted.
+/// Cross-validation: each fold of the fitted data ([`CrossValidation`]) is left out, the model
+/// refitted on the rest and the left-out samples predicted.
 ///
 /// The refit is the Gauss–Newton step from the full fit `x` (where the model is linear to the
-/// accuracy that matters here): with every fold's normal equations `A_k = J_kᵀJ_k`,
-/// `g_k = J_kᵀr_k` summed in one pass, leaving fold `k` out moves the parameters by
-/// `δ_k = −(A − A_k)⁺(g − g_k)` and its residuals become `r_k + J_k·δ_k`, whose sum of squares
-/// is `r_kᵀr_k + 2δ_kᵀg_k + δ_kᵀA_kδ_k`. One pass over the data instead of one fit per fold.
+/// accuracy that matters here), `δ_k = −R_k⁺z_k` from the streaming QR factor of the other
+/// folds' rows ([`mtcal_solve::linearize`], with the solver's column scaling and rank rule: the
+/// normal equations would square the condition number, and a direction the data barely see
+/// would move by metres on their rounding). The left-out rows enter only through their normal
+/// equations `A_k = J_kᵀJ_k`, `g_k = J_kᵀr_k`, summed for every fold in one pass: their
+/// residuals become `r_k + J_k·δ_k`, whose sum of squares is `r_kᵀr_k + 2δ_kᵀg_k + δ_kᵀA_kδ_k`.
+/// One factor per fold and no iteration, instead of a fit per fold.
 pub fn heldout(
     study: &Study,
     x: &[f64],
@@ -1014,34 +1017,18 @@ pub fn heldout(
     for part in parts {
         total.add(&part?);
     }
-    // The whole problem's normal equations, priors included (they stay in every fold's fit).
-    let mut a_all = vec![0.0; n * n];
-    let mut g_all = vec![0.0; n];
-    for k in 0..folds {
-        for (t, v) in a_all.iter_mut().zip(&total.a[k * n * n..(k + 1) * n * n]) {
-            *t += v;
-        }
-        for (t, v) in g_all.iter_mut().zip(&total.g[k * n..(k + 1) * n]) {
-            *t += v;
-        }
-    }
-    for (i, spec) in specs.iter().enumerate() {
-        if let Some((mean, sigma)) = spec.prior {
-            a_all[i * n + i] += 1.0 / (sigma * sigma);
-            g_all[i] += (x[i] - mean) / (sigma * sigma);
-        }
-    }
     let floors: Vec<f64> = specs
         .iter()
         .map(|p| p.scale.filter(|s| *s > 0.0).map_or(0.0, |s| 1.0 / s))
         .collect();
     let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
     for k in 0..folds {
-        let ak = &total.a[k * n * n..(k + 1) * n * n];
-        let gk = &total.g[k * n..(k + 1) * n];
-        let m: Vec<f64> = a_all.iter().zip(ak).map(|(a, b)| a - b).collect();
-        let h: Vec<f64> = g_all.iter().zip(gk).map(|(a, b)| a - b).collect();
-        let delta = pseudo_solve(&m, &h, &floors, options.solver.rank_tolerance);
+        if total.count[k] == 0 {
+            continue;
+        }
+        let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
+        let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
+        let delta = least_squares_step(&lin.r, &lin.z, &floors, options.solver.rank_tolerance);
         let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
             let mut q = rr;
             for i in 0..n {
@@ -1052,7 +1039,11 @@ pub fn heldout(
             }
             q.max(0.0)
         };
-        sum_w += quad(ak, gk, total.rr[k]);
+        sum_w += quad(
+            &total.a[k * n * n..(k + 1) * n * n],
+            &total.g[k * n..(k + 1) * n],
+            total.rr[k],
+        );
         sum_u += quad(
             &total.au[k * n * n..(k + 1) * n * n],
             &total.gu[k * n..(k + 1) * n],
@@ -1068,34 +1059,35 @@ pub fn heldout(
     })
 }
 
-/// `−M⁺h` for a symmetric positive semi-definite `M` (normal equations), column-scaled by
-/// `max(√Mᵢᵢ, floorᵢ)` and truncated at `tol` relative to the largest eigenvalue's square root
-/// (the solver's rank rule).
-fn pseudo_solve(m: &[f64], h: &[f64], floors: &[f64], tol: f64) -> Vec<f64> {
-    let n = h.len();
+/// The minimum-norm `δ` minimising `‖R·δ + z‖` for a factor `R` (`n × n` row-major, columns in
+/// parameter order) with the solver's column scaling (`max(‖column‖, floor)`) and rank rule
+/// (singular values of the scaled factor above `tol` relative to the largest).
+fn least_squares_step(r: &[f64], z: &[f64], floors: &[f64], tol: f64) -> Vec<f64> {
+    let n = floors.len();
     let d: Vec<f64> = (0..n)
-        .map(|i| {
-            let v = m[i * n + i].max(0.0).sqrt().max(floors[i]);
+        .map(|j| {
+            let norm = (0..n).map(|i| r[i * n + j].powi(2)).sum::<f64>().sqrt();
+            let v = norm.max(floors[j]);
             if v > 0.0 { v } else { 1.0 }
         })
         .collect();
-    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| m[i * n + j] / (d[i] * d[j]));
-    let eig = nalgebra::SymmetricEigen::new(scaled);
-    let lmax = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
-    let hs: Vec<f64> = (0..n).map(|i| h[i] / d[i]).collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| r[i * n + j] / d[j]);
+    let svd = nalgebra::SVD::new(scaled, true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return vec![0.0; n];
+    };
+    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
     let mut y = vec![0.0; n];
-    for (l, &lam) in eig.eigenvalues.iter().enumerate() {
-        // Singular values of the scaled factor are the square roots of these eigenvalues.
-        if lam <= 0.0 || lam.sqrt() <= tol * lmax.sqrt() {
+    for (l, &sv) in svd.singular_values.iter().enumerate() {
+        if sv <= tol * smax || sv <= 0.0 {
             continue;
         }
-        let v = eig.eigenvectors.column(l);
-        let proj: f64 = (0..n).map(|i| v[i] * hs[i]).sum::<f64>() / lam;
-        for i in 0..n {
-            y[i] -= v[i] * proj;
+        let c: f64 = (0..n).map(|i| u[(i, l)] * z[i]).sum::<f64>() / sv;
+        for (j, yj) in y.iter_mut().enumerate() {
+            *yj -= vt[(l, j)] * c;
         }
     }
-    (0..n).map(|i| y[i] / d[i]).collect()
+    (0..n).map(|j| y[j] / d[j]).collect()
 }
 
 /// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the
@@ -1149,34 +1141,6 @@ struct FoldTarget<'a> {
     sums: &'a mut FoldSums,
     cols: Vec<usize>,
     assign: &'a FoldOf,
-}
-
-/// Which fold a sample of a fitted run is in.
-enum FoldOf {
-    /// Per run: `count` blocks of its own samples.
-    BlocksPerRun { count: usize, lengths: Vec<usize> },
-    /// Per run: one fold.
-    Run(Vec<usize>),
-    /// Per run: where it starts in the fitted timeline, the timeline's length, the blocks.
-    Timeline {
-        offsets: Vec<usize>,
-        total: usize,
-        count: usize,
-    },
-}
-
-impl FoldOf {
-    fn of(&self, run: usize, sample: usize) -> usize {
-        match self {
-            FoldOf::BlocksPerRun { count, lengths } => Folds::fold_of(*count, sample, lengths[run]),
-            FoldOf::Run(fold) => fold[run],
-            FoldOf::Timeline {
-                offsets,
-                total,
-                count,
-            } => Folds::fold_of(*count, offsets[run] + sample, *total),
-        }
-    }
 }
 
 /// The folds of `options`' cross-validation on `study`: their number and the assignment.
@@ -1540,9 +1504,29 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         explanation += &format!(", validation RMS {a:.3} → {b:.3} µm");
     }
     if stage.ranked.score.absorbed > 0.5 {
+        let like: Vec<&str> = stage
+            .ranked
+            .mimics
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect();
         explanation += &format!(
-            "; {:.0} % of it looked like the fitted parameters",
-            100.0 * stage.ranked.score.absorbed
+            "; {:.0} % of it looked like the fitted parameters{} (to separate them better: {})",
+            100.0 * stage.ranked.score.absorbed,
+            if like.is_empty() {
+                String::new()
+            } else {
+                format!(", chiefly {}", like.join(", "))
+            },
+            separating_measurement(
+                &stage.ranked.candidate,
+                &stage
+                    .ranked
+                    .mimics
+                    .iter()
+                    .map(|(n, _)| n.clone())
+                    .collect::<Vec<_>>()
+            )
         );
     }
     if !corrected.is_empty() {
