@@ -40,3 +40,190 @@ fn the_bundled_example_has_nothing_left_out() {
     let (before, after) = text.split_once("after the physics search:").unwrap();
     assert_eq!(fit(before), fit(after));
 }
+
+/// The whole path a user takes: simulate a session with a planted backlash of X, identify with
+/// the search, read the discovery in the JSON (FORMATS.md `discoveries`, with mtcal's keys).
+#[test]
+fn a_planted_backlash_is_a_discovery_in_the_json() {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    let dir = tempfile::tempdir().unwrap();
+    let plan = std::fs::read_to_string(repo.join("examples/five-axis/plan.toml"))
+        .unwrap()
+        .replace("../../machines", &repo.join("machines").to_string_lossy())
+        .replace(
+            "truth = \"truth.params.toml\"",
+            &format!(
+                "truth = {:?}",
+                repo.join("examples/five-axis/truth.params.toml")
+            ),
+        )
+        + "\n[[effect]]\neffect = \"reversal\"\naxis = \"X\"\nbacklash_um = 4.0\n";
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    run(&["simulate", "plan.toml", "--out", "session"]);
+    let text = run(&[
+        "identify", "--quiet", "--search", "session", "--json", "out.json",
+    ]);
+    assert!(text.contains("added [reversal] reversal X (X)"), "{text}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out.json")).unwrap())
+            .unwrap();
+    let discoveries = json["discoveries"].as_array().unwrap();
+    assert_eq!(discoveries.len(), 1, "{json:#}");
+    let d = &discoveries[0];
+    assert_eq!(d["effect"], "reversal");
+    assert_eq!(d["axis"], "X");
+    assert_eq!(d["driver"], "X");
+    assert_eq!(d["component"], "EXX");
+    let p = &d["parameters"][0];
+    assert_eq!(p["name"], "backlash_um");
+    let (value, u95) = (p["value"].as_f64().unwrap(), p["u95"].as_f64().unwrap());
+    assert!((value - 4.0).abs() < 1.31 * u95, "{value} ± {u95}");
+    for key in [
+        "rms_before_um",
+        "rms_after_um",
+        "heldout_rms_before_um",
+        "heldout_rms_after_um",
+    ] {
+        assert!(d[key].as_f64().is_some(), "{key} in {d:#}");
+    }
+    assert!(d["heldout_rms_after_um"].as_f64() < d["heldout_rms_before_um"].as_f64());
+    assert!(d["explanation"].as_str().unwrap().contains("backlash"));
+    // The backlash's parameter is in the parameter list too, as an effect's.
+    let params = json["parameters"].as_array().unwrap();
+    assert!(
+        params
+            .iter()
+            .any(|p| p["name"] == "reversal X (X).backlash_um" && p["kind"] == "effect")
+    );
+    assert!(json["search"]["candidates"].as_u64().unwrap() > 100);
+}
+
+/// The bundled example of the search: a warming machine with backlash. Both are found, and the
+/// validation run (never fitted) is predicted far better with them than without.
+#[test]
+fn the_warm_example_finds_the_drift_and_the_backlash() {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args([
+            "identify",
+            "--quiet",
+            "--search",
+            "examples/five-axis-warm/session",
+        ])
+        .arg("--json")
+        .arg(dir.path().join("out.json"))
+        .current_dir(repo)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out.json")).unwrap())
+            .unwrap();
+    let found: Vec<(String, String)> = json["discoveries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            (
+                d["effect"].as_str().unwrap().to_string(),
+                d["axis"].as_str().unwrap_or("").to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        found,
+        [
+            ("reversal".to_string(), "X".to_string()),
+            ("thermal-drift".to_string(), "Z".to_string())
+        ]
+    );
+    let last = &json["discoveries"][1];
+    let (before, after) = (
+        last["validation_rms_before_um"].as_f64().unwrap(),
+        json["validation"][0]["rms_um"].as_f64().unwrap(),
+    );
+    assert!(
+        after < 0.6 && before > 1.0,
+        "validation {before} -> {after} µm"
+    );
+}
+
+/// The bundled sessions are what their plans simulate, byte for byte.
+#[test]
+fn bundled_sessions_are_their_plans() {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    for example in ["five-axis", "five-axis-warm"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+            .args([
+                "simulate",
+                &format!("examples/{example}/plan.toml"),
+                "--out",
+            ])
+            .arg(dir.path())
+            .current_dir(repo)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let committed = repo.join("examples").join(example).join("session");
+        let mut files = Vec::new();
+        let mut stack = vec![committed.clone()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else {
+                    files.push(p);
+                }
+            }
+        }
+        assert!(files.len() > 10);
+        for f in files {
+            let rel = f.strip_prefix(&committed).unwrap();
+            let fresh = std::fs::read_to_string(dir.path().join(rel))
+                .unwrap_or_else(|e| panic!("{example}: {} not simulated: {e}", rel.display()));
+            let old = std::fs::read_to_string(&f).unwrap();
+            // Numbers may differ in their last digits (the kinematics' rounding changes when a
+            // hot path is rearranged); everything else must be the same.
+            let same = fresh.lines().count() == old.lines().count()
+                && fresh.lines().zip(old.lines()).all(|(a, b)| {
+                    a == b
+                        || (a.split(',').count() == b.split(',').count()
+                            && a.split(',').zip(b.split(',')).all(|(x, y)| {
+                                match (x.parse::<f64>(), y.parse::<f64>()) {
+                                    (Ok(x), Ok(y)) => (x - y).abs() <= 1e-9 * (1.0 + x.abs()),
+                                    _ => x == y,
+                                }
+                            }))
+                });
+            assert!(
+                same,
+                "{example}: {} differs from a fresh simulation of its plan",
+                rel.display()
+            );
+        }
+    }
+}

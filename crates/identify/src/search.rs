@@ -14,10 +14,10 @@
 //!    shape parameters (τ, pitch…) held first and then refined with everything else. A
 //!    candidate passes if the information criterion agrees (`Δχ²/max(1, χ²_red) > Δk·ln n`,
 //!    BIC with the noise scale re-estimated when the fit is worse than the stated noise) **and**
-//!    it predicts held-out data better: blocked cross-validation over
-//!    [`SearchOptions::folds`] contiguous time blocks of every fitted run, or
-//!    leave-one-run-out ([`SearchOptions::leave_runs_out`], `[identify] heldout = "runs"`), its
-//!    whitened mean square lower by more than [`SearchOptions::min_heldout_gain`]. The
+//!    it predicts held-out data better: cross-validation ([`CrossValidation`]: contiguous time
+//!    blocks of every fitted run by default, whole runs, or blocks of the whole timeline for a
+//!    long recording; `[identify] heldout`), its whitened mean square lower by more than
+//!    [`SearchOptions::min_heldout_gain`]. The
 //!    cross-validation is the Gauss–Newton refit of each fold from the full fit, computed from
 //!    every fold's normal equations in one pass ([`heldout`]). Of those that pass, the lowest
 //!    BIC wins: scores at grid starting values cannot tell a drift in time from a lagged
@@ -280,7 +280,13 @@ fn rank_with(
                 out
             };
             let biased = named(&score.shift, &|i| solution.sigma[i], 1.0);
-            let mimics = named(&score.mimicked_by, &|_| Some(1.0), 0.2);
+            // Only identified parameters: the members of an unidentifiable combination trade
+            // large opposite amounts along it, which says nothing about this candidate.
+            let mimics = named(
+                &score.mimicked_by,
+                &|i| solution.identified[i].then_some(1.0),
+                0.2,
+            );
             Ranked {
                 candidate,
                 score,
