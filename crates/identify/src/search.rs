@@ -1070,14 +1070,23 @@ pub fn heldout(
 /// (singular values of the scaled factor above `tol` relative to the largest).
 fn least_squares_step(r: &[f64], z: &[f64], floors: &[f64], tol: f64) -> Vec<f64> {
     let n = floors.len();
+    let mut visible = vec![true; n];
     let d: Vec<f64> = (0..n)
         .map(|j| {
             let norm = (0..n).map(|i| r[i * n + j].powi(2)).sum::<f64>().sqrt();
+            visible[j] = mtcal_solve::visible(norm, floors[j]);
             let v = norm.max(floors[j]);
             if v > 0.0 { v } else { 1.0 }
         })
         .collect();
-    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| r[i * n + j] / d[j]);
+    let scaled =
+        nalgebra::DMatrix::from_fn(
+            n,
+            n,
+            |i, j| {
+                if visible[j] { r[i * n + j] / d[j] } else { 0.0 }
+            },
+        );
     let svd = nalgebra::SVD::new(scaled, true, true);
     let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
         return vec![0.0; n];

@@ -461,7 +461,7 @@ height_um = 3.0
 decay_mm = 15.0
 "#,
         planted: &[Planted { class: "stick-slip", on: "X", params: &[("height_um", 3.0), ("decay_mm", 15.0)] }],
-        absorbed: Some(0.1),
+        absorbed: Some(0.05),
         biased: true,
         ..Case::default()
     };

@@ -25,19 +25,23 @@ impl Analysis {
     /// (`1/ParamSpec::scale`).
     pub(crate) fn new(lin: &Lin, rank_tolerance: f64, floor: &[f64]) -> Result<Self, SolveError> {
         let n = lin.n();
+        let mut visible = vec![true; n];
         let d: Vec<f64> = (0..n)
             .map(|j| {
                 let norm = crate::qr::norm2(&lin.r[j * n..j * n + j + 1]);
                 let f = floor.get(lin.order[j]).copied().unwrap_or(0.0);
+                visible[j] = crate::visible(norm, f);
                 let d = norm.max(f);
                 if d > 0.0 { d } else { 1.0 }
             })
             .collect();
-        let rs = Mat::<f64>::from_fn(
-            n,
-            n,
-            |i, j| if i <= j { lin.r[i + j * n] / d[j] } else { 0.0 },
-        );
+        let rs = Mat::<f64>::from_fn(n, n, |i, j| {
+            if i <= j && visible[j] {
+                lin.r[i + j * n] / d[j]
+            } else {
+                0.0
+            }
+        });
         if n == 0 {
             return Ok(Self {
                 d,

@@ -56,7 +56,9 @@
 //! identified subspace. Iteration stops when the Gauss–Newton step from the current point is
 //! negligible: smaller than `tolerance` relative to `x` (scaled), or changing the residual norm
 //! by less than `tolerance` relative (or by less than `tolerance` standard deviations when the
-//! fit is exact).
+//! fit is exact); or when three accepted steps in a row lower the cost by less than 10⁻⁹ of it
+//! (a direction observed only to second order keeps promising a linear-model drop it never
+//! delivers, and a model that cannot explain the data creeps along it).
 //!
 //! # Chord steps: checking a point without a new factor
 //!
@@ -120,6 +122,16 @@ pub mod score;
 mod solver;
 
 pub use combos::describe_null_space;
+
+/// Below this change of the whitened residuals (in σ, over all rows) when a parameter moves by
+/// its [`ParamSpec::scale`], the data cannot see it: its column is taken as zero.
+pub const INVISIBLE: f64 = 1e-3;
+
+/// Whether a column of norm `norm` (whitened) is visible for a parameter whose least column
+/// scale is `floor` (`1/scale`; 0 without a scale, and then every non-zero column is).
+pub fn visible(norm: f64, floor: f64) -> bool {
+    norm > INVISIBLE * floor
+}
 pub use score::{Score, ScoreSink, ScoredProblem, holm, score_candidates};
 pub use solver::{linearize, solve};
 
@@ -246,7 +258,8 @@ pub struct ParamSpec {
     /// threshold — is not identified, however small its own column is: without it, a column
     /// that is zero to first order at the start (a ball-bar pivot's height in a circle at that
     /// height) is scaled up to unit size and the Gauss–Newton step moves it by kilometres.
-    /// `None`: the column's own norm decides (scale-free).
+    /// `None`: the column's own norm decides (scale-free). A column whose norm times `scale`
+    /// is below [`INVISIBLE`] counts as zero: the parameter is reported unidentified.
     pub scale: Option<f64>,
 }
 

@@ -434,17 +434,25 @@ fn covariance(
         }
     }
     // The solver's column scaling, floors included (so `rank` counts the same directions).
+    let mut visible = vec![true; f];
     let d: Vec<f64> = (0..f)
         .map(|a| {
             let floor = params[free[a]]
                 .scale
                 .filter(|s| *s > 0.0 && s.is_finite())
                 .map_or(0.0, |s| 1.0 / s);
+            visible[a] = crate::visible(g[(a, a)].max(0.0).sqrt(), floor);
             let v = g[(a, a)].sqrt().max(floor);
             if v > 0.0 { v } else { 1.0 }
         })
         .collect();
-    let scaled = Mat::from_fn(f, f, |a, b| g[(a, b)] / (d[a] * d[b]));
+    let scaled = Mat::from_fn(f, f, |a, b| {
+        if visible[a] && visible[b] {
+            g[(a, b)] / (d[a] * d[b])
+        } else {
+            0.0
+        }
+    });
     if !scaled.as_ref().is_all_finite() {
         return Err(SolveError::Score("the Gram matrix is not finite".into()));
     }

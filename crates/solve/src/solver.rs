@@ -775,3 +775,28 @@ pub fn linearize<P: Problem>(
         n_rows: lin.n_rows,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::shortened_into_box;
+
+    #[test]
+    fn a_step_leaving_the_box_is_shortened_along_itself() {
+        let x = [0.0, 1.0, 5.0];
+        let lo = [-1.0, 0.0, f64::NEG_INFINITY];
+        let hi = [1.0, 2.0, f64::INFINITY];
+        // The first coordinate would reach 4 (limit 1): a quarter of the step; the others
+        // follow in proportion.
+        let dx = shortened_into_box(&[4.0, -2.0, 8.0], &x, &lo, &hi);
+        assert_eq!(dx, vec![1.0, -0.5, 2.0]);
+        // Inside already: unchanged.
+        assert_eq!(
+            shortened_into_box(&[0.5, 0.5, -3.0], &x, &lo, &hi),
+            vec![0.5, 0.5, -3.0]
+        );
+        // A start on the bound moving out: nothing moves (no direction is feasible at any
+        // positive length along this step).
+        let dx = shortened_into_box(&[1.0, 0.1, 0.0], &[1.0, 1.0, 0.0], &lo, &hi);
+        assert_eq!(dx, vec![0.0, 0.0, 0.0]);
+    }
+}
