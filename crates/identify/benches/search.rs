@@ -91,46 +91,6 @@ fn bench_rank(c: &mut Criterion) {
             columns,
             ranked.iter().filter(|r| r.score.significant).count()
         );
-        if std::env::var("MTCAL_BENCH_EFFECTS").is_ok() && n == 100_000 {
-            let subset: Vec<_> = all
-                .iter()
-                .filter(|c| matches!(c, mtcal_effects::Candidate::Effect(_)))
-                .cloned()
-                .collect();
-            for _ in 0..5 {
-                rank(&study, &solution, subset.clone(), 0.05).unwrap();
-            }
-            return;
-        }
-        if std::env::var("MTCAL_BENCH_SPLIT").is_ok() {
-            for (label, subset) in [
-                (
-                    "model",
-                    all.iter()
-                        .filter(|c| matches!(c, mtcal_effects::Candidate::Model(_)))
-                        .cloned()
-                        .collect::<Vec<_>>(),
-                ),
-                (
-                    "effects",
-                    all.iter()
-                        .filter(|c| matches!(c, mtcal_effects::Candidate::Effect(_)))
-                        .cloned()
-                        .collect(),
-                ),
-                (
-                    "no-cyclic",
-                    all.iter()
-                        .filter(|c| c.class() != "cyclic")
-                        .cloned()
-                        .collect(),
-                ),
-            ] {
-                let t = std::time::Instant::now();
-                rank(&study, &solution, subset.clone(), 0.05).unwrap();
-                eprintln!("  {label}: {} candidates {:?}", subset.len(), t.elapsed());
-            }
-        }
         g.bench_with_input(BenchmarkId::new("all-families", n), &all, |b, all| {
             b.iter(|| black_box(rank(&study, &solution, all.clone(), 0.05).unwrap()))
         });

@@ -988,40 +988,23 @@ pub fn heldout(
     let n = study.n_x;
     let problem = FitProblem::new(study);
     let blocks = problem.n_blocks();
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(blocks)
-        .max(1);
-    // Blocks dealt to the workers in a fixed pattern and merged in order: the same sums from
-    // run to run.
-    let work = |w: usize| -> Result<FoldSums, IdentifyError> {
-        let mut sums = FoldSums::new(folds, n);
-        for b in (w..blocks).step_by(threads) {
-            let mut target = FoldTarget {
-                sums: &mut sums,
-                cols: Vec::new(),
-                assign: &assign,
-            };
-            problem
-                .walk_rows(b, x, &mut target)
-                .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source })?;
-        }
-        Ok(sums)
-    };
-    let parts: Vec<Result<FoldSums, IdentifyError>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (1..threads).map(|w| s.spawn(move || work(w))).collect();
-        let mut out = vec![work(0)];
-        for h in handles {
-            match h.join() {
-                Ok(r) => out.push(r),
-                Err(panic) => std::panic::resume_unwind(panic),
-            }
-        }
-        out
-    });
+    // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
+    let mut parts: Vec<FoldSums> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| FoldSums::new(folds, n))
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
+        let mut target = FoldTarget {
+            sums,
+            cols: Vec::new(),
+            assign: &assign,
+        };
+        problem
+            .walk_rows(b, x, &mut target)
+            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source })
+    })?;
     let mut total = FoldSums::new(folds, n);
-    for part in parts {
-        total.add(&part?);
+    for part in &parts {
+        total.add(part);
     }
     let floors: Vec<f64> = specs
         .iter()
@@ -1309,8 +1292,12 @@ fn try_candidate(
     }
     trial.accepted = true;
     trial.why = format!(
-        "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm",
-        before.chi2, solution.chi2, current.heldout.rms_um, held.rms_um
+        "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm (mean square {:+.2} %)",
+        before.chi2,
+        solution.chi2,
+        current.heldout.rms_um,
+        held.rms_um,
+        -100.0 * gain
     );
     Ok((
         trial,

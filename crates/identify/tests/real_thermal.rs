@@ -15,7 +15,7 @@
 
 use mtcal_identify::search::{SearchOptions, search};
 use mtcal_identify::study::Changes;
-use mtcal_identify::{Study, param_specs, predict_run};
+use mtcal_identify::{Study, predict_run};
 use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
 use std::fmt::Write as _;
@@ -232,7 +232,6 @@ fn the_search_beats_the_published_models_on_every_channel() {
             &mut Silent,
         )
         .unwrap();
-        let _ = param_specs(&study);
         last = last_mae(&study, &sol.x);
         let step = if k == baseline {
             "baseline (source 003)".to_string()

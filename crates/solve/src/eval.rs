@@ -1,7 +1,7 @@
 //! Parallel evaluation of all blocks at one point into a single streaming factor.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, mpsc};
 
 use crate::accumulate::{Accumulator, Fault, NONE};
 use crate::{EvalError, Observer, Problem, RowSink};
@@ -98,7 +98,7 @@ impl Failure {
     }
 }
 
-/// Evaluates every block at `x` on `threads` threads and merges the per-thread factors.
+/// Evaluates every block at `x` on up to `threads` threads and merges the lanes' factors.
 /// `pool` keeps the accumulators (and their buffers) between calls.
 pub(crate) fn evaluate<P: Problem>(
     problem: &P,
@@ -109,14 +109,14 @@ pub(crate) fn evaluate<P: Problem>(
     threads: usize,
     observer: &mut dyn Observer,
 ) -> Result<Lin, Failure> {
-    let threads = threads.clamp(1, problem.n_blocks().max(1));
-    if pool.len() != threads || !pool[0].has_layout(&layout.to_col) || pool[0].gradient.is_some() {
+    let lanes = crate::lanes::lane_count(problem.n_blocks());
+    if pool.len() != lanes || !pool[0].has_layout(&layout.to_col) || pool[0].gradient.is_some() {
         pool.clear();
-        pool.resize_with(threads, || {
+        pool.resize_with(lanes, || {
             Accumulator::new(layout.to_col.clone(), layout.n())
         });
     }
-    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, observer)?;
+    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, threads, observer)?;
     let acc = &pool[0];
     Ok(Lin {
         order: layout.order.clone(),
@@ -157,12 +157,11 @@ pub(crate) fn evaluate_gradient<P: Problem>(
     threads: usize,
     observer: &mut dyn Observer,
 ) -> Result<GradientAt, Failure> {
-    let threads = threads.clamp(1, problem.n_blocks().max(1));
     pool.clear();
-    pool.resize_with(threads, || {
+    pool.resize_with(crate::lanes::lane_count(problem.n_blocks()), || {
         Accumulator::new_gradient(layout.to_col.clone(), layout.n(), probes, n_cross)
     });
-    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, observer)?;
+    let prior_sumsq = run_blocks(problem, x, layout, priors, pool, threads, observer)?;
     let acc = &pool[0];
     let grad = acc.gradient.as_ref().expect("gradient accumulators");
     Ok(GradientAt {
@@ -173,17 +172,19 @@ pub(crate) fn evaluate_gradient<P: Problem>(
     })
 }
 
-/// Runs every block through the accumulators of `pool` (one thread each) and merges them into
-/// `pool[0]`. Returns the priors' sum of squares.
+/// Runs every block through the lanes of `pool` on up to `threads` threads and merges them into
+/// `pool[0]`, in lane order (see [`crate::lanes`]: the same factor on any number of cores). Returns the priors' sum of squares.
 fn run_blocks<P: Problem>(
     problem: &P,
     x: &[f64],
     layout: &Layout,
     priors: &[Prior],
     pool: &mut [Accumulator],
+    threads: usize,
     observer: &mut dyn Observer,
 ) -> Result<f64, Failure> {
     let n_blocks = problem.n_blocks();
+    let lanes = pool.len();
     for acc in pool.iter_mut() {
         acc.reset();
     }
@@ -199,36 +200,37 @@ fn run_blocks<P: Problem>(
         .collect();
     pool[0].set_diagonal_rows(&rows);
 
-    let next = AtomicUsize::new(0);
     let abort = AtomicBool::new(false);
+    let workers = threads.clamp(1, lanes);
     let mut failures: Vec<Failure> = Vec::new();
-    if pool.len() == 1 {
+    if workers == 1 {
         let mut done = 0;
-        let res = work(
-            problem,
-            x,
-            &mut pool[0],
-            &next,
-            &abort,
-            n_blocks,
-            &mut |_| {
+        for (lane, acc) in pool.iter_mut().enumerate() {
+            let res = work(problem, x, acc, lane, lanes, &abort, &mut |_| {
                 done += 1;
                 observer.rows(done, n_blocks);
-            },
-        );
-        failures.extend(res.err());
+            });
+            failures.extend(res.err());
+        }
     } else {
+        // Threads take whole lanes; which thread runs a lane does not change its sums.
+        let queue = Mutex::new(pool.iter_mut().enumerate());
         let (tx, rx) = mpsc::channel::<()>();
         std::thread::scope(|s| {
-            let handles: Vec<_> = pool
-                .iter_mut()
-                .map(|acc| {
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
                     let tx = tx.clone();
-                    let (next, abort) = (&next, &abort);
+                    let (queue, abort) = (&queue, &abort);
                     s.spawn(move || {
-                        work(problem, x, acc, next, abort, n_blocks, &mut |_| {
-                            let _ = tx.send(());
-                        })
+                        let mut failures = Vec::new();
+                        // A poisoned queue means another worker panicked: re-raised at join.
+                        while let Ok(Some((lane, acc))) = queue.lock().map(|mut q| q.next()) {
+                            let res = work(problem, x, acc, lane, lanes, abort, &mut |_| {
+                                let _ = tx.send(());
+                            });
+                            failures.extend(res.err());
+                        }
+                        failures
                     })
                 })
                 .collect();
@@ -240,7 +242,7 @@ fn run_blocks<P: Problem>(
             }
             for h in handles {
                 match h.join() {
-                    Ok(res) => failures.extend(res.err()),
+                    Ok(res) => failures.extend(res),
                     Err(panic) => std::panic::resume_unwind(panic),
                 }
             }
@@ -258,23 +260,19 @@ fn run_blocks<P: Problem>(
     Ok(prior_sumsq)
 }
 
-/// One worker: takes blocks from the shared counter until none are left.
+/// One lane: blocks `lane, lane + lanes, …` in order, until done or another lane failed.
 fn work<P: Problem>(
     problem: &P,
     x: &[f64],
     acc: &mut Accumulator,
-    next: &AtomicUsize,
+    lane: usize,
+    lanes: usize,
     abort: &AtomicBool,
-    n_blocks: usize,
     done: &mut dyn FnMut(usize),
 ) -> Result<(), Failure> {
-    loop {
+    for b in (lane..problem.n_blocks()).step_by(lanes) {
         if abort.load(Ordering::Relaxed) {
             return Ok(());
-        }
-        let b = next.fetch_add(1, Ordering::Relaxed);
-        if b >= n_blocks {
-            break;
         }
         acc.start_block(b);
         let res = problem.eval_block(b, x, &mut RowSink { acc: &mut *acc });

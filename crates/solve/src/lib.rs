@@ -35,9 +35,11 @@
 //! (no "fill-in"). The order is learned from the first evaluation (and hinted by
 //! [`ParamSpec::group`] before that); any order gives the same result up to rounding.
 //!
-//! Blocks are evaluated in parallel, each thread folding into its own `R`; the per-thread
-//! factors are merged by folding one `R` into another. Results are independent of the number of
-//! threads and of the block order up to rounding (about 10⁻¹⁴ relative).
+//! Blocks are evaluated in parallel: block `b` folds into lane `b mod 4`'s own `R`, threads take
+//! whole lanes, and the lanes' factors are merged in lane order by folding one `R` into another
+//! ([`run_lanes`]). The result is bitwise the same on any number of threads and from run to run
+//! (a work-stealing sum was not: near a rank threshold its rounding changed which directions a
+//! fit identified); reordering the blocks changes it only by rounding (about 10⁻¹⁴ relative).
 //!
 //! # Levenberg–Marquardt
 //!
@@ -117,6 +119,7 @@ mod analysis;
 mod bounds;
 mod combos;
 mod eval;
+mod lanes;
 mod qr;
 pub mod score;
 mod solver;
@@ -132,6 +135,7 @@ pub const INVISIBLE: f64 = 1e-3;
 pub fn visible(norm: f64, floor: f64) -> bool {
     norm > INVISIBLE * floor
 }
+pub use lanes::{LANES, lane_count, run_lanes};
 pub use score::{Score, ScoreSink, ScoredProblem, holm, score_candidates};
 pub use solver::{linearize, solve};
 

@@ -484,45 +484,20 @@ fn accumulate<P: ScoredProblem>(
     threads: usize,
 ) -> Result<ScoreAcc, SolveError> {
     let n = problem.n_params();
-    let threads = if threads == 0 {
-        std::thread::available_parallelism().map_or(1, |t| t.get())
-    } else {
-        threads
-    }
-    .min(problem.n_blocks())
-    .max(1);
-    // Blocks dealt to the workers in a fixed pattern (worker k takes k, k + T, …) and merged in
-    // worker order: the sums, and so the scores, are the same from run to run.
-    let work = |k: usize, acc: &mut ScoreAcc| -> Result<(), SolveError> {
-        for b in (k..problem.n_blocks()).step_by(threads) {
-            problem
-                .eval_block(b, x, &mut ScoreSink { acc })
-                .map_err(|source| SolveError::Eval { block: b, source })?;
-            acc.rows_finite();
-            if let Some(fault) = acc.fault.take() {
-                return Err(SolveError::Score(format!("block {b}: {fault}")));
-            }
+    // Lanes merged in order (see `crate::lanes`): the same scores on any number of cores.
+    let mut pool: Vec<ScoreAcc> = (0..crate::lane_count(problem.n_blocks()))
+        .map(|_| ScoreAcc::new(n, widths))
+        .collect();
+    crate::run_lanes(problem.n_blocks(), &mut pool, threads, |b, acc| {
+        problem
+            .eval_block(b, x, &mut ScoreSink { acc })
+            .map_err(|source| SolveError::Eval { block: b, source })?;
+        acc.rows_finite();
+        if let Some(fault) = acc.fault.take() {
+            return Err(SolveError::Score(format!("block {b}: {fault}")));
         }
         Ok(())
-    };
-    let mut pool: Vec<ScoreAcc> = (0..threads).map(|_| ScoreAcc::new(n, widths)).collect();
-    let results: Vec<Result<(), SolveError>> = std::thread::scope(|s| {
-        let (first, rest) = pool.split_at_mut(1);
-        let handles: Vec<_> = rest
-            .iter_mut()
-            .enumerate()
-            .map(|(k, acc)| s.spawn(move || work(k + 1, acc)))
-            .collect();
-        let mut out = vec![work(0, &mut first[0])];
-        for h in handles {
-            match h.join() {
-                Ok(r) => out.push(r),
-                Err(panic) => std::panic::resume_unwind(panic),
-            }
-        }
-        out
-    });
-    results.into_iter().collect::<Result<Vec<()>, _>>()?;
+    })?;
     let (first, rest) = pool.split_at_mut(1);
     let acc = &mut first[0];
     for other in rest {
