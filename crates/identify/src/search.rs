@@ -1085,7 +1085,11 @@ fn least_squares_step(r: &[f64], z: &[f64], floors: &[f64], tol: f64) -> Vec<f64
             *yj -= vt[(l, j)] * c;
         }
     }
-    (0..n).map(|j| y[j] / d[j]).collect()
+    // Zero columns get no step, not the SVD's rounding times a weak direction's 1/σ (see the
+    // solver's `Analysis::new`).
+    (0..n)
+        .map(|j| if visible[j] { y[j] / d[j] } else { 0.0 })
+        .collect()
 }
 
 /// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the

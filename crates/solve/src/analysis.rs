@@ -69,13 +69,21 @@ impl Analysis {
         let c: Vec<f64> = (0..n)
             .map(|i| (0..n).map(|k| u[(k, i)] * lin.z[k]).sum())
             .collect();
-        Ok(Self {
-            d,
-            s,
-            v: svd.V().to_owned(),
-            c,
-            rank,
-        })
+        // A zero column lies exactly in the null space: the identified directions have no
+        // component along it, but the SVD leaves rounding there, which a weak direction's 1/σ
+        // turns into a step. A parameter whose column is zero to first order at a degenerate
+        // point (a ball-bar pivot's height in a circle at that height) then drifted off the
+        // point by rounding, its column grew with the drift, and whether it ended identified
+        // depended on the rounding (the order of the sums, the machine).
+        let mut v = svd.V().to_owned();
+        for j in 0..n {
+            if !visible[j] || lin.r[j * n..j * n + j + 1].iter().all(|&r| r == 0.0) {
+                for i in 0..rank {
+                    v[(j, i)] = 0.0;
+                }
+            }
+        }
+        Ok(Self { d, s, v, c, rank })
     }
 
     /// `σ_max²`, the natural unit of the damping λ.
