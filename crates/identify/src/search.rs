@@ -989,27 +989,26 @@ pub fn heldout(
     let problem = FitProblem::new(study);
     let blocks = problem.n_blocks();
     // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
-    let mut parts: Vec<FoldSums> = (0..mtcal_solve::lane_count(blocks))
-        .map(|_| FoldSums::new(folds, n))
+    // Each lane: its sums and a column-list buffer reused from block to block.
+    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| (FoldSums::new(folds, n), Vec::new()))
         .collect();
-    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
         let mut target = FoldTarget {
             sums,
-            cols: Vec::new(),
+            cols: std::mem::take(cols),
             assign: &assign,
         };
-        problem
+        let res = problem
             .walk_rows(b, x, &mut target)
-            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source })
+            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source });
+        *cols = target.cols;
+        res
     })?;
     let mut total = FoldSums::new(folds, n);
-    for part in &parts {
+    for (part, _) in &parts {
         total.add(part);
     }
-    let floors: Vec<f64> = specs
-        .iter()
-        .map(|p| p.scale.filter(|s| *s > 0.0).map_or(0.0, |s| 1.0 / s))
-        .collect();
     let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
     for k in 0..folds {
         if total.count[k] == 0 {
@@ -1017,7 +1016,7 @@ pub fn heldout(
         }
         let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
         let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
-        let delta = least_squares_step(&lin.r, &lin.z, &floors, options.solver.rank_tolerance);
+        let delta = lin.step(options.solver.rank_tolerance)?;
         let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
             let mut q = rr;
             for i in 0..n {
@@ -1046,50 +1045,6 @@ pub fn heldout(
         rms_um: (sum_u / c).sqrt() * 1e6,
         samples: count,
     })
-}
-
-/// The minimum-norm `δ` minimising `‖R·δ + z‖` for a factor `R` (`n × n` row-major, columns in
-/// parameter order) with the solver's column scaling (`max(‖column‖, floor)`) and rank rule
-/// (singular values of the scaled factor above `tol` relative to the largest).
-fn least_squares_step(r: &[f64], z: &[f64], floors: &[f64], tol: f64) -> Vec<f64> {
-    let n = floors.len();
-    let mut visible = vec![true; n];
-    let d: Vec<f64> = (0..n)
-        .map(|j| {
-            let norm = (0..n).map(|i| r[i * n + j].powi(2)).sum::<f64>().sqrt();
-            visible[j] = mtcal_solve::visible(norm, floors[j]);
-            let v = norm.max(floors[j]);
-            if v > 0.0 { v } else { 1.0 }
-        })
-        .collect();
-    let scaled =
-        nalgebra::DMatrix::from_fn(
-            n,
-            n,
-            |i, j| {
-                if visible[j] { r[i * n + j] / d[j] } else { 0.0 }
-            },
-        );
-    let svd = nalgebra::SVD::new(scaled, true, true);
-    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
-        return vec![0.0; n];
-    };
-    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
-    let mut y = vec![0.0; n];
-    for (l, &sv) in svd.singular_values.iter().enumerate() {
-        if sv <= tol * smax || sv <= 0.0 {
-            continue;
-        }
-        let c: f64 = (0..n).map(|i| u[(i, l)] * z[i]).sum::<f64>() / sv;
-        for (j, yj) in y.iter_mut().enumerate() {
-            *yj -= vt[(l, j)] * c;
-        }
-    }
-    // Zero columns get no step, not the SVD's rounding times a weak direction's 1/σ (see the
-    // solver's `Analysis::new`).
-    (0..n)
-        .map(|j| if visible[j] { y[j] / d[j] } else { 0.0 })
-        .collect()
 }
 
 /// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the

@@ -1,6 +1,9 @@
 //! Planted-truth tests of the whole identification: simulate a session from a known machine,
 //! identify it, compare with the truth.
 
+mod common;
+
+use common::planted::TRUTH;
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
 // Links every instrument plugin (inventory drops crates nobody names).
 use mtcal_plugins as _;
@@ -12,21 +15,6 @@ fn repo() -> PathBuf {
 
 const ELEVEN: &str =
     r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
-
-/// The truth of examples/five-axis (µm / µrad).
-const TRUTH: [(&str, f64); 11] = [
-    ("EC0Y", 12.0),
-    ("EB0Z", -8.0),
-    ("EA0Z", 15.0),
-    ("EY0A", 18.0),
-    ("EZ0A", -25.0),
-    ("EB0A", 20.0),
-    ("EC0A", -10.0),
-    ("EX0C", 12.0),
-    ("EY0C", -6.0),
-    ("EA0C", 30.0),
-    ("EB0C", -15.0),
-];
 
 /// Writes a plan into `dir` and simulates it into `dir/session`.
 fn session(dir: &Path, setups_and_runs: &str, noise: f64) -> PathBuf {

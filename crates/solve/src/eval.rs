@@ -173,7 +173,9 @@ pub(crate) fn evaluate_gradient<P: Problem>(
 }
 
 /// Runs every block through the lanes of `pool` on up to `threads` threads and merges them into
-/// `pool[0]`, in lane order (see [`crate::lanes`]: the same factor on any number of cores). Returns the priors' sum of squares.
+/// `pool[0]`, in lane order (see [`crate::lanes`]: the same factor on any number of cores). Its
+/// own loop rather than [`crate::run_lanes`]: the observer hears of every finished block on the
+/// calling thread while the workers run, and one lane's failure stops the others. Returns the priors' sum of squares.
 fn run_blocks<P: Problem>(
     problem: &P,
     x: &[f64],

@@ -395,6 +395,41 @@ pub struct Linearization {
     pub cost: f64,
     /// Data rows.
     pub n_rows: usize,
+    /// Free parameters in the factor's column order.
+    free: Vec<usize>,
+    /// Per parameter: least column scale (`1/ParamSpec::scale`, 0 without one).
+    floor: Vec<f64>,
+}
+
+impl Linearization {
+    /// The Gauss–Newton step from the point of linearisation (one entry per parameter, zero
+    /// for fixed ones), restricted to the directions the solver would call identified at
+    /// `rank_tolerance` — the same column scaling, visibility rule and rank as [`solve`].
+    pub fn step(&self, rank_tolerance: f64) -> Result<Vec<f64>, SolveError> {
+        let n = self.floor.len();
+        let cols = self.free.len();
+        let mut r = vec![0.0; cols * cols];
+        for (c, &p) in self.free.iter().enumerate() {
+            for i in 0..=c {
+                r[i + c * cols] = self.r[i * n + p];
+            }
+        }
+        let lin = eval::Lin {
+            order: self.free.clone(),
+            r,
+            z: self.z[..cols].to_vec(),
+            rss: self.rss,
+            cost: self.cost,
+            n_rows: self.n_rows,
+            usage: Vec::new(),
+        };
+        let dx = analysis::Analysis::new(&lin, rank_tolerance, &self.floor)?.step(0.0);
+        let mut out = vec![0.0; n];
+        for (c, &p) in self.free.iter().enumerate() {
+            out[p] = dx[c];
+        }
+        Ok(out)
+    }
 }
 
 /// Errors of [`solve`] and [`linearize`].

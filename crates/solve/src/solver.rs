@@ -773,6 +773,8 @@ pub fn linearize<P: Problem>(
         rss: lin.rss,
         cost: lin.cost,
         n_rows: lin.n_rows,
+        free: setup.free,
+        floor: setup.floor,
     })
 }
 

@@ -279,6 +279,26 @@ fn fixed_parameter_keeps_its_value_and_the_rest_match_the_reduced_problem() {
     assert_eq!(sol.cov(2, 0), 0.0);
 }
 
+/// The step of a linearisation of a linear problem lands on the solution (fixed parameters
+/// stay), whatever the point it was taken at.
+#[test]
+fn the_step_of_a_linearisation_reaches_the_least_squares_solution() {
+    let mut truth = Vec::new();
+    let p = arrowhead(8, 4, 1, 3, 20, &mut truth);
+    let mut spec = params(p.n);
+    spec[2].fixed = true;
+    spec[2].initial = 0.25;
+    let sol = solve(&p, &spec, &options(2), &mut Silent).unwrap();
+    let x0: Vec<f64> = (0..p.n)
+        .map(|i| if i == 2 { 0.25 } else { 0.1 * i as f64 })
+        .collect();
+    let lin = linearize(&p, &spec, &x0, 2).unwrap();
+    let dx = lin.step(1e-9).unwrap();
+    assert_eq!(dx[2], 0.0);
+    let x: Vec<f64> = x0.iter().zip(&dx).map(|(a, b)| a + b).collect();
+    assert!(rel_err(&x, &sol.x) < 1e-10, "{:e}", rel_err(&x, &sol.x));
+}
+
 #[test]
 fn options_default_is_sensible() {
     let o = Options::default();

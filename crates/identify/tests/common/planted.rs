@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 /// Noise of every reading (µm): R-test and ball-bar.
 pub const NOISE_UM: f64 = 0.5;
 
-/// The example's truth (µm, µrad).
+/// The truth of examples/five-axis (µm, µrad).
 pub const TRUTH: [(&str, f64); 11] = [
     ("EC0Y", 12.0),
     ("EB0Z", -8.0),
