@@ -292,6 +292,46 @@ fn check_poses(machine: &Machine, fixture: &Fixture) -> Check {
     Ok(())
 }
 
+/// A fixture with label columns gives one set of label values per pose, each resolving; one
+/// without gives none.
+fn check_labels(fixture: &Fixture, setup: &dyn Setup) -> Result<(), String> {
+    let columns = setup.label_columns();
+    if columns.is_empty() {
+        if !fixture.labels.is_empty() {
+            return Err("the fixture has labels but the set-up declares no label columns".into());
+        }
+        return Ok(());
+    }
+    if fixture.labels.len() != fixture.poses.len() {
+        return Err(format!(
+            "the set-up has label columns {columns:?}: the fixture needs one set of labels per              pose ({} poses, {} label sets)",
+            fixture.poses.len(),
+            fixture.labels.len()
+        ));
+    }
+    for (k, values) in fixture.labels.iter().enumerate() {
+        if values.len() != columns.len() {
+            return Err(format!(
+                "fixture pose {k} has {} label values for the columns {columns:?}",
+                values.len()
+            ));
+        }
+        let refs: Vec<&str> = values.iter().map(String::as_str).collect();
+        setup
+            .resolve_label(&refs)
+            .map_err(|e| format!("fixture pose {k}'s labels {values:?} do not resolve: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Pose `k`'s label number (0 without label columns; [`check_labels`] has run before).
+fn label_of(fixture: &Fixture, setup: &dyn Setup, k: usize) -> u32 {
+    fixture.labels.get(k).map_or(0, |values| {
+        let refs: Vec<&str> = values.iter().map(String::as_str).collect();
+        setup.resolve_label(&refs).unwrap_or(0)
+    })
+}
+
 /// A random nonzero nuisance value of ±(20…100) µm / µrad / ppm, SI.
 fn random_nuisance(setup: &dyn Setup, rng: &mut SplitMix) -> Vec<f64> {
     setup
@@ -350,12 +390,14 @@ fn check_sizes(
         }
     }
     let (nc, nn) = (channels.len(), nuisance.len());
+    check_labels(fixture, setup).map_err(err)?;
     let q = &fixture.poses[0];
     let pose = machine.tool_in_workpiece(q);
     let at = At {
         q,
         t: 0.0,
         w_t_t: &pose,
+        label: label_of(fixture, setup, 0),
     };
     let mut analytic = None;
     for nuis in [vec![0.0; nn], random_nuisance(setup, rng)] {
@@ -410,6 +452,7 @@ fn check_zero(machine: &Machine, fixture: &Fixture, setup: &dyn Setup) -> Check 
             q,
             t: k as f64,
             w_t_t: &pose,
+            label: label_of(fixture, setup, k),
         };
         out.fill(f64::NAN);
         setup.predict(&at, &nuis, &mut out);
@@ -467,6 +510,7 @@ fn check_jacobian(
             q,
             t: k as f64,
             w_t_t: &pose,
+            label: label_of(fixture, setup, k),
         };
         let mut d_pose = vec![f64::NAN; nc * 6];
         let mut d_nuis = vec![f64::NAN; nc * nn];
@@ -635,6 +679,7 @@ fn check_round_trip(
             q,
             t: k as f64,
             w_t_t: &pose,
+            label: label_of(fixture, setup, k),
         };
         for nuis in &nuis_sets {
             setup.predict(&at, nuis, &mut a);

@@ -147,6 +147,7 @@ fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
     Some(Fixture {
         setup,
         poses: vec![q.clone(), q],
+        labels: Vec::new(),
     })
 }
 
@@ -163,6 +164,7 @@ macro_rules! dummy {
                 load_setup: |t: &toml::Table, _: &SetupContext<'_>| load(t, $fault),
                 fixture,
                 path: no_path,
+                path_labels: None,
                 evaluate: None,
             }
         }

@@ -376,7 +376,13 @@ impl<'a> SampleEval<'a> {
             }
             std::mem::swap(&mut nuis, &mut fx.nuis);
         }
-        let at = At { q, t, w_t_t: &pose };
+        let label = run.label(i);
+        let at = At {
+            q,
+            t,
+            w_t_t: &pose,
+            label,
+        };
         setup.predict(&at, &nuis, &mut self.pred);
         if let Some(fx) = self.effects.as_mut() {
             // reading = (1 + gain)·prediction + direct change.
@@ -388,7 +394,7 @@ impl<'a> SampleEval<'a> {
         if derivatives {
             if !setup.derivatives(&at, &nuis, self.d_pose.as_flattened_mut(), &mut self.d_nuis) {
                 self.nuis = nuis;
-                self.finite_differences(q, t, &pose);
+                self.finite_differences(q, t, label, &pose);
                 nuis = std::mem::take(&mut self.nuis);
             }
             // Whitening the pose rows whitens the projected Jacobian for free; a gain error
@@ -424,7 +430,7 @@ impl<'a> SampleEval<'a> {
 
     /// Central differences of the set-up's predictions, for plugins without analytic
     /// derivatives.
-    fn finite_differences(&mut self, q: &[f64], t: f64, pose: &Rigid) {
+    fn finite_differences(&mut self, q: &[f64], t: f64, label: u32, pose: &Rigid) {
         let setup = &self.study.setups[self.study.runs[self.run].setup].setup;
         let nch = self.pred.len();
         let h = 1e-7;
@@ -442,8 +448,26 @@ impl<'a> SampleEval<'a> {
                 p
             };
             let (pp, pm) = (shifted(1.0), shifted(-1.0));
-            setup.predict(&At { q, t, w_t_t: &pp }, &self.nuis, plus);
-            setup.predict(&At { q, t, w_t_t: &pm }, &self.nuis, minus);
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: &pp,
+                    label,
+                },
+                &self.nuis,
+                plus,
+            );
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: &pm,
+                    label,
+                },
+                &self.nuis,
+                minus,
+            );
             for c in 0..nch {
                 self.d_pose[c][k] = (plus[c] - minus[c]) / (2.0 * h);
             }
@@ -452,9 +476,27 @@ impl<'a> SampleEval<'a> {
         for j in 0..nn {
             let v = self.nuis[j];
             self.nuis[j] = v + h;
-            setup.predict(&At { q, t, w_t_t: pose }, &self.nuis, plus);
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: pose,
+                    label,
+                },
+                &self.nuis,
+                plus,
+            );
             self.nuis[j] = v - h;
-            setup.predict(&At { q, t, w_t_t: pose }, &self.nuis, minus);
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: pose,
+                    label,
+                },
+                &self.nuis,
+                minus,
+            );
             self.nuis[j] = v;
             for c in 0..nch {
                 self.d_nuis[c * nn + j] = (plus[c] - minus[c]) / (2.0 * h);

@@ -71,6 +71,10 @@ pub enum IdentifyError {
         key: String,
         message: String,
     },
+    /// A run file's values that the instrument cannot use (an unknown label, a missing
+    /// environment column): `at` is `file:line:column` (or the file alone).
+    #[error("{at}: {message}")]
+    RunData { at: String, message: String },
     #[error(
         "{}: every run is `use = \"validate\"`: at least one run must be fitted",
         manifest.display()
@@ -220,6 +224,7 @@ pub fn write_predictions(
                 axes: &axes,
                 readings: &names,
                 readings_optional: false,
+                labels: &[],
             },
         )?;
         out.push(path);

@@ -351,6 +351,7 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
                 q: &run.q,
                 readings,
                 t: &run.table.t,
+                labels: &run.labels,
             })
         })
         .unwrap_or_default()

@@ -169,6 +169,9 @@ struct PlannedRun {
     setup: usize,
     use_: RunUse,
     poses: Vec<Vec<f64>>,
+    /// Each sample's label values (instruments with label columns), and their numbers.
+    labels: Vec<Vec<String>>,
+    label_numbers: Vec<u32>,
     t: Vec<f64>,
     /// Context columns sampled at `t` (file units).
     context: Vec<(String, Vec<f64>)>,
@@ -369,6 +372,30 @@ pub fn simulate_with(
         if poses.is_empty() {
             return Err(run_err("the path has no samples".into()));
         }
+        let labels = match plugin.path_labels {
+            Some(f) => f(&PathSpec {
+                path: path_table,
+                setup: &setup_table,
+                machine: model.machine(),
+            })
+            .map_err(|e| run_err(format!("path: {e}")))?,
+            None => Vec::new(),
+        };
+        let label_numbers = labels
+            .iter()
+            .map(|values| {
+                let refs: Vec<&str> = values.iter().map(String::as_str).collect();
+                setup.resolve_label(&refs)
+            })
+            .collect::<Result<Vec<u32>, String>>()
+            .map_err(|e| run_err(format!("path labels: {e}")))?;
+        if !setup.label_columns().is_empty() && labels.len() != poses.len() {
+            return Err(run_err(format!(
+                "the path gives {} label sets for {} samples",
+                labels.len(),
+                poses.len()
+            )));
+        }
         // True nuisance values, given in the nuisance parameters' units.
         let mut nuis = vec![0.0; setup.nuisance().len()];
         if let Some(toml::Value::Table(t)) = nuisance_truth.get(&setup_name) {
@@ -458,6 +485,8 @@ pub fn simulate_with(
             setup: setup_index,
             use_,
             poses,
+            labels,
+            label_numbers,
             t,
             context,
             noise,
@@ -535,6 +564,7 @@ pub fn simulate_with(
                     q,
                     t: ti,
                     w_t_t: &pose,
+                    label: run.label_numbers.get(i).copied().unwrap_or(0),
                 },
                 current_nuis,
                 &mut pred,
@@ -612,6 +642,15 @@ pub fn simulate_with(
             },
             values: run.with_readings.then_some(values),
             context: run.context.clone(),
+            labels: setup
+                .label_columns()
+                .iter()
+                .enumerate()
+                .map(|(k, name)| {
+                    let column = run.labels.iter().map(|v| v[k].clone()).collect();
+                    (name.to_string(), column)
+                })
+                .collect(),
         };
         write_run(&out.join(format!("{}.csv", run.name)), &table)
             .map_err(|e| run_err(e.to_string()))?;
@@ -860,7 +899,16 @@ fn largest_change(
         for (i, q) in run.poses.iter().enumerate() {
             let t = run.t[i];
             let pose = model.tool_pose(q, truth, &mut ws);
-            setup.predict(&At { q, t, w_t_t: &pose }, nuis, &mut plain);
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: &pose,
+                    label: 0,
+                },
+                nuis,
+                &mut plain,
+            );
             effect.sample(r, run.setup, i, values, &mut out);
             for ((s, &a), d) in q2.iter_mut().zip(q).zip(&out.dq) {
                 *s = a + d;
@@ -869,7 +917,16 @@ fn largest_change(
                 *s = a + d;
             }
             let pose = model.tool_pose(&q2, truth, &mut ws);
-            setup.predict(&At { q, t, w_t_t: &pose }, &n2, &mut with);
+            setup.predict(
+                &At {
+                    q,
+                    t,
+                    w_t_t: &pose,
+                    label: 0,
+                },
+                &n2,
+                &mut with,
+            );
             for (c, ch) in channels.iter().enumerate() {
                 let changed = with[c] * (1.0 + out.gain[c]) + out.dr[c];
                 let sigma = if run.noise[c] > 0.0 {

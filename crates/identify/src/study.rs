@@ -42,8 +42,19 @@ pub struct RunSlot {
     pub table: RunTable,
     /// Commanded positions, SI, row-major `samples × axes`.
     pub q: Vec<f64>,
-    /// Readings, SI, row-major `samples × channels`; `None` for a validation run without them.
+    /// Readings, SI, row-major `samples × channels`, as the set-up prepared them
+    /// ([`Setup::prepare_readings`]); `None` for a validation run without them.
     pub readings: Option<Vec<f64>>,
+    /// Each sample's label number ([`Setup::resolve_label`]); empty when the instrument has no
+    /// label columns.
+    pub labels: Vec<u32>,
+}
+
+impl RunSlot {
+    /// Sample `i`'s label number (0 without label columns).
+    pub fn label(&self, i: usize) -> u32 {
+        self.labels.get(i).copied().unwrap_or(0)
+    }
 }
 
 impl RunSlot {
@@ -296,17 +307,18 @@ impl Study {
                             axes: &letters,
                             readings: &channels,
                             readings_optional: !fit,
+                            labels: setups[setup_index].setup.label_columns(),
                         },
                     )?
                 }
             };
             let q = positions_si(&model, &table);
-            let readings = table.values.as_ref().map(|v| {
-                let ch = setups[setup_index].setup.channels();
-                v.chunks_exact(ch.len())
-                    .flat_map(|row| row.iter().zip(ch).map(|(x, c)| x / c.unit.per_si()))
-                    .collect()
-            });
+            let setup = &*setups[setup_index].setup;
+            let labels = run_labels(setup, &table)?;
+            let readings = match &table.values {
+                Some(v) => Some(prepared_readings(setup, &table, &q, v)?),
+                None => None,
+            };
             runs.push(RunSlot {
                 name: spec.name.clone(),
                 fit,
@@ -314,6 +326,7 @@ impl Study {
                 table,
                 q,
                 readings,
+                labels,
             });
         }
         if !runs.iter().any(|r| r.fit) {
@@ -722,4 +735,70 @@ fn positions_si(model: &MachineModel, table: &RunTable) -> Vec<f64> {
             })
         })
         .collect()
+}
+
+/// `file:line:column` of data row `i` (0-based) and column `name` of a run file (its header is
+/// line 1).
+fn cell(table: &RunTable, i: usize, name: &str) -> String {
+    let column = table
+        .columns
+        .iter()
+        .position(|c| c == name)
+        .map_or(String::new(), |j| format!(":{}", j + 1));
+    format!("{}:{}{column}", table.path.display(), i + 2)
+}
+
+/// Every sample's label number, or an error naming the cell that does not resolve.
+fn run_labels(setup: &dyn Setup, table: &RunTable) -> Result<Vec<u32>, IdentifyError> {
+    if setup.label_columns().is_empty() {
+        return Ok(Vec::new());
+    }
+    (0..table.len())
+        .map(|i| {
+            setup.resolve_label(&table.label_row(i)).map_err(|message| {
+                let first = &table.labels[0].0;
+                IdentifyError::RunData {
+                    at: cell(table, i, first),
+                    message: format!("column \"{first}\": {message}"),
+                }
+            })
+        })
+        .collect()
+}
+
+/// The run's readings in SI, prepared by the set-up (environmental compensation), or an error
+/// naming the cell at fault.
+fn prepared_readings(
+    setup: &dyn Setup,
+    table: &RunTable,
+    q: &[f64],
+    values: &[f64],
+) -> Result<Vec<f64>, IdentifyError> {
+    let ch = setup.channels();
+    let mut readings: Vec<f64> = values
+        .chunks_exact(ch.len())
+        .flat_map(|row| row.iter().zip(ch).map(|(x, c)| x / c.unit.per_si()))
+        .collect();
+    let data = mtcal_instrument::RunData {
+        q,
+        t: &table.t,
+        context: &table.context,
+    };
+    setup
+        .prepare_readings(&data, &mut readings)
+        .map_err(|e| IdentifyError::RunData {
+            at: match e.row {
+                Some(i) => cell(table, i, &e.column),
+                None => table.path.display().to_string(),
+            },
+            message: e.to_string(),
+        })?;
+    if let Some(k) = readings.iter().position(|x| !x.is_finite()) {
+        let c = &ch[k % ch.len()].name;
+        return Err(IdentifyError::RunData {
+            at: cell(table, k / ch.len(), c),
+            message: format!("column \"{c}\": the prepared reading is not a finite number"),
+        });
+    }
+    Ok(readings)
 }

@@ -81,6 +81,7 @@ fn check_every_machine(noise_um: f64) {
                     q,
                     t: i as f64,
                     w_t_t: &pose,
+                    label: 0,
                 };
                 setup.predict(&at, &nuis, &mut pred);
                 for p in &pred {
@@ -118,6 +119,7 @@ fn check_every_machine(noise_um: f64) {
                     readings,
                     values: Some(values),
                     context: Vec::new(),
+                    labels: Vec::new(),
                 },
             )
             .unwrap();

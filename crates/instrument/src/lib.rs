@@ -43,18 +43,25 @@ pub enum Unit {
     Urad,
     /// Parts per million; SI value dimensionless.
     Ppm,
+    /// Millimetres; SI value in metres. For readings that are positions, not deviations (an
+    /// artefact's measured feature centres).
+    Mm,
 }
 
 impl Unit {
     /// Factor from SI to this unit (`value_in_unit = si * factor`).
     pub fn per_si(self) -> f64 {
-        1e6
+        match self {
+            Unit::Um | Unit::Urad | Unit::Ppm => 1e6,
+            Unit::Mm => 1e3,
+        }
     }
     pub fn as_str(self) -> &'static str {
         match self {
             Unit::Um => "um",
             Unit::Urad => "urad",
             Unit::Ppm => "ppm",
+            Unit::Mm => "mm",
         }
     }
 }
@@ -104,6 +111,42 @@ pub struct At<'a> {
     pub t: f64,
     /// Actual pose of the tool point in the workpiece frame (`w_T_t`), errors inserted.
     pub w_t_t: &'a Rigid,
+    /// The sample's label as [`Setup::resolve_label`] numbered it (which artefact feature was
+    /// probed, say); 0 for an instrument without [`Setup::label_columns`].
+    pub label: u32,
+}
+
+/// One run's samples as [`Setup::prepare_readings`] sees them.
+#[derive(Clone, Copy, Debug)]
+pub struct RunData<'a> {
+    /// Commanded positions, SI, row-major `samples × axes` (the machine's axis order).
+    pub q: &'a [f64],
+    /// Time of each sample, s.
+    pub t: &'a [f64],
+    /// The run's context columns (`T_<name>` °C, `P_<name>` hPa, `H_<name>` %, `S`, `F`) by
+    /// name, as written in the file (not SI).
+    pub context: &'a [(String, Vec<f64>)],
+}
+
+impl RunData<'_> {
+    /// The context column called `name`.
+    pub fn context(&self, name: &str) -> Option<&[f64]> {
+        self.context
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Why a run's readings could not be prepared: which sample (0-based, in file order) and which
+/// column, and what was expected. The core adds the file and its line.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("column `{column}`: {message}")]
+pub struct ReadingError {
+    /// The sample, when one sample is at fault.
+    pub row: Option<usize>,
+    pub column: String,
+    pub message: String,
 }
 
 /// A loaded set-up of one instrument: its measurement model for one or more runs.
@@ -154,6 +197,32 @@ pub trait Setup: fmt::Debug + Send + Sync {
 
     /// The set-up as a manifest table: loading it again gives an equal set-up.
     fn to_toml(&self) -> toml::Table;
+
+    /// Text columns every sample of this set-up's runs carries besides the readings (an
+    /// artefact's `feature`): the core reads them and asks [`Setup::resolve_label`] for the
+    /// number it then passes in [`At::label`]. Empty (the default) for most instruments.
+    fn label_columns(&self) -> &[&'static str] {
+        &[]
+    }
+
+    /// The number of a sample's labels (`values` in the order of [`Setup::label_columns`]);
+    /// an error says what was expected (the known features, say).
+    fn resolve_label(&self, values: &[&str]) -> Result<u32, String> {
+        let _ = values;
+        Ok(0)
+    }
+
+    /// Turns one run's readings as recorded (SI, row-major `samples × channels`) into the
+    /// readings [`Setup::predict`] models, before any fit: environmental compensation of a
+    /// laser (air refractive index, material temperature), say. The default keeps them.
+    fn prepare_readings(
+        &self,
+        run: &RunData<'_>,
+        readings: &mut [f64],
+    ) -> Result<(), ReadingError> {
+        let _ = (run, readings);
+        Ok(())
+    }
 }
 
 /// What the loader needs to know besides the table.
@@ -186,6 +255,9 @@ pub struct Fixture {
     pub setup: toml::Table,
     /// Axis positions, SI, one `Vec` per sample.
     pub poses: Vec<Vec<f64>>,
+    /// Each sample's label values (see [`Setup::label_columns`]); empty when the instrument
+    /// has no label columns.
+    pub labels: Vec<Vec<String>>,
 }
 
 /// A named measuring path: commanded axis positions for a set-up on a machine.
@@ -215,6 +287,9 @@ pub struct InstrumentPlugin {
     pub fixture: fn(&Machine, u64) -> Option<Fixture>,
     /// Commanded positions (SI) of a measuring path, one `Vec` per sample.
     pub path: fn(&PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError>,
+    /// The label values of each sample of that path (see [`Setup::label_columns`]), for an
+    /// instrument that has label columns; `None` otherwise.
+    pub path_labels: Option<fn(&PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError>>,
     /// The instrument's own evaluation of one run (e.g. ISO 230-4 circular deviation), if any.
     pub evaluate: Option<fn(&Evaluation<'_>) -> Vec<Metric>>,
 }
@@ -226,9 +301,11 @@ pub struct Evaluation<'a> {
     pub setup: &'a toml::Table,
     /// Commanded positions, SI, row-major `samples × axes`.
     pub q: &'a [f64],
-    /// Readings, SI, row-major `samples × channels`.
+    /// Readings, SI, row-major `samples × channels` (after [`Setup::prepare_readings`]).
     pub readings: &'a [f64],
     pub t: &'a [f64],
+    /// Each sample's label number (empty for an instrument without label columns).
+    pub labels: &'a [u32],
 }
 
 /// A named number an instrument's evaluation reports.

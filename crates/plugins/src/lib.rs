@@ -6,9 +6,12 @@
 //! through [`plugins`] and [`find`]. A new plugin crate gets a `use … as _;` line here and its
 //! name in the test below.
 
+use mtcal_artefact as _;
 use mtcal_ballbar as _;
 use mtcal_displacement as _;
+use mtcal_laser as _;
 use mtcal_rtest as _;
+use mtcal_tracer as _;
 
 pub use mtcal_instrument::{find, plugins};
 
@@ -23,7 +26,10 @@ mod tests {
 
     #[test]
     fn every_plugin_is_registered_exactly_once() {
-        assert_eq!(names(), ["ballbar", "displacement", "rtest"]);
+        assert_eq!(
+            names(),
+            ["artefact", "ballbar", "displacement", "laser", "rtest", "tracer"]
+        );
         for name in names() {
             assert_eq!(find(name).map(|p| p.name), Some(name));
             assert!(!find(name).expect("registered").about.is_empty());

@@ -6,7 +6,8 @@ use std::path::Path;
 
 use crate::error::{SessionError, at};
 
-/// The context columns' names besides `T_<name>`.
+/// The context columns' names besides `T_<name>` (°C), `P_<name>` (air pressure, hPa) and
+/// `H_<name>` (relative humidity, %).
 pub const CONTEXT_COLUMNS: &[&str] = &["S", "F"];
 
 /// One run's table as the file gives it, in file units (mm, degrees, µm, µrad, °C, rpm,
@@ -29,8 +30,11 @@ pub struct RunTable {
     /// Readings, row-major `len() × readings.len()`; `None` when the run has none of the
     /// reading columns (a validation run may leave them out).
     pub values: Option<Vec<f64>>,
-    /// Context columns (`T_<name>`, `S`, `F`) in file order.
+    /// Context columns (`T_<name>`, `P_<name>`, `H_<name>`, `S`, `F`) in file order.
     pub context: Vec<(String, Vec<f64>)>,
+    /// The instrument's label columns (text, one value per row: an artefact's `feature`), in
+    /// the order the caller gave them ([`RunColumns::labels`]).
+    pub labels: Vec<(String, Vec<String>)>,
 }
 
 impl RunTable {
@@ -64,10 +68,16 @@ impl RunTable {
             .map(|(_, v)| v.as_slice())
     }
 
-    /// `t`, the axes, the readings (if any) and the context columns, in that order.
+    /// Row `i`'s label values, in the order of [`labels`](Self::labels).
+    pub fn label_row(&self, i: usize) -> Vec<&str> {
+        self.labels.iter().map(|(_, v)| v[i].as_str()).collect()
+    }
+
+    /// `t`, the axes, the labels, the readings (if any) and the context columns, in that order.
     pub fn canonical_columns(&self) -> Vec<String> {
         let mut out = vec!["t".to_string()];
         out.extend(self.axes.iter().map(char::to_string));
+        out.extend(self.labels.iter().map(|(n, _)| n.clone()));
         if self.values.is_some() {
             out.extend(self.readings.iter().cloned());
         }
@@ -85,6 +95,8 @@ pub struct RunColumns<'a> {
     pub readings: &'a [&'a str],
     /// Whether the run may leave out all of its reading columns (validation runs).
     pub readings_optional: bool,
+    /// The instrument's label columns (text; always required), e.g. `["feature"]`.
+    pub labels: &'a [&'a str],
 }
 
 /// What a column of the file holds.
@@ -94,6 +106,7 @@ enum Kind {
     Axis(usize),
     Reading(usize),
     Context(usize),
+    Label(usize),
 }
 
 /// The header, classified.
@@ -159,6 +172,11 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
             .iter()
             .map(|n| (n.clone(), Vec::new()))
             .collect(),
+        labels: cols
+            .labels
+            .iter()
+            .map(|n| (n.to_string(), Vec::new()))
+            .collect(),
     };
     let mut row_q = vec![0.0; cols.axes.len()];
     let mut row_r = vec![0.0; cols.readings.len()];
@@ -171,6 +189,17 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
         }
         check_field_count(path, line, &layout, &record)?;
         for (j, field) in record.iter().enumerate() {
+            if let Kind::Label(k) = layout.kinds[j] {
+                if field.is_empty() {
+                    let msg = format!(
+                        "column \"{}\": expected a label, found an empty field",
+                        layout.names[j]
+                    );
+                    return Err(SessionError::invalid(at(path, line as usize, j + 1), msg));
+                }
+                table.labels[k].1.push(field.to_string());
+                continue;
+            }
             let x = number(path, line, j, &layout.names[j], field)?;
             match layout.kinds[j] {
                 Kind::Time => {
@@ -181,6 +210,7 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
                 Kind::Axis(k) => row_q[k] = x,
                 Kind::Reading(k) => row_r[k] = x,
                 Kind::Context(k) => table.context[k].1.push(x),
+                Kind::Label(_) => unreachable!("labels are read above"),
             }
         }
         table.positions.extend_from_slice(&row_q);
@@ -198,6 +228,7 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
 fn example_header(cols: &RunColumns) -> String {
     let mut names = vec!["t".to_string()];
     names.extend(cols.axes.iter().map(char::to_string));
+    names.extend(cols.labels.iter().map(|s| s.to_string()));
     names.extend(cols.readings.iter().map(|s| s.to_string()));
     names.join(",")
 }
@@ -219,9 +250,14 @@ fn allowed_columns(cols: &RunColumns) -> String {
     } else {
         list(&readings)
     };
+    let labels = if cols.labels.is_empty() {
+        String::new()
+    } else {
+        format!("; the instrument's labels {}", cols.labels.join(", "))
+    };
     format!(
-        "`t`; the machine's axes {}; the instrument's readings {readings}; context columns \
-         T_<name> (°C), S (rpm), F (mm/min)",
+        "`t`; the machine's axes {}{labels}; the instrument's readings {readings}; context \
+         columns T_<name> (°C), P_<name> (hPa), H_<name> (% RH), S (rpm), F (mm/min)",
         list(&axes)
     )
 }
@@ -259,6 +295,8 @@ fn classify(
             Kind::Axis(k)
         } else if let Some(k) = cols.readings.iter().position(|r| r == name) {
             Kind::Reading(k)
+        } else if let Some(k) = cols.labels.iter().position(|r| r == name) {
+            Kind::Label(k)
         } else if is_context(name) {
             context.push(name.clone());
             Kind::Context(context.len() - 1)
@@ -294,7 +332,10 @@ fn axis_index(axes: &[char], name: &str) -> Option<usize> {
 }
 
 fn is_context(name: &str) -> bool {
-    (name.starts_with("T_") && name.len() > 2) || CONTEXT_COLUMNS.contains(&name)
+    let prefixed = ["T_", "P_", "H_"]
+        .iter()
+        .any(|p| name.starts_with(p) && name.len() > 2);
+    prefixed || CONTEXT_COLUMNS.contains(&name)
 }
 
 /// Checks that `t`, every axis and the readings are there; returns whether the readings are.
@@ -315,6 +356,18 @@ fn check_present(path: &Path, cols: &RunColumns, kinds: &[Kind]) -> Result<bool,
              commanded positions per axis",
             list(&missing),
             list(&axes)
+        );
+        return Err(SessionError::invalid(here, msg));
+    }
+    let missing: Vec<String> = (0..cols.labels.len())
+        .filter(|&k| !kinds.contains(&Kind::Label(k)))
+        .map(|k| cols.labels[k].to_string())
+        .collect();
+    if !missing.is_empty() {
+        let msg = format!(
+            "missing label column(s) {}: this instrument names what each row measured in {}",
+            list(&missing),
+            cols.labels.join(", ")
         );
         return Err(SessionError::invalid(here, msg));
     }
@@ -375,6 +428,8 @@ fn unit_of(name: &str) -> &'static str {
         "S" => "a spindle speed in rpm",
         "F" => "a feed in mm/min",
         n if n.starts_with("T_") => "a temperature in °C",
+        n if n.starts_with("P_") => "an air pressure in hPa",
+        n if n.starts_with("H_") => "a relative humidity in %",
         _ => "a number",
     }
 }
@@ -451,30 +506,41 @@ pub fn write_run(path: &Path, table: &RunTable) -> Result<(), SessionError> {
     })
 }
 
-/// One column's numbers: `(data, stride, offset)`.
-type Source<'a> = (&'a [f64], usize, usize);
+/// One column's numbers: `(data, stride, offset)`, or its labels.
+enum Source<'a> {
+    Numbers(&'a [f64], usize, usize),
+    Labels(&'a [String]),
+}
 
 fn sources<'a>(table: &'a RunTable, columns: &[String]) -> Vec<Source<'a>> {
     columns
         .iter()
         .map(|name| {
-            if name == "t" {
-                return (table.t.as_slice(), 1, 0);
+            if let Some((_, v)) = table.labels.iter().find(|(n, _)| n == name) {
+                return Source::Labels(v);
             }
-            if let Some(k) = axis_index(&table.axes, name) {
-                return (table.positions.as_slice(), table.axes.len(), k);
-            }
-            if let (Some(k), Some(v)) =
-                (table.readings.iter().position(|r| r == name), &table.values)
             {
-                return (v.as_slice(), table.readings.len(), k);
+                let (data, stride, offset) = numbers_of(table, name);
+                Source::Numbers(data, stride, offset)
             }
-            let c = table
-                .context_column(name)
-                .expect("checked by check_writable");
-            (c, 1, 0)
         })
         .collect()
+}
+
+fn numbers_of<'a>(table: &'a RunTable, name: &str) -> (&'a [f64], usize, usize) {
+    if name == "t" {
+        return (table.t.as_slice(), 1, 0);
+    }
+    if let Some(k) = axis_index(&table.axes, name) {
+        return (table.positions.as_slice(), table.axes.len(), k);
+    }
+    if let (Some(k), Some(v)) = (table.readings.iter().position(|r| r == name), &table.values) {
+        return (v.as_slice(), table.readings.len(), k);
+    }
+    let c = table
+        .context_column(name)
+        .expect("checked by check_writable");
+    (c, 1, 0)
 }
 
 fn render(table: &RunTable, columns: &[String]) -> String {
@@ -482,11 +548,16 @@ fn render(table: &RunTable, columns: &[String]) -> String {
     let mut text = columns.join(",");
     text.push('\n');
     for i in 0..table.len() {
-        for (j, (data, stride, offset)) in sources.iter().enumerate() {
+        for (j, source) in sources.iter().enumerate() {
             if j > 0 {
                 text.push(',');
             }
-            push_number(&mut text, data[i * stride + offset]);
+            match source {
+                Source::Numbers(data, stride, offset) => {
+                    push_number(&mut text, data[i * stride + offset])
+                }
+                Source::Labels(v) => text.push_str(&v[i]),
+            }
         }
         text.push('\n');
     }
@@ -515,6 +586,9 @@ fn check_writable(table: &RunTable) -> Result<Vec<String>, String> {
         lengths.push(("values", v.len(), n * table.readings.len()));
     }
     for (name, c) in &table.context {
+        lengths.push((name.as_str(), c.len(), n));
+    }
+    for (name, c) in &table.labels {
         lengths.push((name.as_str(), c.len(), n));
     }
     if let Some((what, found, expected)) = lengths.iter().find(|(_, f, e)| f != e) {
@@ -564,8 +638,21 @@ fn check_names(table: &RunTable, canonical: &[String]) -> Result<(), String> {
     }
     if let Some((name, _)) = table.context.iter().find(|(n, _)| !is_context(n)) {
         return Err(format!(
-            "context column \"{name}\" would not load: context columns are T_<name>, S and F"
+            "context column \"{name}\" would not load: context columns are T_<name>, \
+             P_<name>, H_<name>, S and F"
         ));
+    }
+    for (name, values) in &table.labels {
+        let bad =
+            |v: &str| v.is_empty() || v.trim() != v || v.contains([',', ';', '"', '\n', '\r']);
+        if let Some(i) = values.iter().position(|v| bad(v)) {
+            return Err(format!(
+                "label \"{}\" in column \"{name}\", row {}, cannot be written: labels are \
+                 non-empty, without surrounding blanks, ',', ';', quotes or line breaks",
+                values[i].escape_debug(),
+                i + 1
+            ));
+        }
     }
     Ok(())
 }

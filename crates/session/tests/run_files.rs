@@ -14,6 +14,7 @@ fn fit() -> RunColumns<'static> {
         axes: AXES,
         readings: RTEST,
         readings_optional: false,
+        labels: &[],
     }
 }
 
@@ -352,6 +353,7 @@ fn small_table(path: &Path) -> RunTable {
         readings: vec!["d".into()],
         values: Some(vec![0.5, 0.25]),
         context: vec![("T_bed".into(), vec![20.0, 20.5])],
+        labels: vec![],
     }
 }
 
@@ -404,6 +406,7 @@ fn write_keeps_the_column_order_and_leaves_no_temporary_file() {
         axes: &['X', 'C'],
         readings: &["d"],
         readings_optional: false,
+        labels: &[],
     };
     assert_eq!(read_run(&p, &cols).unwrap(), t);
     let names: Vec<_> = std::fs::read_dir(dir.path())
@@ -470,6 +473,7 @@ prop_compose! {
             readings: vec!["dx".into(), "d_2".into()],
             values: has_values.then_some(values),
             context: context.into_iter().enumerate().map(|(i, c)| (names[i].to_string(), c)).collect(),
+            labels: vec![],
         }
     }
 }
@@ -487,7 +491,8 @@ proptest! {
         let p = dir.path().join("r.csv");
         table.path = p.clone();
         write_run(&p, &table).unwrap();
-        let cols = RunColumns { axes: &table.axes, readings: &["dx", "d_2"], readings_optional: true };
+        let cols = RunColumns { axes: &table.axes, readings: &["dx", "d_2"], readings_optional: true ,
+ labels: &[],};
         let back = read_run(&p, &cols).unwrap();
         prop_assert_eq!(bits(&back.t), bits(&table.t));
         prop_assert_eq!(bits(&back.positions), bits(&table.positions));

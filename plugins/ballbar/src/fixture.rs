@@ -104,7 +104,11 @@ fn circle_fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         for (pivot, length) in candidates(machine) {
             let setup = setup_table(pivot, length, seed);
             if let Some(poses) = try_path(machine, &setup, &p) {
-                return Some(Fixture { setup, poses });
+                return Some(Fixture {
+                    setup,
+                    poses,
+                    labels: Vec::new(),
+                });
             }
         }
     }
@@ -133,7 +137,11 @@ fn rotary_fixture(machine: &Machine, seed: u64, rotary: &[usize]) -> Option<Fixt
             for (pivot, length) in candidates(machine) {
                 let setup = setup_table(pivot, length, seed);
                 if let Some(poses) = try_path(machine, &setup, &p) {
-                    return Some(Fixture { setup, poses });
+                    return Some(Fixture {
+                        setup,
+                        poses,
+                        labels: Vec::new(),
+                    });
                 }
             }
         }

@@ -31,6 +31,7 @@ fn dr(s: &BallbarSetup, ball: Vector3<f64>, r: Matrix3<f64>, n: &[f64]) -> f64 {
         q: &q,
         t: 0.0,
         w_t_t: &pose,
+        label: 0,
     };
     let mut out = [0.0];
     s.predict(&at, n, &mut out);
@@ -167,6 +168,7 @@ fn derivatives_match_finite_differences() {
             q: &q,
             t: 0.0,
             w_t_t: &pose,
+            label: 0,
         };
         let (mut dp, mut dn) = ([0.0; 6], [0.0; 5]);
         assert!(s.derivatives(&at, &n0, &mut dp, &mut dn));

@@ -345,6 +345,7 @@ fn evaluation_reports_g_for_circles_only() {
         q: &q,
         readings: &dr,
         t: &t,
+        labels: &[],
     };
     let metrics = mtcal_ballbar::evaluate(&ev);
     let get = |name: &str| {
@@ -375,6 +376,7 @@ fn evaluation_reports_g_for_circles_only() {
         q: &q,
         readings: &zeros,
         t: &zeros,
+        labels: &[],
     };
     assert!(mtcal_ballbar::evaluate(&ev).is_empty());
 }

@@ -60,7 +60,11 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         machine,
     })
     .ok()?;
-    Some(Fixture { setup, poses })
+    Some(Fixture {
+        setup,
+        poses,
+        labels: Vec::new(),
+    })
 }
 
 /// The `path` table: `samples` and `at` with every axis named.

@@ -121,6 +121,7 @@ inventory::submit! {
         load_setup,
         fixture,
         path,
+        path_labels: None,
         evaluate: Some(evaluate),
     }
 }

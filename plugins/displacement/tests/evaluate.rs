@@ -28,6 +28,7 @@ fn drift_is_the_range_of_each_sensor_over_the_run() {
         q: &q,
         readings: &readings,
         t: &t,
+        labels: &[],
     });
     let names: Vec<&str> = metrics.iter().map(|x| x.name.as_str()).collect();
     assert_eq!(
@@ -51,6 +52,7 @@ fn drift_is_the_range_of_each_sensor_over_the_run() {
             q: &q,
             readings: odd,
             t: &t,
+            labels: &[],
         })
         .is_empty()
     );
@@ -62,6 +64,7 @@ fn drift_is_the_range_of_each_sensor_over_the_run() {
             q: &q,
             readings: &readings,
             t: &t,
+            labels: &[],
         })
         .is_empty()
     );

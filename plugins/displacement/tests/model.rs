@@ -39,6 +39,7 @@ fn predict(s: &DisplacementSetup, pose: &Rigid, nuis: &[f64]) -> Vec<f64> {
             q: &q,
             t: 0.0,
             w_t_t: pose,
+            label: 0,
         },
         nuis,
         &mut out,
@@ -149,6 +150,7 @@ fn offsets_add_and_a_sensor_without_direction_reads_only_its_offset() {
         q: &q,
         t: 0.0,
         w_t_t: &moved,
+        label: 0,
     };
     assert!(s.derivatives(&at, &offsets, &mut d_pose, &mut d_nuis));
     assert!(

@@ -104,7 +104,11 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
                 machine,
             };
             if let Ok(poses) = path(&spec) {
-                return Some(Fixture { setup, poses });
+                return Some(Fixture {
+                    setup,
+                    poses,
+                    labels: Vec::new(),
+                });
             }
         }
     }

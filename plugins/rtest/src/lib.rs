@@ -98,6 +98,7 @@ inventory::submit! {
         load_setup,
         fixture,
         path,
+        path_labels: None,
         evaluate: None,
     }
 }

@@ -38,6 +38,7 @@ fn read(s: &RTest, machine: &Machine, q: &[f64], nuis: &[f64]) -> [f64; 3] {
             q,
             t: 0.0,
             w_t_t: &pose,
+            label: 0,
         },
         nuis,
         &mut out,
