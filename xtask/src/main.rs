@@ -67,6 +67,10 @@ enum Command {
         /// prediction, and report them as discoveries.
         #[arg(long)]
         search: bool,
+        /// Another session (planned, moved or extra runs, e.g. from `simulate`): print what
+        /// adding its runs would do to every interval, without refitting.
+        #[arg(long, value_name = "SESSION")]
+        what_if: Option<PathBuf>,
     },
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
@@ -163,6 +167,7 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
             threads,
             search,
+            what_if,
         } => identify(
             &mut stdout,
             &session,
@@ -170,6 +175,7 @@ fn run(cli: Cli) -> Result<()> {
                 json,
                 predict,
                 search,
+                what_if,
             },
             quiet,
             threads,
@@ -256,6 +262,7 @@ struct IdentifyOutputs {
     json: Option<PathBuf>,
     predict: Option<PathBuf>,
     search: bool,
+    what_if: Option<PathBuf>,
 }
 
 fn identify(
@@ -269,6 +276,7 @@ fn identify(
         json,
         predict,
         search,
+        what_if,
     } = outputs;
     let study = mtcal_identify::Study::load(session)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
@@ -288,7 +296,7 @@ fn identify(
         ..Default::default()
     };
     let mut progress = Progress::new(quiet);
-    let (id, study) = if search {
+    let (id, study, solution) = if search {
         progress.finish();
         let options = mtcal_identify::search::SearchOptions {
             solver: options,
@@ -300,13 +308,37 @@ fn identify(
         write!(out, "\n{}", result.identification.search_summary())?;
         writeln!(out, "\nafter the physics search:")?;
         write!(out, "{}", result.identification.summary())?;
-        (result.identification, result.study)
+        (result.identification, result.study, result.solution)
     } else {
-        let id = mtcal_identify::identify(&study, &options, &mut progress)?;
+        let (id, solution) =
+            mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
         progress.finish();
         write!(out, "{}", id.summary())?;
-        (id, study)
+        (id, study, solution)
     };
+    let mut id = id;
+    let account = mtcal_identify::information::account(&study, &solution)?;
+    write!(out, "\n{}", account.summary())?;
+    id.information = Some(account);
+    if let Some(dir) = what_if {
+        let extra = mtcal_identify::Study::load(&dir)?;
+        let after = mtcal_identify::information::what_if(&study, &solution, &extra)?;
+        writeln!(
+            out,
+            "\nwith the runs of {} added (95 % intervals now → after):",
+            dir.display()
+        )?;
+        for (name, u95) in after {
+            let now = id.parameters.iter().find(|p| p.name == name);
+            if let Some(p) = now {
+                writeln!(
+                    out,
+                    "  {:<24} ±{:<10.4} → ±{:<10.4} {}",
+                    name, p.u95, u95, p.unit
+                )?;
+            }
+        }
+    }
     if let Some(path) = json {
         mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;

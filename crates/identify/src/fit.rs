@@ -127,6 +127,30 @@ impl<'a> FitProblem<'a> {
         }
     }
 
+    /// The problem of the runs in `runs` alone (validation runs included if named; a run
+    /// without readings adds nothing), for per-run information.
+    pub fn for_runs(study: &'a Study, runs: &[usize]) -> Self {
+        let mut blocks = Vec::new();
+        for &r in runs {
+            if study.runs[r].readings.is_none() {
+                continue;
+            }
+            let n = study.runs[r].len();
+            let mut s = 0;
+            while s < n {
+                let e = (s + BLOCK_SAMPLES).min(n);
+                blocks.push((r, s, e));
+                s = e;
+            }
+        }
+        Self {
+            study,
+            blocks,
+            held_out: None,
+            prepared: Mutex::new(None),
+        }
+    }
+
     /// The study's effects prepared at the shape parameters of `x` (`None` without effects).
     pub(crate) fn effects_at(&self, x: &[f64]) -> Option<Arc<PreparedEffects>> {
         prepared_at(self.study, x, Some(&self.prepared))

@@ -15,6 +15,7 @@
 //!   default zero.
 
 pub mod fit;
+pub mod information;
 pub mod mismatch;
 pub mod report;
 pub mod search;

@@ -119,6 +119,10 @@ pub struct Identification {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub search: Option<crate::search::SearchReport>,
     pub solver: SolverReport,
+    /// Which instrument and run constrain each identified machine parameter, and what
+    /// repeating a run would do ([`crate::information`]); in the JSON when computed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub information: Option<crate::information::InformationAccount>,
     /// The solution vector (SI), for predictions; not written to the JSON.
     #[serde(skip)]
     pub x: Vec<f64>,
@@ -215,6 +219,7 @@ impl Identification {
                 parameters: solution.x.len(),
                 condition_number: solution.condition_number,
             },
+            information: None,
             x,
         })
     }

@@ -1,0 +1,389 @@
+//! Which instrument and which run constrain each parameter, and what more data would add.
+//!
+//! # Information share
+//! At the solution the fit's information matrix is the sum of the runs' and the priors':
+//! `I = Σ_r J_rᵀ J_r + P` (whitened Jacobians, so every instrument counts by its noise), and
+//! the covariance is its (pseudo-)inverse `C`. Since `C = C I C = Σ_r C I_r C + C P C`, the
+//! variance of parameter `k` splits exactly into one non-negative part per run and one for
+//! the priors:
+//!
+//! ```text
+//! share_r(k) = (C I_r C)_kk / C_kk = ‖R_r c_k‖² / C_kk,      Σ_r share_r(k) + share_P(k) = 1
+//! ```
+//!
+//! (`R_r` the run's triangular factor, `R_rᵀR_r = I_r`; `c_k` column `k` of `C`). A share is
+//! the fraction of what is known about `k` that run `r` supplies *in the presence of the other
+//! runs*: a run that only repeats what another run already pins down gets a share split with
+//! it, a run that alone fixes a direction gets that direction's whole share. Shares of runs of
+//! one instrument add up to the instrument's share.
+//!
+//! # What a run would add
+//! Repeating run `r` (the same path and set-up, new noise) adds `I_r` once more; the new
+//! covariance follows from Woodbury without refitting:
+//! `C' = C − W_rᵀ (𝟙 + R_r C R_rᵀ)⁻¹ W_r`, `W_r = R_r C`. Any other data (a run moved to
+//! another place, another instrument, a planned campaign) is loaded as a session of its own
+//! ([`what_if`]); its set-up parameters are not shared with this session's, so they are
+//! eliminated (Schur complement) and only what it says about the machine's parameters is
+//! added, matched by name.
+//!
+//! Unidentified parameters have no covariance and appear in neither account; data that makes
+//! them identifiable is beyond a first-order update (fit the joint session instead).
+
+use crate::fit::FitProblem;
+use crate::{IdentifyError, Study, param_specs_from};
+use mtcal_solve::Solution;
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// How much of a parameter's information one source supplies.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Share {
+    /// A run's name, or `prior` for the set-up parameters' priors.
+    pub source: String,
+    /// The run's instrument (`prior` for the priors).
+    pub instrument: String,
+    /// Fraction of the parameter's information, 0…1.
+    pub share: f64,
+}
+
+/// What repeating one run would do to a parameter's interval.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Repeat {
+    pub run: String,
+    /// The 95 % interval half-width after the repeat, in the parameter's unit.
+    pub u95_after: f64,
+}
+
+/// The account of one identified machine parameter.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ParameterAccount {
+    pub name: String,
+    pub unit: String,
+    pub u95: f64,
+    /// The same from the account's own linearisation at the solution (the shares and repeats
+    /// refer to it); equal to `u95` up to the solver's last chord step.
+    pub u95_account: f64,
+    /// Per run (and the priors when they carry any), largest first; the shares sum to 1.
+    pub runs: Vec<Share>,
+    /// The same summed per instrument, largest first.
+    pub instruments: Vec<Share>,
+    /// Repeating each fitted run once more, best first.
+    pub repeat: Vec<Repeat>,
+}
+
+/// Information shares and repeat gains of every identified machine parameter.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct InformationAccount {
+    pub parameters: Vec<ParameterAccount>,
+}
+
+impl InformationAccount {
+    /// A plain-text table: per parameter its interval, the instruments and the runs that
+    /// carry at least 5 % of it, and the best run to repeat.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "what constrains each parameter (share of its information; repeat = the run whose \
+             repetition narrows it most):"
+        );
+        let pct = |v: f64| format!("{:.0} %", 100.0 * v);
+        for p in &self.parameters {
+            let instruments: Vec<String> = p
+                .instruments
+                .iter()
+                .filter(|i| i.share >= 0.05)
+                .map(|i| format!("{} {}", i.instrument, pct(i.share)))
+                .collect();
+            let runs: Vec<String> = p
+                .runs
+                .iter()
+                .filter(|r| r.share >= 0.05)
+                .take(3)
+                .map(|r| format!("{} {}", r.source, pct(r.share)))
+                .collect();
+            let repeat = p.repeat.first().map_or(String::new(), |r| {
+                format!("; repeat {}: ±{:.4}", r.run, r.u95_after)
+            });
+            let _ = writeln!(
+                s,
+                "  {:<24} ±{:<10.4} {:<5} {} ({}){repeat}",
+                p.name,
+                p.u95,
+                p.unit,
+                instruments.join(", "),
+                runs.join(", ")
+            );
+        }
+        s
+    }
+}
+
+/// The 95 % half-width factor of [`crate::report`].
+const K95: f64 = crate::report::K95;
+
+/// One run's information factor `R_r` (`n × n`, `R_rᵀ R_r = J_rᵀ J_r`) at `x`.
+fn run_factor(study: &Study, x: &[f64], runs: &[usize]) -> Result<DMatrix<f64>, IdentifyError> {
+    let problem = FitProblem::for_runs(study, runs);
+    let mut specs = param_specs_from(study, x);
+    for s in &mut specs {
+        s.prior = None;
+        s.bounds = None;
+    }
+    let lin = mtcal_solve::linearize(&problem, &specs, x, 0)?;
+    let n = x.len();
+    Ok(DMatrix::from_row_slice(n, n, &lin.r))
+}
+
+/// The pseudo-inverse of `info` over its `rank` strongest directions (columns scaled to unit
+/// diagonal, as the solver scales them). Parameters correlated with a null direction keep the
+/// variance that correlation gives them; the rows of unidentified parameters are kept too
+/// (they are what makes `C·I·C = C` hold, so the shares add up), but never reported.
+fn truncated_inverse(info: &DMatrix<f64>, rank: usize) -> DMatrix<f64> {
+    let n = info.nrows();
+    let scale: Vec<f64> = (0..n)
+        .map(|i| {
+            let d = info[(i, i)];
+            if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(n, n, |a, b| info[(a, b)] * scale[a] * scale[b]);
+    let eig = nalgebra::SymmetricEigen::new(scaled);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let mut out = DMatrix::zeros(n, n);
+    for &k in order.iter().take(rank) {
+        let l = eig.eigenvalues[k];
+        if l > 0.0 {
+            let v = eig.eigenvectors.column(k);
+            out += (v * v.transpose()) / l;
+        }
+    }
+    for a in 0..n {
+        for b in 0..n {
+            out[(a, b)] *= scale[a] * scale[b];
+        }
+    }
+    out
+}
+
+/// Diagonal of `C − W ᵀ (𝟙 + U ᵀ C U)⁻¹ W` with `W = Uᵀ C` for an added information `U Uᵀ`
+/// (`u` is `n × p`): the variances after adding it.
+fn updated_variances(c: &DMatrix<f64>, u: &DMatrix<f64>) -> Vec<f64> {
+    let w = u.transpose() * c;
+    let m = DMatrix::identity(u.ncols(), u.ncols()) + &w * u;
+    let chol = m
+        .cholesky()
+        .expect("𝟙 + Uᵀ C U is positive definite for a positive semi-definite C");
+    let solved = chol.solve(&w);
+    (0..c.nrows())
+        .map(|k| {
+            let drop = w.column(k).dot(&solved.column(k));
+            (c[(k, k)] - drop).max(0.0)
+        })
+        .collect()
+}
+
+/// The fit linearised at its solution, run by run.
+struct Linearised {
+    /// The fitted runs.
+    fitted: Vec<usize>,
+    /// Their information factors, in that order.
+    factors: Vec<DMatrix<f64>>,
+    /// The priors' information (diagonal).
+    prior_info: DVector<f64>,
+    /// The covariance of these very factors.
+    c: DMatrix<f64>,
+}
+
+fn linearised(study: &Study, solution: &Solution) -> Result<Linearised, IdentifyError> {
+    let x = &solution.x;
+    let fitted: Vec<usize> = (0..study.runs.len())
+        .filter(|&r| study.runs[r].fit)
+        .collect();
+    let factors = fitted
+        .iter()
+        .map(|&r| run_factor(study, x, &[r]))
+        .collect::<Result<Vec<_>, _>>()?;
+    let specs = param_specs_from(study, x);
+    let prior_info = DVector::from_iterator(
+        x.len(),
+        specs
+            .iter()
+            .map(|s| s.prior.map_or(0.0, |(_, sd)| 1.0 / (sd * sd))),
+    );
+    // The covariance of these very factors (not the solver's, which comes from its last
+    // factor, a chord step earlier): the shares then add up exactly, also along weakly
+    // determined directions where a tiny difference would be amplified.
+    let mut total = DMatrix::from_diagonal(&prior_info);
+    for f in &factors {
+        total += f.transpose() * f;
+    }
+    let c = truncated_inverse(&total, solution.rank);
+    Ok(Linearised {
+        fitted,
+        factors,
+        prior_info,
+        c,
+    })
+}
+
+/// The account of `study`'s fit `solution`: shares by run, instrument and prior, and the gain
+/// of repeating each fitted run.
+pub fn account(study: &Study, solution: &Solution) -> Result<InformationAccount, IdentifyError> {
+    let Linearised {
+        fitted,
+        factors,
+        prior_info,
+        c,
+    } = linearised(study, solution)?;
+    let x = &solution.x;
+    let repeats: Vec<Vec<f64>> = factors
+        .iter()
+        .map(|f| updated_variances(&c, &f.transpose()))
+        .collect();
+    let mut parameters = Vec::new();
+    for k in 0..x.len() {
+        let info = study.param_info(k);
+        let (Some(sigma), true) = (solution.sigma[k], info.machine) else {
+            continue;
+        };
+        let ckk = c[(k, k)];
+        if ckk <= 0.0 {
+            continue;
+        }
+        let ck = c.column(k);
+        let mut runs: Vec<Share> = fitted
+            .iter()
+            .zip(&factors)
+            .map(|(&r, f)| Share {
+                source: study.runs[r].name.clone(),
+                instrument: study.setups[study.runs[r].setup].plugin.name.to_string(),
+                share: (f * ck).norm_squared() / ckk,
+            })
+            .collect();
+        let prior: f64 = ck
+            .iter()
+            .zip(prior_info.iter())
+            .map(|(v, p)| v * v * p)
+            .sum::<f64>()
+            / ckk;
+        if prior > 1e-9 {
+            runs.push(Share {
+                source: "prior".into(),
+                instrument: "prior".into(),
+                share: prior,
+            });
+        }
+        let mut instruments: Vec<Share> = Vec::new();
+        for s in &runs {
+            match instruments
+                .iter_mut()
+                .find(|i| i.instrument == s.instrument)
+            {
+                Some(i) => i.share += s.share,
+                None => instruments.push(Share {
+                    source: s.instrument.clone(),
+                    instrument: s.instrument.clone(),
+                    share: s.share,
+                }),
+            }
+        }
+        let by_share = |a: &Share, b: &Share| b.share.total_cmp(&a.share);
+        runs.sort_by(by_share);
+        instruments.sort_by(by_share);
+        let mut repeat: Vec<Repeat> = fitted
+            .iter()
+            .zip(&repeats)
+            .map(|(&r, v)| Repeat {
+                run: study.runs[r].name.clone(),
+                u95_after: K95 * v[k].sqrt() * info.per_si,
+            })
+            .collect();
+        repeat.sort_by(|a, b| a.u95_after.total_cmp(&b.u95_after));
+        parameters.push(ParameterAccount {
+            name: info.name,
+            unit: info.unit,
+            u95: K95 * sigma * info.per_si,
+            u95_account: K95 * ckk.sqrt() * info.per_si,
+            runs,
+            instruments,
+            repeat,
+        });
+    }
+    Ok(InformationAccount { parameters })
+}
+
+/// What another session's data (planned, moved or added runs, loaded as `extra`) would do to
+/// the intervals of `study`'s identified machine parameters: one entry per parameter, the
+/// 95 % half-width after adding it (same unit as the report). `extra` is linearised at
+/// `study`'s solution for every machine parameter the two share by name (its other
+/// parameters at their start); its set-up parameters and machine parameters `study` does not
+/// estimate are eliminated, never shared.
+pub fn what_if(
+    study: &Study,
+    solution: &Solution,
+    extra: &Study,
+) -> Result<Vec<(String, f64)>, IdentifyError> {
+    let n = solution.x.len();
+    let names: Vec<_> = (0..n).map(|i| study.param_info(i)).collect();
+    let mut x_extra = extra.initial_x();
+    let mut map = vec![None; x_extra.len()];
+    for (j, xe) in x_extra.iter_mut().enumerate() {
+        let info = extra.param_info(j);
+        if !info.machine {
+            continue;
+        }
+        if let Some(i) = names.iter().position(|p| p.machine && p.name == info.name) {
+            *xe = solution.x[i];
+            map[j] = Some(i);
+        }
+    }
+    let fitted: Vec<usize> = (0..extra.runs.len())
+        .filter(|&r| extra.runs[r].fit)
+        .collect();
+    let r = run_factor(extra, &x_extra, &fitted)?;
+    let info = r.transpose() * &r;
+    let kept: Vec<usize> = (0..map.len()).filter(|&j| map[j].is_some()).collect();
+    let dropped: Vec<usize> = (0..map.len()).filter(|&j| map[j].is_none()).collect();
+    let pick = |rows: &[usize], cols: &[usize]| {
+        DMatrix::from_fn(rows.len(), cols.len(), |a, b| info[(rows[a], cols[b])])
+    };
+    let mut schur = pick(&kept, &kept);
+    if !dropped.is_empty() {
+        let uu = pick(&dropped, &dropped);
+        let ku = pick(&kept, &dropped);
+        let tolerance = 1e-12 * uu.diagonal().max().max(f64::MIN_POSITIVE);
+        let pinv = uu
+            .pseudo_inverse(tolerance)
+            .expect("a non-negative tolerance");
+        schur -= &ku * pinv * ku.transpose();
+    }
+    // Added information on this study's parameters, as U Uᵀ.
+    let mut added = DMatrix::zeros(n, n);
+    for (a, &ja) in kept.iter().enumerate() {
+        for (b, &jb) in kept.iter().enumerate() {
+            added[(map[ja].unwrap_or(0), map[jb].unwrap_or(0))] = schur[(a, b)];
+        }
+    }
+    let eig = nalgebra::SymmetricEigen::new(added);
+    let top = eig.eigenvalues.max().max(0.0);
+    let c = linearised(study, solution)?.c;
+    let cols: Vec<usize> = (0..n)
+        .filter(|&i| eig.eigenvalues[i] > 1e-12 * top && top > 0.0)
+        .collect();
+    let u = DMatrix::from_fn(n, cols.len(), |i, a| {
+        eig.eigenvectors[(i, cols[a])] * eig.eigenvalues[cols[a]].sqrt()
+    });
+    let after = updated_variances(&c, &u);
+    Ok((0..n)
+        .filter(|&k| names[k].machine && solution.sigma[k].is_some())
+        .map(|k| {
+            (
+                names[k].name.clone(),
+                K95 * after[k].sqrt() * names[k].per_si,
+            )
+        })
+        .collect())
+}
