@@ -145,7 +145,8 @@ fn unknown_column_lists_the_allowed_ones() {
         1,
         9,
         "unknown column \"temp\": a run file has only `t`; the machine's axes X, Y, Z, C; the \
-         instrument's readings dx, dy, dz; context columns T_<name> (°C), S (rpm), F (mm/min)",
+         instrument's readings dx, dy, dz; context columns T_<name> (°C), P_<name> (hPa), \
+         H_<name> (% RH), S (rpm), F (mm/min)",
     );
     check_err(
         b"t,x,Y,Z,C,dx,dy,dz\n0,1,2,3,4,5,6,7\n",
@@ -505,4 +506,84 @@ proptest! {
         prop_assert_eq!(&back.columns, &table.canonical_columns());
         prop_assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
     }
+}
+
+/// An artefact-like instrument: a text label column beside the readings.
+fn labelled() -> RunColumns<'static> {
+    RunColumns {
+        axes: &['X', 'Y', 'Z'],
+        readings: &["x", "y", "z"],
+        readings_optional: false,
+        labels: &["feature"],
+    }
+}
+
+#[test]
+fn label_columns_are_read_as_text_and_written_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        b"t,X,Y,Z,feature,x,y,z,T_air,P_air,H_air\n\
+          0,10,20,0,h01,10.001,20,0,20.1,1013.2,45\n\
+          1,30,20,0,p2/h07,30,19.999,0,20.2,1013.1,46\n",
+    );
+    let table = read_run(&p, &labelled()).unwrap();
+    assert_eq!(
+        table.labels,
+        vec![(
+            "feature".to_string(),
+            vec!["h01".to_string(), "p2/h07".to_string()]
+        )]
+    );
+    assert_eq!(table.label_row(1), vec!["p2/h07"]);
+    assert_eq!(table.context_column("P_air"), Some(&[1013.2, 1013.1][..]));
+    assert_eq!(table.context_column("H_air"), Some(&[45.0, 46.0][..]));
+    let q = dir.path().join("back.csv");
+    write_run(&q, &table).unwrap();
+    let again = read_run(&q, &labelled()).unwrap();
+    assert_eq!(again.labels, table.labels);
+    assert_eq!(
+        bits(again.values.as_ref().unwrap()),
+        bits(table.values.as_ref().unwrap())
+    );
+}
+
+#[test]
+fn a_missing_or_empty_label_is_located() {
+    check_err(
+        b"t,X,Y,Z,x,y,z\n0,1,2,3,1,2,3\n",
+        labelled(),
+        1,
+        1,
+        "missing label column(s) feature",
+    );
+    check_err(
+        b"t,X,Y,Z,feature,x,y,z\n0,1,2,3,h1,1,2,3\n1,1,2,3,,1,2,3\n",
+        labelled(),
+        3,
+        5,
+        "expected a label, found an empty field",
+    );
+    // Without label columns the name is unknown, and the message lists the context columns.
+    check_err(
+        b"t,X,Y,Z,C,dx,dy,dz,feature\n0,1,2,3,4,1,2,3,h1\n",
+        fit(),
+        1,
+        9,
+        "P_<name> (hPa)",
+    );
+}
+
+#[test]
+fn a_label_that_would_not_read_back_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("w.csv");
+    let mut table = small_table(&p);
+    table.labels = vec![("feature".into(), vec!["a,b".into(), "c".into()])];
+    let e = write_run(&p, &table).unwrap_err().to_string();
+    assert!(e.contains("label \"a,b\""), "{e}");
+    table.labels = vec![("feature".into(), vec!["a".into()])];
+    let e = write_run(&p, &table).unwrap_err().to_string();
+    assert!(e.contains("`feature` has 1 numbers"), "{e}");
+    assert!(!p.exists());
 }
