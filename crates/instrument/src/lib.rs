@@ -270,6 +270,9 @@ pub struct PathSpec<'a> {
     pub machine: &'a Machine,
 }
 
+/// The label values of each sample of a measuring path (see [`Setup::label_columns`]).
+pub type PathLabels = fn(&PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError>;
+
 /// A plugin's set-up loader: from a manifest table to a [`Setup`].
 pub type LoadSetup = fn(&toml::Table, &SetupContext<'_>) -> Result<Box<dyn Setup>, SetupError>;
 
@@ -289,7 +292,7 @@ pub struct InstrumentPlugin {
     pub path: fn(&PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError>,
     /// The label values of each sample of that path (see [`Setup::label_columns`]), for an
     /// instrument that has label columns; `None` otherwise.
-    pub path_labels: Option<fn(&PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError>>,
+    pub path_labels: Option<PathLabels>,
     /// The instrument's own evaluation of one run (e.g. ISO 230-4 circular deviation), if any.
     pub evaluate: Option<fn(&Evaluation<'_>) -> Vec<Metric>>,
 }

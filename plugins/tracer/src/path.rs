@@ -1,0 +1,272 @@
+//! Measuring paths: a 3-D grid or a set of lines (edges and body diagonals) over the linear
+//! axes' strokes, the same commanded path whatever the station.
+
+use crate::setup::{TracerConfig, TracerSetup};
+use mtcal_instrument::{PathSpec, SetupError, read};
+use mtcal_kinematics::{AxisKind, Machine};
+
+/// Every key a path table may have.
+pub const PATH_KEYS: &[&str] = &["kind", "counts", "samples", "fraction", "hold"];
+/// Default share of each linear axis' stroke the path spans (centred).
+pub const DEFAULT_FRACTION: f64 = 0.8;
+/// Default grid points per axis.
+pub const DEFAULT_COUNTS: [usize; 3] = [4, 4, 4];
+/// Default samples per line of a `lines` path.
+pub const DEFAULT_LINE_SAMPLES: usize = 11;
+/// The reflector must stay at least this far (mm) from the station at every sample: closer, a
+/// tracker cannot follow it (and the line of sight is undefined at the station).
+pub const MIN_DISTANCE_MM: f64 = 50.0;
+
+/// Axis limits are checked with this tolerance (m or rad), as the conformance harness does.
+const LIMIT_TOL: f64 = 1e-9;
+
+/// The indices of the linear axes X, Y, Z of `machine` and their strokes (m), or an error
+/// naming `kind` if it lacks one or one has no limits.
+pub fn linear_axes(machine: &Machine) -> Result<[(usize, f64, f64); 3], SetupError> {
+    let mut out = [(0, 0.0, 0.0); 3];
+    for (k, letter) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        let i = machine
+            .axis_index(letter)
+            .filter(|&i| machine.axes()[i].kind() == AxisKind::Linear)
+            .ok_or_else(|| {
+                SetupError::new(
+                    "kind",
+                    format!(
+                        "a tracer path needs the linear axes X, Y and Z; machine `{}` has {}",
+                        machine.name(),
+                        machine.letters()
+                    ),
+                )
+            })?;
+        let (lo, hi) = machine.axes()[i].limits().ok_or_else(|| {
+            SetupError::new(
+                "kind",
+                format!("axis {letter} has no limits: the path spans a share of its stroke"),
+            )
+        })?;
+        out[k] = (i, lo, hi);
+    }
+    Ok(out)
+}
+
+fn count(v: &toml::Value, key: &str, min: usize) -> Result<usize, SetupError> {
+    match v {
+        toml::Value::Integer(i) if *i >= min as i64 && *i <= 10_000 => Ok(*i as usize),
+        _ => Err(SetupError::new(
+            key,
+            format!("expected a whole number from {min} to 10000, found {v}"),
+        )),
+    }
+}
+
+/// The held positions of the other axes (`hold = { A = 0.0 }`, degrees for rotary, mm for
+/// linear axes other than X, Y, Z); unnamed ones at 0.
+fn held(machine: &Machine, path: &toml::Table, xyz: &[usize; 3]) -> Result<Vec<f64>, SetupError> {
+    let mut q = vec![0.0; machine.n_axes()];
+    match path.get("hold") {
+        None => {}
+        Some(toml::Value::Table(t)) => {
+            for (letter, v) in t {
+                let key = format!("hold.{letter}");
+                let mut chars = letter.chars();
+                let i = match (chars.next(), chars.next()) {
+                    (Some(c), None) => machine.axis_index(c),
+                    _ => None,
+                }
+                .filter(|i| !xyz.contains(i))
+                .ok_or_else(|| {
+                    SetupError::new(
+                        &key,
+                        format!(
+                            "`{letter}` is not an axis of machine `{}` that the path holds \
+                             (axes: {}; X, Y and Z are moved by the path)",
+                            machine.name(),
+                            machine.letters()
+                        ),
+                    )
+                })?;
+                let x = match v {
+                    toml::Value::Float(f) if f.is_finite() => *f,
+                    toml::Value::Integer(n) => *n as f64,
+                    _ => {
+                        return Err(SetupError::new(
+                            &key,
+                            format!("expected a position (degrees or mm), found {v}"),
+                        ));
+                    }
+                };
+                q[i] = match machine.axes()[i].kind() {
+                    AxisKind::Linear => x * 1e-3,
+                    AxisKind::Rotary => x.to_radians(),
+                };
+            }
+        }
+        Some(v) => {
+            return Err(SetupError::new(
+                "hold",
+                format!("expected a table of axis positions like {{ A = 0.0 }}, found {v}"),
+            ));
+        }
+    }
+    Ok(q)
+}
+
+/// Grid points along one axis: `n` points evenly over the centred `fraction` of `[lo, hi]`.
+fn ticks(lo: f64, hi: f64, fraction: f64, n: usize) -> Vec<f64> {
+    let mid = 0.5 * (lo + hi);
+    let half = 0.5 * fraction * (hi - lo);
+    if n == 1 {
+        return vec![mid];
+    }
+    (0..n)
+        .map(|i| mid - half + 2.0 * half * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// The plugin's path function (path keys in the crate docs). The set-up must load; every
+/// sample is checked against the axis limits and against [`MIN_DISTANCE_MM`].
+pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
+    let machine = spec.machine;
+    let setup = TracerSetup::new(TracerConfig::from_table(spec.setup)?, machine);
+    let p = spec.path;
+    read::only_keys(p, PATH_KEYS)?;
+    let axes = linear_axes(machine)?;
+    let xyz = [axes[0].0, axes[1].0, axes[2].0];
+    let fraction = read::number(p, "fraction")?.unwrap_or(DEFAULT_FRACTION);
+    if !(fraction > 0.0 && fraction <= 1.0) {
+        return Err(SetupError::new(
+            "fraction",
+            format!("expected a share of the strokes in (0, 1], found {fraction}"),
+        ));
+    }
+    let base = held(machine, p, &xyz)?;
+    let kind = read::string(p, "kind")?.unwrap_or("grid");
+    let points: Vec<[f64; 3]> = match kind {
+        "grid" => {
+            if p.contains_key("samples") {
+                return Err(SetupError::new(
+                    "samples",
+                    "a grid path takes `counts = [nx, ny, nz]`, not `samples`",
+                ));
+            }
+            let counts = match p.get("counts") {
+                None => DEFAULT_COUNTS,
+                Some(toml::Value::Array(a)) if a.len() == 3 => {
+                    let mut c = [0; 3];
+                    for (k, v) in a.iter().enumerate() {
+                        c[k] = count(v, &format!("counts[{k}]"), 1)?;
+                    }
+                    c
+                }
+                Some(v) => {
+                    return Err(SetupError::new(
+                        "counts",
+                        format!("expected three whole numbers [nx, ny, nz], found {v}"),
+                    ));
+                }
+            };
+            let t: Vec<Vec<f64>> = (0..3)
+                .map(|k| ticks(axes[k].1, axes[k].2, fraction, counts[k]))
+                .collect();
+            // Serpentine order: Y reverses on alternate Z layers, X on alternate rows, so the
+            // machine never jumps across the volume.
+            let mut out = Vec::with_capacity(counts.iter().product());
+            let mut row = 0usize;
+            for (iz, &z) in t[2].iter().enumerate() {
+                let ys: Vec<f64> = if iz % 2 == 0 {
+                    t[1].clone()
+                } else {
+                    t[1].iter().rev().copied().collect()
+                };
+                for y in ys {
+                    if row % 2 == 0 {
+                        out.extend(t[0].iter().map(|&x| [x, y, z]));
+                    } else {
+                        out.extend(t[0].iter().rev().map(|&x| [x, y, z]));
+                    }
+                    row += 1;
+                }
+            }
+            out
+        }
+        "lines" => {
+            if p.contains_key("counts") {
+                return Err(SetupError::new(
+                    "counts",
+                    "a lines path takes `samples` (per line), not `counts`",
+                ));
+            }
+            let n = match p.get("samples") {
+                None => DEFAULT_LINE_SAMPLES,
+                Some(v) => count(v, "samples", 2)?,
+            };
+            let lo: Vec<f64> = (0..3)
+                .map(|k| ticks(axes[k].1, axes[k].2, fraction, 2)[0])
+                .collect();
+            let hi: Vec<f64> = (0..3)
+                .map(|k| ticks(axes[k].1, axes[k].2, fraction, 2)[1])
+                .collect();
+            let corner = |c: usize| [0, 1, 2].map(|k| if c >> k & 1 == 1 { hi[k] } else { lo[k] });
+            // The 12 edges of the box (corner pairs differing in one bit) and its 4 body
+            // diagonals (corner c to its opposite 7 − c, c < 4).
+            let mut lines: Vec<(usize, usize)> = Vec::new();
+            for k in 0..3 {
+                for c in 0..8usize {
+                    if c >> k & 1 == 0 {
+                        lines.push((c, c | 1 << k));
+                    }
+                }
+            }
+            lines.extend((0..4).map(|c| (c, 7 - c)));
+            let mut out = Vec::with_capacity(lines.len() * n);
+            for (a, b) in lines {
+                let (pa, pb) = (corner(a), corner(b));
+                for i in 0..n {
+                    let s = i as f64 / (n - 1) as f64;
+                    out.push([0, 1, 2].map(|k| pa[k] + s * (pb[k] - pa[k])));
+                }
+            }
+            out
+        }
+        other => {
+            return Err(SetupError::new(
+                "kind",
+                format!("unknown path kind `{other}`; expected \"grid\" or \"lines\""),
+            ));
+        }
+    };
+    let mut poses = Vec::with_capacity(points.len());
+    for (k, pt) in points.iter().enumerate() {
+        let mut q = base.clone();
+        for (j, &i) in xyz.iter().enumerate() {
+            q[i] = pt[j];
+        }
+        if !machine.within_limits(&q, LIMIT_TOL) {
+            let key = if p.contains_key("hold") {
+                "hold"
+            } else {
+                "kind"
+            };
+            return Err(SetupError::new(
+                key,
+                format!(
+                    "sample {k} {q:?} lies outside the axis limits of {} (held axes at 0 \
+                     unless `hold` names them)",
+                    machine.letters()
+                ),
+            ));
+        }
+        let distance_mm = (setup.nominal_reflector(&q) - setup.config().station()).norm() * 1e3;
+        if distance_mm < MIN_DISTANCE_MM {
+            return Err(SetupError::new(
+                "station",
+                format!(
+                    "at sample {k} the reflector comes within {distance_mm:.1} mm of the station \
+                     (at least {MIN_DISTANCE_MM} mm needed): move the station out of the path"
+                ),
+            ));
+        }
+        poses.push(q);
+    }
+    Ok(poses)
+}
