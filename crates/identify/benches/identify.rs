@@ -12,6 +12,8 @@
 //! Besides the times, each case prints the peak heap that `identify` allocates on top of the
 //! loaded session (the solver's working memory: it must not grow with the number of samples).
 //!
+//! The information account of the C-axis fit is timed too (`information_account`).
+//!
 //! `cargo bench -p mtcal-identify --bench identify`; the numbers go in the README.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -203,5 +205,22 @@ fn bench_identify(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_identify);
+/// The information account (shares by run, repeat gains) of the C-axis fit: one pass over the
+/// data per run for its factor, then dense algebra in the 108 parameters per run.
+fn bench_information(c: &mut Criterion) {
+    let mut g = c.benchmark_group("information_account");
+    g.sample_size(10);
+    for n in [10_000usize, 100_000] {
+        let (_dir, study) = c_axis_session(n);
+        let (_, solution) =
+            mtcal_identify::identify_with_solution(&study, &Options::default(), &mut Silent)
+                .unwrap();
+        g.bench_with_input(BenchmarkId::new("c-axis", n), &study, |b, study| {
+            b.iter(|| black_box(mtcal_identify::information::account(study, &solution).unwrap()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_identify, bench_information);
 criterion_main!(benches);

@@ -1,0 +1,366 @@
+//! ISO 230-2:2014 evaluation of bidirectional positioning runs: a pure function on a table of
+//! deviations per target and approach direction ([`iso230_2`]), the grouping of a run's
+//! samples into that table by the motion ([`approach_table`]) and the plugin's `evaluate`.
+
+use crate::setup::{Mode, load};
+use mtcal_instrument::{Evaluation, Metric, SetupContext, Unit};
+
+/// Commanded positions closer than this (m) are the same target.
+pub const TARGET_TOL: f64 = 1e-7;
+
+/// Deviations `x_ij = P_ij − P_i` (measured − target) at each target `i`, by approach
+/// direction: `up` = approached moving in the positive direction (↑), `down` = negative (↓).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Approaches {
+    /// Target positions, ascending (any unit; the deviations' unit is independent).
+    pub targets: Vec<f64>,
+    pub up: Vec<Vec<f64>>,
+    pub down: Vec<Vec<f64>>,
+}
+
+/// The statistics of one target (ISO 230-2:2014, 3.x and 4.x; deviations in the table's unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetStats {
+    pub target: f64,
+    /// x̄↑_i, x̄↓_i: mean unidirectional positioning deviations.
+    pub mean_up: f64,
+    pub mean_down: f64,
+    /// x̄_i = (x̄↑_i + x̄↓_i)/2: mean bidirectional positioning deviation.
+    pub mean: f64,
+    /// s↑_i, s↓_i: estimators of the unidirectional standard uncertainty (n − 1).
+    pub s_up: f64,
+    pub s_down: f64,
+    /// B_i = x̄↑_i − x̄↓_i: reversal value.
+    pub reversal: f64,
+    /// R↑_i = 4 s↑_i, R↓_i = 4 s↓_i: unidirectional repeatability.
+    pub r_up: f64,
+    pub r_down: f64,
+    /// R_i = max(2 s↑_i + 2 s↓_i + |B_i|, R↑_i, R↓_i): bidirectional repeatability.
+    pub r: f64,
+}
+
+/// The axis values of ISO 230-2:2014 (deviations in the table's unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Iso230_2 {
+    pub targets: Vec<TargetStats>,
+    /// B = max |B_i|: reversal value of the axis.
+    pub b: f64,
+    /// B̄ = Σ B_i / m: mean reversal value (signed).
+    pub b_mean: f64,
+    /// R↑ = max R↑_i, R↓ = max R↓_i, R = max R_i.
+    pub r_up: f64,
+    pub r_down: f64,
+    pub r: f64,
+    /// E↑ = max x̄↑_i − min x̄↑_i, E↓ likewise: unidirectional systematic positioning error.
+    pub e_up: f64,
+    pub e_down: f64,
+    /// E = max(x̄↑_i, x̄↓_i) − min(x̄↑_i, x̄↓_i) over all i: bidirectional systematic
+    /// positioning error.
+    pub e: f64,
+    /// M = max x̄_i − min x̄_i: range of the mean bidirectional positioning deviation.
+    pub m: f64,
+    /// A↑ = max(x̄↑_i + 2 s↑_i) − min(x̄↑_i − 2 s↑_i), A↓ likewise: unidirectional accuracy.
+    pub a_up: f64,
+    pub a_down: f64,
+    /// A = max(x̄↑_i + 2 s↑_i, x̄↓_i + 2 s↓_i) − min(x̄↑_i − 2 s↑_i, x̄↓_i − 2 s↓_i):
+    /// bidirectional accuracy.
+    pub a: f64,
+}
+
+fn mean(x: &[f64]) -> f64 {
+    x.iter().sum::<f64>() / x.len() as f64
+}
+
+/// The estimator of the standard uncertainty, `√(Σ (x − x̄)² / (n − 1))`.
+fn std_n1(x: &[f64], m: f64) -> f64 {
+    (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
+}
+
+fn range(it: impl Iterator<Item = f64> + Clone) -> f64 {
+    it.clone().fold(f64::NEG_INFINITY, f64::max) - it.fold(f64::INFINITY, f64::min)
+}
+
+/// The ISO 230-2:2014 evaluation of a bidirectional table. Every target needs at least two
+/// approaches in each direction (the error names the target otherwise), and there must be at
+/// least one target.
+pub fn iso230_2(table: &Approaches) -> Result<Iso230_2, String> {
+    let m = table.targets.len();
+    if m == 0 || table.up.len() != m || table.down.len() != m {
+        return Err(format!(
+            "need at least one target with deviations in both directions ({} targets, {} ↑ \
+             lists, {} ↓ lists)",
+            m,
+            table.up.len(),
+            table.down.len()
+        ));
+    }
+    let mut targets = Vec::with_capacity(m);
+    for i in 0..m {
+        let (up, down) = (&table.up[i], &table.down[i]);
+        if up.len() < 2 || down.len() < 2 {
+            return Err(format!(
+                "target {} ({}) has {} ↑ and {} ↓ approaches; ISO 230-2 needs at least 2 each",
+                i + 1,
+                table.targets[i],
+                up.len(),
+                down.len()
+            ));
+        }
+        let (mu, md) = (mean(up), mean(down));
+        let (su, sd) = (std_n1(up, mu), std_n1(down, md));
+        let b = mu - md;
+        let (ru, rd) = (4.0 * su, 4.0 * sd);
+        targets.push(TargetStats {
+            target: table.targets[i],
+            mean_up: mu,
+            mean_down: md,
+            mean: 0.5 * (mu + md),
+            s_up: su,
+            s_down: sd,
+            reversal: b,
+            r_up: ru,
+            r_down: rd,
+            r: (2.0 * su + 2.0 * sd + b.abs()).max(ru).max(rd),
+        });
+    }
+    let t = &targets;
+    let max = |f: &dyn Fn(&TargetStats) -> f64| t.iter().map(f).fold(f64::NEG_INFINITY, f64::max);
+    let min = |f: &dyn Fn(&TargetStats) -> f64| t.iter().map(f).fold(f64::INFINITY, f64::min);
+    let both = t.iter().flat_map(|s| [s.mean_up, s.mean_down]);
+    Ok(Iso230_2 {
+        b: max(&|s| s.reversal.abs()),
+        b_mean: t.iter().map(|s| s.reversal).sum::<f64>() / m as f64,
+        r_up: max(&|s| s.r_up),
+        r_down: max(&|s| s.r_down),
+        r: max(&|s| s.r),
+        e_up: range(t.iter().map(|s| s.mean_up)),
+        e_down: range(t.iter().map(|s| s.mean_down)),
+        e: range(both),
+        m: range(t.iter().map(|s| s.mean)),
+        a_up: max(&|s| s.mean_up + 2.0 * s.s_up) - min(&|s| s.mean_up - 2.0 * s.s_up),
+        a_down: max(&|s| s.mean_down + 2.0 * s.s_down) - min(&|s| s.mean_down - 2.0 * s.s_down),
+        a: max(&|s| (s.mean_up + 2.0 * s.s_up).max(s.mean_down + 2.0 * s.s_down))
+            - min(&|s| (s.mean_up - 2.0 * s.s_up).min(s.mean_down - 2.0 * s.s_down)),
+        targets,
+    })
+}
+
+impl Iso230_2 {
+    /// The axis values as metrics, `scale` from the table's unit to SI (1e-6 for µm, 1e-3
+    /// for mm, 1 for m), reported in µm: `A↑ (ISO 230-2)`, `A↓`, `A`, `E↑`, `E↓`, `E`, `M`,
+    /// `R↑`, `R↓`, `R`, `B`, `B̄` (mean reversal, signed).
+    pub fn metrics(&self, scale: f64) -> Vec<Metric> {
+        [
+            ("A↑", self.a_up),
+            ("A↓", self.a_down),
+            ("A", self.a),
+            ("E↑", self.e_up),
+            ("E↓", self.e_down),
+            ("E", self.e),
+            ("M", self.m),
+            ("R↑", self.r_up),
+            ("R↓", self.r_down),
+            ("R", self.r),
+            ("B", self.b),
+            ("B̄", self.b_mean),
+        ]
+        .into_iter()
+        .map(|(name, v)| Metric {
+            name: format!("{name} (ISO 230-2)"),
+            value: v * scale,
+            unit: Unit::Um,
+        })
+        .collect()
+    }
+}
+
+/// The approach direction of every sample of a path along one coordinate `travel` (samples in
+/// time order): `Some(true)` ↑, `Some(false)` ↓, `None` for a run that never moves.
+///
+/// A sample's direction is the sign of the move that brought the machine there. Consecutive
+/// samples at the same position (within `tol`) form a group: the move into the group and the
+/// move out of it decide. If they agree, or there is no move out, every sample of the group
+/// has the direction of the move in; if there is no move in (the start), the direction of the
+/// move out; at a reversal (the move out opposite to the move in) the first sample keeps the
+/// move in and the others take the move out: they are the first readings of the reversed pass
+/// after an overrun the run did not record (ISO 230-2 approaches each target from beyond it).
+pub fn approach_directions(travel: &[f64], tol: f64) -> Vec<Option<bool>> {
+    let n = travel.len();
+    let mut out = vec![None; n];
+    let mut start = 0;
+    while start < n {
+        let mut end = start + 1;
+        while end < n && (travel[end] - travel[start]).abs() <= tol {
+            end += 1;
+        }
+        let into = (start > 0).then(|| travel[start] > travel[start - 1]);
+        let out_of = (end < n).then(|| travel[end] > travel[start]);
+        for (k, o) in out[start..end].iter_mut().enumerate() {
+            *o = match (into, out_of) {
+                (None, o) => o,
+                (Some(i), Some(o)) if i != o && k > 0 => Some(o),
+                (Some(i), _) => Some(i),
+            };
+        }
+        start = end;
+    }
+    out
+}
+
+/// Groups a run's samples into an ISO 230-2 table: `travel` is the commanded position along
+/// the measured direction, `deviation` the reading (measured − commanded), both in time
+/// order. Directions by [`approach_directions`]; targets are the positions (within `tol`)
+/// approached at least twice from each direction (ISO 230-2 needs two to estimate a standard
+/// uncertainty), ascending; samples elsewhere are left out: overrun points (approached one
+/// way, or — the start below the first target — once the other way) and the positions of a
+/// single cycle.
+pub fn approach_table(travel: &[f64], deviation: &[f64], tol: f64) -> Approaches {
+    let dirs = approach_directions(travel, tol);
+    // Distinct positions, ascending, merged within tol.
+    let mut order: Vec<usize> = (0..travel.len()).collect();
+    order.sort_by(|&a, &b| travel[a].total_cmp(&travel[b]));
+    let mut positions: Vec<(f64, Vec<usize>, Vec<usize>)> = Vec::new();
+    for &k in &order {
+        let Some(up) = dirs[k] else { continue };
+        let new = positions
+            .last()
+            .is_none_or(|(p, _, _)| (travel[k] - p).abs() > tol);
+        if new {
+            positions.push((travel[k], Vec::new(), Vec::new()));
+        }
+        let last = positions.last_mut().expect("pushed");
+        if up { last.1.push(k) } else { last.2.push(k) }
+    }
+    let mut table = Approaches::default();
+    for (p, mut up, mut down) in positions {
+        if up.len() < 2 || down.len() < 2 {
+            continue;
+        }
+        // Time order within a direction (the sort above is by position only).
+        up.sort_unstable();
+        down.sort_unstable();
+        table.targets.push(p);
+        table.up.push(up.iter().map(|&k| deviation[k]).collect());
+        table
+            .down
+            .push(down.iter().map(|&k| deviation[k]).collect());
+    }
+    table
+}
+
+/// The straightness deviation of ISO 230-1 (3.4.8): the range of the deviations from their
+/// least-squares reference line over the travel (the readings' unit). `None` with fewer than
+/// three samples or no travel.
+pub fn straightness(travel: &[f64], deviation: &[f64]) -> Option<f64> {
+    let n = travel.len().min(deviation.len());
+    if n < 3 {
+        return None;
+    }
+    let (t, d) = (&travel[..n], &deviation[..n]);
+    let (mt, md) = (mean(t), mean(d));
+    let stt: f64 = t.iter().map(|x| (x - mt) * (x - mt)).sum();
+    if stt <= 0.0 {
+        return None;
+    }
+    let slope = t
+        .iter()
+        .zip(d)
+        .map(|(x, y)| (x - mt) * (y - md))
+        .sum::<f64>()
+        / stt;
+    Some(range(
+        t.iter().zip(d).map(move |(x, y)| y - md - slope * (x - mt)),
+    ))
+}
+
+/// The plugin's `evaluate`. A `straightness` run reports `straightness deviation (ISO 230-1)`
+/// ([`straightness`] over the travel along the beam, µm), an `angular` run
+/// `angular deviation (ISO 230-1)` (the range of its readings, µrad). A `linear` or `diagonal`
+/// run reports the ISO 230-2 axis values (µm):
+///
+/// A linear run that moves one axis is evaluated along that axis, as ISO 230-2 defines it:
+/// the targets are the commanded positions, ↑ is the axis' positive direction, and the
+/// deviation `x = P_measured − P_target` along it is the reading with the sign of the beam
+/// against the axis' motion (`direction = "-X"` reads −x). Any other run (a diagonal, several
+/// axes moving) is evaluated along the beam: the travel `n · p₀(q)`, ↑ = increasing along
+/// `direction`, the reading as the deviation. Directions come from the motion
+/// ([`approach_directions`]). Nothing for other modes, a set-up that does not load, or a run
+/// without a target approached twice from each side.
+pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
+    let Ok(setup) = load(
+        ev.setup,
+        &SetupContext {
+            machine: ev.machine,
+        },
+    ) else {
+        return Vec::new();
+    };
+    let n_axes = ev.machine.n_axes();
+    if n_axes == 0 || ev.q.len() % n_axes != 0 || ev.q.len() / n_axes != ev.readings.len() {
+        return Vec::new();
+    }
+    let rows: Vec<&[f64]> = ev.q.chunks_exact(n_axes).collect();
+    match setup.mode() {
+        Mode::Straightness => {
+            let travel: Vec<f64> = rows.iter().map(|q| setup.travel(q)).collect();
+            return straightness(&travel, ev.readings)
+                .map(|value| {
+                    vec![Metric {
+                        name: "straightness deviation (ISO 230-1)".into(),
+                        value,
+                        unit: Unit::Um,
+                    }]
+                })
+                .unwrap_or_default();
+        }
+        Mode::Angular => {
+            let (lo, hi) = ev
+                .readings
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            return if lo <= hi {
+                vec![Metric {
+                    name: "angular deviation (ISO 230-1)".into(),
+                    value: hi - lo,
+                    unit: Unit::Urad,
+                }]
+            } else {
+                Vec::new()
+            };
+        }
+        Mode::StepDiagonal => return Vec::new(),
+        Mode::Linear | Mode::Diagonal => {}
+    }
+    let Some(first) = rows.first() else {
+        return Vec::new();
+    };
+    let moving: Vec<usize> = (0..n_axes)
+        .filter(|&i| rows.iter().any(|q| (q[i] - first[i]).abs() > TARGET_TOL))
+        .collect();
+    let along_axis = match (setup.mode(), moving.as_slice()) {
+        (Mode::Linear, &[i]) => {
+            // How the optic moves when the axis moves positively, against the beam.
+            let mut plus = first.to_vec();
+            plus[i] += 1e-3;
+            let sign = (setup.nominal_optic(&plus) - setup.nominal_optic(first))
+                .dot(&setup.beam())
+                .signum();
+            (sign != 0.0).then_some((i, sign))
+        }
+        _ => None,
+    };
+    let (travel, deviation): (Vec<f64>, Vec<f64>) = match along_axis {
+        Some((i, sign)) => (
+            rows.iter().map(|q| q[i]).collect(),
+            ev.readings.iter().map(|d| sign * d).collect(),
+        ),
+        None => (
+            rows.iter().map(|q| setup.travel(q)).collect(),
+            ev.readings.to_vec(),
+        ),
+    };
+    let table = approach_table(&travel, &deviation, TARGET_TOL);
+    iso230_2(&table).map(|r| r.metrics(1.0)).unwrap_or_default()
+}

@@ -1,0 +1,222 @@
+//! The ISO 230-2:2014 evaluation against a small example computed by hand, the approach
+//! directions from the motion, and the plugin's `evaluate` on a run.
+
+use mtcal_instrument::Evaluation;
+use mtcal_laser::{
+    Approaches, approach_directions, approach_table, evaluate, iso230_2, straightness,
+};
+
+/// Two targets, three approaches each way (µm):
+/// target 0: ↑ 1, 2, 3 (x̄ 2, s 1); ↓ −1, 0, 1 (x̄ 0, s 1); B = 2, R = max(2+2+2, 4, 4) = 6
+/// target 1: ↑ 3, 3, 3 (x̄ 3, s 0); ↓ 5, 7, 6 (x̄ 6, s 1); B = −3, R = max(0+2+3, 0, 4) = 5
+fn example() -> Approaches {
+    Approaches {
+        targets: vec![0.0, 100.0],
+        up: vec![vec![1.0, 2.0, 3.0], vec![3.0, 3.0, 3.0]],
+        down: vec![vec![-1.0, 0.0, 1.0], vec![5.0, 7.0, 6.0]],
+    }
+}
+
+#[test]
+fn the_axis_values_are_those_computed_by_hand() {
+    let r = iso230_2(&example()).unwrap();
+    let t = &r.targets;
+    assert_eq!((t[0].mean_up, t[0].mean_down, t[0].mean), (2.0, 0.0, 1.0));
+    assert_eq!((t[0].s_up, t[0].s_down, t[0].reversal), (1.0, 1.0, 2.0));
+    assert_eq!((t[0].r_up, t[0].r_down, t[0].r), (4.0, 4.0, 6.0));
+    assert_eq!((t[1].mean_up, t[1].mean_down, t[1].mean), (3.0, 6.0, 4.5));
+    assert_eq!((t[1].s_up, t[1].s_down, t[1].reversal), (0.0, 1.0, -3.0));
+    assert_eq!((t[1].r_up, t[1].r_down, t[1].r), (0.0, 4.0, 5.0));
+    // B = max |B_i|, B̄ = mean B_i (signed).
+    assert_eq!((r.b, r.b_mean), (3.0, -0.5));
+    // R↑, R↓ unidirectional; R bidirectional includes 2s↑ + 2s↓ + |B_i| (6, not max(R↑, R↓) = 4).
+    assert_eq!((r.r_up, r.r_down, r.r), (4.0, 4.0, 6.0));
+    // E↑ = 3 − 2, E↓ = 6 − 0, E = max(2, 0, 3, 6) − min(2, 0, 3, 6).
+    assert_eq!((r.e_up, r.e_down, r.e), (1.0, 6.0, 6.0));
+    // M = 4.5 − 1.
+    assert_eq!(r.m, 3.5);
+    // A↑ = max(2+2, 3+0) − min(2−2, 3−0); A↓ = max(0+2, 6+2) − min(0−2, 6−2); A = 8 − (−2).
+    assert_eq!((r.a_up, r.a_down, r.a), (4.0, 10.0, 10.0));
+    // As metrics (µm in, SI out, reported in µm).
+    let m = r.metrics(1e-6);
+    let get = |n: &str| {
+        m.iter()
+            .find(|x| x.name == format!("{n} (ISO 230-2)"))
+            .unwrap()
+            .value
+    };
+    assert!((get("R") - 6e-6).abs() < 1e-18 && (get("B̄") + 0.5e-6).abs() < 1e-18);
+    assert_eq!(m.len(), 12);
+}
+
+#[test]
+fn too_few_approaches_are_an_error_naming_the_target() {
+    let mut t = example();
+    t.down[1].truncate(1);
+    let e = iso230_2(&t).unwrap_err();
+    assert!(e.contains("target 2"), "{e}");
+}
+
+#[test]
+fn directions_come_from_the_motion() {
+    let up = Some(true);
+    let down = Some(false);
+    // No overrun: the reversal point is recorded twice (last ↑ reading, first ↓ reading).
+    assert_eq!(
+        approach_directions(&[0.0, 5.0, 5.0, 0.0, 0.0, 5.0, 5.0, 0.0], 1e-9),
+        [up, up, down, down, up, up, down, down]
+    );
+    // With overrun samples, each approached one way.
+    assert_eq!(
+        approach_directions(&[-0.5, 0.0, 5.0, 5.5, 5.0, 0.0, -0.5], 1e-9),
+        [up, up, up, up, down, down, down]
+    );
+    // A run that starts with the descending pass.
+    assert_eq!(
+        approach_directions(&[5.0, 0.0, 0.0, 5.0], 1e-9),
+        [down, down, up, up]
+    );
+    // Overrun points are not targets: above, approached ↑ only; below, the start (↑ once)
+    // and the ends of the ↓ passes.
+    let t = approach_table(
+        &[
+            -0.5, 0.0, 5.0, 5.5, 5.0, 0.0, -0.5, 0.0, 5.0, 5.5, 5.0, 0.0, -0.5,
+        ],
+        &[
+            9.0, 1.0, 2.0, 9.0, 3.0, 4.0, 9.0, 5.0, 6.0, 9.0, 7.0, 8.0, 9.0,
+        ],
+        1e-9,
+    );
+    assert_eq!(t.targets, [0.0, 5.0]);
+    assert_eq!(t.up, [vec![1.0, 5.0], vec![2.0, 6.0]]);
+    assert_eq!(t.down, [vec![4.0, 8.0], vec![3.0, 7.0]]);
+}
+
+/// The example as a laser run along X of a nominal `ZFYX`, in ISO 230-2 cycle order, or with
+/// every cycle's passes reversed in time (↓ first).
+fn run(reversed: bool) -> (Vec<f64>, Vec<f64>) {
+    let ex = example();
+    let (mut q, mut d) = (Vec::new(), Vec::new());
+    for j in 0..3 {
+        let mut pass_up: Vec<(f64, f64)> = (0..2).map(|i| (ex.targets[i], ex.up[i][j])).collect();
+        let mut pass_down: Vec<(f64, f64)> = (0..2)
+            .rev()
+            .map(|i| (ex.targets[i], ex.down[i][j]))
+            .collect();
+        if reversed {
+            // ↓ pass first: come down onto the targets from above, then go up.
+            std::mem::swap(&mut pass_up, &mut pass_down);
+        }
+        for (x, v) in pass_up.into_iter().chain(pass_down) {
+            q.extend([x * 1e-3, 0.0, -0.1]);
+            d.push(v * 1e-6);
+        }
+    }
+    (q, d)
+}
+
+#[test]
+fn the_plugin_evaluates_a_linear_run_by_its_motion() {
+    let machine = mtcal_machine::load_machine("ZFYX", mtcal_machine::topology::Reading::default())
+        .unwrap()
+        .machine;
+    let want = iso230_2(&example()).unwrap().metrics(1e-6);
+    for reversed in [false, true] {
+        let (q, d) = run(reversed);
+        let t: Vec<f64> = (0..d.len()).map(|k| k as f64).collect();
+        let setup: toml::Table = toml::from_str("mode = \"linear\"\ndirection = \"X\"").unwrap();
+        let got = evaluate(&Evaluation {
+            machine: &machine,
+            setup: &setup,
+            q: &q,
+            readings: &d,
+            t: &t,
+            labels: &[],
+        });
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert_eq!(g.name, w.name);
+            assert!(
+                (g.value - w.value).abs() < 1e-15,
+                "{}: {} vs {}",
+                g.name,
+                g.value,
+                w.value
+            );
+        }
+        // A beam pointing the other way reads the opposite deviations; evaluated along the
+        // axis, the values are the same.
+        let minus: toml::Table = toml::from_str("mode = \"linear\"\ndirection = \"-X\"").unwrap();
+        let negated: Vec<f64> = d.iter().map(|v| -v).collect();
+        let got = evaluate(&Evaluation {
+            machine: &machine,
+            setup: &minus,
+            q: &q,
+            readings: &negated,
+            t: &t,
+            labels: &[],
+        });
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert!(
+                (g.value - w.value).abs() < 1e-15,
+                "-X {}: {} vs {}",
+                g.name,
+                g.value,
+                w.value
+            );
+        }
+        // A straightness run has no ISO 230-2 values (its own straightness value instead).
+        let st: toml::Table =
+            toml::from_str("mode = \"straightness\"\ndirection = \"X\"\nsense = \"Y\"").unwrap();
+        let none = evaluate(&Evaluation {
+            machine: &machine,
+            setup: &st,
+            q: &q,
+            readings: &d,
+            t: &t,
+            labels: &[],
+        });
+        assert!(
+            none.iter().all(|m| !m.name.contains("ISO 230-2")),
+            "{none:?}"
+        );
+    }
+}
+
+#[test]
+fn straightness_is_the_range_about_the_least_squares_line() {
+    // k u² at u = −2…2 about its least-squares line (slope 0, mean 2k): residuals 2k, −k, −2k,
+    // −k, 2k: range 4k, whatever line is added.
+    let k = 0.7e-6;
+    let travel: Vec<f64> = (0..5).map(|i| 0.1 * i as f64).collect();
+    let d: Vec<f64> = travel
+        .iter()
+        .map(|s| {
+            let u = (s - 0.2) / 0.1;
+            k * u * u + 3e-6 - 20e-6 * s
+        })
+        .collect();
+    let got = straightness(&travel, &d).unwrap();
+    assert!((got - 4.0 * k).abs() < 1e-15, "{got}");
+    assert!(straightness(&travel[..2], &d[..2]).is_none());
+    // Through the plugin: a straightness run along X of a ZFYX.
+    let machine = mtcal_machine::load_machine("ZFYX", mtcal_machine::topology::Reading::default())
+        .unwrap()
+        .machine;
+    let q: Vec<f64> = travel.iter().flat_map(|&x| [x, 0.0, -0.1]).collect();
+    let setup: toml::Table =
+        toml::from_str("mode = \"straightness\"\ndirection = \"X\"\nsense = \"Y\"").unwrap();
+    let t: Vec<f64> = (0..5).map(f64::from).collect();
+    let m = evaluate(&Evaluation {
+        machine: &machine,
+        setup: &setup,
+        q: &q,
+        readings: &d,
+        t: &t,
+        labels: &[],
+    });
+    assert_eq!(m.len(), 1);
+    assert_eq!(m[0].name, "straightness deviation (ISO 230-1)");
+    assert!((m[0].value - 4.0 * k).abs() < 1e-15);
+}
