@@ -199,7 +199,21 @@ pub fn write_predictions(
             continue;
         }
         let channels = study.channels(r);
-        let pred = predict_run(study, r, x);
+        let mut pred = predict_run(study, r, x);
+        let setup = &study.setups[run.setup].setup;
+        setup
+            .record_readings(
+                &mtcal_instrument::RunData {
+                    q: &run.q,
+                    t: &run.table.t,
+                    context: &run.table.context,
+                },
+                &mut pred,
+            )
+            .map_err(|e| IdentifyError::RunData {
+                at: run.table.path.display().to_string(),
+                message: format!("recording the predictions: {e}"),
+            })?;
         let values: Vec<f64> = pred
             .chunks_exact(channels.len())
             .flat_map(|row| row.iter().zip(channels).map(|(v, c)| v * c.unit.per_si()))

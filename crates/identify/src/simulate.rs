@@ -586,7 +586,7 @@ pub fn simulate_with(
             for p in plants {
                 p.apply(&sample, &mut pred);
             }
-            for (c, ch) in channels.iter().enumerate() {
+            for (c, p) in pred.iter().enumerate() {
                 let e = if run.noise[c] > 0.0 {
                     Normal::new(0.0, run.noise[c])
                         .expect("finite positive σ")
@@ -594,13 +594,31 @@ pub fn simulate_with(
                 } else {
                     0.0
                 };
-                values.push((pred[c] + e) * ch.unit.per_si());
+                values.push(p + e);
             }
             for (v, ax) in q.iter().zip(model.machine().axes()) {
                 positions.push(match ax.kind() {
                     AxisKind::Linear => v * 1e3,
                     AxisKind::Rotary => v.to_degrees(),
                 });
+            }
+        }
+        // The instrument's own form of the readings (an artefact's measured centres, a laser's
+        // uncompensated lengths), then file units.
+        let q_si: Vec<f64> = run.poses.concat();
+        setup
+            .record_readings(
+                &mtcal_instrument::RunData {
+                    q: &q_si,
+                    t: &run.t,
+                    context: &run.context,
+                },
+                &mut values,
+            )
+            .map_err(|e| run_err(format!("recording the readings: {e}")))?;
+        for row in values.chunks_exact_mut(nch) {
+            for (v, ch) in row.iter_mut().zip(channels) {
+                *v *= ch.unit.per_si();
             }
         }
         let program = mtcal_instrument::program::nc_program(

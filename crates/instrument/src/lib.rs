@@ -223,6 +223,14 @@ pub trait Setup: fmt::Debug + Send + Sync {
         let _ = (run, readings);
         Ok(())
     }
+
+    /// The inverse of [`Setup::prepare_readings`]: turns modelled readings (SI, row-major)
+    /// into readings as the instrument would record them, for files mtcal writes (simulated
+    /// runs, predictions of validation runs): `prepare_readings(record_readings(r)) = r`.
+    fn record_readings(&self, run: &RunData<'_>, readings: &mut [f64]) -> Result<(), ReadingError> {
+        let _ = (run, readings);
+        Ok(())
+    }
 }
 
 /// What the loader needs to know besides the table.

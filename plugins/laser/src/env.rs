@@ -326,6 +326,27 @@ pub fn compensate(
     travel: &[f64],
     readings: &mut [f64],
 ) -> Result<(), ReadingError> {
+    apply(env, run, travel, readings, false)
+}
+
+/// The inverse of [`compensate`]: from prepared deviations back to the readings the
+/// instrument reports (for simulated runs and predictions): `d = (d' − (κ − 1)·c)/κ`.
+pub fn uncompensate(
+    env: &Environment,
+    run: &RunData<'_>,
+    travel: &[f64],
+    readings: &mut [f64],
+) -> Result<(), ReadingError> {
+    apply(env, run, travel, readings, true)
+}
+
+fn apply(
+    env: &Environment,
+    run: &RunData<'_>,
+    travel: &[f64],
+    readings: &mut [f64],
+    inverse: bool,
+) -> Result<(), ReadingError> {
     let n = readings.len();
     if n == 0 {
         return Ok(());
@@ -381,7 +402,11 @@ pub fn compensate(
         let tm = material.as_ref().map(|m| m.at(k));
         let kappa = length_factor(env, n_air, tm);
         let c = travel[k] - c0;
-        *d = kappa * *d + (kappa - 1.0) * c;
+        *d = if inverse {
+            (*d - (kappa - 1.0) * c) / kappa
+        } else {
+            kappa * *d + (kappa - 1.0) * c
+        };
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! The laser set-up: loading, the measurement model and its analytic derivatives.
 
-use crate::env::{Environment, compensate};
+use crate::env::{Environment, compensate, uncompensate};
 use mtcal_instrument::{
     At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
     read,
@@ -701,5 +701,14 @@ impl Setup for LaserSetup {
         let n_axes = self.machine.n_axes();
         let travel: Vec<f64> = run.q.chunks_exact(n_axes).map(|q| self.travel(q)).collect();
         compensate(&self.env, run, &travel, readings)
+    }
+
+    fn record_readings(&self, run: &RunData<'_>, readings: &mut [f64]) -> Result<(), ReadingError> {
+        if !self.env.active() {
+            return Ok(());
+        }
+        let n_axes = self.machine.n_axes();
+        let travel: Vec<f64> = run.q.chunks_exact(n_axes).map(|q| self.travel(q)).collect();
+        uncompensate(&self.env, run, &travel, readings)
     }
 }

@@ -85,21 +85,29 @@ fn uncompensated_readings_are_corrected_back_to_the_true_deviation() {
         ("S".to_string(), vec![0.0; n]),
     ];
     let t: Vec<f64> = (0..n).map(|k| k as f64).collect();
-    s.prepare_readings(
-        &RunData {
-            q: &q,
-            t: &t,
-            context: &context,
-        },
-        &mut raw,
-    )
-    .unwrap();
+    let recorded = raw.clone();
+    let data = RunData {
+        q: &q,
+        t: &t,
+        context: &context,
+    };
+    s.prepare_readings(&data, &mut raw).unwrap();
     for k in 0..n {
         let want = d_true[k] - d_true[0];
         assert!(
             (raw[k] - want).abs() < 1e-12,
             "sample {k}: {} vs {want}",
             raw[k]
+        );
+    }
+    // And back: what simulate and --predict write is what the instrument would have reported.
+    s.record_readings(&data, &mut raw).unwrap();
+    for k in 0..n {
+        assert!(
+            (raw[k] - recorded[k]).abs() < 1e-15,
+            "sample {k}: recorded {} vs {}",
+            raw[k],
+            recorded[k]
         );
     }
 }
