@@ -28,7 +28,14 @@ mod tests {
     fn every_plugin_is_registered_exactly_once() {
         assert_eq!(
             names(),
-            ["artefact", "ballbar", "displacement", "laser", "rtest", "tracer"]
+            [
+                "artefact",
+                "ballbar",
+                "displacement",
+                "laser",
+                "rtest",
+                "tracer"
+            ]
         );
         for name in names() {
             assert_eq!(find(name).map(|p| p.name), Some(name));
