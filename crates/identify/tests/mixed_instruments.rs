@@ -71,13 +71,13 @@ name = "laser-x"
 instrument = "laser"
 setup = "laser-x"
 noise = NOISE_LASER
-path = { axis = "X", from = -300.0, to = 300.0, points = 13, cycles = 2, hold = { Z = 0.0 } }
+path = { axis = "X", from = -300.0, to = 300.0, points = 13, cycles = 2, hold = { Z = -250.0 } }
 [[run]]
 name = "laser-y"
 instrument = "laser"
 setup = "laser-y"
 noise = NOISE_LASER
-path = { axis = "Y", from = -350.0, to = 350.0, points = 13, cycles = 2, hold = { Z = 0.0 } }
+path = { axis = "Y", from = -350.0, to = 350.0, points = 13, cycles = 2, hold = { Z = -250.0 } }
 [[run]]
 name = "laser-z"
 instrument = "laser"

@@ -101,7 +101,11 @@
 //! parameters that can move together unseen have "only their difference observed"; two that
 //! can move oppositely have "only their sum observed". Every parameter that appears in a
 //! combination is *unidentified*: its σ is `None` and its row and column of the covariance are
-//! zero.
+//! zero. Before that, a direction's members that move by less than 10⁻⁵ of their plausible
+//! range ([`ParamSpec::scale`]) while its main members move over theirs are left out of it: a
+//! direction made of an almost invisible angle and a set-up constant often carries a
+//! second-order trace of a well-determined parameter, which is determined for any plausible
+//! value of the others and keeps its number.
 //!
 //! The covariance is `C = D⁻¹ V Σ⁻² Vᵀ D⁻¹` over the identified singular directions — the
 //! pseudo-inverse of `JᵀJ` computed from the triangular factor, never an explicit inverse of

@@ -11,6 +11,10 @@ use crate::{
 
 /// A step is accepted when the cost drops by at least this share of the predicted drop.
 const ACCEPT: f64 = 1e-4;
+/// A parameter that moves by less than this fraction of its plausible range along a null
+/// direction, while the direction's main members move over theirs, is not counted as part of
+/// it (`without_negligible_members`).
+const NEGLIGIBLE_MEMBER: f64 = 1e-5;
 /// When the cost drop matches the prediction this well (`|ρ − 1|` below it), the linear model is
 /// as good as exact and the next step is undamped (Gauss–Newton): linear problems converge in two
 /// steps and nonlinear ones quadratically near the solution.
@@ -643,6 +647,36 @@ fn shortened_into_box(dx: &[f64], x: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64>
         .collect()
 }
 
+/// A null direction's members that move by a negligible part of their plausible range while
+/// the others roam over theirs: below [`NEGLIGIBLE_MEMBER`] of the largest such fraction.
+///
+/// A direction that exists only because an almost invisible parameter (one whose column is
+/// zero at first order and tiny at second) pairs with a set-up constant picks up rounding-size
+/// or second-order components along well-determined parameters; moving it over a milliradian
+/// moves, say, a positioning coefficient by a nanometre. That parameter is determined for any
+/// plausible value of the others and keeps its number. Entries are in scaled units (`scale`:
+/// column norms), `floor[p]` is `1/plausible range` of parameter `p` (0 when it has none: then
+/// nothing is dropped against it).
+fn without_negligible_members(
+    mut dir: Vec<f64>,
+    scale: &[f64],
+    params: &[usize],
+    floor: &[f64],
+) -> Vec<f64> {
+    let fraction = |i: usize| (dir[i] / scale[i]).abs() * floor[params[i]];
+    if params.iter().any(|&p| floor[p] <= 0.0) {
+        return dir;
+    }
+    let largest = (0..dir.len()).map(fraction).fold(0.0, f64::max);
+    let small: Vec<usize> = (0..dir.len())
+        .filter(|&i| fraction(i) < NEGLIGIBLE_MEMBER * largest)
+        .collect();
+    for i in small {
+        dir[i] = 0.0;
+    }
+    dir
+}
+
 fn assemble(
     setup: &Setup,
     x: Vec<f64>,
@@ -663,10 +697,13 @@ fn assemble(
     let mut sorted = lin.order.clone();
     sorted.sort_unstable();
     let null = an.null_space();
-    let dirs: Vec<Vec<f64>> = (0..null.ncols())
-        .map(|k| sorted.iter().map(|&p| null[(col_of[p], k)]).collect())
-        .collect();
     let scale: Vec<f64> = sorted.iter().map(|&p| an.d[col_of[p]]).collect();
+    let dirs: Vec<Vec<f64>> = (0..null.ncols())
+        .map(|k| {
+            let dir: Vec<f64> = sorted.iter().map(|&p| null[(col_of[p], k)]).collect();
+            without_negligible_members(dir, &scale, &sorted, &setup.floor)
+        })
+        .collect();
     let names: Vec<&str> = sorted.iter().map(|&p| setup.names[p].as_str()).collect();
     let mut combinations = describe_null_space(&dirs, &scale, &names);
     for c in &mut combinations {

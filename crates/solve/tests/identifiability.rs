@@ -175,3 +175,30 @@ fn scaled_columns_give_coefficients_in_parameter_units() {
     );
     let _ = ParamSpec::default();
 }
+
+/// A null direction made of an almost invisible parameter and a constant (an angle seen only
+/// as an offset the run's zero takes) that carries, through a tiny second coupling, a trace of
+/// a well-determined parameter: that parameter moves by 10⁻⁹ of its plausible range while the
+/// others roam over theirs. It stays identified, with its number; the direction is described
+/// without it. Without plausible ranges nothing is dropped.
+#[test]
+fn a_negligible_member_of_a_null_direction_keeps_its_number() {
+    // Latent directions: a slope (seen by p0) and a constant (p1, and p2 through a short
+    // lever). p2's column is 2.5e-4 × p1's plus 1e-9 × p0's: exactly in their span, and in
+    // scaled units p0's share of the direction is 4e-6, above the rounding threshold.
+    let cols = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![1e-9, 2.5e-4]];
+    let p = latent(3, &cols, &[2.0, 0.5, 0.0], 60, 4);
+    let mut spec = params(3);
+    for s in &mut spec {
+        s.scale = Some(1.0);
+    }
+    let sol = solve(&p, &spec, &options(1), &mut Silent).unwrap();
+    assert_eq!(sol.rank, 2);
+    assert!(sol.identified[0], "{:#?}", sol.combinations);
+    assert!(sol.sigma[0].is_some());
+    assert_eq!(sol.combinations.len(), 1);
+    assert_eq!(sol.combinations[0].params, vec![1, 2]);
+    // Without plausible ranges the trace keeps p0 in the combination (the old rule).
+    let sol = solve(&p, &params(3), &options(1), &mut Silent).unwrap();
+    assert!(!sol.identified[0], "{:#?}", sol.combinations);
+}
