@@ -43,6 +43,8 @@
 //! [context]                          # context columns written into every run, by session time
 //! S = [[0.0, 0.0], [150.0, 4000.0]]  # spindle speed, rpm: steps (held until the next point)
 //! T_bed = [[0.0, 20.5], [600.0, 21.5]]  # temperatures, °C: linear between points
+//! P_air = [[0.0, 1013.0], [600.0, 1011.0]]  # air pressure, hPa, and H_<name> humidity, %:
+//!                                    # linear between points
 //!
 //! [[effect]]                         # a planted effect (any number)
 //! effect = "thermal-drift"           # a registered family (crates/effects)
@@ -743,10 +745,11 @@ fn context_schedules(
     for (name, v) in table {
         let steps = match name.as_str() {
             "S" | "F" => true,
-            n if n.starts_with("T_") && n.len() > 2 => false,
+            n if ["T_", "P_", "H_"].iter().any(|p| n.starts_with(p)) && n.len() > 2 => false,
             _ => {
                 return Err(err(format!(
-                    "[context] `{name}`: context columns are S, F and T_<name>"
+                    "[context] `{name}`: context columns are S, F, T_<name> (°C), P_<name> \
+                     (hPa) and H_<name> (% RH)"
                 )));
             }
         };
