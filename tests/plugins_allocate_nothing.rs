@@ -43,7 +43,7 @@ fn predict_and_derivatives_allocate_nothing() {
                 let mut out = vec![0.0; nc];
                 let mut d_pose = vec![0.0; nc * 6];
                 let mut d_nuis = vec![0.0; nc * nn];
-                let mut pass = |out: &mut [f64], d_pose: &mut [f64], d_nuis: &mut [f64]| {
+                let pass = |out: &mut [f64], d_pose: &mut [f64], d_nuis: &mut [f64]| {
                     for (k, (q, pose)) in fixture.poses.iter().zip(&poses).enumerate() {
                         let at = At {
                             q,
