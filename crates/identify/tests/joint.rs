@@ -7,6 +7,9 @@
 //!   sum to one), and predicts what repeating a run, or adding a run somewhere else, does to
 //!   every interval: checked against actually fitting the larger session.
 
+mod common;
+
+use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::{account, what_if};
 use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
 use mtcal_solve::Silent;
@@ -20,101 +23,6 @@ const ELEVEN: &str =
 const LOCATIONS: [&str; 8] = [
     "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
 ];
-
-const RTEST: &str = r#"
-[setup.ball]
-ball = [100.0, 0.0, 200.0]
-ball_free = false
-tool_length_free = false
-[[run]]
-name = "r-xyc"
-instrument = "rtest"
-setup = "ball"
-noise = 0.5
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "r-xyc-a30"
-instrument = "rtest"
-setup = "ball"
-noise = 0.5
-path = { kind = "xyc", samples = 37, hold = { A = 30.0 } }
-[[run]]
-name = "r-yza"
-instrument = "rtest"
-setup = "ball"
-noise = 0.5
-path = { kind = "yza", samples = 31 }
-"#;
-
-const BALLBAR: &str = r#"
-[setup.p1]
-pivot = [100.0, 0.0, 250.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.p2]
-pivot = [0.0, 100.0, 300.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.circles]
-pivot = [0.0, 0.0, 250.0]
-length = 100.0
-[[run]]
-name = "b-c-radial"
-instrument = "ballbar"
-setup = "p1"
-noise = 1.0
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "radial", samples = 73 }
-[[run]]
-name = "b-c-tangential"
-instrument = "ballbar"
-setup = "p1"
-noise = 1.0
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "tangential", samples = 73 }
-[[run]]
-name = "b-c-axial"
-instrument = "ballbar"
-setup = "p1"
-noise = 1.0
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "axial", samples = 73 }
-[[run]]
-name = "b-a-radial"
-instrument = "ballbar"
-setup = "p2"
-noise = 1.0
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "radial", samples = 61 }
-[[run]]
-name = "b-a-tangential"
-instrument = "ballbar"
-setup = "p2"
-noise = 1.0
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "tangential", samples = 61 }
-[[run]]
-name = "b-a-axial"
-instrument = "ballbar"
-setup = "p2"
-noise = 1.0
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "axial", samples = 61 }
-[[run]]
-name = "b-xy"
-instrument = "ballbar"
-setup = "circles"
-noise = 1.0
-path = { kind = "circle", plane = "XY", samples = 91 }
-[[run]]
-name = "b-yz"
-instrument = "ballbar"
-setup = "circles"
-noise = 1.0
-path = { kind = "circle", plane = "YZ", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }
-[[run]]
-name = "b-zx"
-instrument = "ballbar"
-setup = "circles"
-noise = 1.0
-path = { kind = "circle", plane = "ZX", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }
-"#;
 
 /// The R-test run `r-xyc` once more, same set-up (a repeat).
 const REPEAT: &str = r#"
@@ -146,6 +54,7 @@ fn repo() -> PathBuf {
 
 /// Simulates the runs into `dir/<name>` (same truth, same seed) and returns the session.
 fn session(dir: &Path, name: &str, runs: &str) -> PathBuf {
+    let runs = with_noise(runs, 0.5, 1.0);
     let machine = repo().join("machines/mcu630-cafyxz.urdf");
     let truth = repo().join("examples/five-axis/truth.params.toml");
     let plan = format!(

@@ -17,6 +17,9 @@
 //!   built for it (laser and tracer for positioning, R-test and ball-bar for the rotary axes'
 //!   locations).
 
+mod common;
+
+use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::account;
 use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
 use mtcal_solve::Silent;
@@ -121,90 +124,6 @@ noise = NOISE_TRACER
 path = { kind = "grid", counts = [3, 3, 3] }
 "#;
 
-const RTEST: &str = r#"
-[setup.ball]
-ball = [100.0, 0.0, 200.0]
-ball_free = false
-tool_length_free = false
-[[run]]
-name = "r-xyc"
-instrument = "rtest"
-setup = "ball"
-noise = NOISE_RTEST
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "r-xyc-a30"
-instrument = "rtest"
-setup = "ball"
-noise = NOISE_RTEST
-path = { kind = "xyc", samples = 37, hold = { A = 30.0 } }
-[[run]]
-name = "r-yza"
-instrument = "rtest"
-setup = "ball"
-noise = NOISE_RTEST
-path = { kind = "yza", samples = 31 }
-"#;
-
-const BALLBAR: &str = r#"
-[setup.p1]
-pivot = [100.0, 0.0, 250.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.p2]
-pivot = [0.0, 100.0, 300.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.circles]
-pivot = [0.0, 0.0, 250.0]
-length = 100.0
-tool_length_free = false
-[[run]]
-name = "b-c-radial"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE_BALLBAR
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "radial", samples = 73 }
-[[run]]
-name = "b-c-tangential"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE_BALLBAR
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "tangential", samples = 73 }
-[[run]]
-name = "b-a-radial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE_BALLBAR
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "radial", samples = 61 }
-[[run]]
-name = "b-a-axial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE_BALLBAR
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "axial", samples = 61 }
-[[run]]
-name = "b-xy"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE_BALLBAR
-path = { kind = "circle", plane = "XY", samples = 91 }
-[[run]]
-name = "b-yz"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE_BALLBAR
-path = { kind = "circle", plane = "YZ", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }
-[[run]]
-name = "b-zx"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE_BALLBAR
-path = { kind = "circle", plane = "ZX", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }
-"#;
-
 /// A calibrated 5 × 5 hole plate (50 mm pitch, certificate ±0.5 µm) on the table, probed at
 /// one placement; readings in mm (noise 0.5 µm).
 fn plate() -> String {
@@ -247,11 +166,9 @@ fn session(dir: &Path, name: &str, runs: &str, noisy: bool) -> PathBuf {
         std::fs::write(dir.join("truth.params.toml"), TRUTH).unwrap();
     }
     let scale = if noisy { 1.0 } else { 0.0 };
-    let runs = runs
+    let runs = with_noise(runs, 0.5 * scale, 1.0 * scale)
         .replace("NOISE_LASER", &format!("{:?}", 0.3 * scale))
         .replace("NOISE_TRACER", &format!("{:?}", 0.2 * scale))
-        .replace("NOISE_RTEST", &format!("{:?}", 0.5 * scale))
-        .replace("NOISE_BALLBAR", &format!("{:?}", 1.0 * scale))
         .replace("NOISE_PLATE", &format!("{:?}", 0.0005 * scale));
     let plan = format!(
         "machine = {machine:?}\ntruth = \"truth.params.toml\"\nseed = 3\n{runs}",
