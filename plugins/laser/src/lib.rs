@@ -20,7 +20,7 @@
 //! angles,
 //!
 //! ```text
-//! d = u · (p − p₀) + (m − m₀) · p₀ + o
+//! d = u · (p − p₀) + (m − m₀) · (p₀ − b) + o
 //! u = m                   optic = "tool"  (the beam is fixed in the workpiece frame)
 //! u = R R₀ᵀ m             optic = "table" (the beam turns with the tool)
 //! ```
@@ -29,13 +29,19 @@
 //! direction: at first order `u·δt + (R a × u)·δθ`, the second part the **Abbe error** (an
 //! angular error δθ of the tool acting through the optic's lever `R a`; e.g. a pitch `EBX` with
 //! the optic `h` above the tool point reads `h·EBX` in a linear X run). The second term is the
-//! tilt of the measuring direction acting on the commanded travel.
+//! tilt of the measuring direction about `b`, a point on the beam (key `origin`; default the
+//! workpiece origin), acting on the commanded travel. Give `origin` on the path's line (where
+//! the beam was aligned): the tilt then shifts no reading at first order on a straight path,
+//! and the run's zero is determined on its own; about a far point a tilt adds the constant
+//! `tilt × distance`, which zero and tilt share (zero then comes out with the tilt prior's
+//! interval times that lever).
 //!
 //! - *Length modes*: `m = (n + α e₁ + β e₂)/√(1 + α² + β²)`, `α, β` the beam tilt (nuisance
 //!   `tilt_1`, `tilt_2`, µrad) towards `e₁`, `e₂` ([`perpendicular_basis`]: `e₁` is the
 //!   workpiece axis least aligned with `n`, made perpendicular to it; `e₂ = n × e₁`). The model
 //!   is exact in the tilt, so the conformance Jacobian check holds at any tilt. How it enters:
-//!   along the travel `s = n·p₀`, `(m − n)·p₀ = (1/k − 1) s + (α e₁ + β e₂)·p₀/k`: the
+//!   along the travel `s = n·(p₀ − b)`,
+//!   `(m − n)·(p₀ − b) = (1/k − 1) s + (α e₁ + β e₂)·(p₀ − b)/k`: the
 //!   **cosine error** `−(α² + β²)/2 · s` is second order and is confounded with the axis'
 //!   linear positioning slope (the `EXX` slope); the first-order part `α e₁·p₀` is a constant
 //!   on a straight path (absorbed by `o`) and varies only on paths that move across the beam
@@ -59,7 +65,7 @@
 //! With the left pose perturbation (`t ← t + δt`, `R ← exp([δθ]×) R`):
 //! - length / straightness: `∂d/∂δt = u`, `∂d/∂δθ = (R a) × u` (+ `u × (p − p₀)` when the beam
 //!   turns with the tool, `δu = δθ × u`); `∂d/∂o = 1`;
-//!   `∂d/∂α = ∂u/∂α · (p − p₀) + ∂m/∂α · p₀` with `∂m/∂α = (e₁ − α m)/k` (`k = √(1+α²+β²)`;
+//!   `∂d/∂α = ∂u/∂α · (p − p₀) + ∂m/∂α · (p₀ − b)` with `∂m/∂α = (e₁ − α m)/k` (`k = √(1+α²+β²)`;
 //!   `∂u/∂α = R R₀ᵀ ∂m/∂α` for the table optic), likewise `β`, `γ` (with `e₁ = −n`).
 //! - angular: `∂d/∂δθ = J_l(φ)⁻ᵀ w` with `φ = log(R R₀ᵀ)` (`log(exp(δθ) exp(φ)) = φ +
 //!   J_l(φ)⁻¹ δθ + …`), `∂d/∂δt = 0`, `∂d/∂o = 1`.
@@ -72,6 +78,7 @@
 //! | `sense` | straightness: required | the direction the straightness deviation is read in (letter or vector), perpendicular to `direction` (`|cos| ≤ 1e-6`; orthogonalised) |
 //! | `about` | angular: required | the axis of the rotation read (pitch or yaw), letter or vector, perpendicular to `direction` |
 //! | `optic` | `"tool"` | `"tool"`: moving optic on the spindle side, laser and fixed optic on the table; `"table"`: moving optic on the table, laser on the tool side (the beam turns with the tool) |
+//! | `origin` | `[0, 0, 0]` | mm, a point on the beam (where it was aligned), workpiece frame: the point the beam tilts about |
 //! | `optic_offset` | `[0, 0, 0]` | mm, where the moving optic (or, for `"table"`, the tool-side optic) sits relative to the tool point, tool frame: the Abbe offset |
 //! | `sigma_um` | 0.5 | µm, standard deviation of one length / straightness reading |
 //! | `sigma_urad` | 1.0 | µrad, standard deviation of one angular reading |

@@ -26,6 +26,7 @@ pub const SETUP_KEYS: &[&str] = &[
     "about",
     "optic",
     "optic_offset",
+    "origin",
     "sigma_um",
     "sigma_urad",
     "offset_free",
@@ -198,6 +199,8 @@ pub struct LaserSetup {
     about: Option<Direction>,
     optic: Optic,
     optic_offset_mm: Option<[f64; 3]>,
+    /// A point on the beam, workpiece frame, mm (key `origin`).
+    origin_mm: Option<[f64; 3]>,
     sigma_um: Option<f64>,
     sigma_urad: Option<f64>,
     offset_free: bool,
@@ -219,6 +222,9 @@ pub struct LaserSetup {
     e2: Vector3<f64>,
     /// Optic offset, tool frame, m.
     a: Vector3<f64>,
+    /// The point the measuring direction tilts about (workpiece frame, m): `origin`, or the
+    /// workpiece origin.
+    b: Vector3<f64>,
     channels: Vec<Channel>,
     nuisance: Vec<Nuisance>,
 }
@@ -396,6 +402,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
         }
     };
     let optic_offset_mm = read::vec3(table, "optic_offset")?;
+    let origin_mm = read::vec3(table, "origin")?;
     let sigma_um = positive(
         "sigma_um",
         read::number(table, "sigma_um")?,
@@ -451,6 +458,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
     }
     let env = Environment::load(table, mode)?;
     let a = optic_offset_mm.map_or_else(Vector3::zeros, |v| Vector3::from(v) * 1e-3);
+    let b = origin_mm.map_or_else(Vector3::zeros, |v| Vector3::from(v) * 1e-3);
     let (m0, e1, e2) = match mode {
         Mode::Straightness => {
             let s = sense.as_ref().expect("required").unit;
@@ -512,6 +520,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
         about,
         optic,
         optic_offset_mm,
+        origin_mm,
         sigma_um,
         sigma_urad,
         offset_free,
@@ -525,6 +534,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
         e1,
         e2,
         a,
+        b,
         channels,
         nuisance,
     })
@@ -547,8 +557,8 @@ struct Geometry {
     lever: Vector3<f64>,
     /// `p − p₀`: the optic's displacement from its nominal position.
     dp: Vector3<f64>,
-    /// `p₀`: the optic's nominal position.
-    p0: Vector3<f64>,
+    /// `p₀ − b`: the optic's nominal position from the point the beam tilts about.
+    arm: Vector3<f64>,
 }
 
 impl LaserSetup {
@@ -560,7 +570,7 @@ impl LaserSetup {
             rel: at.w_t_t.r * nominal.r.transpose(),
             dp: (at.w_t_t.t - nominal.t) + (lever - lever0),
             lever,
-            p0: nominal.t + lever0,
+            arm: nominal.t + lever0 - self.b,
         }
     }
 }
@@ -599,7 +609,7 @@ impl Setup for LaserSetup {
             Optic::Tool => m,
             Optic::Table => g.rel * m,
         };
-        out[0] = u.dot(&g.dp) + self.tilt_change(alpha, beta).dot(&g.p0) + nuis[0];
+        out[0] = u.dot(&g.dp) + self.tilt_change(alpha, beta).dot(&g.arm) + nuis[0];
     }
 
     fn derivatives(
@@ -636,9 +646,9 @@ impl Setup for LaserSetup {
         d_pose[..3].copy_from_slice(u.as_slice());
         d_pose[3..6].copy_from_slice(w.as_slice());
         // ∂d/∂α = ∂u/∂α·dp + ∂m/∂α·p₀ (the change m − m₀ has the derivative of m).
-        d_nuis[1] = du_a.dot(&g.dp) + dm_a.dot(&g.p0);
+        d_nuis[1] = du_a.dot(&g.dp) + dm_a.dot(&g.arm);
         if nn > 2 {
-            d_nuis[2] = du_b.dot(&g.dp) + dm_b.dot(&g.p0);
+            d_nuis[2] = du_b.dot(&g.dp) + dm_b.dot(&g.arm);
         }
         true
     }
@@ -664,6 +674,12 @@ impl Setup for LaserSetup {
         if let Some(o) = self.optic_offset_mm {
             t.insert(
                 "optic_offset".into(),
+                toml::Value::Array(o.iter().map(|&x| x.into()).collect()),
+            );
+        }
+        if let Some(o) = self.origin_mm {
+            t.insert(
+                "origin".into(),
                 toml::Value::Array(o.iter().map(|&x| x.into()).collect()),
             );
         }

@@ -157,6 +157,32 @@ fn a_tilted_beam_gives_the_cosine_error_exactly() {
     assert!(n[0].prior_sigma.is_none() && n[0].free);
 }
 
+/// The beam tilts about its `origin`: on a straight path through the origin a tilt only gives
+/// the (second-order) cosine error, while about the workpiece origin it also shifts every
+/// reading by tilt × the path's distance from there — a constant the run's zero would have to
+/// take, leaving zero and tilt traded off against each other.
+#[test]
+fn the_beam_tilts_about_its_origin() {
+    let m = machine();
+    let p0 = m.tool_in_workpiece(&Q).t * 1e3;
+    let on_path = setup(
+        &m,
+        &format!(
+            "mode = \"linear\"\ndirection = \"X\"\norigin = [0.0, {}, {}]",
+            p0.y, p0.z
+        ),
+    );
+    let about_zero = setup(&m, "mode = \"linear\"\ndirection = \"X\"");
+    let alpha = 1e-4;
+    for nuis in [[0.0, alpha, 0.0], [0.0, 0.0, alpha]] {
+        let d = read(&on_path, &m, &Q, [0.0; 3], [0.0; 3], &nuis);
+        // Cosine error over |x| = 0.12 m: α²/2 · 0.12 m = 0.6 nm.
+        assert!(d.abs() < 1e-9, "{d}");
+        let d = read(&about_zero, &m, &Q, [0.0; 3], [0.0; 3], &nuis);
+        assert!(d.abs() > 1e-6, "{d}");
+    }
+}
+
 #[test]
 fn a_beam_on_the_tool_turns_with_it() {
     let m = machine();
