@@ -113,6 +113,12 @@
 //! test `crates/identify/tests/real_hole_plate.rs` does this, and [`plate`] fits the same
 //! terms without a session.
 //!
+//! # Evaluation
+//! [`evaluate()`] reports, per placement, what a plate report states: the similarity fit's RMS
+//! and largest deviation of the measured centres from the calibrated ones, its scale, and the
+//! affine fit's apparent X/Y scale difference and squareness (machine and plate errors
+//! together; the identification separates them across placements).
+//!
 //! # Example
 //! ```toml
 //! [setup.plate]
@@ -126,11 +132,13 @@
 //! p2 = { origin = [50.0, -50.0, -300.0], rotation_deg = 90.0 }
 //! ```
 
+mod evaluate;
 mod path;
 pub mod plate;
 pub mod rotary_axis;
 mod setup;
 
+pub use evaluate::evaluate;
 pub use path::{PATH_KEYS, fixture, path, path_labels};
 pub use setup::{
     ArtefactSetup, DEFAULT_PLACEMENT, DEFAULT_SIGMA_UM, PLACEMENT_KEYS, Placement, SETUP_KEYS,
@@ -145,6 +153,6 @@ inventory::submit! {
         fixture,
         path,
         path_labels: Some(path_labels),
-        evaluate: None,
+        evaluate: Some(evaluate),
     }
 }

@@ -20,8 +20,8 @@
 //! the similarity's rotation from the measured positions, so their `Rot` is a residual rotation of
 //! the order of the errors and its linearisation error negligible.
 
-use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 use nalgebra::{DMatrix, DVector};
+use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
 /// One linear term of a fit (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
