@@ -326,6 +326,20 @@ pub fn what_if(
     solution: &Solution,
     extra: &Study,
 ) -> Result<Vec<(String, f64)>, IdentifyError> {
+    let (ours, theirs) = (study.model.machine(), extra.model.machine());
+    if ours.name() != theirs.name() || ours.letters() != theirs.letters() {
+        return Err(IdentifyError::Machine {
+            manifest: extra.session.manifest.clone(),
+            message: format!(
+                "its runs are on another machine ({} {}) than the session identified ({} {}): \
+                 what they would add cannot be matched parameter by parameter",
+                theirs.name(),
+                theirs.letters(),
+                ours.name(),
+                ours.letters()
+            ),
+        });
+    }
     let n = solution.x.len();
     let names: Vec<_> = (0..n).map(|i| study.param_info(i)).collect();
     let mut x_extra = extra.initial_x();
