@@ -203,17 +203,19 @@ fn machine_size(m: &Machine) -> f64 {
 proptest! {
     #![proptest_config(config())]
 
-    /// An independent slow 4×4-product formulation equals the fast exact path to 1e-9 µm.
+    /// An independent slow 4×4-product formulation equals the fast exact path to 1e-8 µm.
     #[test]
     fn slow_formulation_equals_fast_path((model, q, c) in any_case()) {
         let mut ws = model.workspace();
         let fast = model.pose_error(&q, &c, &mut ws).to_array();
         let slow = slow_pose_error(&model, &q, &c);
-        // 1e-9 µm = 1e-15 m for a machine of 1 m; double precision cannot do better than about
-        // 1e-16 per metre of lever, so the bound grows with the machine's size.
+        // 1e-8 µm = 1e-14 m for a machine of 1 m: rounding is about 1e-16 per metre of lever
+        // per operation, and the two paths take a few dozen different operations along a chain
+        // of four axes (a bound of 1e-15 failed at 1.3e-15 on one random machine on CI); any
+        // formulation error shows at the errors' own scale, 1e-5 m, far above it.
         let size = machine_size(model.machine());
         for r in 0..6 {
-            prop_assert!((fast[r] - slow[r]).abs() < 1e-15 * size, "row {r}: fast {} slow {}", fast[r], slow[r]);
+            prop_assert!((fast[r] - slow[r]).abs() < 1e-14 * size, "row {r}: fast {} slow {}", fast[r], slow[r]);
         }
     }
 
