@@ -192,8 +192,10 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Plugins => {
-            for p in mtcal_plugins::plugins() {
-                writeln!(stdout, "{:<10} {}", p.name, p.about)?;
+            let plugins = mtcal_plugins::plugins();
+            let width = plugins.iter().map(|p| p.name.len()).max().unwrap_or(0);
+            for p in plugins {
+                writeln!(stdout, "{:<width$} {}", p.name, p.about)?;
             }
             Ok(())
         }
