@@ -46,6 +46,36 @@ enum Command {
         #[arg(long = "threshold")]
         thresholds: Vec<f64>,
     },
+    /// Compensation files from identified parameters: a pitch table of one axis (`--axis`,
+    /// LinuxCNC `COMP_FILE_TYPE = 1` or CSV), or else a 3-D grid of tool-point error vectors (CSV).
+    /// Conventions and formats: crates/compensate (compensation = −error).
+    Compensate {
+        #[command(flatten)]
+        machine: MachineArg,
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        #[arg(long)]
+        params: PathBuf,
+        /// The file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// A pitch table of this linear axis (positioning along its own direction).
+        #[arg(long)]
+        axis: Option<char>,
+        /// Node spacing, mm.
+        #[arg(long, default_value_t = 25.0)]
+        spacing_mm: f64,
+        /// Pitch tables: `linuxcnc` or `csv`.
+        #[arg(long, default_value = "csv")]
+        format: String,
+        /// Pitch tables: the signed ISO 230-2 reversal value B = x̄↑ − x̄↓ in µm; writes a
+        /// bidirectional table (reverse = forward + B).
+        #[arg(long, allow_negative_numbers = true)]
+        reversal_um: Option<f64>,
+        /// Positions of the other axes, e.g. Y=0,Z=-270,A=0 (mm / degrees; default: linear axes
+        /// mid-stroke, rotary axes 0).
+        #[arg(long)]
+        hold: Option<String>,
+    },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify {
         /// The session folder (or its session.toml).
@@ -237,6 +267,34 @@ fn run(cli: Cli) -> Result<()> {
             writeln!(stdout, "{}", map.summary(&thresholds))?;
             Ok(())
         }
+        Command::Compensate {
+            machine,
+            params,
+            out,
+            axis,
+            spacing_mm,
+            format,
+            reversal_um,
+            hold,
+        } => {
+            let loaded = machine.load()?;
+            let model = build_model(&loaded)?;
+            let coeffs = mtcal_machine::params::load_params(&params, model.errors())
+                .with_context(|| format!("cannot read parameter file {}", params.display()))?;
+            let hold_q = hold_positions(model.machine(), hold.as_deref())?;
+            let what = compensate(
+                &model,
+                &coeffs,
+                &out,
+                axis,
+                spacing_mm,
+                &format,
+                reversal_um,
+                hold_q,
+            )?;
+            writeln!(stdout, "wrote {} ({what})", out.display())?;
+            Ok(())
+        }
         Command::Topology {
             code,
             from_tool,
@@ -398,6 +456,80 @@ impl mtcal_solve::Observer for Progress {
 fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
     MachineModel::new(loaded.machine.clone(), &loaded.config)
         .context("the error-model configuration does not fit the machine")
+}
+
+/// Writes the compensation file of `mtcal xtask compensate`; says what it wrote.
+#[allow(clippy::too_many_arguments)]
+fn compensate(
+    model: &MachineModel,
+    coeffs: &[f64],
+    out: &std::path::Path,
+    axis: Option<char>,
+    spacing_mm: f64,
+    format: &str,
+    reversal_um: Option<f64>,
+    hold_q: Vec<f64>,
+) -> Result<String> {
+    use mtcal_compensate as comp;
+    let Some(axis) = axis else {
+        let mut spec = comp::GridSpec::new(model.machine(), [spacing_mm; 3]);
+        spec.hold_q = hold_q;
+        let grid = comp::error_grid(model, coeffs, &spec)?;
+        comp::write_grid_csv(out, &grid)?;
+        return Ok(format!(
+            "a {} × {} × {} grid of tool-point errors",
+            grid.x_mm.len(),
+            grid.y_mm.len(),
+            grid.z_mm.len()
+        ));
+    };
+    let mut table = comp::pitch_table(model, coeffs, axis, spacing_mm, &hold_q)?;
+    if let Some(b) = reversal_um {
+        table = table.with_reversal_um(b);
+    }
+    match format {
+        "linuxcnc" => comp::write_linuxcnc_comp(out, &table)?,
+        "csv" => comp::write_pitch_csv(out, &table)?,
+        other => bail!("--format `{other}`: expected linuxcnc or csv"),
+    }
+    Ok(format!(
+        "{} pitch table of {axis}, {} nodes{}",
+        format,
+        table.len(),
+        if table.reverse_um.is_some() {
+            ", bidirectional"
+        } else {
+            ""
+        }
+    ))
+}
+
+/// The axis positions (SI) of `--hold Y=0,Z=-270,A=0`: the crate's defaults (linear axes
+/// mid-stroke, rotary axes 0) with the given ones replaced (mm / degrees).
+fn hold_positions(machine: &Machine, hold: Option<&str>) -> Result<Vec<f64>> {
+    let mut q = mtcal_compensate::default_hold(machine);
+    for item in hold
+        .unwrap_or("")
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+    {
+        let (letter, value) = item
+            .split_once('=')
+            .with_context(|| format!("--hold `{item}`: expected LETTER=VALUE, e.g. Z=-270"))?;
+        let letter = letter.trim().chars().next().unwrap_or('?');
+        let v: f64 = value
+            .trim()
+            .parse()
+            .with_context(|| format!("--hold `{item}`: `{value}` is not a number"))?;
+        let k = machine
+            .axis_index(letter)
+            .with_context(|| format!("--hold `{item}`: the machine has no axis {letter}"))?;
+        q[k] = match machine.axes()[k].kind() {
+            AxisKind::Linear => v * 1e-3,
+            AxisKind::Rotary => v.to_radians(),
+        };
+    }
+    Ok(q)
 }
 
 /// Parses `21x22x22` and `A=30,C=45` into a grid over the linear axes.
