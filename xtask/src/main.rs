@@ -76,6 +76,39 @@ enum Command {
         #[arg(long)]
         hold: Option<String>,
     },
+    /// Correct an NC program for identified errors: every G0/G1 pose moved so the tool (point,
+    /// and on five-axis machines its axis) lands where the program meant it (crates/ncprog).
+    Correct {
+        #[command(flatten)]
+        machine: MachineArg,
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        #[arg(long)]
+        params: PathBuf,
+        /// The NC program to correct (read, never modified).
+        #[arg(long)]
+        program: PathBuf,
+        /// The corrected program to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Match the tool point only (rotary axes as commanded).
+        #[arg(long)]
+        position_only: bool,
+    },
+    /// The zero point of source 004: the constant offset that minimises the summed volumetric
+    /// error over its 10,164-point grid; with --program, that program offset by it.
+    ZeroPoint {
+        #[command(flatten)]
+        machine: MachineArg,
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        #[arg(long)]
+        params: PathBuf,
+        /// An NC program to offset (read, never modified); needs --out.
+        #[arg(long, requires = "out")]
+        program: Option<PathBuf>,
+        /// The offset program to write.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify {
         /// The session folder (or its session.toml).
@@ -295,6 +328,86 @@ fn run(cli: Cli) -> Result<()> {
             writeln!(stdout, "wrote {} ({what})", out.display())?;
             Ok(())
         }
+        Command::Correct {
+            machine,
+            params,
+            program,
+            out,
+            position_only,
+        } => {
+            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
+            let nc = read_program(&program)?;
+            let options = mtcal_ncprog::CorrectOptions {
+                match_tool_axis: !position_only,
+                ..Default::default()
+            };
+            let corrected = mtcal_ncprog::correct_program(&model, &coeffs, &nc, &options)
+                .with_context(|| format!("cannot correct {}", program.display()))?;
+            mtcal_machine::write_atomically(&out, corrected.text.as_bytes())
+                .with_context(|| format!("cannot write {}", out.display()))?;
+            writeln!(
+                stdout,
+                "wrote {} ({} poses corrected)",
+                out.display(),
+                corrected.poses.len()
+            )?;
+            Ok(())
+        }
+        Command::ZeroPoint {
+            machine,
+            params,
+            program,
+            out,
+        } => {
+            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
+            let grid =
+                Grid::source004(model.machine()).context("cannot build source 004's grid")?;
+            let z = mtcal_ncprog::model_zero_point(&model, &coeffs, &grid)
+                .context("the grid has no points")?;
+            let zp = &z.zero_point;
+            let mm: Vec<String> = z
+                .positions
+                .iter()
+                .zip(model.machine().axes())
+                .map(|(v, a)| match a.kind() {
+                    AxisKind::Linear => format!("{}={:.3}", a.letter().as_char(), v * 1e3),
+                    AxisKind::Rotary => format!("{}={:.3}", a.letter().as_char(), v.to_degrees()),
+                })
+                .collect();
+            writeln!(
+                stdout,
+                "zero point  {} of {} grid points",
+                mm.join(" "),
+                grid.len()
+            )?;
+            writeln!(
+                stdout,
+                "offset      [{:.3}, {:.3}, {:.3}] um",
+                zp.offset_um[0], zp.offset_um[1], zp.offset_um[2]
+            )?;
+            writeln!(
+                stdout,
+                "sum |error| {:.1} um before, {:.1} um after (geometric median {:.1} um); max {:.3} um before, {:.3} um after",
+                zp.sum_before_um,
+                zp.sum_after_um,
+                z.median.sum_um,
+                zp.max_before_um,
+                zp.max_after_um
+            )?;
+            if let (Some(program), Some(out)) = (program, out) {
+                let nc = read_program(&program)?;
+                let text = mtcal_ncprog::offset_program(
+                    &nc,
+                    zp.offset_um.map(|v| v * 1e-3),
+                    mtcal_ncprog::Decimals::default(),
+                )
+                .with_context(|| format!("cannot offset {}", program.display()))?;
+                mtcal_machine::write_atomically(&out, text.as_bytes())
+                    .with_context(|| format!("cannot write {}", out.display()))?;
+                writeln!(stdout, "wrote {}", out.display())?;
+            }
+            Ok(())
+        }
         Command::Topology {
             code,
             from_tool,
@@ -456,6 +569,34 @@ impl mtcal_solve::Observer for Progress {
 fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
     MachineModel::new(loaded.machine.clone(), &loaded.config)
         .context("the error-model configuration does not fit the machine")
+}
+
+/// The machine's model and the coefficients of a parameter file.
+fn model_and_coeffs(
+    machine: &MachineArg,
+    params: &std::path::Path,
+) -> Result<(MachineModel, Vec<f64>)> {
+    let loaded = machine.load()?;
+    let model = build_model(&loaded)?;
+    let coeffs = mtcal_machine::params::load_params(params, model.errors())
+        .with_context(|| format!("cannot read parameter file {}", params.display()))?;
+    Ok((model, coeffs))
+}
+
+/// An NC program, parsed (errors name the file, line and column).
+fn read_program(path: &std::path::Path) -> Result<mtcal_ncprog::Program> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read NC program {}", path.display()))?;
+    mtcal_ncprog::Program::parse(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}:{}:{}: expected {}, found {}",
+            path.display(),
+            e.line,
+            e.column,
+            e.expected,
+            e.found
+        )
+    })
 }
 
 /// Writes the compensation file of `mtcal xtask compensate`; says what it wrote.
