@@ -109,6 +109,22 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Predicted tool-tip error along CL data (CSV `x,y,z[,i,j,k]`: tool tip in the workpiece
+    /// frame, mm, and tool axis; crates/ncprog/src/cl.rs): axis positions by the nominal inverse
+    /// kinematics, then the identified errors at them.
+    ClError {
+        #[command(flatten)]
+        machine: MachineArg,
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        #[arg(long)]
+        params: PathBuf,
+        /// The CL data file (read, never modified).
+        #[arg(long)]
+        cl: PathBuf,
+        /// Write every point's axis positions and predicted error to this CSV file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify {
         /// The session folder (or its session.toml).
@@ -408,6 +424,12 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::ClError {
+            machine,
+            params,
+            cl,
+            out,
+        } => cl_error(&mut stdout, &machine, &params, &cl, out.as_deref()),
         Command::Topology {
             code,
             from_tool,
@@ -597,6 +619,91 @@ fn read_program(path: &std::path::Path) -> Result<mtcal_ncprog::Program> {
             e.found
         )
     })
+}
+
+/// CL data, parsed (errors name the file, line and column).
+fn read_cl(path: &std::path::Path) -> Result<mtcal_ncprog::ClData> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read CL data {}", path.display()))?;
+    mtcal_ncprog::ClData::parse(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}:{}:{}: expected {}, found {}",
+            path.display(),
+            e.line,
+            e.column,
+            e.expected,
+            e.found
+        )
+    })
+}
+
+/// `cl-error`: the summary of the predicted errors along a CL path, and with `out` the CSV of
+/// every point.
+fn cl_error(
+    stdout: &mut impl std::io::Write,
+    machine: &MachineArg,
+    params: &std::path::Path,
+    cl_path: &std::path::Path,
+    out: Option<&std::path::Path>,
+) -> Result<()> {
+    use std::fmt::Write as _;
+    let (model, coeffs) = model_and_coeffs(machine, params)?;
+    let cl = read_cl(cl_path)?;
+    let points =
+        mtcal_ncprog::all_axis_positions(model.machine(), &cl, &mtcal_ncprog::ClOptions::default())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", cl_path.display()))?;
+    let qs: Vec<Vec<f64>> = points.iter().map(|p| p.q.clone()).collect();
+    let errors = mtcal_ncprog::predicted_errors(&model, &coeffs, &qs);
+    let s = mtcal_ncprog::summarize(&errors).context("the CL data has no points")?;
+    let singular = points.iter().filter(|p| p.singular.is_some()).count();
+    writeln!(
+        stdout,
+        "cl data     {}: {} points{}",
+        cl_path.display(),
+        s.points,
+        if singular > 0 {
+            format!(" ({singular} singular: free rotary axis held at the previous position)")
+        } else {
+            String::new()
+        }
+    )?;
+    writeln!(
+        stdout,
+        "|error|     max {:.3} um at line {}, RMS {:.3} um, P90 {:.3} um; tool-axis tilt max {:.3} urad",
+        s.max_um, points[s.max_index].line, s.rms_um, s.p90_um, s.max_tilt_urad
+    )?;
+    if let Some(out) = out {
+        let axes = model.machine().axes();
+        let mut csv = String::from("x,y,z");
+        for a in axes {
+            let unit = match a.kind() {
+                AxisKind::Linear => "mm",
+                AxisKind::Rotary => "deg",
+            };
+            let _ = write!(csv, ",{}_{unit}", a.letter().as_char());
+        }
+        csv.push_str(",dx_um,dy_um,dz_um,e_um,tilt_urad\n");
+        for ((p, ap), e) in cl.points.iter().zip(&points).zip(&errors) {
+            let _ = write!(csv, "{},{},{}", p.tip_mm.x, p.tip_mm.y, p.tip_mm.z);
+            for (a, &q) in axes.iter().zip(&ap.q) {
+                let v = match a.kind() {
+                    AxisKind::Linear => q * 1e3,
+                    AxisKind::Rotary => q.to_degrees(),
+                };
+                let _ = write!(csv, ",{v:.6}");
+            }
+            let t = e.translation_um;
+            let _ = writeln!(
+                csv,
+                ",{:.4},{:.4},{:.4},{:.4},{:.3}",
+                t.x, t.y, t.z, e.magnitude_um, e.tilt_urad
+            );
+        }
+        mtcal_machine::write_atomically(out, csv.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+        writeln!(stdout, "wrote {} ({} rows)", out.display(), errors.len())?;
+    }
+    Ok(())
 }
 
 /// Writes the compensation file of `mtcal xtask compensate`; says what it wrote.

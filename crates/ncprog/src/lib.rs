@@ -49,12 +49,27 @@
 //! [`zero_point::zero_point_naive`] bit for bit); [`zero_point::geometric_median`] is the
 //! continuous optimum (Weiszfeld), whose sum is never larger. [`offset_program`] is the
 //! postprocessor: the offset added to every absolute X/Y/Z word (µm / 1000 = mm).
+//!
+//! # CL data → predicted path error ([`cl`], source 002)
+//! CL data as CAM writes it (tool tip in the workpiece frame, mm, and the tool axis per point) in
+//! a documented CSV form ([`ClData::parse`]: header `x,y,z[,i,j,k]`, errors located by line and
+//! column), turned into axis positions by the nominal closed-form inverse kinematics
+//! ([`axis_positions`]: the branch continuous with the previous point; three-axis machines
+//! directly, with the tool axis checked to be +Z; limits, unreachable and singular points
+//! reported per point), and the error the identified machine makes there
+//! ([`predicted_errors`]: tool-tip error in µm and tool-axis tilt in µrad from
+//! `MachineModel::pose_error`; [`summarize`]: max, RMS, P90).
 
+pub mod cl;
 pub mod correct;
 pub mod gcode;
 pub mod offset;
 pub mod zero_point;
 
+pub use cl::{
+    AxisPoint, AxisPositionsError, ClData, ClOptions, ClParseError, ClPoint, ErrorSummary,
+    PointError, PointFailure, all_axis_positions, axis_positions, predicted_errors, summarize,
+};
 pub use correct::{
     CorrectError, CorrectOptions, CorrectedPose, Correction, Failure, correct_program,
 };

@@ -1,0 +1,135 @@
+//! `mtcal cl-error` on the three-axis example's truth: CL data (tool tip, mm) becomes axis
+//! positions and a predicted error per point, summarised and written as CSV; a file that cannot
+//! be read is located by file, line and column and nothing is written.
+
+use std::path::Path;
+use std::process::Command;
+
+const MACHINE: &str = "examples/three-axis/machine/zfyx.urdf";
+const PARAMS: &str = "examples/three-axis/truth.params.toml";
+/// Tool tips in the workpiece frame (on this machine Z = z − 640 mm), axis +Z.
+const CL: &str =
+    "# three points\nx,y,z,i,j,k\n0,0,300,0,0,1\n\n100,50,280,0,0,1\n-200,-100,350,0,0,2\n";
+
+fn run(args: &[&str]) -> std::process::Output {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .args(args)
+        .current_dir(repo)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let (input, csv) = (dir.path().join("path.csv"), dir.path().join("errors.csv"));
+    std::fs::write(&input, CL).unwrap();
+    let p = |x: &Path| x.to_str().unwrap().to_string();
+    let out = run(&[
+        "cl-error",
+        MACHINE,
+        "--params",
+        PARAMS,
+        "--cl",
+        &p(&input),
+        "--out",
+        &p(&csv),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), CL);
+    let report = String::from_utf8(out.stdout).unwrap();
+    assert!(report.contains(": 3 points\n"), "{report}");
+    let summary = report
+        .lines()
+        .find(|l| l.starts_with("|error|     max "))
+        .unwrap_or_else(|| panic!("{report}"));
+    let numbers: Vec<f64> = summary
+        .split([' ', ','])
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    // max, line, RMS, P90, tilt
+    let (max, line, rms, p90) = (numbers[0], numbers[1], numbers[2], numbers[3]);
+    assert!(max > 0.1 && max < 100.0, "{summary}");
+    assert!(rms <= max && p90 <= max, "{summary}");
+    assert!([3.0, 5.0, 6.0].contains(&line), "{summary}");
+
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        rows[0],
+        "x,y,z,X_mm,Y_mm,Z_mm,dx_um,dy_um,dz_um,e_um,tilt_urad"
+    );
+    assert_eq!(rows.len(), 4, "{text}");
+    let cells: Vec<Vec<f64>> = rows[1..]
+        .iter()
+        .map(|r| r.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    let tips = [
+        [0.0, 0.0, 300.0],
+        [100.0, 50.0, 280.0],
+        [-200.0, -100.0, 350.0],
+    ];
+    let mut largest: f64 = 0.0;
+    for (c, tip) in cells.iter().zip(tips) {
+        assert_eq!(c.len(), 11);
+        assert_eq!(&c[..3], &tip);
+        // Tool point over the table: X = x, Y = y, Z = z − 640 mm.
+        assert!((c[3] - tip[0]).abs() < 1e-6 && (c[4] - tip[1]).abs() < 1e-6);
+        assert!((c[5] - (tip[2] - 640.0)).abs() < 1e-6, "{c:?}");
+        let e = (c[6] * c[6] + c[7] * c[7] + c[8] * c[8]).sqrt();
+        assert!((e - c[9]).abs() < 1e-3, "{c:?}");
+        largest = largest.max(c[9]);
+    }
+    assert!((largest - max).abs() < 2e-3, "{summary} vs {text}");
+
+    for (bad, at) in [
+        ("x,y,z\n0,0,300\n1,5;2\n", ":3:4:"),
+        ("x,y,z,i,j,k\n0,0,300,0,0,0\n", ":2:9:"),
+        ("x,y,z\n0,0,NaN\n", ":2:5:"),
+    ] {
+        let file = dir.path().join("bad.csv");
+        let never = dir.path().join("never.csv");
+        std::fs::write(&file, bad).unwrap();
+        let out = run(&[
+            "cl-error",
+            MACHINE,
+            "--params",
+            PARAMS,
+            "--cl",
+            &p(&file),
+            "--out",
+            &p(&never),
+        ]);
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("{}{at} expected", file.display())),
+            "{err}"
+        );
+        assert!(!never.exists());
+    }
+
+    // A point outside the axis limits is reported by line, nothing written.
+    let file = dir.path().join("far.csv");
+    let never = dir.path().join("never.csv");
+    std::fs::write(&file, "x,y,z\n0,0,300\n0,0,0\n").unwrap();
+    let out = run(&[
+        "cl-error",
+        MACHINE,
+        "--params",
+        PARAMS,
+        "--cl",
+        &p(&file),
+        "--out",
+        &p(&never),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 3: axis Z"), "{err}");
+    assert!(!never.exists());
+}
