@@ -630,34 +630,7 @@ impl Solver<'_> {
 
     /// The largest violation of `q` relative to its axis' range, and that violation.
     fn worst_violation(&self, q: &[f64]) -> Option<(f64, LimitViolation)> {
-        let tol = self.opts.limit_tol;
-        let mut worst: Option<(f64, LimitViolation)> = None;
-        for (ax, &v) in self.machine.axes().iter().zip(q) {
-            let Some((lo, hi)) = ax.limits() else {
-                continue;
-            };
-            let (bound, limit) = if v < lo - tol {
-                (Bound::Lower, lo)
-            } else if v > hi + tol {
-                (Bound::Upper, hi)
-            } else {
-                continue;
-            };
-            let rel = (v - limit).abs() / (hi - lo);
-            if worst.as_ref().is_none_or(|(w, _)| rel > *w) {
-                worst = Some((
-                    rel,
-                    LimitViolation {
-                        axis: ax.letter().as_char(),
-                        kind: ax.kind(),
-                        position: v,
-                        bound,
-                        limit,
-                    },
-                ));
-            }
-        }
-        worst
+        worst_violation(self.machine, q, self.opts.limit_tol)
     }
 
     fn sort(&self, sols: &mut [IkSolution]) {
@@ -684,6 +657,38 @@ impl Solver<'_> {
             }),
         }
     }
+}
+
+/// The largest violation of `q`'s axis limits (beyond `tol`, m or rad), relative to the axis'
+/// range, and that violation; `None` when every axis is within its limits.
+pub fn worst_violation(machine: &Machine, q: &[f64], tol: f64) -> Option<(f64, LimitViolation)> {
+    let mut worst: Option<(f64, LimitViolation)> = None;
+    for (ax, &v) in machine.axes().iter().zip(q) {
+        let Some((lo, hi)) = ax.limits() else {
+            continue;
+        };
+        let (bound, limit) = if v < lo - tol {
+            (Bound::Lower, lo)
+        } else if v > hi + tol {
+            (Bound::Upper, hi)
+        } else {
+            continue;
+        };
+        let rel = (v - limit).abs() / (hi - lo);
+        if worst.as_ref().is_none_or(|(w, _)| rel > *w) {
+            worst = Some((
+                rel,
+                LimitViolation {
+                    axis: ax.letter().as_char(),
+                    kind: ax.kind(),
+                    position: v,
+                    bound,
+                    limit,
+                },
+            ));
+        }
+    }
+    worst
 }
 
 #[cfg(test)]

@@ -326,10 +326,7 @@ fn run(cli: Cli) -> Result<()> {
             reversal_um,
             hold,
         } => {
-            let loaded = machine.load()?;
-            let model = build_model(&loaded)?;
-            let coeffs = mtcal_machine::params::load_params(&params, model.errors())
-                .with_context(|| format!("cannot read parameter file {}", params.display()))?;
+            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
             let hold_q = hold_positions(model.machine(), hold.as_deref())?;
             let what = compensate(
                 &model,
@@ -607,34 +604,34 @@ fn model_and_coeffs(
 
 /// An NC program, parsed (errors name the file, line and column).
 fn read_program(path: &std::path::Path) -> Result<mtcal_ncprog::Program> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read NC program {}", path.display()))?;
-    mtcal_ncprog::Program::parse(&text).map_err(|e| {
-        anyhow::anyhow!(
-            "{}:{}:{}: expected {}, found {}",
-            path.display(),
-            e.line,
-            e.column,
-            e.expected,
-            e.found
-        )
-    })
+    let text = read_text(path, "NC program")?;
+    mtcal_ncprog::Program::parse(&text)
+        .map_err(|e| located(path, e.line, e.column, e.expected, &e.found))
 }
 
 /// CL data, parsed (errors name the file, line and column).
 fn read_cl(path: &std::path::Path) -> Result<mtcal_ncprog::ClData> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read CL data {}", path.display()))?;
-    mtcal_ncprog::ClData::parse(&text).map_err(|e| {
-        anyhow::anyhow!(
-            "{}:{}:{}: expected {}, found {}",
-            path.display(),
-            e.line,
-            e.column,
-            e.expected,
-            e.found
-        )
-    })
+    let text = read_text(path, "CL data")?;
+    mtcal_ncprog::ClData::parse(&text)
+        .map_err(|e| located(path, e.line, e.column, e.expected, &e.found))
+}
+
+fn read_text(path: &std::path::Path, what: &str) -> Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("cannot read {what} {}", path.display()))
+}
+
+/// `file:line:column: expected …, found …`.
+fn located(
+    path: &std::path::Path,
+    line: usize,
+    column: usize,
+    expected: &str,
+    found: &str,
+) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}:{line}:{column}: expected {expected}, found {found}",
+        path.display()
+    )
 }
 
 /// `cl-error`: the summary of the predicted errors along a CL path, and with `out` the CSV of

@@ -45,9 +45,7 @@
 //! turn about the tool axis itself does not tilt it). The summary gives the max of `|error|`
 //! and where, the RMS, the P90 (nearest rank: the `⌈0.9 n⌉`-th smallest) and the largest tilt.
 
-use mtcal_kinematics::ik::{
-    Bound, IkError, IkOptions, LimitViolation, follow_point, inverse_kinematics,
-};
+use mtcal_kinematics::ik::{IkError, IkOptions, LimitViolation, follow_point, inverse_kinematics};
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};
 use nalgebra::{Rotation3, Vector3};
 use std::fmt;
@@ -452,33 +450,7 @@ fn three_axis(machine: &Machine, p: &ClPoint, opts: &ClOptions) -> Result<AxisPo
 
 /// The largest limit violation of `q` (relative to the axis' range).
 fn worst_violation(machine: &Machine, q: &[f64], tol: f64) -> Option<LimitViolation> {
-    let mut worst: Option<(f64, LimitViolation)> = None;
-    for (ax, &v) in machine.axes().iter().zip(q) {
-        let Some((lo, hi)) = ax.limits() else {
-            continue;
-        };
-        let (bound, limit) = if v < lo - tol {
-            (Bound::Lower, lo)
-        } else if v > hi + tol {
-            (Bound::Upper, hi)
-        } else {
-            continue;
-        };
-        let rel = (v - limit).abs() / (hi - lo);
-        if worst.as_ref().is_none_or(|(w, _)| rel > *w) {
-            worst = Some((
-                rel,
-                LimitViolation {
-                    axis: ax.letter().as_char(),
-                    kind: ax.kind(),
-                    position: v,
-                    bound,
-                    limit,
-                },
-            ));
-        }
-    }
-    worst.map(|(_, v)| v)
+    mtcal_kinematics::ik::worst_violation(machine, q, tol).map(|(_, v)| v)
 }
 
 /// Every point's axis positions, or all failures together.
