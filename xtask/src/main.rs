@@ -12,6 +12,10 @@ use mtcal_machine::{LoadedMachine, load_machine};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod plan;
+mod report;
+mod tolerance;
+
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "mtcal: machine-tool metrology", version)]
 struct Cli {
@@ -37,8 +41,13 @@ enum Command {
         #[arg(long)]
         grid: Option<String>,
         /// Rotary axis positions in degrees for the map, e.g. A=30,C=45 (default 0).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "orientations")]
         at: Option<String>,
+        /// An orientation grid for five-axis machines: the linear grid repeated at every
+        /// combination of rotary positions, each axis as LETTER=FROM..TO/COUNT in degrees (ends
+        /// included), e.g. A=-30..90/5,C=0..270/4; axes not named stay at 0.
+        #[arg(long)]
+        orientations: Option<String>,
         /// Use the exact model instead of the first-order one.
         #[arg(long)]
         exact: bool,
@@ -47,7 +56,9 @@ enum Command {
         thresholds: Vec<f64>,
     },
     /// Compensation files from identified parameters: a pitch table of one axis (`--axis`,
-    /// LinuxCNC `COMP_FILE_TYPE = 1` or CSV), or else a 3-D grid of tool-point error vectors (CSV).
+    /// LinuxCNC `COMP_FILE_TYPE = 1` or CSV), the machine's ISO 230-1 error parameters for a
+    /// controller that models the machine (`--format isg` for Beckhoff TF5280 ISG_CSV, `etalon`
+    /// for the Etalon Exchange Format), or else a 3-D grid of tool-point error vectors (CSV).
     /// Conventions and formats: crates/compensate (compensation = −error).
     Compensate {
         #[command(flatten)]
@@ -64,9 +75,18 @@ enum Command {
         /// Node spacing, mm.
         #[arg(long, default_value_t = 25.0)]
         spacing_mm: f64,
-        /// Pitch tables: `linuxcnc` or `csv`.
+        /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
+        /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
+        /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics).
         #[arg(long, default_value = "csv")]
         format: String,
+        /// Error parameters: node spacing of rotary axes' tables, degrees.
+        #[arg(long, default_value_t = 10.0)]
+        spacing_deg: f64,
+        /// Pitch tables: LinuxCNC's joint position minus mtcal's axis position, mm (when the
+        /// controller's home puts the joint zero elsewhere); added to every node position.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        joint_offset_mm: f64,
         /// Pitch tables: the signed ISO 230-2 reversal value B = x̄↑ − x̄↓ in µm; writes a
         /// bidirectional table (reverse = forward + B).
         #[arg(long, allow_negative_numbers = true)]
@@ -124,6 +144,9 @@ enum Command {
         /// Write every point's axis positions and predicted error to this CSV file.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Plot the predicted tool-tip error (and tool-axis tilt) along the path to this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify {
@@ -150,6 +173,11 @@ enum Command {
         /// adding its runs would do to every interval, without refitting.
         #[arg(long, value_name = "SESSION")]
         what_if: Option<PathBuf>,
+        /// Write an HTML report (DIR/index.html, self-contained, SVG plots): ball-bar polar
+        /// plots, residuals along time and temperatures, component errors, volumetric map,
+        /// parameters, what the data cannot separate, discoveries.
+        #[arg(long, value_name = "DIR")]
+        report: Option<PathBuf>,
     },
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
@@ -159,8 +187,22 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Plan a measurement: choose instrument positions for the wanted parameters, check every
+    /// pose for collisions with the URDF's collision geometry, write the test plan, one NC
+    /// program per run and a report (crates/plan, docs/PLANNING.md).
+    Plan {
+        /// The planning file (TOML; see docs/PLANNING.md).
+        planning: PathBuf,
+        /// The folder to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// List the registered instrument plugins.
     Plugins,
+    /// Tolerance analysis (source 001): random machines within the tolerances of a
+    /// specification, the P90 of their maximum volumetric error, each tolerance's sensitivity
+    /// (crates/tolerance, docs/TOLERANCE.md).
+    Tolerance(tolerance::ToleranceArgs),
     /// Build the nominal machine of a topology code and write it as a URDF to edit.
     Topology {
         /// e.g. wCAFYXZt, CAFYXZ, ZFYX
@@ -247,6 +289,7 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             search,
             what_if,
+            report,
         } => identify(
             &mut stdout,
             &session,
@@ -255,6 +298,7 @@ fn run(cli: Cli) -> Result<()> {
                 predict,
                 search,
                 what_if,
+                report,
             },
             quiet,
             threads,
@@ -270,6 +314,7 @@ fn run(cli: Cli) -> Result<()> {
             )?;
             Ok(())
         }
+        Command::Plan { planning, out } => plan::run(&planning, &out, &mut stdout),
         Command::Plugins => {
             let plugins = mtcal_plugins::plugins();
             let width = plugins.iter().map(|p| p.name.len()).max().unwrap_or(0);
@@ -289,6 +334,7 @@ fn run(cli: Cli) -> Result<()> {
             params,
             grid,
             at,
+            orientations,
             exact,
             thresholds,
         } => {
@@ -296,7 +342,13 @@ fn run(cli: Cli) -> Result<()> {
             let model = build_model(&loaded)?;
             let coeffs = mtcal_machine::params::load_params(&params, model.errors())
                 .with_context(|| format!("cannot read parameter file {}", params.display()))?;
-            let grid = make_grid(model.machine(), grid.as_deref(), at.as_deref())?;
+            let mut grid = make_grid(model.machine(), grid.as_deref(), at.as_deref())?;
+            if let Some(text) = orientations.as_deref() {
+                let list = orientation_grid(model.machine(), text)?;
+                grid = grid
+                    .with_orientations(&list)
+                    .context("cannot build the orientation grid")?;
+            }
             let opts = MapOptions {
                 method: if exact {
                     MapMethod::Exact
@@ -323,6 +375,8 @@ fn run(cli: Cli) -> Result<()> {
             axis,
             spacing_mm,
             format,
+            spacing_deg,
+            joint_offset_mm,
             reversal_um,
             hold,
         } => {
@@ -332,11 +386,15 @@ fn run(cli: Cli) -> Result<()> {
                 &model,
                 &coeffs,
                 &out,
-                axis,
-                spacing_mm,
-                &format,
-                reversal_um,
-                hold_q,
+                CompensateArgs {
+                    axis,
+                    spacing_mm,
+                    spacing_deg,
+                    joint_offset_mm,
+                    format: &format,
+                    reversal_um,
+                    hold_q,
+                },
             )?;
             writeln!(stdout, "wrote {} ({what})", out.display())?;
             Ok(())
@@ -426,7 +484,16 @@ fn run(cli: Cli) -> Result<()> {
             params,
             cl,
             out,
-        } => cl_error(&mut stdout, &machine, &params, &cl, out.as_deref()),
+            plot,
+        } => cl_error(
+            &mut stdout,
+            &machine,
+            &params,
+            &cl,
+            out.as_deref(),
+            plot.as_deref(),
+        ),
+        Command::Tolerance(args) => tolerance::run(args, &mut stdout),
         Command::Topology {
             code,
             from_tool,
@@ -455,6 +522,8 @@ struct IdentifyOutputs {
     predict: Option<PathBuf>,
     search: bool,
     what_if: Option<PathBuf>,
+    /// The HTML report's folder.
+    report: Option<PathBuf>,
 }
 
 fn identify(
@@ -469,6 +538,7 @@ fn identify(
         predict,
         search,
         what_if,
+        report,
     } = outputs;
     let study = mtcal_identify::Study::load(session)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
@@ -488,6 +558,8 @@ fn identify(
         ..Default::default()
     };
     let mut progress = Progress::new(quiet);
+    // The fit before the physics search, for the report's before/after.
+    let mut initial = None;
     let (id, study, solution) = if search {
         progress.finish();
         let options = mtcal_identify::search::SearchOptions {
@@ -500,6 +572,7 @@ fn identify(
         write!(out, "\n{}", result.identification.search_summary())?;
         writeln!(out, "\nafter the physics search:")?;
         write!(out, "{}", result.identification.summary())?;
+        initial = Some(result.initial);
         (result.identification, result.study, result.solution)
     } else {
         let (id, solution) =
@@ -540,6 +613,10 @@ fn identify(
         for f in mtcal_identify::write_predictions(&study, &id.x, &dir)? {
             writeln!(out, "wrote {}", f.display())?;
         }
+    }
+    if let Some(dir) = report {
+        let path = report::write(&dir, session, &study, &solution, &id, initial.as_ref())?;
+        writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
 }
@@ -642,6 +719,7 @@ fn cl_error(
     params: &std::path::Path,
     cl_path: &std::path::Path,
     out: Option<&std::path::Path>,
+    plot: Option<&std::path::Path>,
 ) -> Result<()> {
     use std::fmt::Write as _;
     let (model, coeffs) = model_and_coeffs(machine, params)?;
@@ -700,25 +778,102 @@ fn cl_error(
             .with_context(|| format!("cannot write {}", out.display()))?;
         writeln!(stdout, "wrote {} ({} rows)", out.display(), errors.len())?;
     }
+    if let Some(plot) = plot {
+        let five_axis = model
+            .machine()
+            .axes()
+            .iter()
+            .any(|a| a.kind() == AxisKind::Rotary);
+        let mut along_mm = 0.0;
+        let path: Vec<mtcal_report::PathPoint> = cl
+            .points
+            .iter()
+            .enumerate()
+            .zip(&errors)
+            .map(|((k, p), e)| {
+                if k > 0 {
+                    along_mm += (p.tip_mm - cl.points[k - 1].tip_mm).norm();
+                }
+                mtcal_report::PathPoint {
+                    along_mm,
+                    error_um: e.magnitude_um,
+                    tilt_urad: five_axis.then_some(e.tilt_urad),
+                }
+            })
+            .collect();
+        let title = format!("predicted error along {}", cl_path.display());
+        let svg = mtcal_report::path_error_svg(&title, &path)?;
+        mtcal_machine::write_atomically(plot, svg.as_bytes())
+            .with_context(|| format!("cannot write {}", plot.display()))?;
+        writeln!(stdout, "wrote {}", plot.display())?;
+    }
     Ok(())
 }
 
-/// Writes the compensation file of `mtcal xtask compensate`; says what it wrote.
-#[allow(clippy::too_many_arguments)]
+/// What `compensate` writes.
+struct CompensateArgs<'a> {
+    axis: Option<char>,
+    spacing_mm: f64,
+    spacing_deg: f64,
+    joint_offset_mm: f64,
+    format: &'a str,
+    reversal_um: Option<f64>,
+    hold_q: Vec<f64>,
+}
+
+/// Writes the compensation file of `mtcal compensate`; says what it wrote.
 fn compensate(
     model: &MachineModel,
     coeffs: &[f64],
     out: &std::path::Path,
-    axis: Option<char>,
-    spacing_mm: f64,
-    format: &str,
-    reversal_um: Option<f64>,
-    hold_q: Vec<f64>,
+    args: CompensateArgs<'_>,
 ) -> Result<String> {
     use mtcal_compensate as comp;
-    let Some(axis) = axis else {
-        let mut spec = comp::GridSpec::new(model.machine(), [spacing_mm; 3]);
-        spec.hold_q = hold_q;
+    let parameter_format = match args.format {
+        "isg" => Some(comp::ParameterFormat::IsgCsv),
+        "etalon" => Some(comp::ParameterFormat::Etalon),
+        _ => None,
+    };
+    if args.format == "linuxcnc-trt" {
+        let pivots = comp::trt_pivots_with_nominal(model, coeffs)?;
+        let text = comp::trt_hal_text(&pivots, model.machine().name());
+        mtcal_machine::write_atomically(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+        return Ok(format!(
+            "HAL settings of LinuxCNC's {}; {} identified errors it cannot hold are listed in it",
+            pivots.kind.name(),
+            pivots.not_representable.len()
+        ));
+    }
+    if let Some(format) = parameter_format {
+        if let Some(axis) = args.axis {
+            bail!(
+                "--format {} writes the error parameters of every axis; drop --axis {axis}",
+                args.format
+            );
+        }
+        let params = comp::error_parameters(model, coeffs, args.spacing_mm, args.spacing_deg)?;
+        comp::write_error_parameters(out, model.machine(), &params, format)?;
+        let tables = params
+            .params
+            .iter()
+            .filter(|p| matches!(p.value, comp::ParameterValue::Table { .. }))
+            .count();
+        return Ok(format!(
+            "{} error parameters: {tables} component-error tables, {} location errors",
+            args.format,
+            params.params.len() - tables
+        ));
+    }
+    let Some(axis) = args.axis else {
+        if args.format != "csv" {
+            bail!(
+                "--format `{}` without --axis: expected csv (3-D grid), isg or etalon",
+                args.format
+            );
+        }
+        let mut spec = comp::GridSpec::new(model.machine(), [args.spacing_mm; 3]);
+        spec.hold_q = args.hold_q;
         let grid = comp::error_grid(model, coeffs, &spec)?;
         comp::write_grid_csv(out, &grid)?;
         return Ok(format!(
@@ -728,18 +883,19 @@ fn compensate(
             grid.z_mm.len()
         ));
     };
-    let mut table = comp::pitch_table(model, coeffs, axis, spacing_mm, &hold_q)?;
-    if let Some(b) = reversal_um {
+    let mut table = comp::pitch_table(model, coeffs, axis, args.spacing_mm, &args.hold_q)?;
+    if let Some(b) = args.reversal_um {
         table = table.with_reversal_um(b);
     }
-    match format {
+    table = table.shifted_mm(args.joint_offset_mm);
+    match args.format {
         "linuxcnc" => comp::write_linuxcnc_comp(out, &table)?,
         "csv" => comp::write_pitch_csv(out, &table)?,
-        other => bail!("--format `{other}`: expected linuxcnc or csv"),
+        other => bail!("--format `{other}`: expected linuxcnc, csv, isg, etalon or linuxcnc-trt"),
     }
     Ok(format!(
         "{} pitch table of {axis}, {} nodes{}",
-        format,
+        args.format,
         table.len(),
         if table.reverse_um.is_some() {
             ", bidirectional"
@@ -778,6 +934,70 @@ fn hold_positions(machine: &Machine, hold: Option<&str>) -> Result<Vec<f64>> {
 }
 
 /// Parses `21x22x22` and `A=30,C=45` into a grid over the linear axes.
+/// The rotary positions (rad, canonical order) of `--orientations A=-30..90/5,C=0..270/4`:
+/// every combination, axes not named at 0.
+fn orientation_grid(machine: &Machine, text: &str) -> Result<Vec<Vec<f64>>> {
+    let rotary: Vec<char> = machine
+        .axes()
+        .iter()
+        .filter(|a| a.kind() == AxisKind::Rotary)
+        .map(|a| a.letter().as_char())
+        .collect();
+    if rotary.is_empty() {
+        bail!("--orientations: the machine has no rotary axis");
+    }
+    let mut values = vec![vec![0.0]; rotary.len()];
+    for item in text.split(',').filter(|s| !s.trim().is_empty()) {
+        let bad = || {
+            format!(
+                "--orientations `{item}`: expected LETTER=FROM..TO/COUNT in degrees, e.g. C=0..270/4"
+            )
+        };
+        let (letter, range) = item.split_once('=').with_context(bad)?;
+        let letter = letter.trim().chars().next().unwrap_or('?');
+        let slot = rotary.iter().position(|&c| c == letter).with_context(|| {
+            format!("--orientations `{item}`: the machine has no rotary axis {letter}")
+        })?;
+        let (span, count) = range.split_once('/').with_context(bad)?;
+        let (from, to) = span.split_once("..").with_context(bad)?;
+        let number = |t: &str| t.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+        let (Some(from), Some(to)) = (number(from), number(to)) else {
+            bail!(bad());
+        };
+        let count: usize = count
+            .trim()
+            .parse()
+            .ok()
+            .filter(|&n| n >= 1)
+            .with_context(bad)?;
+        values[slot] = (0..count)
+            .map(|i| {
+                let t = if count == 1 {
+                    0.0
+                } else {
+                    i as f64 / (count - 1) as f64
+                };
+                (from + t * (to - from)).to_radians()
+            })
+            .collect();
+    }
+    // Every combination, the first axis slowest.
+    let mut out: Vec<Vec<f64>> = vec![Vec::new()];
+    for axis_values in &values {
+        out = out
+            .iter()
+            .flat_map(|prefix| {
+                axis_values.iter().map(move |&v| {
+                    let mut o = prefix.clone();
+                    o.push(v);
+                    o
+                })
+            })
+            .collect();
+    }
+    Ok(out)
+}
+
 fn make_grid(machine: &Machine, grid: Option<&str>, at: Option<&str>) -> Result<Grid> {
     let n_linear = machine
         .axes()

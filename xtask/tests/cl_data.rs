@@ -24,6 +24,7 @@ fn run(args: &[&str]) -> std::process::Output {
 fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
     let dir = tempfile::tempdir().unwrap();
     let (input, csv) = (dir.path().join("path.csv"), dir.path().join("errors.csv"));
+    let svg = dir.path().join("errors.svg");
     std::fs::write(&input, CL).unwrap();
     let p = |x: &Path| x.to_str().unwrap().to_string();
     let out = run(&[
@@ -35,6 +36,8 @@ fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
         &p(&input),
         "--out",
         &p(&csv),
+        "--plot",
+        &p(&svg),
     ]);
     assert!(
         out.status.success(),
@@ -86,6 +89,24 @@ fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
         largest = largest.max(c[9]);
     }
     assert!((largest - max).abs() < 2e-3, "{summary} vs {text}");
+    // The plot: one line (a three-axis path has no tool-axis tilt) with one vertex per point.
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg"), "{plot}");
+    // The data line is the one in the model colour (the axes are polylines too).
+    let lines: Vec<&str> = plot
+        .match_indices("<polyline")
+        .map(|(k, _)| &plot[k..])
+        .filter(|l| l[..l.find('>').unwrap()].contains("stroke=\"#1F77B4\""))
+        .collect();
+    assert_eq!(lines.len(), 1, "{plot}");
+    let points = lines[0]
+        .split("points=\"")
+        .nth(1)
+        .unwrap()
+        .split('"')
+        .next()
+        .unwrap();
+    assert_eq!(points.split_whitespace().count(), 3, "{points}");
 
     for (bad, at) in [
         ("x,y,z\n0,0,300\n1,5;2\n", ":3:4:"),

@@ -61,8 +61,8 @@
 //! ascend; LinuxCNC holds at most 256 entries per joint (`EMCMOT_COMP_SIZE`), which the
 //! writer enforces. In the INI file: `[JOINT_n] COMP_FILE = x.comp`, `COMP_FILE_TYPE = 1`,
 //! and no `BACKLASH` (the file replaces it). The numbers assume `LINEAR_UNITS = mm` and that
-//! the model's axis position is LinuxCNC's joint position (same zero); otherwise shift the
-//! positions by the home offset.
+//! the model's axis position is LinuxCNC's joint position (same zero); otherwise
+//! [`PitchTable::shifted_mm`] (`--joint-offset-mm`) moves the nodes into joint coordinates.
 //!
 //! ## CSV pitch table
 //! `#` lines are comments (the writer names the axis, the machine and the held positions).
@@ -81,20 +81,72 @@
 //! positions, 1 pm in LinuxCNC trims at 9 decimals), so a reload reproduces the model to
 //! far better than 0.1 µm.
 //!
+//! ## Error-parameter files: ISG CSV (Beckhoff TF5280) and Etalon Exchange
+//! For controllers that model the machine themselves (the ISG kernel's volumetric
+//! compensation, `file_format ISG_CSV` or `ETALON_EXCHANGE`), [`error_parameters`] gives the
+//! identified ISO 230-1 **errors** themselves, [`write_error_parameters`] writes them and
+//! [`read_error_parameters`] reads them back; [`ErrorParameters::model`] builds the model a
+//! controller builds from them (tables interpolated linearly). Conventions, all explicit:
+//! - **Errors, not compensations**: the controller computes and applies `−error` itself (leave
+//!   its `negate` parameter empty).
+//! - **Names**: component errors as ISO 230-1 (`EXX`, `EYX` … `ECC`); location errors without
+//!   the leading `E`, as ISG lists them (`C0Y`, `B0Z`, `A0Z` squareness; `X0C`, `Y0C`, `A0C`,
+//!   `B0C` rotary-axis location). ISG's own kinematic parameters (`P0X`, `PXA`, `VXX`…) are
+//!   not written: the controller's nominal kinematics are its own.
+//! - **Units**: values in **mm** (translations) and **rad** (rotations); table arguments in
+//!   **mm** (linear axes) and **degrees** (rotary axes; 0…360 for an axis without limits).
+//! - **Signs**: mtcal's, which are ISO 230-1's (ARCHITECTURE.md, "Conventions"). Squareness
+//!   `C0Y > 0` rotates Y's motion about +Z, opening the angle between +X and +Y beyond 90°;
+//!   likewise `B0Z` (Z's motion about +Y) and `A0Z` (about +X).
+//! - **Workpiece/tool split**: component errors are *functional*, the motion of the tool
+//!   relative to the workpiece that the axis causes, in machine X/Y/Z, whichever side the axis
+//!   is on. The file's header comment lists the workpiece-side and tool-side axes; the
+//!   controller's list file must say the same (`workpiece_axes`, `chain`). For a controller
+//!   that expects the error motion of the moving part relative to the frame instead, every
+//!   error of a workpiece-side axis changes sign (angular errors refer to the joint origin).
+//! - **Position-only vs orientation**: the file carries all six component errors of each axis
+//!   and every location error; whether the controller corrects the tool orientation too (five
+//!   axes) or only the tool point is its own setting. Angular errors are needed either way:
+//!   through their Abbe arms they move the tool point.
+//! - **Set-up offsets** (`TOOL_*`, `WP_*`) are left out: they belong to the tool and workpiece
+//!   set-up (tool length, work offset), not the machine.
+//!
+//! *ISG CSV*: `//` starts a comment; a block is a header line and data lines, fields
+//! separated by blanks; a line `#` ends a block (ISG's "file break"). A component-error block's
+//! header is the argument (the axis letter) and the names of that axis' errors, then one row
+//! per node: argument, values. The location-error block's header is the names, then one row of
+//! values. *Etalon*: `//` comments; each parameter is a block `[NAME]` followed by
+//! `VALUE = v` (location errors) or `Gridpoints = {` … `}` with one `argument value` row per
+//! node (component errors).
+//!
+//! ## LinuxCNC table-table pivots (`xyzac-trt-kins`, `xyzbc-trt-kins`)
+//! [`trt_pivots`] gives the rotary pivot parameters of LinuxCNC's table-table kinematics for
+//! the identified machine (where the actual C and A/B lines pass, in joint coordinates, mm),
+//! and [`trt_hal_text`] writes them as HAL `setp` commands with the nominal values and the
+//! identified errors these kinematics cannot hold (axis-line tilts, linear-axis errors) in
+//! comments. Conventions in the `trt` module's documentation.
+//!
 //! # Errors
 //! Files are written atomically (`mtcal_machine::write_atomically`). A bad file gives a
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
 mod grid;
+mod parameters;
 mod pitch;
 mod text;
+mod trt;
 
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
+pub use parameters::{
+    ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
+    read_error_parameters, write_error_parameters,
+};
 pub use pitch::{
     LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
     travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
+pub use trt::{TrtKind, TrtPivots, trt_hal_text, trt_pivots, trt_pivots_with_nominal};
 
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};
 use mtcal_machine::Location;
@@ -114,7 +166,9 @@ pub enum CompensateError {
     NoSuchAxis { letter: char, letters: String },
     #[error("axis {letter} is rotary; pitch tables and grids are for linear axes")]
     NotLinear { letter: char },
-    #[error("the spacing must be finite and positive, got {spacing_mm} mm")]
+    #[error(
+        "the node spacing must be finite and positive, got {spacing_mm} (mm, or degrees for rotary axes)"
+    )]
     BadSpacing { spacing_mm: f64 },
     #[error("{got} axis positions given; the machine has {expected} axes ({letters})")]
     HoldLength {
@@ -143,6 +197,9 @@ pub enum CompensateError {
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
     Parse { at: Location, message: String },
+    /// Parameters read from a file do not make a model of the machine.
+    #[error("the parameters do not fit the machine: {message}")]
+    Model { message: String },
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.
@@ -208,11 +265,15 @@ fn nodes_mm(
     spacing_mm: f64,
     what: &str,
 ) -> Result<Vec<f64>, CompensateError> {
+    nodes_in(lo_m * MM, hi_m * MM, spacing_mm, what)
+}
+
+/// Nodes over `[lo, hi]` `spacing` apart in one unit (mm or degrees), as [`nodes_mm`].
+fn nodes_in(lo: f64, hi: f64, spacing_mm: f64, what: &str) -> Result<Vec<f64>, CompensateError> {
     if !(spacing_mm.is_finite() && spacing_mm > 0.0) {
         return Err(CompensateError::BadSpacing { spacing_mm });
     }
-    let (lo, hi) = (lo_m * MM, hi_m * MM);
-    // A node closer than this to the upper end is the upper end (mm).
+    // A node closer than this to the upper end is the upper end (mm or degrees).
     const SNAP_MM: f64 = 1e-6;
     let steps = ((hi - lo + SNAP_MM) / spacing_mm).floor();
     if steps + 2.0 > MAX_NODES as f64 {

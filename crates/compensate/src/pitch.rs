@@ -39,6 +39,21 @@ pub struct PitchTable {
 }
 
 impl PitchTable {
+    /// The table in the controller's joint coordinates when its zero differs from the model's
+    /// axis zero: every node position plus `joint_offset_mm` (LinuxCNC's joint position minus
+    /// mtcal's axis position, e.g. from a home offset). The compensations stay as they are.
+    pub fn shifted_mm(mut self, joint_offset_mm: f64) -> Self {
+        if joint_offset_mm != 0.0 {
+            for p in &mut self.positions_mm {
+                *p += joint_offset_mm;
+            }
+            self.note.push_str(&format!(
+                "\npositions shifted by {joint_offset_mm} mm to joint coordinates"
+            ));
+        }
+        self
+    }
+
     /// The bidirectional table: forward as now, reverse = forward + `reversal_um`, the signed
     /// ISO 230-2 reversal value `B = x̄↑ − x̄↓` in µm (a lost motion `b` is `B = −b`).
     pub fn with_reversal_um(mut self, reversal_um: f64) -> Self {

@@ -1,0 +1,306 @@
+//! The HTML report of an identification (`cargo xtask identify --report DIR`): one
+//! self-contained page, `DIR/index.html`, with every plot inline as SVG — no external file, no
+//! network, so the page can be mailed or archived as it is.
+//!
+//! This crate only renders. It takes a [`Report`], plain data that the command line builds from
+//! the identification, the physics search, the study's residuals and the machine model, and
+//! turns it into HTML ([`render`]) or writes it ([`write`], atomically: a temporary file renamed
+//! into place, so an error leaves no partial page). It knows nothing of solvers, sessions or
+//! instruments, and every number it shows it was given.
+//!
+//! # The page's sections
+//! Each section is a `<section>` with a fixed `id`; every plot is a `<figure class="plot">` with
+//! one inline `<svg>` drawn by `plotters`' SVG backend (text sizes are estimated, the browser
+//! lays out the text itself).
+//! - `summary` — session, machine, fit statistics, and every run's RMS (before and after the
+//!   physics search when it ran).
+//! - `ballbar` — one polar plot per ball-bar circle run: the bar-length deviation `dr` around the
+//!   commanded angle, measured and as the identified model predicts it (and the model before the
+//!   search), magnified about a reference circle; the ISO 230-4 results in the caption.
+//! - `residuals` — per context variable (time, spindle speed, temperatures…), every fitted and
+//!   validation residual (reading − model) against it, before and after the physics search side
+//!   by side on one scale: a drift or a thermal effect shows as a trend on the left that is gone
+//!   on the right.
+//! - `components` — each estimated component error (a straightness, a positioning error…) along
+//!   its axis with its 95 % band.
+//! - `volumetric` — slices of the volumetric error map |Δ| (tool point relative to the
+//!   workpiece) through the middle of the working volume, on one colour scale.
+//! - `parameters` — every parameter with its 95 % interval; a parameter the data cannot
+//!   separate reads "not identifiable" and never gets a number.
+//! - `identifiability` — the combinations the data cannot separate and the effects that hide
+//!   behind fitted parameters, in words, with the measurement that would separate them.
+//! - `discoveries` — what the physics search added, each in a sentence with its fit and
+//!   held-out RMS before and after, and why it stopped.
+//!
+//! The page carries two tiny inline scripts and a Content-Security-Policy that forbids loading
+//! anything: the first records script errors into `#script-errors`, the last counts the plots
+//! into the contents and sets `data-report-ready="yes"` on `<body>`, so a test in a headless
+//! browser can see that the page ran cleanly.
+
+mod escape;
+mod page;
+mod plots;
+
+pub use escape::escape;
+
+use std::path::{Path, PathBuf};
+
+/// Why a report could not be rendered or written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Input that cannot be drawn (series of different lengths, an empty grid).
+    #[error("report: {what}: {message}")]
+    Invalid { what: String, message: String },
+    /// The plotting backend failed.
+    #[error("report: plot `{plot}`: {message}")]
+    Plot { plot: String, message: String },
+    #[error("{}: cannot create the report folder: {source}", dir.display())]
+    CreateDir {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: cannot write the report: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// Everything the page shows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Report {
+    /// The page title, e.g. `mtcal identification — five-axis-warm`.
+    pub title: String,
+    pub summary: Summary,
+    pub ballbar: Vec<PolarRun>,
+    pub residuals: Vec<ResidualPlot>,
+    pub components: Vec<ComponentCurve>,
+    pub volumetric: Volumetric,
+    pub parameters: Vec<ParameterRow>,
+    pub identifiability: Identifiability,
+    /// `None` when the physics search did not run.
+    pub search: Option<SearchOutcome>,
+}
+
+/// The header facts and the run table.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Summary {
+    /// The session folder as the user named it.
+    pub session: String,
+    /// Machine name and where it came from.
+    pub machine: String,
+    /// One line each: fit statistics, solver, mismatch verdict.
+    pub facts: Vec<String>,
+    pub runs: Vec<RunRow>,
+}
+
+/// One run's fit.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunRow {
+    pub name: String,
+    pub instrument: String,
+    /// `fit` or `validate`.
+    pub role: String,
+    /// RMS with the model before the physics search, µm (`None` without a search).
+    pub rms_before_um: Option<f64>,
+    /// RMS with the identified model, µm.
+    pub rms_um: f64,
+}
+
+/// A ball-bar circle run for a polar plot.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PolarRun {
+    pub name: String,
+    /// The plane, e.g. `XY`: angles run from the first letter's axis towards the second's.
+    pub plane: String,
+    /// Nominal bar length, mm.
+    pub radius_mm: f64,
+    /// Commanded angle of every sample, degrees.
+    pub angles_deg: Vec<f64>,
+    /// Measured bar-length deviation `dr`, µm.
+    pub measured_um: Vec<f64>,
+    /// `dr` as the identified model predicts it, µm.
+    pub model_um: Vec<f64>,
+    /// `dr` as the model before the physics search predicted it, µm.
+    pub model_before_um: Option<Vec<f64>>,
+    /// The instrument's own evaluation (ISO 230-4 G, centre offsets…): name, value, unit.
+    pub metrics: Vec<(String, f64, String)>,
+}
+
+/// Residuals against one context variable.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ResidualPlot {
+    /// The variable's name as the run files have it (`t`, `S`, `T_spindle`).
+    pub variable: String,
+    /// What it is, e.g. `time since the session started` (may be empty).
+    pub description: String,
+    /// Its unit (`s`, `rpm`, `°C`).
+    pub unit: String,
+    /// The residuals' unit (`µm`, or `σ` when the channels' units differ and the residuals are
+    /// whitened).
+    pub residual_unit: String,
+    /// `(variable, residual)` with the identified model.
+    pub after: Vec<(f64, f64)>,
+    /// The same before the physics search (`None` without a search).
+    pub before: Option<Vec<(f64, f64)>>,
+}
+
+/// A component error along its axis.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ComponentCurve {
+    /// ISO 230-1 name, e.g. `EXX`.
+    pub name: String,
+    /// `mm` or `deg`.
+    pub position_unit: String,
+    /// `µm` or `µrad`.
+    pub value_unit: String,
+    pub samples: Vec<CurvePoint>,
+}
+
+/// One sample of a [`ComponentCurve`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CurvePoint {
+    pub position: f64,
+    pub value: f64,
+    /// 95 % half-width of `value`.
+    pub u95: f64,
+}
+
+/// Slices of the volumetric map.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Volumetric {
+    pub slices: Vec<MapSlice>,
+    /// What the maps are of (model, method, where the other axes are held).
+    pub note: String,
+}
+
+/// |Δ| on a plane of two linear axes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MapSlice {
+    /// e.g. `X–Y at Z = −250 mm`.
+    pub title: String,
+    /// Horizontal axis, e.g. `X (mm)`.
+    pub x_label: String,
+    pub y_label: String,
+    /// Grid positions along the horizontal axis, increasing.
+    pub xs: Vec<f64>,
+    pub ys: Vec<f64>,
+    /// |Δ| in µm, row-major `ys × xs`: `values_um[j * xs.len() + i]` is at `(xs[i], ys[j])`.
+    pub values_um: Vec<f64>,
+}
+
+/// One row of the parameter table.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ParameterRow {
+    pub name: String,
+    /// `machine`, `effect` or the set-up it belongs to.
+    pub group: String,
+    /// `um`, `urad`, `ppm`, `s` (shown as µm, µrad…).
+    pub unit: String,
+    pub estimate: Estimate,
+}
+
+/// What the data say about a parameter.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum Estimate {
+    /// Identified: value and 95 % half-width, in the row's unit.
+    Value { value: f64, u95: f64 },
+    /// In a combination the data cannot separate: it has no value.
+    #[default]
+    NotIdentifiable,
+}
+
+/// What the data cannot tell apart.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Identifiability {
+    pub combinations: Vec<Combination>,
+    pub concealed: Vec<ConcealedEffect>,
+}
+
+/// Parameters that move together without changing a reading.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Combination {
+    pub parameters: Vec<String>,
+    /// The solver's sentence about how they move together.
+    pub why: String,
+}
+
+/// A candidate effect the data cannot tell from fitted parameters.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ConcealedEffect {
+    pub effect: String,
+    /// Fitted parameters that imitate it.
+    pub hides_behind: Vec<String>,
+    /// A measurement that would separate it.
+    pub measurement: String,
+}
+
+/// How the physics search went.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SearchOutcome {
+    /// Candidates scored at the first step.
+    pub candidates: usize,
+    /// Why it stopped.
+    pub stopped: String,
+    pub discoveries: Vec<DiscoveryText>,
+    /// Candidates tried and not kept, one sentence each.
+    pub not_kept: Vec<String>,
+}
+
+/// One effect the search added.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DiscoveryText {
+    /// Its label, e.g. `reversal X (X)`.
+    pub label: String,
+    /// The search's sentence about it.
+    pub explanation: String,
+    pub rms_before_um: f64,
+    pub rms_after_um: f64,
+    pub heldout_rms_before_um: f64,
+    pub heldout_rms_after_um: f64,
+    pub validation_rms_um: Option<(f64, f64)>,
+}
+
+/// One point of a tool path for [`path_error_svg`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PathPoint {
+    /// Distance along the path from its first point, mm.
+    pub along_mm: f64,
+    /// Predicted tool-tip error magnitude, µm.
+    pub error_um: f64,
+    /// Predicted tilt of the tool axis, µrad (five-axis paths).
+    pub tilt_urad: Option<f64>,
+}
+
+/// A standalone SVG of the predicted error along a tool path (CL data): the tool-tip error
+/// against the distance along the path, and beside it the tool-axis tilt when the points carry
+/// one. Errors if there are fewer than two points.
+pub fn path_error_svg(title: &str, points: &[PathPoint]) -> Result<String, ReportError> {
+    plots::path_error(title, points)
+}
+
+/// The page for `report`.
+pub fn render(report: &Report) -> Result<String, ReportError> {
+    page::page(report)
+}
+
+/// Renders `report` and writes it to `dir/index.html` (creating `dir`); returns that path.
+/// Rendering finishes before anything is written, and the file is replaced atomically.
+pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, ReportError> {
+    let html = render(report)?;
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::CreateDir {
+        dir: dir.to_path_buf(),
+        source,
+    })?;
+    let path = dir.join("index.html");
+    mtcal_machine::write_atomically(&path, html.as_bytes()).map_err(|source| {
+        ReportError::Write {
+            path: path.clone(),
+            source,
+        }
+    })?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests;

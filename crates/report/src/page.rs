@@ -1,0 +1,437 @@
+//! The HTML page: head with style and the error recorder, contents, the sections of the crate
+//! documentation in order, the closing script.
+
+use crate::escape::{display_unit, escape, num, with_interval};
+use crate::plots::{self, BEFORE, MEASURED, MODEL};
+use crate::{Estimate, Report, ReportError};
+use std::fmt::Write as _;
+
+/// Section ids and headings, in page order.
+pub(crate) const SECTIONS: [(&str, &str); 8] = [
+    ("summary", "Summary"),
+    ("ballbar", "Ball-bar circles"),
+    ("residuals", "Residuals along the context"),
+    ("components", "Component errors"),
+    ("volumetric", "Volumetric error map"),
+    ("parameters", "Parameters"),
+    ("identifiability", "What the data cannot separate"),
+    ("discoveries", "Discoveries"),
+];
+
+const STYLE: &str = "
+body{font:15px/1.45 system-ui,-apple-system,'Segoe UI',sans-serif;color:#222;margin:0;background:#fafafa}
+header,main,nav{max-width:1100px;margin:0 auto;padding:0 20px}
+header{padding-top:18px}h1{font-size:26px;margin:0 0 4px}h2{border-bottom:2px solid #1F77B4;padding-bottom:3px;margin-top:34px}
+nav{position:sticky;top:0;background:#fafafa;border-bottom:1px solid #ddd;padding-top:6px;padding-bottom:6px;z-index:1}
+nav a{margin-right:14px;color:#1F77B4;text-decoration:none;white-space:nowrap}
+.plots{display:flex;flex-wrap:wrap;gap:14px}
+figure.plot{margin:0;background:#fff;border:1px solid #ddd;border-radius:4px;padding:6px;max-width:100%;box-sizing:border-box}
+figure.plot svg{display:block;width:100%;height:auto}
+figcaption{font-size:13px;color:#444;padding:4px 2px}
+table{border-collapse:collapse;background:#fff}td,th{border:1px solid #ddd;padding:3px 8px;text-align:left}
+td.n{text-align:right;font-variant-numeric:tabular-nums}td.nid{font-style:italic;color:#a33}
+.key{display:inline-block;width:22px;height:4px;vertical-align:middle;margin:0 4px 0 10px}
+.none{color:#666;font-style:italic}.discovery{background:#fff;border-left:4px solid #1F77B4;padding:6px 12px;margin:10px 0}
+.discovery h3{margin:4px 0}.numbers{color:#444;font-size:14px}
+#script-errors{background:#fdd;color:#800;white-space:pre-wrap;padding:8px;margin:0}
+";
+
+/// Records every script error into `#script-errors` (or a queue until the body exists).
+const ERROR_RECORDER: &str = "
+window.__reportErrors = [];
+window.onerror = function (message, source, line) {
+  var text = String(message) + (line ? ' (line ' + line + ')' : '');
+  var box = document.getElementById('script-errors');
+  if (box) { box.hidden = false; box.textContent += text + '\\n'; }
+  else { window.__reportErrors.push(text); }
+  return false;
+};
+";
+
+/// Flushes queued errors, counts each section's plots into the contents, marks the page ready.
+const READY: &str = "
+(function () {
+  var box = document.getElementById('script-errors');
+  for (var i = 0; i < window.__reportErrors.length; i++) {
+    box.hidden = false; box.textContent += window.__reportErrors[i] + '\\n';
+  }
+  var links = document.querySelectorAll('nav a');
+  for (var k = 0; k < links.length; k++) {
+    var section = document.getElementById(links[k].getAttribute('href').slice(1));
+    var n = section ? section.querySelectorAll('figure.plot svg').length : 0;
+    if (n > 0) { links[k].textContent += ' (' + n + ')'; }
+  }
+  document.body.setAttribute('data-plots', String(document.querySelectorAll('figure.plot svg').length));
+  document.body.setAttribute('data-report-ready', 'yes');
+})();
+";
+
+pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
+    let bodies = [
+        summary(r),
+        ballbar(r)?,
+        residuals(r)?,
+        components(r)?,
+        volumetric(r)?,
+        parameters(r),
+        identifiability(r),
+        discoveries(r),
+    ];
+    let title = escape(&r.title);
+    let mut h = String::with_capacity(1 << 20);
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
+         style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n\
+         <title>{title}</title>\n<style>{STYLE}</style>\n<script>{ERROR_RECORDER}</script>\n\
+         </head>\n<body>\n<pre id=\"script-errors\" hidden></pre>\n<header><h1>{title}</h1>\n\
+         <p>session <code>{}</code> · machine {}</p></header>\n<nav>",
+        escape(&r.summary.session),
+        escape(&r.summary.machine),
+    );
+    for (id, heading) in SECTIONS {
+        let _ = write!(h, "<a href=\"#{id}\">{heading}</a>");
+    }
+    h.push_str("</nav>\n<main>\n");
+    for ((id, heading), body) in SECTIONS.iter().zip(bodies) {
+        let _ = write!(
+            h,
+            "<section id=\"{id}\">\n<h2>{heading}</h2>\n{body}</section>\n"
+        );
+    }
+    let _ = write!(h, "</main>\n<script>{READY}</script>\n</body>\n</html>\n");
+    Ok(h)
+}
+
+/// `<figure class="plot">` around an SVG, as wide as the SVG says (at most the page's width),
+/// so its caption wraps under the plot.
+fn figure(kind: &str, name: &str, svg: &str, caption: &str) -> String {
+    let width = svg
+        .split("width=\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .and_then(|w| w.parse::<u32>().ok())
+        .map_or(String::new(), |w| format!(" style=\"width:{}px\"", w + 14));
+    format!(
+        "<figure class=\"plot\" data-plot=\"{kind}\" data-name=\"{}\"{width}>\n{svg}<figcaption>{caption}</figcaption></figure>\n",
+        escape(name)
+    )
+}
+
+fn key(color: plotters::style::RGBColor, label: &str) -> String {
+    format!(
+        "<span class=\"key\" style=\"background:#{:02X}{:02X}{:02X}\"></span>{label}",
+        color.0, color.1, color.2
+    )
+}
+
+fn none(text: &str) -> String {
+    format!("<p class=\"none\">{}</p>\n", escape(text))
+}
+
+fn summary(r: &Report) -> String {
+    let s = &r.summary;
+    let mut h = String::from("<ul>\n");
+    for f in &s.facts {
+        let _ = writeln!(h, "<li>{}</li>", escape(f));
+    }
+    h.push_str("</ul>\n");
+    if s.runs.is_empty() {
+        return h;
+    }
+    let before = s.runs.iter().any(|r| r.rms_before_um.is_some());
+    h.push_str("<table id=\"runs\">\n<tr><th>run</th><th>instrument</th><th>use</th>");
+    if before {
+        h.push_str("<th>RMS before the search (µm)</th><th>RMS after (µm)</th>");
+    } else {
+        h.push_str("<th>RMS (µm)</th>");
+    }
+    h.push_str("</tr>\n");
+    for run in &s.runs {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td>",
+            escape(&run.name),
+            escape(&run.instrument),
+            escape(&run.role)
+        );
+        if before {
+            let b = run.rms_before_um.map_or(String::new(), |v| num(v, 3));
+            let _ = write!(h, "<td class=\"n\">{b}</td>");
+        }
+        let _ = writeln!(h, "<td class=\"n\">{}</td></tr>", num(run.rms_um, 3));
+    }
+    h.push_str("</table>\n");
+    h
+}
+
+fn ballbar(r: &Report) -> Result<String, ReportError> {
+    if r.ballbar.is_empty() {
+        return Ok(none("No ball-bar circle runs in this session."));
+    }
+    let with_before = r.ballbar.iter().any(|b| b.model_before_um.is_some());
+    let mut h = format!(
+        "<p>The bar-length deviation <i>dr</i> around each circle, magnified about a reference \
+         circle: the thick grey ring is <i>dr</i> = 0, the thin rings the scale written on \
+         them. {}{}{}</p>\n<div class=\"plots\">\n",
+        key(MEASURED, "measured"),
+        if with_before {
+            key(BEFORE, "model before the physics search")
+        } else {
+            String::new()
+        },
+        key(MODEL, "identified model"),
+    );
+    for run in &r.ballbar {
+        let svg = plots::polar(run)?;
+        let mut caption = format!(
+            "<b>{}</b> — plane {}, bar {} mm, {} samples",
+            escape(&run.name),
+            escape(&run.plane),
+            num(run.radius_mm, 1),
+            run.angles_deg.len()
+        );
+        for (name, value, unit) in &run.metrics {
+            let _ = write!(
+                caption,
+                "; {} {} {}",
+                escape(name),
+                num(*value, 3),
+                escape(display_unit(unit))
+            );
+        }
+        h.push_str(&figure("polar", &run.name, &svg, &caption));
+    }
+    h.push_str("</div>\n");
+    Ok(h)
+}
+
+fn residuals(r: &Report) -> Result<String, ReportError> {
+    if r.residuals.is_empty() {
+        return Ok(none(
+            "No run with readings: nothing to compare the model with.",
+        ));
+    }
+    let mut h = String::from(
+        "<p>Reading − model for every channel of every run with readings (fitted and \
+         validation runs), against each variable the runs recorded. Structure left of the \
+         model — a trend in time, a step with temperature — shows as a pattern; after a \
+         successful search only noise should remain.</p>\n<div class=\"plots\">\n",
+    );
+    for p in &r.residuals {
+        let svg = plots::residuals(p)?;
+        let n = p.after.len();
+        let k = plots::stride(n);
+        let mut caption = format!(
+            "<b>along {}</b>{}: {n} residuals",
+            escape(&p.variable),
+            if p.description.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", escape(&p.description))
+            }
+        );
+        if k > 1 {
+            let _ = write!(caption, ", one in {k} drawn");
+        }
+        h.push_str(&figure("residuals", &p.variable, &svg, &caption));
+    }
+    h.push_str("</div>\n");
+    Ok(h)
+}
+
+fn components(r: &Report) -> Result<String, ReportError> {
+    if r.components.is_empty() {
+        return Ok(none(
+            "No component error with a curve was estimated in this session (only location, \
+             squareness or set-up parameters, or components the data cannot separate).",
+        ));
+    }
+    let mut h = format!(
+        "<p>Each estimated component error along its axis: {} and its 95 % band (shaded).</p>\n\
+         <div class=\"plots\">\n",
+        key(MODEL, "identified value")
+    );
+    for c in &r.components {
+        let svg = plots::component(c)?;
+        let widest = c.samples.iter().map(|p| p.u95.abs()).fold(0.0, f64::max);
+        let caption = format!(
+            "<b>{}</b> — {} samples; widest 95 % half-width {} {}",
+            escape(&c.name),
+            c.samples.len(),
+            num(widest, 3),
+            escape(display_unit(&c.value_unit))
+        );
+        h.push_str(&figure("component", &c.name, &svg, &caption));
+    }
+    h.push_str("</div>\n");
+    Ok(h)
+}
+
+fn volumetric(r: &Report) -> Result<String, ReportError> {
+    let v = &r.volumetric;
+    if v.slices.is_empty() {
+        return Ok(none(
+            "No volumetric map: the machine has fewer than two linear axes.",
+        ));
+    }
+    let largest = v
+        .slices
+        .iter()
+        .flat_map(|s| s.values_um.iter())
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, &x| m.max(x));
+    let vmax = plots::nice_ceil(largest.max(1e-6));
+    let mut h = format!(
+        "<p>{} All slices share one colour scale, 0 … {} µm.</p>\n<div class=\"plots\">\n",
+        escape(&v.note),
+        plots::tick(&vmax)
+    );
+    for s in &v.slices {
+        let svg = plots::map_slice(s, vmax)?;
+        let max = s
+            .values_um
+            .iter()
+            .filter(|x| x.is_finite())
+            .fold(0.0f64, |m, &x| m.max(x));
+        let caption = format!(
+            "<b>{}</b> — {} × {} points, largest |Δ| {} µm",
+            escape(&s.title),
+            s.xs.len(),
+            s.ys.len(),
+            num(max, 2)
+        );
+        h.push_str(&figure("map", &s.title, &svg, &caption));
+    }
+    h.push_str("</div>\n");
+    Ok(h)
+}
+
+fn parameters(r: &Report) -> String {
+    if r.parameters.is_empty() {
+        return none("No parameter was estimated.");
+    }
+    let mut h = String::from(
+        "<p>Values with 95 % intervals. A parameter the data cannot separate from others has no \
+         value: see the next section for what it moves with.</p>\n<table id=\"parameter-table\">\n\
+         <tr><th>parameter</th><th>group</th><th>value</th><th>± 95 %</th><th>unit</th></tr>\n",
+    );
+    for p in &r.parameters {
+        let cells = match p.estimate {
+            Estimate::Value { value, u95 } => {
+                let (v, u) = with_interval(value, u95);
+                format!("<td class=\"n\">{v}</td><td class=\"n\">{u}</td>")
+            }
+            Estimate::NotIdentifiable => {
+                "<td class=\"nid\" colspan=\"2\">not identifiable</td>".to_string()
+            }
+        };
+        let _ = writeln!(
+            h,
+            "<tr data-param=\"{name}\"><td>{name}</td><td>{}</td>{cells}<td>{}</td></tr>",
+            escape(&p.group),
+            escape(display_unit(&p.unit)),
+            name = escape(&p.name),
+        );
+    }
+    h.push_str("</table>\n");
+    h
+}
+
+fn list(names: &[String]) -> String {
+    let names: Vec<String> = names.iter().map(|n| escape(n)).collect();
+    match names.as_slice() {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
+}
+
+fn identifiability(r: &Report) -> String {
+    let id = &r.identifiability;
+    if id.combinations.is_empty() && id.concealed.is_empty() {
+        return "<p>These data separate every estimated parameter.</p>\n".into();
+    }
+    let mut h = String::new();
+    if !id.combinations.is_empty() {
+        h.push_str("<h3>Parameters that move together</h3>\n<ul class=\"combinations\">\n");
+        for c in &id.combinations {
+            let _ = writeln!(
+                h,
+                "<li><b>{}</b>: moving them together changes no reading, so these data see only \
+                 combinations of them; none of them gets a value.<details><summary>how they \
+                 move together</summary>{}</details></li>",
+                list(&c.parameters),
+                escape(&c.why)
+            );
+        }
+        h.push_str("</ul>\n");
+    }
+    if !id.concealed.is_empty() {
+        h.push_str("<h3>Effects hidden behind fitted parameters</h3>\n<ul class=\"concealed\">\n");
+        for c in &id.concealed {
+            let _ = writeln!(
+                h,
+                "<li><b>{}</b> looks to these data like {}: the fit cannot tell whether it is \
+                 there. To tell them apart: {}.</li>",
+                escape(&c.effect),
+                list(&c.hides_behind),
+                escape(&c.measurement)
+            );
+        }
+        h.push_str("</ul>\n");
+    }
+    h
+}
+
+fn discoveries(r: &Report) -> String {
+    let Some(s) = &r.search else {
+        return none(
+            "The physics search did not run (cargo xtask identify --search looks for thermal \
+             drift, backlash, cyclic errors and omitted parameters).",
+        );
+    };
+    let mut h = format!(
+        "<p>The physics search scored {} candidate effects and added {}. It stopped: {}.</p>\n",
+        s.candidates,
+        match s.discoveries.len() {
+            0 => "none".to_string(),
+            1 => "one".to_string(),
+            n => n.to_string(),
+        },
+        escape(&s.stopped)
+    );
+    for d in &s.discoveries {
+        let mut numbers = format!(
+            "fit RMS {} → {} µm · held-out RMS {} → {} µm",
+            num(d.rms_before_um, 3),
+            num(d.rms_after_um, 3),
+            num(d.heldout_rms_before_um, 3),
+            num(d.heldout_rms_after_um, 3)
+        );
+        if let Some((a, b)) = d.validation_rms_um {
+            let _ = write!(
+                numbers,
+                " · validation RMS {} → {} µm",
+                num(a, 3),
+                num(b, 3)
+            );
+        }
+        let _ = writeln!(
+            h,
+            "<article class=\"discovery\"><h3>{}</h3><p>{}</p><p class=\"numbers\">{numbers}</p></article>",
+            escape(&d.label),
+            escape(&d.explanation)
+        );
+    }
+    if !s.not_kept.is_empty() {
+        h.push_str("<details><summary>Candidates tried and not kept</summary><ul>\n");
+        for t in &s.not_kept {
+            let _ = writeln!(h, "<li>{}</li>", escape(t));
+        }
+        h.push_str("</ul></details>\n");
+    }
+    h
+}

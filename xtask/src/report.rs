@@ -1,0 +1,532 @@
+//! `identify --report DIR`: the data of the HTML report ([`mtcal_report`]) from the
+//! identification, the physics search, the study's runs and the machine model. Everything here
+//! gathers numbers the libraries computed; the page itself is `mtcal_report`'s.
+
+use anyhow::{Context, Result};
+use mtcal_identify::{Identification, Study};
+use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
+use mtcal_kinematics::{AxisKind, Machine};
+use mtcal_report as rep;
+use mtcal_solve::Solution;
+use std::path::{Path, PathBuf};
+
+/// Points per axis of a volumetric map slice.
+const SLICE_POINTS: usize = 21;
+
+/// The model before the physics search: the session as loaded and its fit.
+struct Before<'a> {
+    study: Study,
+    id: &'a Identification,
+    predictions: Vec<Option<Vec<f64>>>,
+}
+
+/// Writes `dir/index.html` for the identification `id` (its `study` and `solution`); with
+/// `initial` (the fit before the physics search) the page compares before and after.
+pub fn write(
+    dir: &Path,
+    session: &Path,
+    study: &Study,
+    solution: &Solution,
+    id: &Identification,
+    initial: Option<&Identification>,
+) -> Result<PathBuf> {
+    let before = match initial {
+        Some(initial) => {
+            // The search started from the session as loaded: load it again for its predictions.
+            let study = Study::load(session)?;
+            (study.n_x == initial.x.len()).then(|| {
+                let predictions = predictions(&study, &initial.x);
+                Before {
+                    study,
+                    id: initial,
+                    predictions,
+                }
+            })
+        }
+        None => None,
+    };
+    let after = predictions(study, &solution.x);
+    let report = rep::Report {
+        title: format!("mtcal identification — {}", session_name(session)),
+        summary: summary(session, study, id, before.as_ref()),
+        ballbar: ballbar(study, &after, id, before.as_ref()),
+        residuals: residuals(study, &after, before.as_ref()),
+        components: components(study, id),
+        volumetric: volumetric(study, solution)?,
+        parameters: parameters(study, solution, id),
+        identifiability: identifiability(id),
+        search: search(id),
+    };
+    mtcal_report::write(dir, &report).context("cannot write the report")
+}
+
+fn session_name(session: &Path) -> String {
+    let dir = if session.extension().is_some_and(|e| e == "toml") {
+        session.parent().unwrap_or(session)
+    } else {
+        session
+    };
+    let parts: Vec<String> = dir
+        .components()
+        .rev()
+        .take(2)
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    parts.into_iter().rev().collect::<Vec<_>>().join("/")
+}
+
+/// Predicted readings of every run with readings.
+fn predictions(study: &Study, x: &[f64]) -> Vec<Option<Vec<f64>>> {
+    mtcal_identify::predict_runs(study, x, |r| study.runs[r].readings.is_some())
+}
+
+fn summary(
+    session: &Path,
+    study: &Study,
+    id: &Identification,
+    before: Option<&Before<'_>>,
+) -> rep::Summary {
+    let samples: usize = study.runs.iter().map(|r| r.len()).sum();
+    let fit = |id: &Identification| {
+        format!(
+            "RMS {:.3} µm, χ²/dof {:.3} ({} degrees of freedom)",
+            id.fit.rms_um, id.fit.chi2_reduced, id.fit.dof
+        )
+    };
+    let mut facts = vec![format!(
+        "{} runs, {} samples; {} parameters ({} machine coefficients)",
+        study.runs.len(),
+        samples,
+        study.n_x,
+        study.estimated.len()
+    )];
+    if let Some(b) = before {
+        facts.push(format!("fit before the physics search: {}", fit(b.id)));
+        facts.push(format!("fit after the physics search: {}", fit(id)));
+    } else {
+        facts.push(format!("fit: {}", fit(id)));
+    }
+    let s = &id.solver;
+    facts.push(format!(
+        "solver: {} iterations, {}; rank {} of {} parameters, condition number {:.3e}",
+        s.iterations,
+        if s.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        },
+        s.rank,
+        s.parameters,
+        s.condition_number
+    ));
+    facts.push(if id.mismatch.detected {
+        "mismatch: the residuals of the fitted runs are not noise (family-wise α = 5 %)".into()
+    } else {
+        "mismatch: none found — every fitted run's residuals pass the structure tests".into()
+    });
+    let runs = id
+        .fit
+        .runs
+        .iter()
+        .map(|r| (r, "fit"))
+        .chain(id.validation.iter().map(|r| (r, "validate")))
+        .map(|(r, role)| rep::RunRow {
+            name: r.name.clone(),
+            instrument: r.instrument.clone(),
+            role: role.into(),
+            rms_before_um: before.and_then(|b| {
+                let all = b.id.fit.runs.iter().chain(&b.id.validation);
+                all.clone().find(|x| x.name == r.name).map(|x| x.rms_um)
+            }),
+            rms_um: r.rms_um,
+        })
+        .collect();
+    rep::Summary {
+        session: session.display().to_string(),
+        machine: format!(
+            "{} ({})",
+            study.machine.machine.name(),
+            study.machine.source
+        ),
+        facts,
+        runs,
+    }
+}
+
+/// Channel `c` of run `r` in its file unit: `(readings, predictions)` of every sample.
+fn channel_values(study: &Study, r: usize, pred: &[f64], c: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+    let run = &study.runs[r];
+    let readings = run.readings.as_ref()?;
+    let channels = study.channels(r);
+    let per = channels.get(c)?.unit.per_si();
+    let nch = channels.len();
+    let pick = |v: &[f64]| v.iter().skip(c).step_by(nch).map(|x| x * per).collect();
+    Some((pick(readings), pick(pred)))
+}
+
+fn ballbar(
+    study: &Study,
+    after: &[Option<Vec<f64>>],
+    id: &Identification,
+    before: Option<&Before<'_>>,
+) -> Vec<rep::PolarRun> {
+    let mut out = Vec::new();
+    for (r, run) in study.runs.iter().enumerate() {
+        let slot = &study.setups[run.setup];
+        if slot.plugin.name != "ballbar" {
+            continue;
+        }
+        let Ok(config) = mtcal_ballbar::BallbarConfig::from_table(&slot.table) else {
+            continue;
+        };
+        let Some(circle) = mtcal_ballbar::recognise_circle(study.model.machine(), &config, &run.q)
+        else {
+            continue;
+        };
+        let Some((measured, model)) = after[r]
+            .as_deref()
+            .and_then(|p| channel_values(study, r, p, 0))
+        else {
+            continue;
+        };
+        let model_before = before.and_then(|b| {
+            let rb = b.study.runs.iter().position(|x| x.name == run.name)?;
+            let p = b.predictions.get(rb)?.as_deref()?;
+            channel_values(&b.study, rb, p, 0).map(|(_, m)| m)
+        });
+        let metrics = id
+            .fit
+            .runs
+            .iter()
+            .chain(&id.validation)
+            .find(|f| f.name == run.name)
+            .map(|f| {
+                let m = f.metrics.iter();
+                m.map(|m| (m.name.clone(), m.value, m.unit.clone()))
+                    .collect()
+            })
+            .unwrap_or_default();
+        out.push(rep::PolarRun {
+            name: run.name.clone(),
+            plane: circle.plane.name().to_string(),
+            radius_mm: config.length() * 1e3,
+            angles_deg: circle.angles.iter().map(|a| a.to_degrees()).collect(),
+            measured_um: measured,
+            model_um: model,
+            model_before_um: model_before,
+            metrics,
+        });
+    }
+    out
+}
+
+/// What a context column is and its unit (the run files' units).
+fn describe_variable(name: &str) -> (String, String) {
+    let (what, unit) = match name {
+        "t" => ("time since the session started".to_string(), "s"),
+        "S" => ("spindle speed".to_string(), "rpm"),
+        "F" => ("feed rate".to_string(), "mm/min"),
+        _ => match name.split_once('_') {
+            Some(("T", rest)) => (format!("temperature ({rest})"), "°C"),
+            Some(("P", rest)) => (format!("air pressure ({rest})"), "hPa"),
+            Some(("H", rest)) => (format!("relative humidity ({rest})"), "%"),
+            _ => (String::new(), ""),
+        },
+    };
+    (what, unit.to_string())
+}
+
+/// Residuals (reading − model) of every run with readings against `t` and every context
+/// column, in the channels' unit when they share one, else whitened (σ).
+fn residuals(
+    study: &Study,
+    after: &[Option<Vec<f64>>],
+    before: Option<&Before<'_>>,
+) -> Vec<rep::ResidualPlot> {
+    let units: std::collections::BTreeSet<&str> = (0..study.runs.len())
+        .filter(|&r| study.runs[r].readings.is_some())
+        .flat_map(|r| study.channels(r).iter().map(|c| c.unit.as_str()))
+        .collect();
+    let whiten = units.len() != 1;
+    let residual_unit = match units.iter().next() {
+        Some(u) if !whiten => (*u).to_string(),
+        _ => "σ".to_string(),
+    };
+    let mut variables = vec!["t".to_string()];
+    for run in &study.runs {
+        for (name, _) in &run.table.context {
+            if !variables.contains(name) {
+                variables.push(name.clone());
+            }
+        }
+    }
+    variables
+        .into_iter()
+        .map(|variable| {
+            let (description, unit) = describe_variable(&variable);
+            let before = before.map(|b| along(&b.study, &b.predictions, &variable, whiten));
+            rep::ResidualPlot {
+                after: along(study, after, &variable, whiten),
+                before,
+                variable,
+                description,
+                unit,
+                residual_unit: residual_unit.clone(),
+            }
+        })
+        .collect()
+}
+
+/// `(variable, residual)` of every sample and channel of the runs that have the variable.
+fn along(
+    study: &Study,
+    predictions: &[Option<Vec<f64>>],
+    variable: &str,
+    whiten: bool,
+) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for (r, run) in study.runs.iter().enumerate() {
+        let (Some(readings), Some(Some(pred))) = (&run.readings, predictions.get(r)) else {
+            continue;
+        };
+        let xs: &[f64] = if variable == "t" {
+            &run.table.t
+        } else {
+            match run.table.context_column(variable) {
+                Some(v) => v,
+                None => continue,
+            }
+        };
+        let channels = study.channels(r);
+        let nch = channels.len();
+        for (i, &x) in xs.iter().enumerate().take(run.len()) {
+            for (c, ch) in channels.iter().enumerate() {
+                let d = readings[i * nch + c] - pred[i * nch + c];
+                let scale = if whiten {
+                    1.0 / ch.sigma
+                } else {
+                    ch.unit.per_si()
+                };
+                out.push((x, d * scale));
+            }
+        }
+    }
+    out
+}
+
+/// The identification's component curves with their units.
+fn components(study: &Study, id: &Identification) -> Vec<rep::ComponentCurve> {
+    let params = study.model.errors().params();
+    id.component_errors
+        .iter()
+        .map(|c| {
+            let name = params
+                .iter()
+                .map(|p| p.name)
+                .find(|n| n.to_string() == c.name);
+            let rotary = name.and_then(|n| n.axis()).is_some_and(|a| a.is_rotary());
+            rep::ComponentCurve {
+                name: c.name.clone(),
+                position_unit: if rotary { "deg" } else { "mm" }.into(),
+                value_unit: name.map_or("um", |n| n.unit()).into(),
+                samples: c
+                    .samples
+                    .iter()
+                    .map(|s| rep::CurvePoint {
+                        position: s[0],
+                        value: s[1],
+                        u95: s[2],
+                    })
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
+/// Position of axis `k` in file units (mm, degrees).
+fn file_units(machine: &Machine, k: usize, v: f64) -> f64 {
+    match machine.axes()[k].kind() {
+        AxisKind::Linear => v * 1e3,
+        AxisKind::Rotary => v.to_degrees(),
+    }
+}
+
+/// Slices of the first-order volumetric map through the middle of the stroke, one per pair of
+/// linear axes (at most three), rotary axes at 0.
+fn volumetric(study: &Study, solution: &Solution) -> Result<rep::Volumetric> {
+    let machine = study.model.machine();
+    let coeffs = study.coeffs_from(&solution.x);
+    let n_linear = Grid::new(machine, 1)
+        .context("cannot build the map grid")?
+        .linear()
+        .len();
+    let mut slices = Vec::new();
+    for a in 0..n_linear {
+        for b in a + 1..n_linear {
+            if slices.len() == 3 {
+                break;
+            }
+            let mut counts = vec![1; n_linear];
+            counts[a] = SLICE_POINTS;
+            counts[b] = SLICE_POINTS;
+            let grid = Grid::with_counts(machine, &counts).context("cannot build the map grid")?;
+            let map = volumetric_map(&study.model, &coeffs, &grid, &MapOptions::default());
+            slices.push(slice(machine, &grid, map.magnitudes_um(), a, b));
+        }
+    }
+    let rotary: Vec<String> = machine
+        .axes()
+        .iter()
+        .filter(|ax| ax.kind() == AxisKind::Rotary)
+        .map(|ax| format!("{} = 0°", ax.letter().as_char()))
+        .collect();
+    let mut note = String::from(
+        "|Δ|, the tool point's position error relative to the workpiece, from the identified \
+         machine parameters (first-order model) on planes through the middle of the strokes",
+    );
+    if !rotary.is_empty() {
+        note.push_str(&format!(", {}", rotary.join(", ")));
+    }
+    note.push_str(
+        ". Parameters the data cannot separate enter as the fit left them (see below), so the \
+         map is only as good as the identifiability section says.",
+    );
+    Ok(rep::Volumetric { slices, note })
+}
+
+/// The slice of linear axes `a` (horizontal) and `b` of a grid with one point on every other
+/// linear axis: grid order has `a` slower than `b`.
+fn slice(machine: &Machine, grid: &Grid, mags: &[f64], a: usize, b: usize) -> rep::MapSlice {
+    let lin = grid.linear();
+    let values = |r: &mtcal_kinematics::volmap::AxisRange| -> Vec<f64> {
+        (0..r.n)
+            .map(|i| file_units(machine, r.axis, r.value(i)))
+            .collect()
+    };
+    let (xs, ys) = (values(&lin[a]), values(&lin[b]));
+    let (nx, ny) = (xs.len(), ys.len());
+    let mut v = vec![0.0; nx * ny];
+    for i in 0..nx {
+        for j in 0..ny {
+            v[j * nx + i] = mags[i * ny + j];
+        }
+    }
+    let held: Vec<String> = lin
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| *k != a && *k != b)
+        .map(|(_, r)| {
+            let mm = file_units(machine, r.axis, r.value(0));
+            format!("{} = {:.0} mm", r.letter, mm).replace('-', "−")
+        })
+        .collect();
+    let title = if held.is_empty() {
+        format!("{}–{}", lin[a].letter, lin[b].letter)
+    } else {
+        format!("{}–{} at {}", lin[a].letter, lin[b].letter, held.join(", "))
+    };
+    rep::MapSlice {
+        title,
+        x_label: format!("{} (mm)", lin[a].letter),
+        y_label: format!("{} (mm)", lin[b].letter),
+        xs,
+        ys,
+        values_um: v,
+    }
+}
+
+/// Every parameter in the fit's order: its value, or "not identifiable" (never a number).
+fn parameters(study: &Study, solution: &Solution, id: &Identification) -> Vec<rep::ParameterRow> {
+    let mut rows = Vec::new();
+    for i in 0..study.n_x {
+        let info = study.param_info(i);
+        if let Some(p) = id.parameters.iter().find(|p| p.name == info.name) {
+            rows.push(rep::ParameterRow {
+                name: p.name.clone(),
+                group: p.kind.clone(),
+                unit: p.unit.clone(),
+                estimate: rep::Estimate::Value {
+                    value: p.value,
+                    u95: p.u95,
+                },
+            });
+        } else if !solution.identified.get(i).copied().unwrap_or(true) {
+            let group = if info.machine {
+                "machine".to_string()
+            } else if i >= study.effect_offset {
+                "effect".to_string()
+            } else {
+                study
+                    .setups
+                    .iter()
+                    .find(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
+                    .map_or_else(String::new, |s| s.name.clone())
+            };
+            rows.push(rep::ParameterRow {
+                name: info.name,
+                group,
+                unit: info.unit,
+                estimate: rep::Estimate::NotIdentifiable,
+            });
+        }
+    }
+    rows
+}
+
+fn identifiability(id: &Identification) -> rep::Identifiability {
+    rep::Identifiability {
+        combinations: id
+            .unidentifiable
+            .iter()
+            .map(|u| rep::Combination {
+                parameters: u.parameters.clone(),
+                why: u.why.clone(),
+            })
+            .collect(),
+        concealed: id
+            .search
+            .iter()
+            .flat_map(|s| &s.concealed)
+            .map(|c| rep::ConcealedEffect {
+                // The candidate's name already says its family, e.g. `ECZ (omitted-parameter)`.
+                effect: c.candidate.clone(),
+                hides_behind: c.hides_behind.clone(),
+                measurement: c.measurement.clone(),
+            })
+            .collect(),
+    }
+}
+
+fn search(id: &Identification) -> Option<rep::SearchOutcome> {
+    let s = id.search.as_ref()?;
+    let discoveries = id
+        .discoveries
+        .iter()
+        .map(|d| rep::DiscoveryText {
+            label: d.label.clone(),
+            explanation: d.explanation.clone(),
+            rms_before_um: d.rms_before_um,
+            rms_after_um: d.rms_after_um,
+            heldout_rms_before_um: d.heldout_rms_before_um,
+            heldout_rms_after_um: d.heldout_rms_after_um,
+            validation_rms_um: d.validation_rms_before_um.zip(d.validation_rms_after_um),
+        })
+        .collect();
+    let not_kept = s
+        .steps
+        .iter()
+        .enumerate()
+        .flat_map(|(k, trials)| {
+            trials
+                .iter()
+                .filter(|t| !t.accepted)
+                .map(move |t| format!("step {}: {}: {}", k + 1, t.candidate, t.why))
+        })
+        .collect();
+    Some(rep::SearchOutcome {
+        candidates: s.candidates,
+        stopped: s.stopped.clone(),
+        discoveries,
+        not_kept,
+    })
+}
