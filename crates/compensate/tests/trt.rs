@@ -163,3 +163,85 @@ fn machines_without_a_table_table_pair_are_refused() {
         assert!(e.contains(want), "{name}: {e}");
     }
 }
+
+/// LinuxCNC xyzbc-trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm): undo
+/// the B tilt about its line (parallel to Y), then the C turn about its line.
+fn xyzbc_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {
+    let [x, y, z, b, c] = j;
+    let (b, c) = (b.to_radians(), c.to_radians());
+    let (xb, zb) = (
+        p.x_rot_point_mm + p.x_offset_mm,
+        p.z_rot_point_mm + p.z_offset_mm + p.tool_offset_mm,
+    );
+    let (u, w) = (x - xb, z - zb);
+    let x1 = b.cos() * u - b.sin() * w + xb;
+    let z1 = b.sin() * u + b.cos() * w + zb;
+    let (dx, dy) = (x1 - p.x_rot_point_mm, y - p.y_rot_point_mm);
+    Vector3::new(
+        c.cos() * dx + c.sin() * dy + p.x_rot_point_mm,
+        -c.sin() * dx + c.cos() * dy + p.y_rot_point_mm,
+        z1,
+    )
+}
+
+#[test]
+fn linuxcnc_xyzbc_kinematics_with_mtcal_pivots_match_the_model() {
+    let model = load("mcv1000-5ax220-bc.urdf");
+    let m = model.machine();
+    let mut coeffs = vec![0.0; model.n_coeffs()];
+    for (name, v) in [
+        ("EX0C", -28e-6),
+        ("EY0C", 17e-6),
+        ("EX0B", 33e-6),
+        ("EZ0B", 21e-6),
+    ] {
+        set(&model, &mut coeffs, name, v);
+    }
+    let p = trt_pivots_with_nominal(&model, &coeffs).unwrap();
+    assert_eq!(p.kind, TrtKind::Xyzbc);
+    assert!(p.not_representable.is_empty(), "{:?}", p.not_representable);
+    let n = p.nominal.as_ref().as_ref().unwrap();
+    assert!((p.x_rot_point_mm - n.x_rot_point_mm + 0.028).abs() < 1e-9);
+    assert!(
+        (p.x_rot_point_mm + p.x_offset_mm - n.x_rot_point_mm - n.x_offset_mm - 0.033).abs() < 1e-9
+    );
+    assert!((p.z_rot_point_mm - n.z_rot_point_mm - 0.021).abs() < 1e-9);
+
+    let idx = ['X', 'Y', 'Z', 'B', 'C'].map(|l| m.axis_index(l).unwrap());
+    let origin = m.tool_in_workpiece(&vec![0.0; m.n_axes()]).t;
+    let mut ws = model.workspace();
+    let (mut worst, mut nominal_worst) = (0.0f64, 0.0f64);
+    let mut state = 11u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..500 {
+        let mut q = vec![0.0; m.n_axes()];
+        for &i in &idx {
+            let (lo, hi) = m.axes()[i]
+                .limits()
+                .unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
+            q[i] = lo + (hi - lo) * next();
+        }
+        let actual = (m.tool_in_workpiece(&q).t
+            + model.pose_error(&q, &coeffs, &mut ws).translation
+            - origin)
+            * 1e3;
+        // LinuxCNC's angles are mtcal's negated (see the xyzac test).
+        let j = [
+            q[idx[0]] * 1e3,
+            q[idx[1]] * 1e3,
+            q[idx[2]] * 1e3,
+            -q[idx[3]].to_degrees(),
+            -q[idx[4]].to_degrees(),
+        ];
+        worst = worst.max((xyzbc_forward(&p, j) - actual).norm());
+        nominal_worst = nominal_worst.max((xyzbc_forward(n, j) - actual).norm());
+    }
+    eprintln!("xyzbc: {worst:.1e} mm with mtcal's pivots, {nominal_worst:.4} mm with nominal ones");
+    assert!(worst < 1e-7, "{worst} mm");
+    assert!(nominal_worst > 0.02, "{nominal_worst} mm");
+}

@@ -317,8 +317,10 @@ fn artefact_bodies(
         0.5 * (hi.y + lo.y),
         0.5 * (hi.z + lo.z - thick),
     );
-    // The nominal tool point at q = 0: axis coordinates → workpiece frame.
-    let c = nominal.tool_in_workpiece(&vec![0.0; nominal.n_axes()]).t;
+    // The probe's tool point at q = 0 (the loaded machine's tool point `tool_length` further
+    // along −z of the tool, as the plan's machine has it): axis coordinates → workpiece frame.
+    let zero = nominal.tool_in_workpiece(&vec![0.0; nominal.n_axes()]);
+    let c = zero.t + zero.r * Vector3::new(0.0, 0.0, -tool_length);
     let mut placements: Vec<(String, toml::Table)> = match setup.get("placements") {
         Some(toml::Value::Table(t)) => t
             .iter()

@@ -515,3 +515,70 @@ fn bad_planning_files_name_file_line_and_column() {
         "machine:",
     );
 }
+
+/// An artefact (a 2-D hole plate probed with a touch probe): the plate sits where the artefact
+/// plugin puts it (origin in axis coordinates of the probe's tool point), so a placement on the
+/// table is clear and one 40 mm lower puts the probe into the table; the chosen placement's
+/// program probes every feature at its nominal position.
+#[test]
+fn artefact_placements_are_collision_checked_and_their_programs_probe_the_features() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("planning.toml");
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let text = format!(
+        r#"machine = "{}"
+wanted = ["EC0Y"]
+tool_length_mm = 120.0
+random_trials = 4
+
+[[candidates]]
+name = "plate"
+instrument = "artefact"
+choose = 1
+setup = {{ features = {{ h1 = [0.0, 0.0], h2 = [100.0, 0.0], h3 = [0.0, 100.0], h4 = [100.0, 100.0] }} }}
+points = [[-50.0, -50.0, -500.0], [-50.0, -50.0, -540.0]]
+runs = [ {{ name = "probe", path = {{}} }} ]
+"#,
+        machine.display()
+    );
+    std::fs::write(&p, text).unwrap();
+    let planned = mtcal_plan::plan(&p).unwrap();
+    let r = &planned.report;
+    let status = |n: &str| &r.candidates.iter().find(|c| c.name == n).unwrap().status;
+    assert_eq!(status("plate-01"), "ok");
+    assert_eq!(status("plate-02"), "collides");
+    assert!(
+        r.given_up.iter().any(|s| s.contains("plate-02")),
+        "{:?}",
+        r.given_up
+    );
+    let run = planned
+        .runs
+        .iter()
+        .find(|x| x.name == "plate-01-probe")
+        .expect("the clear placement is planned");
+    assert!(!planned.runs.iter().any(|x| x.name.starts_with("plate-02")));
+    let out = tempfile::tempdir().unwrap();
+    planned.write(out.path()).unwrap();
+    let text = std::fs::read_to_string(out.path().join("programs/plate-01-probe.nc")).unwrap();
+    let program = mtcal_ncprog::Program::parse(&text).unwrap();
+    let states = program.modal_states();
+    let probed: Vec<[f64; 3]> = program
+        .lines
+        .iter()
+        .zip(&states)
+        .filter(|(l, _)| l.has_axis_word())
+        .map(|(_, s)| [s.axes[0].unwrap(), s.axes[1].unwrap(), s.axes[2].unwrap()])
+        .collect();
+    // Features in name order at origin + feature (mm).
+    let want = [[-50.0, -50.0], [50.0, -50.0], [-50.0, 50.0], [50.0, 50.0]];
+    assert_eq!(probed.len(), want.len());
+    assert_eq!(run.poses.len(), want.len());
+    for (got, w) in probed.iter().zip(want) {
+        assert!(
+            (got[0] - w[0]).abs() < 1e-4 && (got[1] - w[1]).abs() < 1e-4,
+            "{got:?}"
+        );
+        assert!((got[2] + 500.0).abs() < 1e-4, "{got:?}");
+    }
+}
