@@ -14,6 +14,7 @@ use std::process::ExitCode;
 
 mod plan;
 mod report;
+mod scale;
 mod tolerance;
 
 #[derive(Parser)]
@@ -203,6 +204,9 @@ enum Command {
     /// specification, the P90 of their maximum volumetric error, each tolerance's sensitivity
     /// (crates/tolerance, docs/TOLERANCE.md).
     Tolerance(tolerance::ToleranceArgs),
+    /// How identification scales: simulate a session of N samples in a temporary folder,
+    /// identify it in a child process and print the time and peak memory (xtask/src/scale.rs).
+    ScaleBench(scale::ScaleArgs),
     /// Build the nominal machine of a topology code and write it as a URDF to edit.
     Topology {
         /// e.g. wCAFYXZt, CAFYXZ, ZFYX
@@ -494,6 +498,7 @@ fn run(cli: Cli) -> Result<()> {
             plot.as_deref(),
         ),
         Command::Tolerance(args) => tolerance::run(args, &mut stdout),
+        Command::ScaleBench(args) => scale::run(args, &mut stdout),
         Command::Topology {
             code,
             from_tool,
@@ -724,6 +729,8 @@ fn cl_error(
     use std::fmt::Write as _;
     let (model, coeffs) = model_and_coeffs(machine, params)?;
     let cl = read_cl(cl_path)?;
+    mtcal_ncprog::check_units(model.machine(), &cl)
+        .map_err(|e| located(cl_path, e.line, e.column, e.expected, &e.found))?;
     let points =
         mtcal_ncprog::all_axis_positions(model.machine(), &cl, &mtcal_ncprog::ClOptions::default())
             .map_err(|e| anyhow::anyhow!("{}: {e}", cl_path.display()))?;
@@ -747,6 +754,36 @@ fn cl_error(
         "|error|     max {:.3} um at line {}, RMS {:.3} um, P90 {:.3} um; tool-axis tilt max {:.3} urad",
         s.max_um, points[s.max_index].line, s.rms_um, s.p90_um, s.max_tilt_urad
     )?;
+    // The plot is drawn before any file is written: a path it cannot draw (one point) is
+    // refused with nothing half done.
+    let svg = if plot.is_some() {
+        let five_axis = model
+            .machine()
+            .axes()
+            .iter()
+            .any(|a| a.kind() == AxisKind::Rotary);
+        let mut along_mm = 0.0;
+        let path: Vec<mtcal_report::PathPoint> = cl
+            .points
+            .iter()
+            .enumerate()
+            .zip(&errors)
+            .map(|((k, p), e)| {
+                if k > 0 {
+                    along_mm += (p.tip_mm - cl.points[k - 1].tip_mm).norm();
+                }
+                mtcal_report::PathPoint {
+                    along_mm,
+                    error_um: e.magnitude_um,
+                    tilt_urad: five_axis.then_some(e.tilt_urad),
+                }
+            })
+            .collect();
+        let title = format!("predicted error along {}", cl_path.display());
+        Some(mtcal_report::path_error_svg(&title, &path)?)
+    } else {
+        None
+    };
     if let Some(out) = out {
         let axes = model.machine().axes();
         let mut csv = String::from("x,y,z");
@@ -778,31 +815,7 @@ fn cl_error(
             .with_context(|| format!("cannot write {}", out.display()))?;
         writeln!(stdout, "wrote {} ({} rows)", out.display(), errors.len())?;
     }
-    if let Some(plot) = plot {
-        let five_axis = model
-            .machine()
-            .axes()
-            .iter()
-            .any(|a| a.kind() == AxisKind::Rotary);
-        let mut along_mm = 0.0;
-        let path: Vec<mtcal_report::PathPoint> = cl
-            .points
-            .iter()
-            .enumerate()
-            .zip(&errors)
-            .map(|((k, p), e)| {
-                if k > 0 {
-                    along_mm += (p.tip_mm - cl.points[k - 1].tip_mm).norm();
-                }
-                mtcal_report::PathPoint {
-                    along_mm,
-                    error_um: e.magnitude_um,
-                    tilt_urad: five_axis.then_some(e.tilt_urad),
-                }
-            })
-            .collect();
-        let title = format!("predicted error along {}", cl_path.display());
-        let svg = mtcal_report::path_error_svg(&title, &path)?;
+    if let (Some(plot), Some(svg)) = (plot, svg) {
         mtcal_machine::write_atomically(plot, svg.as_bytes())
             .with_context(|| format!("cannot write {}", plot.display()))?;
         writeln!(stdout, "wrote {}", plot.display())?;

@@ -494,6 +494,14 @@ fn identifiability(id: &Identification) -> rep::Identifiability {
                 measurement: c.measurement.clone(),
             })
             .collect(),
+        weakly_determined: id
+            .weakly_determined
+            .iter()
+            .map(|w| rep::Combination {
+                parameters: w.parameters.clone(),
+                why: w.why.clone(),
+            })
+            .collect(),
     }
 }
 

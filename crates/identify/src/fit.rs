@@ -581,6 +581,33 @@ pub fn predict_runs(
     x: &[f64],
     wanted: impl Fn(usize) -> bool,
 ) -> Vec<Option<Vec<f64>>> {
+    predict_runs_with(study, x, wanted, prepared_at(study, x, None))
+}
+
+/// The study's effects prepared at `x`, for [`predict_run_with`] (`None` without effects).
+pub(crate) fn prepared_effects(study: &Study, x: &[f64]) -> Option<Arc<PreparedEffects>> {
+    prepared_at(study, x, None)
+}
+
+/// [`predict_run`] with the effects already prepared at `x` ([`prepared_effects`]): a caller
+/// that predicts run after run holds one run's predictions at a time.
+pub(crate) fn predict_run_with(
+    study: &Study,
+    r: usize,
+    x: &[f64],
+    prepared: Option<Arc<PreparedEffects>>,
+) -> Vec<f64> {
+    predict_runs_with(study, x, |i| i == r, prepared)
+        .swap_remove(r)
+        .expect("the wanted run is predicted")
+}
+
+fn predict_runs_with(
+    study: &Study,
+    x: &[f64],
+    wanted: impl Fn(usize) -> bool,
+    prepared: Option<Arc<PreparedEffects>>,
+) -> Vec<Option<Vec<f64>>> {
     let mut out: Vec<Option<Vec<f64>>> = (0..study.runs.len())
         .map(|r| wanted(r).then(|| vec![0.0; study.runs[r].len() * study.channels(r).len()]))
         .collect();
@@ -598,7 +625,6 @@ pub fn predict_runs(
         .min(tasks.len())
         .max(1);
     let queue = std::sync::Mutex::new(tasks.into_iter());
-    let prepared = prepared_at(study, x, None);
     let worker = || {
         loop {
             let task = queue.lock().map(|mut q| q.next());

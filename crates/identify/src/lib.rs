@@ -14,6 +14,7 @@
 //! - `start = "file.params.toml"`: start values (and the values of parameters not estimated);
 //!   default zero.
 
+mod checks;
 pub mod fit;
 pub mod information;
 pub mod mismatch;
@@ -182,11 +183,29 @@ pub fn identify_session(session: &Path) -> Result<(Study, Identification), Ident
 
 /// Writes every validation run's predicted readings to `dir/<run>.csv` (the run's own columns,
 /// readings replaced by the predictions, or added when the run has none). Returns the files.
+/// Refuses, before writing anything, a `dir` where a prediction would replace one of the
+/// session's own files (inputs are never modified).
 pub fn write_predictions(
     study: &Study,
     x: &[f64],
     dir: &Path,
 ) -> Result<Vec<PathBuf>, IdentifyError> {
+    let inputs: Vec<PathBuf> = study
+        .runs
+        .iter()
+        .filter_map(|run| run.table.path.canonicalize().ok())
+        .collect();
+    for run in study.runs.iter().filter(|run| !run.fit) {
+        let target = dir.join(format!("{}.csv", run.name));
+        if target.canonicalize().is_ok_and(|t| inputs.contains(&t)) {
+            return Err(IdentifyError::RunData {
+                at: target.display().to_string(),
+                message: "the predictions would replace a run file of the session itself; \
+                          write them into another folder (--predict DIR)"
+                    .into(),
+            });
+        }
+    }
     std::fs::create_dir_all(dir).map_err(|e| {
         IdentifyError::Session(mtcal_session::SessionError::Write {
             path: dir.to_path_buf(),

@@ -7,6 +7,7 @@
 
 use crate::study::Study;
 use mtcal_mismatch::{Analysis, Family, MismatchError, Options, RunResiduals};
+use mtcal_session::RunTable;
 
 /// Runs longer than this are analysed as block sums of consecutive samples (in time order),
 /// `Σ rᵢ / √m` over blocks of `m`: under the null hypothesis still independent with unit
@@ -24,7 +25,7 @@ const MIN_SAMPLES: usize = 20;
 const MIN_RMS: f64 = 1e-3;
 
 /// One run's residuals and context, owned (the analysis borrows them).
-struct RunData {
+pub(crate) struct RunData {
     name: String,
     channels: Vec<(String, Vec<f64>)>,
     context: Vec<(String, Vec<f64>)>,
@@ -36,14 +37,25 @@ struct RunData {
 /// The mismatch analysis of the fitted runs; `predictions[r]` are run `r`'s predicted readings
 /// (SI, `samples × channels`) at the solution, `None` for runs without readings.
 pub fn analyse(study: &Study, predictions: &[Option<Vec<f64>>]) -> Result<Analysis, MismatchError> {
-    let data: Vec<RunData> = study
-        .runs
-        .iter()
-        .enumerate()
-        .filter(|(_, run)| run.fit && run.len() >= MIN_SAMPLES)
-        .filter_map(|(r, _)| Some(run_data(study, r, predictions[r].as_ref()?)))
-        .filter(|d| !d.channels.is_empty())
+    let data = (0..study.runs.len())
+        .filter_map(|r| run_summary(study, r, predictions[r].as_ref()?))
         .collect();
+    analyse_summaries(data)
+}
+
+/// What the analysis keeps of run `r` given its predictions (`None` for a run it leaves out):
+/// at most [`MAX_SAMPLES`] block sums per channel and context variable, so that the caller
+/// can drop the predictions before predicting the next run.
+pub(crate) fn run_summary(study: &Study, r: usize, pred: &[f64]) -> Option<RunData> {
+    let run = &study.runs[r];
+    if !run.fit || run.len() < MIN_SAMPLES {
+        return None;
+    }
+    Some(run_data(study, r, pred)).filter(|d| !d.channels.is_empty())
+}
+
+/// [`analyse`] from the runs' summaries ([`run_summary`], in run order).
+pub(crate) fn analyse_summaries(data: Vec<RunData>) -> Result<Analysis, MismatchError> {
     let runs: Vec<RunResiduals<'_>> = data
         .iter()
         .map(|d| {
@@ -89,22 +101,7 @@ fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
     let readings = run.readings.as_ref().expect("fitted runs have readings");
     let channels = study.channels(r);
     let (n, nch) = (run.len(), channels.len());
-    let m = n.div_ceil(MAX_SAMPLES).max(1);
-    let blocks = n.div_ceil(m);
-    // Block sums over consecutive samples; the context is the block mean.
-    let sum_over = |f: &dyn Fn(usize) -> f64, normalise: Norm| -> Vec<f64> {
-        (0..blocks)
-            .map(|b| {
-                let range = b * m..((b + 1) * m).min(n);
-                let len = range.len() as f64;
-                let s: f64 = range.map(f).sum();
-                match normalise {
-                    Norm::Residual => s / len.sqrt(),
-                    Norm::Mean => s / len,
-                }
-            })
-            .collect()
-    };
+    let sum_over = |f: &dyn Fn(usize) -> f64, normalise: Norm| block_sums(n, f, normalise);
     let mut channels_out = Vec::new();
     let mut excess = Vec::new();
     for (c, ch) in channels.iter().enumerate() {
@@ -116,32 +113,11 @@ fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
         }
     }
     let mut context = vec![("t".to_string(), sum_over(&|i| run.table.t[i], Norm::Mean))];
-    let na = run.table.axes.len();
-    for (a, &letter) in run.table.axes.iter().enumerate() {
-        let pos = |i: usize| run.table.positions[i * na + a];
-        context.push((letter.to_string(), sum_over(&pos, Norm::Mean)));
-    }
+    context.extend(run.position_blocks.means.iter().cloned());
     for (name, values) in &run.table.context {
         context.push((name.clone(), sum_over(&|i| values[i], Norm::Mean)));
     }
-    let splits = run
-        .table
-        .axes
-        .iter()
-        .enumerate()
-        .map(|(a, &letter)| {
-            let pos = |i: usize| run.table.positions[i * na + a];
-            let labels = (0..blocks)
-                .map(|b| {
-                    let (first, last) = (b * m, ((b + 1) * m).min(n) - 1);
-                    // Direction of motion: the central difference around the block.
-                    let (lo, hi) = (first.saturating_sub(1), (last + 1).min(n - 1));
-                    direction(pos(hi) - pos(lo))
-                })
-                .collect();
-            (format!("{letter} direction"), labels)
-        })
-        .collect();
+    let splits = run.position_blocks.splits.clone();
     RunData {
         name: run.name.clone(),
         channels: channels_out,
@@ -149,6 +125,77 @@ fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
         splits,
         excess,
     }
+}
+
+/// What the analysis needs of a run's commanded positions (file units), computed when the run
+/// is loaded so that the study need not keep them beside their SI copy: per axis the block
+/// means and each block's direction of motion.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PositionBlocks {
+    /// `(axis letter, block means)`.
+    pub(crate) means: Vec<(String, Vec<f64>)>,
+    /// `("<letter> direction", +1 / −1 / 0 per block)`.
+    pub(crate) splits: Vec<(String, Vec<i32>)>,
+}
+
+impl PositionBlocks {
+    pub(crate) fn of(table: &RunTable) -> Self {
+        let n = table.len();
+        let na = table.axes.len();
+        if n == 0 || table.positions.len() != n * na {
+            return Self::default();
+        }
+        let (m, blocks) = blocking(n);
+        let means = table
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(a, &letter)| {
+                let pos = |i: usize| table.positions[i * na + a];
+                (letter.to_string(), block_sums(n, &pos, Norm::Mean))
+            })
+            .collect();
+        let splits = table
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(a, &letter)| {
+                let pos = |i: usize| table.positions[i * na + a];
+                let labels = (0..blocks)
+                    .map(|b| {
+                        let (first, last) = (b * m, ((b + 1) * m).min(n) - 1);
+                        // Direction of motion: the central difference around the block.
+                        let (lo, hi) = (first.saturating_sub(1), (last + 1).min(n - 1));
+                        direction(pos(hi) - pos(lo))
+                    })
+                    .collect();
+                (format!("{letter} direction"), labels)
+            })
+            .collect();
+        Self { means, splits }
+    }
+}
+
+/// Samples per block and number of blocks of a run of `n` samples.
+fn blocking(n: usize) -> (usize, usize) {
+    let m = n.div_ceil(MAX_SAMPLES).max(1);
+    (m, n.div_ceil(m))
+}
+
+/// Block sums over consecutive samples of `f` (`n` samples); the context is the block mean.
+fn block_sums(n: usize, f: &dyn Fn(usize) -> f64, normalise: Norm) -> Vec<f64> {
+    let (m, blocks) = blocking(n);
+    (0..blocks)
+        .map(|b| {
+            let range = b * m..((b + 1) * m).min(n);
+            let len = range.len() as f64;
+            let s: f64 = range.map(f).sum();
+            match normalise {
+                Norm::Residual => s / len.sqrt(),
+                Norm::Mean => s / len,
+            }
+        })
+        .collect()
 }
 
 #[derive(Clone, Copy)]

@@ -2,7 +2,6 @@
 //! unidentifiable combinations (never numbers), fit statistics per run and channel, validation
 //! predictions; the FORMATS.md `mtcal.identify/1` JSON and a plain-text summary.
 
-use crate::fit::predict_runs;
 use crate::study::Study;
 use mtcal_instrument::Evaluation;
 use mtcal_kinematics::model::Role;
@@ -39,6 +38,24 @@ pub struct Unidentifiable {
     pub parameters: Vec<String>,
     pub why: String,
 }
+
+/// Identified parameters the runs barely determine: numbers are given, but their intervals are
+/// beyond what a machine plausibly has (the runs hardly see the parameter), or their estimates
+/// correlate so strongly that each interval is mostly the others' uncertainty.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct WeaklyDetermined {
+    pub parameters: Vec<String>,
+    pub why: String,
+}
+
+/// Two identified parameters whose estimates correlate beyond this are reported as weakly
+/// determined (each interval is then at least 70 × what it would be with the other known).
+pub const WEAK_CORRELATION: f64 = 0.9999;
+
+/// A parameter whose 95 % interval exceeds this share of its plausible range (the solver's
+/// `ParamSpec::scale`: a millimetre or milliradian for machine and set-up parameters) is
+/// reported as weakly determined.
+pub const WEAK_SHARE_OF_RANGE: f64 = 0.1;
 
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct ChannelFit {
@@ -99,6 +116,10 @@ pub struct Identification {
     pub parameters: Vec<ParameterValue>,
     pub component_errors: Vec<ComponentCurve>,
     pub unidentifiable: Vec<Unidentifiable>,
+    /// Identified parameters the runs barely determine ([`WeaklyDetermined`]); in the JSON
+    /// only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub weakly_determined: Vec<WeaklyDetermined>,
     pub fit: Fit,
     /// Validation runs: not fitted; how well the identified model predicts them.
     pub validation: Vec<RunFit>,
@@ -166,21 +187,28 @@ impl Identification {
                 why: c.why.clone(),
             })
             .collect();
+        let weakly_determined = weakly_determined(study, solution);
         let component_errors = component_curves(study, solution);
         let mut runs = Vec::new();
         let mut validation = Vec::new();
-        let predictions = predict_runs(study, &x, |r| study.runs[r].readings.is_some());
-        let analysis = crate::mismatch::analyse(study, &predictions)?;
-        for (r, pred) in predictions.iter().enumerate() {
-            let Some(fit) = pred.as_ref().map(|p| run_fit(study, r, p)) else {
+        // One run's predictions at a time: the run fits and the mismatch analysis' block sums
+        // are all that is kept of them.
+        let prepared = crate::fit::prepared_effects(study, &x);
+        let mut summaries = Vec::new();
+        for r in 0..study.runs.len() {
+            if study.runs[r].readings.is_none() {
                 continue;
-            };
+            }
+            let pred = crate::fit::predict_run_with(study, r, &x, prepared.clone());
+            summaries.extend(crate::mismatch::run_summary(study, r, &pred));
+            let fit = run_fit(study, r, &pred);
             if study.runs[r].fit {
                 runs.push(fit);
             } else {
                 validation.push(fit);
             }
         }
+        let analysis = crate::mismatch::analyse_summaries(summaries)?;
         let n: usize = runs
             .iter()
             .flat_map(|r| &r.channels)
@@ -196,6 +224,7 @@ impl Identification {
             parameters,
             component_errors,
             unidentifiable,
+            weakly_determined,
             fit: Fit {
                 rms_um: if n > 0 { (ss / n as f64).sqrt() } else { 0.0 },
                 chi2_reduced: solution.chi2_reduced,
@@ -266,6 +295,15 @@ impl Identification {
                 let _ = writeln!(s, "  {}: {}", u.parameters.join(", "), u.why);
             }
         }
+        if !self.weakly_determined.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nweakly determined by these runs (the numbers above are given, but mean little):"
+            );
+            for w in &self.weakly_determined {
+                let _ = writeln!(s, "  {}: {}", w.parameters.join(", "), w.why);
+            }
+        }
         if self.mismatch.detected {
             let _ = writeln!(
                 s,
@@ -308,6 +346,101 @@ impl Identification {
         }
         s
     }
+}
+
+/// Identified machine and set-up parameters whose 95 % interval exceeds [`WEAK_SHARE_OF_RANGE`]
+/// of their plausible range (unless a prior the user set within that range is what bounds
+/// it), one entry each; then groups of identified parameters whose estimates correlate beyond
+/// [`WEAK_CORRELATION`] (linked pairwise), in parameter order.
+fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined> {
+    let n = solution.x.len();
+    let ids: Vec<usize> = (0..n)
+        .filter(|&i| solution.identified[i] && solution.sigma[i].is_some_and(|s| s > 0.0))
+        .collect();
+    let specs = crate::param_specs_from(study, &solution.x);
+    let mut out = Vec::new();
+    // Machine and set-up parameters (an effect's shape is judged by the search).
+    for &i in ids.iter().filter(|&&i| i < study.effect_offset) {
+        let (Some(sigma), Some(scale)) = (solution.sigma[i], specs[i].scale) else {
+            continue;
+        };
+        let u95 = K95 * sigma;
+        if u95 <= WEAK_SHARE_OF_RANGE * scale {
+            continue;
+        }
+        let info = study.param_info(i);
+        let prior = specs[i].prior.map(|(_, s)| s);
+        let why = match prior {
+            // The user's own prior within the plausible range: the interval is what they said.
+            Some(p) if K95 * p <= scale => continue,
+            Some(p) if sigma > 0.5 * p => format!(
+                "its 95 % interval, ±{:.4} {unit}, is its prior's (±{:.4} {unit}): these runs \
+                 hardly see it, and the prior is wider than any machine plausibly has",
+                u95 * info.per_si,
+                K95 * p * info.per_si,
+                unit = info.unit,
+            ),
+            _ => format!(
+                "its 95 % interval, ±{:.4} {unit}, is more than {:.0} % of its plausible range \
+                 ({:.4} {unit}): these runs hardly see it; a run where it acts more (another \
+                 position, axis angle or set-up) would determine it",
+                u95 * info.per_si,
+                WEAK_SHARE_OF_RANGE * 100.0,
+                scale * info.per_si,
+                unit = info.unit,
+            ),
+        };
+        out.push(WeaklyDetermined {
+            parameters: vec![info.name],
+            why,
+        });
+    }
+    // Union–find over strongly correlated pairs.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut largest = vec![0.0_f64; n];
+    for (a, &i) in ids.iter().enumerate() {
+        for &j in &ids[a + 1..] {
+            let Some(rho) = solution.correlation(i, j) else {
+                continue;
+            };
+            if rho.is_finite() && rho.abs() > WEAK_CORRELATION {
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                parent[ri.max(rj)] = ri.min(rj);
+                largest[i] = largest[i].max(rho.abs());
+                largest[j] = largest[j].max(rho.abs());
+            }
+        }
+    }
+    let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+    for &i in &ids {
+        if largest[i] == 0.0 {
+            continue;
+        }
+        let r = root(&mut parent, i);
+        match groups.iter_mut().find(|(g, _)| *g == r) {
+            Some((_, members)) => members.push(i),
+            None => groups.push((r, vec![i])),
+        }
+    }
+    out.extend(groups.into_iter().map(|(_, members)| {
+        let rho = members.iter().map(|&i| largest[i]).fold(0.0, f64::max);
+        WeaklyDetermined {
+            parameters: members.iter().map(|&i| study.param_info(i).name).collect(),
+            why: format!(
+                "their estimates correlate up to |ρ| = {rho:.6}: the runs barely tell them apart, \
+                 so each interval is mostly the others' uncertainty; a run that moves them \
+                 differently would separate them"
+            ),
+        }
+    }));
+    out
 }
 
 fn setup_of(study: &Study, i: usize) -> usize {

@@ -33,6 +33,13 @@ pub struct SetupSlot {
 }
 
 /// One run's samples.
+///
+/// The samples are held once: `table` keeps the file's times, context and (for validation
+/// runs, which [`crate::write_predictions`] writes back) the positions and labels as read,
+/// while the positions and readings the fit uses are converted to SI in place (`q`,
+/// `readings`): a fitted run's `table.positions` and every run's `table.values` are empty, a
+/// fitted run's label columns are empty (their numbers are `labels`). What the mismatch
+/// analysis needs from the positions in file units is summarised when the run is loaded.
 #[derive(Debug)]
 pub struct RunSlot {
     pub name: String,
@@ -48,6 +55,18 @@ pub struct RunSlot {
     /// Each sample's label number ([`Setup::resolve_label`]); empty when the instrument has no
     /// label columns.
     pub labels: Vec<u32>,
+    /// Block means and directions of the commanded positions, file units (for the mismatch
+    /// analysis).
+    pub(crate) position_blocks: crate::mismatch::PositionBlocks,
+}
+
+/// A run as loaded, for [`Study::rebuild`] (which reads no file again).
+struct LoadedRun {
+    table: RunTable,
+    q: Vec<f64>,
+    readings: Option<Vec<f64>>,
+    labels: Vec<u32>,
+    position_blocks: crate::mismatch::PositionBlocks,
 }
 
 impl RunSlot {
@@ -155,11 +174,24 @@ impl Study {
     /// The same session with `changes` (from the study as loaded, not from this one's
     /// changes): run files are not read again.
     pub fn rebuild(&self, changes: Changes) -> Result<Study, IdentifyError> {
-        let tables = self.runs.iter().map(|r| r.table.clone()).collect();
+        // The SI positions, prepared readings and label numbers depend on the session's
+        // set-ups and the machine's axes, which changes leave alone; the runs were checked
+        // when they were loaded.
+        let runs = self
+            .runs
+            .iter()
+            .map(|r| LoadedRun {
+                table: r.table.clone(),
+                q: r.q.clone(),
+                readings: r.readings.clone(),
+                labels: r.labels.clone(),
+                position_blocks: r.position_blocks.clone(),
+            })
+            .collect();
         Self::assemble(
             self.session.clone(),
             self.machine.clone(),
-            Some(tables),
+            Some(runs),
             changes,
         )
     }
@@ -172,7 +204,7 @@ impl Study {
     fn assemble(
         session: Session,
         mut machine: LoadedMachine,
-        tables: Option<Vec<RunTable>>,
+        loaded: Option<Vec<LoadedRun>>,
         changes: Changes,
     ) -> Result<Study, IdentifyError> {
         let model_error =
@@ -223,7 +255,7 @@ impl Study {
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
         let mut n_x = estimated.len();
-        let mut tables = tables.map(Vec::into_iter);
+        let mut loaded = loaded.map(Vec::into_iter);
         for spec in &session.runs {
             let plugin = mtcal_instrument::find(&spec.instrument).ok_or_else(|| {
                 IdentifyError::UnknownInstrument {
@@ -286,8 +318,8 @@ impl Study {
                 }
             };
             let fit = spec.use_ == RunUse::Fit;
-            let table = match tables.as_mut().and_then(Iterator::next) {
-                Some(t) => t,
+            let run = match loaded.as_mut().and_then(Iterator::next) {
+                Some(run) => run,
                 None => {
                     let channels: Vec<&str> = setups[setup_index]
                         .setup
@@ -301,7 +333,7 @@ impl Study {
                         .iter()
                         .map(|a| a.letter().as_char())
                         .collect();
-                    read_run(
+                    let table = read_run(
                         &spec.file,
                         &RunColumns {
                             axes: &letters,
@@ -309,24 +341,19 @@ impl Study {
                             readings_optional: !fit,
                             labels: setups[setup_index].setup.label_columns(),
                         },
-                    )?
+                    )?;
+                    load_run(&model, &*setups[setup_index].setup, table, fit)?
                 }
-            };
-            let q = positions_si(&model, &table);
-            let setup = &*setups[setup_index].setup;
-            let labels = run_labels(setup, &table)?;
-            let readings = match &table.values {
-                Some(v) => Some(prepared_readings(setup, &table, &q, v)?),
-                None => None,
             };
             runs.push(RunSlot {
                 name: spec.name.clone(),
                 fit,
                 setup: setup_index,
-                table,
-                q,
-                readings,
-                labels,
+                table: run.table,
+                q: run.q,
+                readings: run.readings,
+                labels: run.labels,
+                position_blocks: run.position_blocks,
             });
         }
         if !runs.iter().any(|r| r.fit) {
@@ -722,19 +749,56 @@ fn estimated_coefficients(
     Ok(out)
 }
 
-/// Commanded positions in SI: mm → m on linear axes, degrees → rad on rotary ones.
-fn positions_si(model: &MachineModel, table: &RunTable) -> Vec<f64> {
+/// A run file's table → the run as the study keeps it (checked first): positions and
+/// readings converted to SI in place (a validation run keeps its positions in file units too,
+/// for [`crate::write_predictions`]), labels resolved to numbers (a fitted run's label texts
+/// dropped), the positions' summary for the mismatch analysis.
+fn load_run(
+    model: &MachineModel,
+    setup: &dyn Setup,
+    mut table: RunTable,
+    fit: bool,
+) -> Result<LoadedRun, IdentifyError> {
+    crate::checks::check_run(model, setup, &table)?;
+    let labels = run_labels(setup, &table)?;
+    let position_blocks = crate::mismatch::PositionBlocks::of(&table);
+    let positions = if fit {
+        std::mem::take(&mut table.positions)
+    } else {
+        table.positions.clone()
+    };
+    let q = positions_si(model, positions);
+    let readings = match table.values.take() {
+        Some(v) => Some(prepared_readings(setup, &table, &q, v)?),
+        None => None,
+    };
+    if fit {
+        for (_, column) in &mut table.labels {
+            *column = Vec::new();
+        }
+    }
+    Ok(LoadedRun {
+        table,
+        q,
+        readings,
+        labels,
+        position_blocks,
+    })
+}
+
+/// Commanded positions in SI, converted in place: mm → m on linear axes, degrees → rad on
+/// rotary ones.
+fn positions_si(model: &MachineModel, mut positions: Vec<f64>) -> Vec<f64> {
     let kinds: Vec<AxisKind> = model.machine().axes().iter().map(|a| a.kind()).collect();
-    table
-        .positions
-        .chunks_exact(kinds.len())
-        .flat_map(|row| {
-            row.iter().zip(&kinds).map(|(v, k)| match k {
-                AxisKind::Linear => v * 1e-3,
+    for row in positions.chunks_exact_mut(kinds.len()) {
+        for (v, k) in row.iter_mut().zip(&kinds) {
+            *v = match k {
+                AxisKind::Linear => *v * 1e-3,
                 AxisKind::Rotary => v.to_radians(),
-            })
-        })
-        .collect()
+            };
+        }
+    }
+    positions
 }
 
 /// `file:line:column` of data row `i` (0-based) and column `name` of a run file (its header is
@@ -772,13 +836,15 @@ fn prepared_readings(
     setup: &dyn Setup,
     table: &RunTable,
     q: &[f64],
-    values: &[f64],
+    values: Vec<f64>,
 ) -> Result<Vec<f64>, IdentifyError> {
     let ch = setup.channels();
-    let mut readings: Vec<f64> = values
-        .chunks_exact(ch.len())
-        .flat_map(|row| row.iter().zip(ch).map(|(x, c)| x / c.unit.per_si()))
-        .collect();
+    let mut readings = values;
+    for row in readings.chunks_exact_mut(ch.len()) {
+        for (x, c) in row.iter_mut().zip(ch) {
+            *x /= c.unit.per_si();
+        }
+    }
     let data = mtcal_instrument::RunData {
         q,
         t: &table.t,

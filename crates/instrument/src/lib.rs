@@ -177,6 +177,15 @@ pub trait Setup: fmt::Debug + Send + Sync {
         true
     }
 
+    /// The measuring range of reading channel `channel`: the largest magnitude (SI) of a
+    /// reading as recorded that the instrument can report, or `None` (the default) when it has
+    /// no fixed range. The core rejects a run file whose readings lie beyond it, naming the
+    /// cell (a reading 1000 times too large, nm where µm are expected, is caught here).
+    fn reading_range(&self, channel: usize) -> Option<f64> {
+        let _ = channel;
+        None
+    }
+
     /// Predicted readings (SI) at one sample, for nuisance values `nuis` (SI deviations).
     fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]);
 

@@ -89,7 +89,9 @@ pub fn load_machine(arg: &str, reading: topology::Reading) -> Result<LoadedMachi
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that
-/// an interrupted run leaves either the old file or the new one, never half of one.
+/// an interrupted run leaves either the old file or the new one, never half of one. The file's
+/// data reach the disk before the rename and the folder's entry after it. A run killed during
+/// the write may leave its temporary file `.NAME.PID.tmp` beside `path`; `path` itself is whole.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path
         .parent()
@@ -104,7 +106,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, path)?;
+        // The rename itself to disk (a folder opens for reading on Unix; elsewhere skip).
+        if let Ok(d) = std::fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);

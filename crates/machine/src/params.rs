@@ -368,6 +368,7 @@ fn read_samples(item: &Item, name: &ParamName, basis: &Basis) -> Parsed<Vec<f64>
         .iter()
         .map(|s| read_sample(s, name, basis))
         .collect::<Parsed<Vec<_>>>()?;
+    check_not_metres(list, &samples, name, basis)?;
     fit_in_model(basis, &samples).map_err(|e| {
         let unit = position_unit(name);
         let left_out = match left_out(basis).map_or(0, |b| b.len()) {
@@ -382,6 +383,38 @@ fn read_samples(item: &Item, name: &ParamName, basis: &Basis) -> Parsed<Vec<f64>
         );
         problem(item.span(), msg)
     })
+}
+
+/// Sample positions of a linear axis that all lie within ±1 mm while its stroke spans at
+/// least 50 mm were written in metres: say so at the largest.
+fn check_not_metres(
+    list: &[Item],
+    samples: &[(f64, f64)],
+    name: &ParamName,
+    basis: &Basis,
+) -> Parsed<()> {
+    let (Unit::Mm, Some((lo, hi))) = (position_unit(name), basis.stroke()) else {
+        return Ok(());
+    };
+    let Some((i, largest)) = samples
+        .iter()
+        .map(|(q, _)| q.abs())
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return Ok(());
+    };
+    if hi - lo < 0.05 || largest == 0.0 || largest > 1e-3 || samples.len() < 2 {
+        return Ok(());
+    }
+    let msg = format!(
+        "every sample position of {name} lies within ±1 mm (largest {} mm) while its stroke is \
+         [{}, {}] mm: this looks like metres; expected mm (multiply by 1000)",
+        samples[i].0 * 1e3,
+        lo * 1e3,
+        hi * 1e3
+    );
+    Err(problem(list[i].span(), msg))
 }
 
 /// One `[position, value]` pair in SI, checked to lie within the basis' stroke.

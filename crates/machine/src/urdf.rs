@@ -189,6 +189,13 @@ pub enum UrdfError {
          <axis xyz=\"1 0 0\"/>"
     )]
     ZeroAxis { at: Location, joint: String },
+    #[error("{at}: joint `{joint}` has limits {limits}")]
+    ImplausibleLimits {
+        at: Location,
+        joint: String,
+        /// The limits, what they look like and how to write them.
+        limits: String,
+    },
     #[error("{at}: {source}")]
     Machine {
         at: Location,
@@ -225,6 +232,7 @@ impl UrdfError {
             | UnknownAxisLetter { at, .. }
             | MissingLimit { at, .. }
             | ZeroAxis { at, .. }
+            | ImplausibleLimits { at, .. }
             | Machine { at, .. } => Some(at),
         }
     }
@@ -798,6 +806,11 @@ fn pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
     )
 }
 
+/// A prismatic limit beyond this many metres is taken for mm.
+pub const MAX_PLAUSIBLE_STROKE_M: f64 = 100.0;
+/// A revolute limit beyond two turns (radians) is taken for degrees.
+pub const MAX_PLAUSIBLE_TURN_RAD: f64 = 4.0 * std::f64::consts::PI;
+
 fn moving_joint(
     ctx: &Ctx,
     xml: &XmlJoint,
@@ -838,6 +851,35 @@ fn moving_joint(
         JointKind::Continuous => None,
         _ => Some((joint.limit.lower, joint.limit.upper)),
     };
+    if let (Some((lower, upper)), Some(limit)) = (limits, child_element(xml.node, "limit")) {
+        // No machine-tool axis travels 100 m, and a limited rotary axis turns less than two
+        // turns either way: larger numbers are mm or degrees written where URDF wants m, rad.
+        let (plausible, found, expected, fix) = match xml.kind {
+            JointKind::Prismatic => (
+                MAX_PLAUSIBLE_STROKE_M,
+                "mm",
+                "metres",
+                (lower * 1e-3, upper * 1e-3),
+            ),
+            _ => (
+                MAX_PLAUSIBLE_TURN_RAD,
+                "degrees",
+                "radians",
+                (lower.to_radians(), upper.to_radians()),
+            ),
+        };
+        if lower.abs().max(upper.abs()) > plausible {
+            return Err(UrdfError::ImplausibleLimits {
+                at: ctx.at(limit),
+                joint: xml.name.to_string(),
+                limits: format!(
+                    "{lower} … {upper}: this looks like {found}; expected {expected} (URDF's \
+                     units), e.g. lower=\"{}\" upper=\"{}\"",
+                    fix.0, fix.1
+                ),
+            });
+        }
+    }
     let kind = match xml.kind {
         JointKind::Prismatic => AxisKind::Linear,
         _ => AxisKind::Rotary,

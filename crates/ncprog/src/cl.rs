@@ -14,7 +14,7 @@
 //!   machines: the tool axis is then +Z.
 //! - The header is the first line that is not blank or a comment: `x,y,z` or `x,y,z,i,j,k`
 //!   (case and blanks around names ignored). `#` starts a comment to the end of the line; blank
-//!   lines are skipped; `\r\n` is accepted.
+//!   lines are skipped; `\r\n` and a UTF-8 byte-order mark are accepted.
 //! - Fields are separated by `,` and use `.` as the decimal point; every data line has as many
 //!   fields as the header. Anything else (wrong field count, a `;` separator or decimal comma, a
 //!   number that does not parse or is not finite, a zero tool axis, no data line) is a
@@ -99,6 +99,7 @@ impl ClData {
         let mut header: Option<bool> = None;
         let mut points = Vec::new();
         let mut last = 0;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         for (i, raw) in text.lines().enumerate() {
             let n = i + 1;
             last = n;
@@ -463,6 +464,49 @@ fn worst_violation(machine: &Machine, q: &[f64], tol: f64) -> Option<LimitViolat
 pub struct AxisPositionsError {
     pub total: usize,
     pub failures: Vec<PointFailure>,
+}
+
+/// Tool tips in metres where mm are expected: every coordinate of every point within ±1 mm
+/// (not all zero) while the machine's linear strokes all span at least 50 mm. The error points
+/// at the line of the largest coordinate.
+pub fn check_units(machine: &Machine, cl: &ClData) -> Result<(), ClParseError> {
+    let mut strokes = Vec::new();
+    for ax in machine
+        .axes()
+        .iter()
+        .filter(|a| a.kind() == AxisKind::Linear)
+    {
+        match ax.limits() {
+            Some((lo, hi)) if hi - lo >= 0.05 => strokes.push(format!(
+                "{} {} … {} mm",
+                ax.letter().as_char(),
+                lo * 1e3,
+                hi * 1e3
+            )),
+            _ => return Ok(()),
+        }
+    }
+    let Some(p) = cl
+        .points
+        .iter()
+        .max_by(|a, b| a.tip_mm.amax().total_cmp(&b.tip_mm.amax()))
+    else {
+        return Ok(());
+    };
+    let largest = p.tip_mm.amax();
+    if largest == 0.0 || largest > 1.0 || strokes.is_empty() {
+        return Ok(());
+    }
+    Err(ClParseError {
+        line: p.line,
+        column: 1,
+        expected: "tool tips in mm",
+        found: format!(
+            "every coordinate within ±1 mm (largest {largest}) while the machine's strokes are \
+             {}: this looks like metres (multiply by 1000)",
+            strokes.join(", ")
+        ),
+    })
 }
 
 /// [`axis_positions`] with every point required: the axis points, or every failure.

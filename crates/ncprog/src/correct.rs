@@ -126,6 +126,33 @@ pub enum CorrectError {
     #[error("line {line}: axis {letter} has no position yet; give every axis on the first move")]
     MissingAxis { line: usize, letter: char },
     #[error(
+        "line {line}, column {column}: expected {letter} within the axis limits {lo} … {hi} \
+         {unit}, found {value} {unit}"
+    )]
+    BeyondLimit {
+        line: usize,
+        column: usize,
+        letter: char,
+        value: f64,
+        lo: f64,
+        hi: f64,
+        unit: &'static str,
+    },
+    #[error(
+        "line {line}, column {column}: every linear position of the program lies within \
+         ±{METRES_LIKE_MM} mm (largest {letter} = {value} mm) while the strokes are {strokes}: \
+         this looks like metres; expected mm (G21) or inches (G20)"
+    )]
+    LooksLikeMetres {
+        line: usize,
+        column: usize,
+        letter: char,
+        value: f64,
+        strokes: String,
+    },
+    #[error("the program has no motion: expected G0/G1 lines with axis words")]
+    NoMotion,
+    #[error(
         "{} pose(s) could not be corrected (nothing written):\n{}",
         failures.len(),
         failures.iter().take(20).map(|f| f.to_string()).collect::<Vec<_>>().join("\n")
@@ -168,6 +195,7 @@ pub fn correct_program(
     let mut modal = Modal::default();
     let (mut poses, mut failures) = (Vec::new(), Vec::new());
     let mut motion_lines = Vec::new();
+    let mut metres = MetresCheck::default();
     for (i, line) in program.lines.iter().enumerate() {
         modal = modal.step(line);
         if !line.has_axis_word() {
@@ -175,12 +203,18 @@ pub fn correct_program(
         }
         check_line(line, &modal, i + 1, &axis_of, &machine.letters())?;
         let q_cmd = commanded(&modal, &axis_of, machine, i + 1)?;
+        check_limits(line, &q_cmd, machine, i + 1)?;
+        metres.add(line, &q_cmd, machine, i + 1);
         match solver.solve(&q_cmd, i + 1) {
             Ok(p) => poses.push(p),
             Err(f) => failures.push(f),
         }
         motion_lines.push((i, modal.inch));
     }
+    if motion_lines.is_empty() {
+        return Err(CorrectError::NoMotion);
+    }
+    metres.check(machine)?;
     if !failures.is_empty() {
         return Err(CorrectError::Poses { failures });
     }
@@ -220,6 +254,109 @@ fn check_line(
         }
     }
     Ok(())
+}
+
+/// A program whose linear positions all lie within ±this many mm looks like metres ...
+pub const METRES_LIKE_MM: f64 = 1.0;
+/// ... when the machine's linear strokes span at least this many mm.
+const LONG_STROKE_MM: f64 = 50.0;
+/// How far beyond an axis limit a commanded position may be: mm, or degrees on rotary axes.
+pub const LIMIT_TOLERANCE: f64 = 0.01;
+
+/// 1-based character column of the word with `letter` on `line` (1 if the line has none).
+fn column_of(line: &crate::gcode::Line, letter: char) -> usize {
+    line.word(letter)
+        .map_or(1, |w| line.text[..w.span.start].chars().count() + 1)
+}
+
+/// Every commanded position within the axis limits (with [`LIMIT_TOLERANCE`]).
+fn check_limits(
+    line: &crate::gcode::Line,
+    q: &[f64],
+    machine: &mtcal_kinematics::Machine,
+    n: usize,
+) -> Result<(), CorrectError> {
+    for (ax, &v) in machine.axes().iter().zip(q) {
+        let Some((lo, hi)) = ax.limits() else {
+            continue;
+        };
+        let (f, unit): (fn(f64) -> f64, _) = match ax.kind() {
+            AxisKind::Linear => (|x| x * 1e3, "mm"),
+            AxisKind::Rotary => (f64::to_degrees, "degrees"),
+        };
+        let (v, lo, hi) = (f(v), f(lo), f(hi));
+        if v < lo - LIMIT_TOLERANCE || v > hi + LIMIT_TOLERANCE {
+            let letter = ax.letter().as_char();
+            return Err(CorrectError::BeyondLimit {
+                line: n,
+                column: column_of(line, letter),
+                letter,
+                value: (v * 1e6).round() / 1e6,
+                lo,
+                hi,
+                unit,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The largest linear position of the program, to tell metres from mm.
+#[derive(Default)]
+struct MetresCheck {
+    /// |value| mm, line, column, letter, value mm.
+    largest: Option<(f64, usize, usize, char, f64)>,
+}
+
+impl MetresCheck {
+    fn add(
+        &mut self,
+        line: &crate::gcode::Line,
+        q: &[f64],
+        machine: &mtcal_kinematics::Machine,
+        n: usize,
+    ) {
+        for (ax, &v) in machine.axes().iter().zip(q) {
+            let mm = v * 1e3;
+            if ax.kind() == AxisKind::Linear && self.largest.is_none_or(|(m, ..)| mm.abs() > m) {
+                let letter = ax.letter().as_char();
+                let column = column_of(line, letter);
+                self.largest = Some((mm.abs(), n, column, letter, mm));
+            }
+        }
+    }
+
+    fn check(&self, machine: &mtcal_kinematics::Machine) -> Result<(), CorrectError> {
+        let Some((m, line, column, letter, value)) = self.largest else {
+            return Ok(());
+        };
+        if m == 0.0 || m > METRES_LIKE_MM {
+            return Ok(());
+        }
+        let mut strokes = Vec::new();
+        for ax in machine
+            .axes()
+            .iter()
+            .filter(|a| a.kind() == AxisKind::Linear)
+        {
+            match ax.limits() {
+                Some((lo, hi)) if (hi - lo) * 1e3 >= LONG_STROKE_MM => strokes.push(format!(
+                    "{} {} … {} mm",
+                    ax.letter().as_char(),
+                    lo * 1e3,
+                    hi * 1e3
+                )),
+                _ => return Ok(()),
+            }
+        }
+        Err(CorrectError::LooksLikeMetres {
+            line,
+            column,
+            letter,
+            value: (value * 1e6).round() / 1e6,
+            strokes: strokes.join(", "),
+        })
+    }
 }
 
 /// The modal pose in SI units, canonical machine order.

@@ -144,6 +144,17 @@ impl Modal {
 impl Program {
     /// Reads a program. Never panics; the first bad word is reported with its line and column.
     pub fn parse(text: &str) -> Result<Program, ParseError> {
+        if text.starts_with('\u{feff}') {
+            // Kept out rather than stripped: the corrected program is the input byte for byte
+            // but its poses, and many controllers read a byte-order mark as text.
+            return Err(ParseError {
+                line: 1,
+                column: 1,
+                expected: "G-code text without a byte-order mark (save the program as UTF-8 \
+                           without BOM or as ASCII)",
+                found: "a UTF-8 byte-order mark".to_string(),
+            });
+        }
         let lines = text
             .split_inclusive('\n')
             .enumerate()

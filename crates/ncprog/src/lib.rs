@@ -10,7 +10,8 @@
 //!   followed by a number `[+-]digits[.digits]` or `[+-].digits`; blanks between words;
 //!   comments `( … )` (not nested, closed on the same line) and `; …` to the end of the line;
 //!   `%` and block delete `/` are skipped. Anything else is a [`ParseError`] naming the line,
-//!   column (1-based, characters) and what was expected. Reading never panics.
+//!   column (1-based, characters) and what was expected, as is a UTF-8 byte-order mark (many
+//!   controllers read it as text). Reading never panics.
 //! - Modal words ([`Modal`]): `G0`/`G1` (`G2`/`G3` arcs), `G90`/`G91` absolute/incremental,
 //!   `G20`/`G21` inch/mm; defaults `G90 G21`, no motion mode. Axis words `X Y Z` (mm or inch)
 //!   and `A B C` (degrees) are modal: an axis not on a line keeps its position. `G53`, `G92`,
@@ -25,6 +26,10 @@
 //!   Never `-0.0000`.
 //!
 //! # Pose correction ([`correct_program`])
+//! Refused before anything is solved: a commanded position beyond its axis' limits by more
+//! than [`correct::LIMIT_TOLERANCE`] (mm or degrees), a program whose linear positions all lie
+//! within ±1 mm while the machine's strokes span 50 mm or more (metres where mm are expected),
+//! and a program without motion.
 //! Each motion line's modal pose `q_cmd` (mm → m, degrees → rad) is where the programmer meant
 //! the tool to be on the nominal machine: target `p₀, v₀` = nominal tool point and tool axis
 //! (`Machine::tool_in_workpiece`). The corrected `q` solves `p(q) = p₀` (three linear axes) and
@@ -68,7 +73,8 @@ pub mod zero_point;
 
 pub use cl::{
     AxisPoint, AxisPositionsError, ClData, ClOptions, ClParseError, ClPoint, ErrorSummary,
-    PointError, PointFailure, all_axis_positions, axis_positions, predicted_errors, summarize,
+    PointError, PointFailure, all_axis_positions, axis_positions, check_units, predicted_errors,
+    summarize,
 };
 pub use correct::{
     CorrectError, CorrectOptions, CorrectedPose, Correction, Failure, correct_program,

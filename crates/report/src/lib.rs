@@ -215,6 +215,10 @@ pub enum Estimate {
 pub struct Identifiability {
     pub combinations: Vec<Combination>,
     pub concealed: Vec<ConcealedEffect>,
+    /// Identified parameters the data barely determine (a value is given, but its interval is
+    /// beyond anything plausible, or it is mostly another parameter's uncertainty); `why` says
+    /// which.
+    pub weakly_determined: Vec<Combination>,
 }
 
 /// Parameters that move together without changing a reading.

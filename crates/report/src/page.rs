@@ -351,7 +351,7 @@ fn list(names: &[String]) -> String {
 
 fn identifiability(r: &Report) -> String {
     let id = &r.identifiability;
-    if id.combinations.is_empty() && id.concealed.is_empty() {
+    if id.combinations.is_empty() && id.concealed.is_empty() && id.weakly_determined.is_empty() {
         return "<p>These data separate every estimated parameter.</p>\n".into();
     }
     let mut h = String::new();
@@ -363,6 +363,18 @@ fn identifiability(r: &Report) -> String {
                 "<li><b>{}</b>: moving them together changes no reading, so these data see only \
                  combinations of them; none of them gets a value.<details><summary>how they \
                  move together</summary>{}</details></li>",
+                list(&c.parameters),
+                escape(&c.why)
+            );
+        }
+        h.push_str("</ul>\n");
+    }
+    if !id.weakly_determined.is_empty() {
+        h.push_str("<h3>Parameters these data barely determine</h3>\n<ul class=\"weak\">\n");
+        for c in &id.weakly_determined {
+            let _ = writeln!(
+                h,
+                "<li><b>{}</b>: the value in the table means little: {}.</li>",
                 list(&c.parameters),
                 escape(&c.why)
             );

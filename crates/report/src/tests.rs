@@ -175,6 +175,10 @@ fn sample() -> Report {
                 hides_behind: vec!["bar.pivot_x".into(), "EC0Y".into()],
                 measurement: "a second ball height".into(),
             }],
+            weakly_determined: vec![Combination {
+                parameters: vec!["EY0A".into()],
+                why: "its 95 % interval, ±929 um, is more than 10 % of its plausible range".into(),
+            }],
         },
         search: Some(SearchOutcome {
             candidates: 171,
@@ -346,6 +350,11 @@ fn unidentifiable_parameters_have_no_number() {
         "{notes}"
     );
     assert!(notes.contains("a second ball height"));
+    // A weakly determined parameter keeps its number in the table and is named in the notes.
+    assert!(
+        notes.contains("barely determine") && notes.contains("<b>EY0A</b>"),
+        "{notes}"
+    );
 }
 
 #[test]

@@ -125,6 +125,41 @@ struct Layout {
 /// Every problem is reported as `file:line:field` with the column's name, what was expected and
 /// what was found; see the crate documentation for the rules.
 pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError> {
+    // A good file is parsed as it streams from the disk, so a run of millions of rows never
+    // holds its text in memory; anything unusual (a byte-order mark, no rows) or wrong is read
+    // again as a whole, which gives the located error (line numbers count CRLF lines right).
+    if let Ok(table) = read_run_streaming(path, cols) {
+        return Ok(table);
+    }
+    read_run_text(path, cols)
+}
+
+/// The fast path of [`read_run`]: the file parsed from a buffered reader; any error (even one
+/// whose message [`read_run_text`] would word differently) means "read it as text".
+fn read_run_streaming(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError> {
+    use std::io::{BufRead as _, BufReader};
+    let file = std::fs::File::open(path).map_err(|e| SessionError::read(path, e))?;
+    let mut input = BufReader::with_capacity(1 << 20, file);
+    let first = input.fill_buf().map_err(|e| SessionError::read(path, e))?;
+    let unusual = first.starts_with(b"\xef\xbb\xbf")
+        || first
+            .iter()
+            .take_while(|&&b| b != b'\n')
+            .any(|&b| b == b';');
+    if unusual || first.iter().all(u8::is_ascii_whitespace) {
+        let msg = "read as text";
+        return Err(SessionError::invalid(at(path, 1, 1), msg));
+    }
+    let reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(input);
+    parse_records(path, cols, reader)
+}
+
+/// [`read_run`] from the whole text, with every check's located error.
+fn read_run_text(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError> {
     let bytes = std::fs::read(path).map_err(|e| SessionError::read(path, e))?;
     let mut text = crate::text_of(path, bytes)?;
     if text.contains('\r') {
@@ -148,16 +183,30 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
         );
         return Err(SessionError::invalid(at(path, 1, field), msg));
     }
-    let mut reader = csv::ReaderBuilder::new()
+    let reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
-    let mut records = reader.records();
-    let header = match records.next() {
-        Some(r) => r.map_err(|e| csv_error(path, &e))?,
-        None => unreachable!("a file that is not blank has a first record"),
+    parse_records(path, cols, reader)
+}
+
+/// The records of a run file after the checks on its text.
+fn parse_records<R: std::io::Read>(
+    path: &Path,
+    cols: &RunColumns,
+    mut reader: csv::Reader<R>,
+) -> Result<RunTable, SessionError> {
+    // One record, reused row after row.
+    let mut record = csv::StringRecord::new();
+    let read = |reader: &mut csv::Reader<R>, record: &mut csv::StringRecord| {
+        reader.read_record(record).map_err(|e| csv_error(path, &e))
     };
+    if !read(&mut reader, &mut record)? {
+        let msg = "the file has no header row";
+        return Err(SessionError::invalid(at(path, 1, 1), msg));
+    }
+    let header = record.clone();
     let layout = classify(path, &header, cols)?;
     let mut table = RunTable {
         path: path.to_path_buf(),
@@ -181,8 +230,7 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
     let mut row_q = vec![0.0; cols.axes.len()];
     let mut row_r = vec![0.0; cols.readings.len()];
     let mut last_t: Option<(f64, u64)> = None;
-    for record in records {
-        let record = record.map_err(|e| csv_error(path, &e))?;
+    while read(&mut reader, &mut record)? {
         let line = record.position().map_or(0, csv::Position::line);
         if record.len() == 1 && record[0].is_empty() {
             continue; // a line of blanks
@@ -221,6 +269,18 @@ pub fn read_run(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError
     if table.t.is_empty() {
         let msg = "the file has a header but no rows: expected at least one row of data";
         return Err(SessionError::invalid(at(path, 2, 1), msg));
+    }
+    // The columns grew by doubling; a long run would keep up to twice its size allocated.
+    table.t.shrink_to_fit();
+    table.positions.shrink_to_fit();
+    if let Some(v) = &mut table.values {
+        v.shrink_to_fit();
+    }
+    for (_, c) in &mut table.context {
+        c.shrink_to_fit();
+    }
+    for (_, c) in &mut table.labels {
+        c.shrink_to_fit();
     }
     Ok(table)
 }

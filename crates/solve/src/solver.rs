@@ -64,6 +64,12 @@ const ROUNDING: f64 = 1e-11;
 /// see (a set-up parameter observed only to second order) keeps promising a linear-model drop
 /// it never delivers. Without this a fit creeps along such a valley until `max_iterations`.
 const STALL: f64 = 1e-9;
+/// A rejected trial whose Gauss–Newton step is shorter than this in the metric of the data
+/// (`‖R·dx‖`: a millionth of the estimate's standard deviation along it) ends the iteration as
+/// converged. On data the model fits exactly (all-zero readings of a perfect machine) the cost
+/// sits at its own rounding level, where the step promises about the whole cost and no trial
+/// point can show it; without this such a fit rejected step after step until `NoProgress`.
+const NEGLIGIBLE_STEP: f64 = 1e-6;
 const STALLED_STEPS: usize = 3;
 
 /// Validated parameters.
@@ -442,7 +448,7 @@ pub fn solve<P: Problem>(
                 break;
             }
             rejections += 1;
-            if gn_pred <= ROUNDING * lin.cost {
+            if gn_pred <= ROUNDING * lin.cost || gn_change <= NEGLIGIBLE_STEP {
                 // The cost cannot show the decrease the step promises: at the optimum.
                 break 'outer Termination::Converged;
             }

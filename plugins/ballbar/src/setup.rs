@@ -190,9 +190,16 @@ impl BallbarSetup {
     }
 }
 
+/// The measuring range of `dr`, m: ±1 mm, that of the usual telescopic bars (Renishaw QC20-W).
+const RANGE_M: f64 = 1e-3;
+
 impl Setup for BallbarSetup {
     fn channels(&self) -> &[Channel] {
         &self.channels
+    }
+
+    fn reading_range(&self, _channel: usize) -> Option<f64> {
+        Some(RANGE_M)
     }
 
     fn nuisance(&self) -> &[Nuisance] {

@@ -1,0 +1,107 @@
+//! Issue 7 ("Scale"): the memory of an identification grows by a bounded number of bytes per
+//! sample. Two simulated R-test sessions on the five-axis trunnion (6 runs, 1 kHz, the 11-error
+//! set) are loaded, fitted, reported (mismatch analysis included) and given their information
+//! account; the peak heap of each is counted with an instrumented allocator and the difference
+//! divided by the difference in samples: the solver's fixed working memory (faer's packing
+//! buffers) cancels, what grows with the samples remains.
+//!
+//! The study keeps per sample its time, the SI positions (5 × 8 bytes) and the SI readings
+//! (3 × 8 bytes): 72 bytes. Before issue 7 it also kept the file-unit copies of positions and
+//! readings, the whole text of the run file while reading it and every run's predictions at
+//! once: this test measured 241 bytes per sample then, and rejects it. The full-size
+//! measurement is `cargo xtask scale-bench N` (README, "Speed").
+
+use mtcal_identify::Study;
+use mtcal_solve::{Options, Silent};
+use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
+use std::alloc::System;
+use std::path::Path;
+// Links every instrument plugin (inventory drops crates nobody names).
+use mtcal_plugins as _;
+
+#[global_allocator]
+static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
+
+/// Peak heap bytes per sample allowed on top of the fixed working memory.
+const BYTES_PER_SAMPLE: f64 = 100.0;
+
+fn plan(samples: usize) -> String {
+    let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines/mcu630-cafyxz.urdf");
+    let n = samples / 6;
+    let mut plan = format!(
+        r#"machine = "{}"
+seed = 7
+interval_s = 0.001
+
+[identify]
+parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
+
+[setup.low]
+ball = [100.0, 0.0, 200.0]
+
+[setup.high]
+ball = [100.0, 0.0, 300.0]
+
+[nuisance.low]
+ball_x = 4.0
+tool_length = 2.0
+"#,
+        machine.display().to_string().replace('\\', "/")
+    );
+    for (name, setup, kind, extra) in [
+        ("xyc", "low", "xyc", ""),
+        ("xyc-a30", "low", "xyc", ", hold = { A = 30.0 }"),
+        ("xyc-a-30", "low", "xyc", ", hold = { A = -30.0 }"),
+        ("yza", "low", "yza", ""),
+        ("xyc-high", "high", "xyc", ""),
+        ("yza-high", "high", "yza", ""),
+    ] {
+        plan += &format!(
+            "\n[[run]]\nname = \"{name}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\n\
+             noise = 0.5\npath = {{ kind = \"{kind}\", samples = {n}{extra} }}\n"
+        );
+    }
+    plan
+}
+
+/// Samples of the session and the peak heap (bytes) of loading and identifying it.
+fn peak_heap(samples: usize) -> (usize, usize) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("plan.toml"), plan(samples)).unwrap();
+    let session = dir.path().join("s");
+    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &session).unwrap();
+    GLOBAL.reset_peak_memory();
+    let study = Study::load(&session).unwrap();
+    let n: usize = study.runs.iter().map(|r| r.len()).sum();
+    let (id, solution) =
+        mtcal_identify::identify_with_solution(&study, &Options::default(), &mut Silent).unwrap();
+    let account = mtcal_identify::information::account(&study, &solution).unwrap();
+    assert!(
+        id.solver.converged && id.fit.rms_um < 0.6,
+        "{}",
+        id.summary()
+    );
+    drop((account, id, solution, study));
+    (n, GLOBAL.get_peak_memory())
+}
+
+#[test]
+fn memory_grows_by_a_bounded_number_of_bytes_per_sample() {
+    // A first identification allocates what lives on (thread-local scratch of the matrix
+    // kernels); measure from the second on.
+    peak_heap(6_000);
+    let (n_small, small) = peak_heap(24_000);
+    let (n_large, large) = peak_heap(204_000);
+    let per_sample = (large as f64 - small as f64) / (n_large - n_small) as f64;
+    println!(
+        "peak heap: {:.1} MiB at {n_small} samples, {:.1} MiB at {n_large}: {per_sample:.1} bytes \
+         per sample",
+        small as f64 / 1048576.0,
+        large as f64 / 1048576.0
+    );
+    assert!(
+        per_sample < BYTES_PER_SAMPLE,
+        "the identification holds {per_sample:.1} bytes per sample (bound {BYTES_PER_SAMPLE}); \
+         peak heap {small} bytes at {n_small} samples, {large} at {n_large}"
+    );
+}
