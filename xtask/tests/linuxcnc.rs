@@ -99,13 +99,14 @@ fn axis_and_joint(n: usize, letter: char, comp: bool) -> String {
     )
 }
 
-/// The user interface LinuxCNC starts: enable, home (at once: search velocity 0), then for each
-/// position approach it from 20 mm below ("fwd") and from 20 mm above ("rev") and record the
-/// commanded joint position and the motor command. LinuxCNC shuts down when it exits.
-const PROBE: &str = r#"#!/usr/bin/python3
+/// The user interface LinuxCNC starts, around a test's `moves` (Python, run in MDI mode after
+/// enabling and homing — at once: search velocity 0): `getp` reads a HAL pin as the double
+/// itself (halcmd getp prints only 7 significant digits; it needs a HAL component of this
+/// process), `out` is `result.txt`, which ends with `done` when everything ran. LinuxCNC shuts
+/// down when the script exits.
+fn probe(moves: &str) -> String {
+    const START: &str = r#"#!/usr/bin/python3
 import hal, linuxcnc, time
-# hal.get_value gives the double itself (halcmd getp prints only 7 significant digits); it
-# needs a HAL component of this process.
 me = hal.component("mtcalprobe"); me.ready()
 def getp(p):
     return float(hal.get_value(p))
@@ -118,19 +119,26 @@ try:
     c.home(-1); c.wait_complete()
     for _ in range(400):
         s.poll()
-        if all(j["homed"] for j in s.joint[:3]): break
+        if all(j["homed"] for j in s.joint[:s.joints]): break
         time.sleep(0.05)
     c.mode(linuxcnc.MODE_MDI); c.wait_complete()
-    for x in [float(v) for v in open("positions.txt").read().split()]:
+"#;
+    const END: &str = r#"    out.write("done\n")
+except Exception as e:
+    out.write("error %s\n" % e)
+out.close()
+"#;
+    format!("{START}{moves}{END}")
+}
+
+/// For each position, approach it from 20 mm below ("fwd") and from 20 mm above ("rev") and
+/// record the commanded joint position, the motor command and the computed correction.
+const PROBE_MOVES: &str = r#"    for x in [float(v) for v in open("positions.txt").read().split()]:
         for approach, tag in [(-1.0, "fwd"), (1.0, "rev")]:
             c.mdi("G90 G0 X%.6f" % (x + 20.0 * approach)); c.wait_complete()
             c.mdi("G90 G0 X%.6f" % x); c.wait_complete()
             time.sleep(0.05)
             out.write("%s %.6f %.12f %.12f %.12f\n" % (tag, x, getp("joint.0.pos-cmd"), getp("joint.0.motor-pos-cmd"), getp("joint.0.backlash-corr")))
-    out.write("done\n")
-except Exception as e:
-    out.write("error %s\n" % e)
-out.close()
 "#;
 
 #[test]
@@ -179,7 +187,7 @@ fn linuxcnc_applies_the_compensation_mtcal_writes() {
         axis_and_joint(1, 'Y', false),
         axis_and_joint(2, 'Z', false)
     );
-    let result = run_linuxcnc(root, &ini, PROBE);
+    let result = run_linuxcnc(root, &ini, &probe(PROBE_MOVES));
 
     let mut checked = 0;
     let mut worst_um: f64 = 0.0;
@@ -270,34 +278,14 @@ fn run_linuxcnc(root: &Path, ini: &str, probe: &str) -> String {
     result
 }
 
-/// The user interface for the table-table test: enable, home, then move to each workpiece pose
-/// of `poses.txt` (X Y Z A C per line, mm and LinuxCNC's degrees) and record the joint positions
-/// LinuxCNC's inverse kinematics give.
-const TRT_PROBE: &str = r#"#!/usr/bin/python3
-import hal, linuxcnc, time
-me = hal.component("mtcalprobe"); me.ready()
-s = linuxcnc.stat(); c = linuxcnc.command()
-out = open("result.txt", "w")
-try:
-    c.state(linuxcnc.STATE_ESTOP_RESET); c.wait_complete()
-    c.state(linuxcnc.STATE_ON); c.wait_complete()
-    c.mode(linuxcnc.MODE_MANUAL); c.wait_complete()
-    c.home(-1); c.wait_complete()
-    for _ in range(400):
-        s.poll()
-        if all(j["homed"] for j in s.joint[:5]): break
-        time.sleep(0.05)
-    c.mode(linuxcnc.MODE_MDI); c.wait_complete()
-    for line in open("poses.txt"):
+/// Move to each workpiece pose of `poses.txt` (X Y Z A C per line, mm and LinuxCNC's degrees)
+/// and record the joint positions LinuxCNC's inverse kinematics give.
+const TRT_MOVES: &str = r#"    for line in open("poses.txt"):
         w = [float(v) for v in line.split()]
         c.mdi("G90 G0 X%.6f Y%.6f Z%.6f A%.6f C%.6f" % tuple(w)); c.wait_complete()
         time.sleep(0.05)
-        joints = [float(hal.get_value("joint.%d.pos-cmd" % i)) for i in range(5)]
+        joints = [getp("joint.%d.pos-cmd" % i) for i in range(5)]
         out.write("%s %s\n" % (line.strip(), " ".join("%.12f" % v for v in joints)))
-    out.write("done\n")
-except Exception as e:
-    out.write("error %s\n" % e)
-out.close()
 "#;
 
 #[test]
@@ -350,7 +338,7 @@ fn linuxcnc_trt_kinematics_with_mtcal_pivots_put_the_tool_where_the_model_says()
         axis_and_joint(3, 'A', false),
         axis_and_joint(4, 'C', false)
     );
-    let result = run_linuxcnc(root, &ini, TRT_PROBE);
+    let result = run_linuxcnc(root, &ini, &probe(TRT_MOVES));
 
     // mtcal's model of the machine at the joints LinuxCNC chose.
     let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
@@ -379,9 +367,7 @@ fn linuxcnc_trt_kinematics_with_mtcal_pivots_put_the_tool_where_the_model_says()
         }
         q[idx[3]] = -j[3].to_radians();
         q[idx[4]] = -j[4].to_radians();
-        let tool = (m.tool_in_workpiece(&q).t + model.pose_error(&q, &coeffs, &mut ws).translation
-            - origin)
-            * 1e3;
+        let tool = (model.tool_pose(&q, &coeffs, &mut ws).t - origin) * 1e3;
         let nominal = (m.tool_in_workpiece(&q).t - origin) * 1e3;
         let err =
             ((tool[0] - w[0]).powi(2) + (tool[1] - w[1]).powi(2) + (tool[2] - w[2]).powi(2)).sqrt();

@@ -86,8 +86,7 @@ fn pose(model: &MachineModel, letter: char, value: f64) -> Vec<f64> {
 
 /// The actual tool point in the workpiece frame (m) at `q`.
 fn tool_point(model: &MachineModel, coeffs: &[f64], q: &[f64]) -> Vector3<f64> {
-    let mut ws = model.workspace();
-    model.machine().tool_in_workpiece(q).t + model.pose_error(q, coeffs, &mut ws).translation
+    model.tool_pose(q, coeffs, &mut model.workspace()).t
 }
 
 /// Centre (2-D) of the circle through three points.

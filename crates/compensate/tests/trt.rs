@@ -40,6 +40,57 @@ fn xyzac_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {
     )
 }
 
+/// A LinuxCNC trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm).
+type Forward = fn(&TrtPivots, [f64; 5]) -> Vector3<f64>;
+
+/// The largest distance (mm) over 500 random poses between LinuxCNC's forward kinematics
+/// `forward` with pivots `p` and the model's actual tool point (joint coordinates), for
+/// `p` and for `nominal`. LinuxCNC's trt kinematics turn the rotary axes the other way from
+/// the CNC (ISO 841) convention mtcal follows (its source says so): its angles are mtcal's
+/// negated.
+fn worst_against_model(
+    model: &MachineModel,
+    coeffs: &[f64],
+    letters: [char; 5],
+    forward: Forward,
+    p: &TrtPivots,
+    nominal: &TrtPivots,
+    seed: u64,
+) -> (f64, f64) {
+    let m = model.machine();
+    let idx = letters.map(|l| m.axis_index(l).unwrap());
+    let origin = m.tool_in_workpiece(&vec![0.0; m.n_axes()]).t;
+    let mut ws = model.workspace();
+    let (mut worst, mut nominal_worst) = (0.0f64, 0.0f64);
+    let mut state = seed;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..500 {
+        let mut q = vec![0.0; m.n_axes()];
+        for &i in &idx {
+            let (lo, hi) = m.axes()[i]
+                .limits()
+                .unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
+            q[i] = lo + (hi - lo) * next();
+        }
+        let actual = (model.tool_pose(&q, coeffs, &mut ws).t - origin) * 1e3;
+        let j = [
+            q[idx[0]] * 1e3,
+            q[idx[1]] * 1e3,
+            q[idx[2]] * 1e3,
+            -q[idx[3]].to_degrees(),
+            -q[idx[4]].to_degrees(),
+        ];
+        worst = worst.max((forward(p, j) - actual).norm());
+        nominal_worst = nominal_worst.max((forward(nominal, j) - actual).norm());
+    }
+    (worst, nominal_worst)
+}
+
 fn set(model: &MachineModel, coeffs: &mut [f64], name: &str, value: f64) {
     let n: ParamName = name.parse().unwrap();
     let p = model
@@ -52,7 +103,6 @@ fn set(model: &MachineModel, coeffs: &mut [f64], name: &str, value: f64) {
 #[test]
 fn linuxcnc_xyzac_kinematics_with_mtcal_pivots_match_the_model() {
     let model = load("mcu630-cafyxz.urdf");
-    let m = model.machine();
     let mut coeffs = vec![0.0; model.n_coeffs()];
     // Where the C and A lines pass: tens of µm off nominal.
     for (name, v) in [
@@ -75,42 +125,15 @@ fn linuxcnc_xyzac_kinematics_with_mtcal_pivots_match_the_model() {
     );
     assert!((p.z_rot_point_mm - n.z_rot_point_mm + 0.018).abs() < 1e-9);
 
-    let idx = ['X', 'Y', 'Z', 'A', 'C'].map(|l| m.axis_index(l).unwrap());
-    let origin = m.tool_in_workpiece(&vec![0.0; m.n_axes()]).t;
-    let mut ws = model.workspace();
-    let mut worst: f64 = 0.0;
-    let mut nominal_worst: f64 = 0.0;
-    let mut state = 7u64;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    for _ in 0..500 {
-        let mut q = vec![0.0; m.n_axes()];
-        for &i in &idx {
-            let (lo, hi) = m.axes()[i]
-                .limits()
-                .unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
-            q[i] = lo + (hi - lo) * next();
-        }
-        let actual = (m.tool_in_workpiece(&q).t
-            + model.pose_error(&q, &coeffs, &mut ws).translation
-            - origin)
-            * 1e3;
-        // LinuxCNC's trt kinematics turn the rotary axes the other way from the CNC (ISO 841)
-        // convention mtcal follows (its source says so): its angles are mtcal's negated.
-        let j = [
-            q[idx[0]] * 1e3,
-            q[idx[1]] * 1e3,
-            q[idx[2]] * 1e3,
-            -q[idx[3]].to_degrees(),
-            -q[idx[4]].to_degrees(),
-        ];
-        worst = worst.max((xyzac_forward(&p, j) - actual).norm());
-        nominal_worst = nominal_worst.max((xyzac_forward(n, j) - actual).norm());
-    }
+    let (worst, nominal_worst) = worst_against_model(
+        &model,
+        &coeffs,
+        ['X', 'Y', 'Z', 'A', 'C'],
+        xyzac_forward,
+        &p,
+        n,
+        7,
+    );
     eprintln!(
         "LinuxCNC kinematics vs model: {worst:.1e} mm with mtcal's pivots, {nominal_worst:.4} mm with nominal ones"
     );
@@ -187,7 +210,6 @@ fn xyzbc_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {
 #[test]
 fn linuxcnc_xyzbc_kinematics_with_mtcal_pivots_match_the_model() {
     let model = load("mcv1000-5ax220-bc.urdf");
-    let m = model.machine();
     let mut coeffs = vec![0.0; model.n_coeffs()];
     for (name, v) in [
         ("EX0C", -28e-6),
@@ -207,40 +229,15 @@ fn linuxcnc_xyzbc_kinematics_with_mtcal_pivots_match_the_model() {
     );
     assert!((p.z_rot_point_mm - n.z_rot_point_mm - 0.021).abs() < 1e-9);
 
-    let idx = ['X', 'Y', 'Z', 'B', 'C'].map(|l| m.axis_index(l).unwrap());
-    let origin = m.tool_in_workpiece(&vec![0.0; m.n_axes()]).t;
-    let mut ws = model.workspace();
-    let (mut worst, mut nominal_worst) = (0.0f64, 0.0f64);
-    let mut state = 11u64;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    for _ in 0..500 {
-        let mut q = vec![0.0; m.n_axes()];
-        for &i in &idx {
-            let (lo, hi) = m.axes()[i]
-                .limits()
-                .unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
-            q[i] = lo + (hi - lo) * next();
-        }
-        let actual = (m.tool_in_workpiece(&q).t
-            + model.pose_error(&q, &coeffs, &mut ws).translation
-            - origin)
-            * 1e3;
-        // LinuxCNC's angles are mtcal's negated (see the xyzac test).
-        let j = [
-            q[idx[0]] * 1e3,
-            q[idx[1]] * 1e3,
-            q[idx[2]] * 1e3,
-            -q[idx[3]].to_degrees(),
-            -q[idx[4]].to_degrees(),
-        ];
-        worst = worst.max((xyzbc_forward(&p, j) - actual).norm());
-        nominal_worst = nominal_worst.max((xyzbc_forward(n, j) - actual).norm());
-    }
+    let (worst, nominal_worst) = worst_against_model(
+        &model,
+        &coeffs,
+        ['X', 'Y', 'Z', 'B', 'C'],
+        xyzbc_forward,
+        &p,
+        n,
+        11,
+    );
     eprintln!("xyzbc: {worst:.1e} mm with mtcal's pivots, {nominal_worst:.4} mm with nominal ones");
     assert!(worst < 1e-7, "{worst} mm");
     assert!(nominal_worst > 0.02, "{nominal_worst} mm");
