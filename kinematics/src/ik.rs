@@ -100,9 +100,10 @@ impl fmt::Display for LimitViolation {
             Bound::Lower => "below its lower",
             Bound::Upper => "above its upper",
         };
+        // In the units programs and files use (SI inside, mm and degrees for people).
         let v = |x: f64| match self.kind {
-            AxisKind::Linear => format!("{x:.6} m"),
-            AxisKind::Rotary => format!("{x:.6} rad ({:.4}°)", x.to_degrees()),
+            AxisKind::Linear => format!("{} mm", round_to(x * 1e3, 4)),
+            AxisKind::Rotary => format!("{}°", round_to(x.to_degrees(), 4)),
         };
         write!(
             f,
@@ -114,6 +115,13 @@ impl fmt::Display for LimitViolation {
             v(self.excess())
         )
     }
+}
+
+/// `x` with at most `decimals` decimals, without trailing zeros (and never `-0`).
+fn round_to(x: f64, decimals: i32) -> f64 {
+    let scale = 10f64.powi(decimals);
+    let r = (x * scale).round() / scale;
+    if r == 0.0 { 0.0 } else { r }
 }
 
 /// Why no solution is returned.
@@ -697,6 +705,32 @@ mod tests {
     use crate::machine::{BranchSpec, JointSpec, MachineSpec};
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
     use proptest::prelude::*;
+
+    #[test]
+    fn a_limit_violation_reads_in_mm_and_degrees() {
+        let linear = LimitViolation {
+            axis: 'X',
+            kind: AxisKind::Linear,
+            position: 0.9,
+            bound: Bound::Upper,
+            limit: 0.375,
+        };
+        assert_eq!(
+            linear.to_string(),
+            "axis X = 900 mm is above its upper limit 375 mm by 525 mm"
+        );
+        let rotary = LimitViolation {
+            axis: 'A',
+            kind: AxisKind::Rotary,
+            position: (-120.0f64).to_radians(),
+            bound: Bound::Lower,
+            limit: (-30.0f64).to_radians(),
+        };
+        assert_eq!(
+            rotary.to_string(),
+            "axis A = -120° is below its lower limit -30° by 90°"
+        );
+    }
 
     /// Hand-built test machines: random pivot offsets and small rotations in every joint origin
     /// and branch end, drawn from a list of numbers in [-1, 1].

@@ -416,8 +416,18 @@ fn run(cli: Cli) -> Result<()> {
                 match_tool_axis: !position_only,
                 ..Default::default()
             };
-            let corrected = mtcal_ncprog::correct_program(&model, &coeffs, &nc, &options)
-                .with_context(|| format!("cannot correct {}", program.display()))?;
+            let corrected = mtcal_ncprog::correct_program(&model, &coeffs, &nc, &options).map_err(
+                |e| match e.location() {
+                    // `prog.nc:5:4: …`, as every other located message.
+                    Some((line, column)) => anyhow::anyhow!(
+                        "{}:{line}{}: {}",
+                        program.display(),
+                        column.map_or(String::new(), |c| format!(":{c}")),
+                        e.message()
+                    ),
+                    None => anyhow::anyhow!("cannot correct {}: {e}", program.display()),
+                },
+            )?;
             mtcal_machine::write_atomically(&out, corrected.text.as_bytes())
                 .with_context(|| format!("cannot write {}", out.display()))?;
             writeln!(

@@ -160,8 +160,9 @@ fn channel_values(study: &Study, r: usize, pred: &[f64], c: usize) -> Option<(Ve
     let channels = study.channels(r);
     let per = channels.get(c)?.unit.per_si();
     let nch = channels.len();
-    let pick = |v: &[f64]| v.iter().skip(c).step_by(nch).map(|x| x * per).collect();
-    Some((pick(readings), pick(pred)))
+    let measured = (0..run.len()).map(|i| readings.get(i, c) * per).collect();
+    let model = pred.iter().skip(c).step_by(nch).map(|x| x * per).collect();
+    Some((measured, model))
 }
 
 fn ballbar(
@@ -179,7 +180,8 @@ fn ballbar(
         let Ok(config) = mtcal_ballbar::BallbarConfig::from_table(&slot.table) else {
             continue;
         };
-        let Some(circle) = mtcal_ballbar::recognise_circle(study.model.machine(), &config, &run.q)
+        let q = run.q.to_row_major();
+        let Some(circle) = mtcal_ballbar::recognise_circle(study.model.machine(), &config, &q)
         else {
             continue;
         };
@@ -254,7 +256,7 @@ fn residuals(
     };
     let mut variables = vec!["t".to_string()];
     for run in &study.runs {
-        for (name, _) in &run.table.context {
+        for (name, _) in &run.context {
             if !variables.contains(name) {
                 variables.push(name.clone());
             }
@@ -289,19 +291,20 @@ fn along(
         let (Some(readings), Some(Some(pred))) = (&run.readings, predictions.get(r)) else {
             continue;
         };
-        let xs: &[f64] = if variable == "t" {
-            &run.table.t
+        let xs = if variable == "t" {
+            &run.t
         } else {
-            match run.table.context_column(variable) {
+            match run.context_column(variable) {
                 Some(v) => v,
                 None => continue,
             }
         };
         let channels = study.channels(r);
         let nch = channels.len();
-        for (i, &x) in xs.iter().enumerate().take(run.len()) {
+        for i in 0..run.len() {
+            let x = xs.get(i);
             for (c, ch) in channels.iter().enumerate() {
-                let d = readings[i * nch + c] - pred[i * nch + c];
+                let d = readings.get(i, c) - pred[i * nch + c];
                 let scale = if whiten {
                     1.0 / ch.sigma
                 } else {

@@ -17,7 +17,14 @@
 //! (100 mm bar) in the XY, YZ and ZX planes, each clockwise and counter-clockwise, sampled at
 //! 1 kHz (0.5 µm noise): the three squareness errors, pivot and tool length free.
 //! `--layout laser`: the same machine, ISO 230-2 laser runs on X, Y and Z at 1 kHz with the air
-//! logged (T_air, P_air, H_air) beside them: the three positioning errors.
+//! logged (T_air, P_air, H_air) beside them: the three positioning errors (runs of at most 10⁶
+//! samples: above 3·10⁶ the three runs are repeated).
+//!
+//! Every layout records its files as a controller and an instrument would (`[record]` of the
+//! plan): positions to 0.1 µm and 0.0001°, readings to 0.0001 µm, times to 1 ms, air to three
+//! decimals — not the 17 digits of a float, which no instrument writes. The study keeps such
+//! columns as integers (`mtcal_session::Column`); full-precision files load too, at 8 bytes a
+//! value.
 
 use anyhow::{Context as _, Result, bail};
 use std::io::Write;
@@ -189,6 +196,12 @@ seed = 7
 interval_s = 0.001
 pause_s = 10.0
 
+[record]
+positions = 4
+readings = 4
+time = 3
+context = 3
+
 [identify]
 parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
 
@@ -238,6 +251,12 @@ fn ballbar_plan(samples: usize) -> String {
 seed = 7
 interval_s = 0.001
 
+[record]
+positions = 4
+readings = 4
+time = 3
+context = 3
+
 [identify]
 parameters = ["EC0Y", "EB0Z", "EA0Z"]
 
@@ -265,12 +284,20 @@ tool_length = 2.0
 }
 
 fn laser_plan(samples: usize) -> String {
-    // Each run: `points` targets, 5 bidirectional cycles (2·5·points samples).
-    let points = (samples / 30).max(2);
+    // Each run: `points` targets, 5 bidirectional cycles (2·5·points samples), at most 10⁶
+    // samples (17 minutes at 1 kHz): above 3·10⁶ samples the three runs are repeated.
+    let repeats = samples.div_ceil(3_000_000).max(1);
+    let points = (samples / (30 * repeats)).max(2);
     let mut plan = String::from(
         r#"machine = "m.urdf"
 seed = 7
 interval_s = 0.001
+
+[record]
+positions = 4
+readings = 4
+time = 3
+context = 3
 
 [identify]
 parameters = ["EXX", "EYY", "EZZ"]
@@ -286,12 +313,22 @@ H_air = [[0.0, 42.0], [30000.0, 47.0]]
         ("Y", -200.0, 200.0, "X = 0.0, Z = -250.0"),
         ("Z", -450.0, -50.0, "X = 0.0, Y = 0.0"),
     ];
-    for (axis, from, to, hold) in runs {
+    for (axis, _, _, _) in runs {
         let lower = axis.to_lowercase();
         plan += &format!(
             "\n[setup.laser-{lower}]\nmode = \"linear\"\norigin = [0.0, 0.0, 390.0]\n\
-             direction = \"{axis}\"\nwavelength_compensated = false\n\n[[run]]\n\
-             name = \"laser-{lower}\"\ninstrument = \"laser\"\nsetup = \"laser-{lower}\"\n\
+             direction = \"{axis}\"\nwavelength_compensated = false\n"
+        );
+    }
+    for (repeat, (axis, from, to, hold)) in (1..=repeats).flat_map(|k| runs.map(|r| (k, r))) {
+        let lower = axis.to_lowercase();
+        let name = if repeats > 1 {
+            format!("laser-{lower}-{repeat}")
+        } else {
+            format!("laser-{lower}")
+        };
+        plan += &format!(
+            "\n[[run]]\nname = \"{name}\"\ninstrument = \"laser\"\nsetup = \"laser-{lower}\"\n\
              path = {{ axis = \"{axis}\", from = {from:?}, to = {to:?}, points = {points}, \
              cycles = 5, overrun = 5.0, hold = {{ {hold} }} }}\n"
         );

@@ -27,13 +27,15 @@ pub const LIMIT_TOLERANCE_MM: f64 = 0.01;
 pub const LIMIT_TOLERANCE_DEG: f64 = 0.01;
 
 /// `file:line:column` of data row `i` (0-based) and column `name` (the header is line 1).
-fn cell(table: &RunTable, i: usize, name: &str) -> String {
+pub(crate) fn cell(table: &RunTable, i: usize, name: &str) -> String {
     let column = table
         .columns
         .iter()
         .position(|c| c == name)
         .map_or(String::new(), |j| format!(":{}", j + 1));
-    format!("{}:{}{column}", table.path.display(), i + 2)
+    // Read the file again for the line: blank lines move the rows (only on an error).
+    let line = mtcal_session::row_line(&table.path, i).unwrap_or(i + 2);
+    format!("{}:{line}{column}", table.path.display())
 }
 
 /// Checks one run's commanded positions and readings (file units) against the machine's axis

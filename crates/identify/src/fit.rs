@@ -248,14 +248,14 @@ impl FitProblem<'_> {
             }
             eval.at(i, true);
             for c in 0..nch {
-                let res = (eval.pred[c] - readings[i * nch + c]) * eval.inv_sigma[c];
+                let res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
                 if !res.is_finite() {
                     return Err(EvalError::new(format!(
                         "run {}: sample {} (CSV line {}) channel {}: the model gives no finite \
                          prediction",
                         run.name,
                         i + 1,
-                        i + 2,
+                        mtcal_session::row_line(&run.file.path, i).unwrap_or(i + 2),
                         study.channels(r)[c].name
                     )));
                 }
@@ -287,6 +287,8 @@ pub(crate) struct SampleEval<'a> {
     pub(crate) d_nuis: Vec<f64>,
     pub inv_sigma: Vec<f64>,
     scratch: Vec<f64>,
+    /// The commanded positions of the sample being evaluated (SI).
+    q: Vec<f64>,
     effects: Option<EffectEval>,
 }
 
@@ -359,6 +361,7 @@ impl<'a> SampleEval<'a> {
             d_nuis: vec![0.0; nch * nn],
             inv_sigma: setup.channels().iter().map(|c| 1.0 / c.sigma).collect(),
             scratch: vec![0.0; 2 * nch],
+            q: vec![0.0; na],
         }
     }
 
@@ -373,14 +376,16 @@ impl<'a> SampleEval<'a> {
         let run = &study.runs[self.run];
         let setup = &study.setups[run.setup].setup;
         let model = &study.fit_model;
-        let na = model.machine().n_axes();
-        let q = &run.q[i * na..(i + 1) * na];
+        // Taken out of `self` while `self` is borrowed mutably below; put back at the end.
+        let mut q_buf = std::mem::take(&mut self.q);
+        run.q.row_into(i, &mut q_buf);
+        let q = q_buf.as_slice();
         let mut pose = if derivatives {
             model.tool_pose_for_jacobian(q, &self.coeffs, &mut self.ws)
         } else {
             model.tool_pose(q, &self.coeffs, &mut self.ws)
         };
-        let t = run.table.t[i];
+        let t = run.t.get(i);
         let mut nuis = std::mem::take(&mut self.nuis);
         if let Some(fx) = self.effects.as_mut() {
             // The effects act on the axes (through the axis Jacobian, first order), on the
@@ -450,6 +455,7 @@ impl<'a> SampleEval<'a> {
             std::mem::swap(&mut nuis, &mut fx.nuis);
         }
         self.nuis = nuis;
+        self.q = q_buf;
     }
 
     /// Central differences of the set-up's predictions, for plugins without analytic

@@ -329,7 +329,7 @@ pub fn what_if(
     let (ours, theirs) = (study.model.machine(), extra.model.machine());
     if ours.name() != theirs.name() || ours.letters() != theirs.letters() {
         return Err(IdentifyError::Machine {
-            manifest: extra.session.manifest.clone(),
+            at: extra.session.machine_at.to_string(),
             message: format!(
                 "its runs are on another machine ({} {}) than the session identified ({} {}): \
                  what they would add cannot be matched parameter by parameter",

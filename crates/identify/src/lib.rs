@@ -38,8 +38,9 @@ use std::path::{Path, PathBuf};
 pub enum IdentifyError {
     #[error(transparent)]
     Session(#[from] mtcal_session::SessionError),
-    #[error("{}: machine: {message}", manifest.display())]
-    Machine { manifest: PathBuf, message: String },
+    /// `at`: where the manifest names the machine (`session.toml:1:11`).
+    #[error("{at}: machine: {message}")]
+    Machine { at: String, message: String },
     #[error("{source_name}: error model: {message}")]
     Model {
         source_name: String,
@@ -67,9 +68,10 @@ pub enum IdentifyError {
         first: String,
         second: String,
     },
-    #[error("{}: [identify] `{key}`: {message}", manifest.display())]
+    /// `at`: the key's value in the manifest (`session.toml:7:14`).
+    #[error("{at}: [identify] `{key}`: {message}")]
     Options {
-        manifest: PathBuf,
+        at: String,
         key: String,
         message: String,
     },
@@ -193,7 +195,7 @@ pub fn write_predictions(
     let inputs: Vec<PathBuf> = study
         .runs
         .iter()
-        .filter_map(|run| run.table.path.canonicalize().ok())
+        .filter_map(|run| run.file.path.canonicalize().ok())
         .collect();
     for run in study.runs.iter().filter(|run| !run.fit) {
         let target = dir.join(format!("{}.csv", run.name));
@@ -220,26 +222,33 @@ pub fn write_predictions(
         let channels = study.channels(r);
         let mut pred = predict_run(study, r, x);
         let setup = &study.setups[run.setup].setup;
+        let expanded = run.expanded();
         setup
-            .record_readings(
-                &mtcal_instrument::RunData {
-                    q: &run.q,
-                    t: &run.table.t,
-                    context: &run.table.context,
-                },
-                &mut pred,
-            )
+            .record_readings(&expanded.data(), &mut pred)
             .map_err(|e| IdentifyError::RunData {
-                at: run.table.path.display().to_string(),
+                at: run.file.path.display().to_string(),
                 message: format!("recording the predictions: {e}"),
             })?;
         let values: Vec<f64> = pred
             .chunks_exact(channels.len())
             .flat_map(|row| row.iter().zip(channels).map(|(v, c)| v * c.unit.per_si()))
             .collect();
-        let mut table: RunTable = run.table.clone();
-        table.readings = channels.iter().map(|c| c.name.clone()).collect();
-        table.values = Some(values);
+        // The run's numbers as they were read, the predictions as its readings.
+        let mut table = RunTable {
+            path: run.file.path.clone(),
+            columns: run.file.columns.clone(),
+            t: run.t.raw_vec(),
+            axes: run.file.axes.clone(),
+            positions: run.q.raw_row_major(),
+            readings: channels.iter().map(|c| c.name.clone()).collect(),
+            values: Some(values),
+            context: run
+                .context
+                .iter()
+                .map(|(n, c)| (n.clone(), c.raw_vec()))
+                .collect(),
+            labels: run.file.labels.clone(),
+        };
         let missing: Vec<String> = table
             .readings
             .iter()

@@ -105,17 +105,17 @@ fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
     let mut channels_out = Vec::new();
     let mut excess = Vec::new();
     for (c, ch) in channels.iter().enumerate() {
-        let w = |i: usize| (pred[i * nch + c] - readings[i * nch + c]) / ch.sigma;
+        let w = |i: usize| (pred[i * nch + c] - readings.get(i, c)) / ch.sigma;
         let chi2: f64 = (0..n).map(|i| w(i) * w(i)).sum();
         if (chi2 / n as f64).sqrt() >= MIN_RMS {
             channels_out.push((ch.name.clone(), sum_over(&w, Norm::Residual)));
             excess.push((ch.name.clone(), chi2 - n as f64));
         }
     }
-    let mut context = vec![("t".to_string(), sum_over(&|i| run.table.t[i], Norm::Mean))];
+    let mut context = vec![("t".to_string(), sum_over(&|i| run.t.get(i), Norm::Mean))];
     context.extend(run.position_blocks.means.iter().cloned());
-    for (name, values) in &run.table.context {
-        context.push((name.clone(), sum_over(&|i| values[i], Norm::Mean)));
+    for (name, values) in &run.context {
+        context.push((name.clone(), sum_over(&|i| values.get(i), Norm::Mean)));
     }
     let splits = run.position_blocks.splits.clone();
     RunData {

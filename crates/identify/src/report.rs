@@ -283,7 +283,7 @@ impl Identification {
                 s,
                 "  {:<24} {:>12.4} ± {:<10.4} {:<5} {}",
                 p.name,
-                p.value,
+                unsigned_zero(p.value, 4),
                 p.u95,
                 p.unit,
                 if p.kind == "machine" { "" } else { &p.kind }
@@ -341,10 +341,20 @@ impl Identification {
                 chans.join(", ")
             );
             for m in &r.metrics {
-                let _ = writeln!(s, "  {:<22}   {}: {:.3} {}", "", m.name, m.value, m.unit);
+                let value = unsigned_zero(m.value, 3);
+                let _ = writeln!(s, "  {:<22}   {}: {value:.3} {}", "", m.name, m.unit);
             }
         }
         s
+    }
+}
+
+/// `x`, or +0 when it prints as zero with `decimals` decimals (no `-0.0000` in a summary).
+fn unsigned_zero(x: f64, decimals: i32) -> f64 {
+    if (x * 10f64.powi(decimals)).round() == 0.0 {
+        0.0
+    } else {
+        x
     }
 }
 
@@ -466,7 +476,7 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
     for (c, ch) in channels.iter().enumerate() {
         let mut ss = 0.0;
         for i in 0..n {
-            let d = pred[i * nch + c] - readings[i * nch + c];
+            let d = pred[i * nch + c] - readings.get(i, c);
             ss += d * d;
         }
         ss_all += ss;
@@ -483,12 +493,13 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
         .plugin
         .evaluate
         .map(|f| {
+            // The instrument's evaluation takes whole vectors: expanded for this run only.
             f(&Evaluation {
                 machine: study.model.machine(),
                 setup: &slot.table,
-                q: &run.q,
-                readings,
-                t: &run.table.t,
+                q: &run.q.to_row_major(),
+                readings: &readings.to_row_major(),
+                t: &run.t.to_vec(),
                 labels: &run.labels,
             })
         })
@@ -559,4 +570,17 @@ fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unsigned_zero;
+
+    #[test]
+    fn a_value_that_prints_as_zero_prints_without_a_sign() {
+        assert_eq!(format!("{:.4}", unsigned_zero(-0.00004, 4)), "0.0000");
+        assert_eq!(format!("{:.4}", unsigned_zero(-0.0, 4)), "0.0000");
+        assert_eq!(format!("{:.4}", unsigned_zero(-0.00006, 4)), "-0.0001");
+        assert_eq!(format!("{:.3}", unsigned_zero(2.5, 3)), "2.500");
+    }
 }

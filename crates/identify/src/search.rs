@@ -504,6 +504,7 @@ impl ScoredProblem for Scoring<'_> {
             study: self.study,
             aug: self.aug.as_ref().map(|a| (a, a.model.workspace())),
             jac: Vec::new(),
+            q: vec![0.0; self.study.model.machine().n_axes()],
             effects,
             model_columns: &self.model_columns,
             effect_columns: &self.effect_columns,
@@ -534,6 +535,8 @@ struct Target<'a, 's> {
     aug: Option<(&'a Augmented, Workspace)>,
     /// The sample's readings' derivatives by every augmented-model coefficient (channels × n).
     jac: Vec<f64>,
+    /// The sample's commanded positions (SI).
+    q: Vec<f64>,
     effects: Option<CandidateEffects>,
     model_columns: &'a [(usize, usize)],
     effect_columns: &'a [Option<usize>],
@@ -549,9 +552,9 @@ impl RowTarget for Target<'_, '_> {
         let na = self.study.model.machine().n_axes();
         if channel == 0 {
             if let Some((aug, ws)) = self.aug.as_mut() {
-                let q = &run.q[sample * na..(sample + 1) * na];
+                run.q.row_into(sample, &mut self.q);
                 let n = aug.model.n_coeffs();
-                aug.model.tool_pose_for_jacobian(q, &aug.coeffs, ws);
+                aug.model.tool_pose_for_jacobian(&self.q, &aug.coeffs, ws);
                 self.jac.resize(eval.d_pose.len() * n, 0.0);
                 // The pose rows are whitened already: so are these columns.
                 aug.model
@@ -907,7 +910,7 @@ fn with_session_options(
 ) -> Result<SearchOptions, IdentifyError> {
     let mut out = options.clone();
     let bad = |key: &str, m: String| IdentifyError::Options {
-        manifest: study.session.manifest.clone(),
+        at: study.session.identify_location(key),
         key: key.into(),
         message: m,
     };

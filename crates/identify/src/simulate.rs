@@ -40,6 +40,12 @@
 //!                                    # session's model: a planted `component-order` effect)
 //! pause_s = 10.0                     # time between runs (default 10 s)
 //!
+//! [record]                           # optional: the files hold rounded numbers, as a controller
+//! positions = 4                      # and an instrument write them: decimals of mm and degrees
+//! readings = 4                       # (the machine moves to exactly the written positions),
+//! time = 3                           # of each reading channel's unit, of seconds and of the
+//! context = 3                        # context columns; default: every digit of the f64
+//!
 //! [context]                          # context columns written into every run, by session time
 //! S = [[0.0, 0.0], [150.0, 4000.0]]  # spindle speed, rpm: steps (held until the next point)
 //! T_bed = [[0.0, 20.5], [600.0, 21.5]]  # temperatures, °C: linear between points
@@ -89,6 +95,7 @@ const PLAN_KEYS: &[&str] = &[
     "truth",
     "truth_errors",
     "pause_s",
+    "record",
     "context",
     "effect",
     "seed",
@@ -267,6 +274,7 @@ pub fn simulate_with(
             .ok_or_else(|| plan_err(format!("`pause_s` must be a number ≥ 0, found {v}")))?,
     };
     let schedules = context_schedules(&plan, plan_path)?;
+    let record = Record::from_plan(&plan, plan_path)?;
     let setups: BTreeMap<String, toml::Table> = match plan.get("setup") {
         None => BTreeMap::new(),
         Some(toml::Value::Table(t)) => t
@@ -374,6 +382,7 @@ pub fn simulate_with(
         if poses.is_empty() {
             return Err(run_err("the path has no samples".into()));
         }
+        let poses = record.positions_of(model.machine(), poses);
         let labels = match plugin.path_labels {
             Some(f) => f(&PathSpec {
                 path: path_table,
@@ -462,11 +471,25 @@ pub fn simulate_with(
                 .ok_or_else(|| run_err(format!("`feed_mm_min` must be > 0, found {v}")))?,
         };
         let n = poses.len();
-        let t: Vec<f64> = (0..n).map(|i| t0 + i as f64 * dt).collect();
+        let t: Vec<f64> = (0..n)
+            .map(|i| Record::round(t0 + i as f64 * dt, record.time))
+            .collect();
+        if t.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(run_err(format!(
+                "[record] time = {}: samples {dt} s apart need more decimals",
+                record.time.unwrap_or(0)
+            )));
+        }
         t0 += n as f64 * dt + pause;
         let context = schedules
             .iter()
-            .map(|(name, schedule)| (name.clone(), t.iter().map(|&ti| schedule.at(ti)).collect()))
+            .map(|(name, schedule)| {
+                let values = t
+                    .iter()
+                    .map(|&ti| Record::round(schedule.at(ti), record.context))
+                    .collect();
+                (name.clone(), values)
+            })
             .collect();
         let setup_index = match distinct.iter().position(|d| d.name == setup_name) {
             Some(i) => i,
@@ -599,10 +622,12 @@ pub fn simulate_with(
                 values.push(p + e);
             }
             for (v, ax) in q.iter().zip(model.machine().axes()) {
-                positions.push(match ax.kind() {
+                let file = match ax.kind() {
                     AxisKind::Linear => v * 1e3,
                     AxisKind::Rotary => v.to_degrees(),
-                });
+                };
+                // The pose was rounded in file units already: this gives the same digits.
+                positions.push(Record::round(file, record.positions));
             }
         }
         // The instrument's own form of the readings (an artefact's measured centres, a laser's
@@ -620,7 +645,7 @@ pub fn simulate_with(
             .map_err(|e| run_err(format!("recording the readings: {e}")))?;
         for row in values.chunks_exact_mut(nch) {
             for (v, ch) in row.iter_mut().zip(channels) {
-                *v *= ch.unit.per_si();
+                *v = Record::round(*v * ch.unit.per_si(), record.readings);
             }
         }
         let program = mtcal_instrument::program::nc_program(
@@ -963,6 +988,88 @@ fn largest_change(
 }
 
 /// Copies a URDF (and its `.errors.toml`, if any) into the session as `machine.urdf`.
+/// `[record]`: how many decimals the files hold (`None`: every digit).
+#[derive(Clone, Copy, Debug, Default)]
+struct Record {
+    positions: Option<usize>,
+    readings: Option<usize>,
+    time: Option<usize>,
+    context: Option<usize>,
+}
+
+impl Record {
+    const KEYS: [&str; 4] = ["positions", "readings", "time", "context"];
+
+    fn from_plan(plan: &toml::Table, file: &Path) -> Result<Record, SimulateError> {
+        let err = |message: String| SimulateError::Plan {
+            file: file.to_path_buf(),
+            message,
+        };
+        let Some(v) = plan.get("record") else {
+            return Ok(Record::default());
+        };
+        let table = v
+            .as_table()
+            .ok_or_else(|| err(format!("`record` must be a table, found {v}")))?;
+        let mut record = Record::default();
+        for (k, v) in table {
+            let decimals = v
+                .as_integer()
+                .filter(|d| (0..=9).contains(d))
+                .ok_or_else(|| {
+                    err(format!(
+                        "[record] `{k}` must be a number of decimals from 0 to 9, found {v}"
+                    ))
+                })? as usize;
+            match k.as_str() {
+                "positions" => record.positions = Some(decimals),
+                "readings" => record.readings = Some(decimals),
+                "time" => record.time = Some(decimals),
+                "context" => record.context = Some(decimals),
+                _ => {
+                    return Err(err(format!(
+                        "[record] unknown key `{k}`; it has {}",
+                        Record::KEYS.join(", ")
+                    )));
+                }
+            }
+        }
+        Ok(record)
+    }
+
+    /// `v` as written with `decimals` and read back (a written `-0.000` reads as 0).
+    fn round(v: f64, decimals: Option<usize>) -> f64 {
+        match decimals {
+            None => v,
+            Some(d) => {
+                let r: f64 = format!("{v:.d$}").parse().expect("a formatted f64 parses");
+                if r == 0.0 { 0.0 } else { r }
+            }
+        }
+    }
+
+    /// The poses the controller is given: each axis rounded in its file unit (mm, degrees),
+    /// then converted back as `identify` converts the file.
+    fn positions_of(
+        &self,
+        machine: &mtcal_kinematics::Machine,
+        mut poses: Vec<Vec<f64>>,
+    ) -> Vec<Vec<f64>> {
+        if self.positions.is_none() {
+            return poses;
+        }
+        for q in &mut poses {
+            for (v, ax) in q.iter_mut().zip(machine.axes()) {
+                *v = match ax.kind() {
+                    AxisKind::Linear => Record::round(*v * 1e3, self.positions) * 1e-3,
+                    AxisKind::Rotary => Record::round(v.to_degrees(), self.positions).to_radians(),
+                };
+            }
+        }
+        poses
+    }
+}
+
 fn copy_machine(urdf: &Path, out: &Path) -> Result<(), SimulateError> {
     let copy = |from: &Path, to: &Path| -> Result<(), SimulateError> {
         let bytes = std::fs::read(from).map_err(|e| SimulateError::Io {

@@ -2,6 +2,7 @@
 //! every distinct set-up with its nuisance parameters, and every run's samples in SI units.
 
 use crate::IdentifyError;
+use crate::checks::cell;
 use mtcal_effects::{
     AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
 };
@@ -9,7 +10,9 @@ use mtcal_instrument::{Channel, InstrumentPlugin, Nuisance, Setup, SetupContext}
 use mtcal_kinematics::Basis;
 use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
 use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
-use mtcal_session::{RunColumns, RunTable, RunUse, Session, SetupRef, load_session, read_run};
+use mtcal_session::{
+    Column, Columns, RunColumns, RunTable, RunUse, Scale, Session, SetupRef, load_session, read_run,
+};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -46,12 +49,18 @@ pub struct RunSlot {
     pub fit: bool,
     /// Index into [`Study::setups`].
     pub setup: usize,
-    pub table: RunTable,
-    /// Commanded positions, SI, row-major `samples × axes`.
-    pub q: Vec<f64>,
-    /// Readings, SI, row-major `samples × channels`, as the set-up prepared them
+    /// The run file: path, header, label texts.
+    pub file: RunFile,
+    /// Time of each sample, s.
+    pub t: Column,
+    /// Commanded positions, `samples × axes`: [`Columns::get`] gives SI (m, rad),
+    /// [`Column::raw`] the file's mm and degrees.
+    pub q: Columns,
+    /// Readings, SI, `samples × channels`, as the set-up prepared them
     /// ([`Setup::prepare_readings`]); `None` for a validation run without them.
-    pub readings: Option<Vec<f64>>,
+    pub readings: Option<Columns>,
+    /// Context columns (`T_<name>`, `P_<name>`, `H_<name>`, `S`, `F`), file units, file order.
+    pub context: Vec<(String, Column)>,
     /// Each sample's label number ([`Setup::resolve_label`]); empty when the instrument has no
     /// label columns.
     pub labels: Vec<u32>,
@@ -60,11 +69,15 @@ pub struct RunSlot {
     pub(crate) position_blocks: crate::mismatch::PositionBlocks,
 }
 
-/// A run as loaded, for [`Study::rebuild`] (which reads no file again).
+/// A run as loaded, for [`Study::rebuild`] (which reads no file again; the columns are shared,
+/// not copied).
+#[derive(Clone)]
 struct LoadedRun {
-    table: RunTable,
-    q: Vec<f64>,
-    readings: Option<Vec<f64>>,
+    file: RunFile,
+    t: Column,
+    q: Columns,
+    readings: Option<Columns>,
+    context: Vec<(String, Column)>,
     labels: Vec<u32>,
     position_blocks: crate::mismatch::PositionBlocks,
 }
@@ -74,14 +87,65 @@ impl RunSlot {
     pub fn label(&self, i: usize) -> u32 {
         self.labels.get(i).copied().unwrap_or(0)
     }
+
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The context column called `name`.
+    pub fn context_column(&self, name: &str) -> Option<&Column> {
+        self.context.iter().find(|(n, _)| n == name).map(|(_, c)| c)
+    }
+
+    /// The run's numbers as plain vectors, for an instrument's whole-run functions
+    /// ([`mtcal_instrument::RunData`], [`mtcal_instrument::Evaluation`]): SI positions
+    /// (row-major), times and context columns.
+    pub fn expanded(&self) -> ExpandedRun {
+        ExpandedRun {
+            q: self.q.to_row_major(),
+            t: self.t.to_vec(),
+            context: self
+                .context
+                .iter()
+                .map(|(n, c)| (n.clone(), c.to_vec()))
+                .collect(),
+        }
+    }
 }
 
-impl RunSlot {
-    pub fn len(&self) -> usize {
-        self.table.len()
-    }
-    pub fn is_empty(&self) -> bool {
-        self.table.is_empty()
+/// A run file as the study remembers it; its numbers are in [`RunSlot`]'s columns.
+#[derive(Clone, Debug)]
+pub struct RunFile {
+    pub path: PathBuf,
+    /// The header, in file order.
+    pub columns: Vec<String>,
+    /// The machine's axis letters.
+    pub axes: Vec<char>,
+    /// The instrument's reading columns.
+    pub readings: Vec<String>,
+    /// The label columns; a fitted run's texts are dropped once resolved to numbers.
+    pub labels: Vec<(String, Vec<String>)>,
+}
+
+/// A run's positions, times and context as vectors ([`RunSlot::expanded`]).
+#[derive(Debug)]
+pub struct ExpandedRun {
+    pub q: Vec<f64>,
+    pub t: Vec<f64>,
+    pub context: Vec<(String, Vec<f64>)>,
+}
+
+impl ExpandedRun {
+    pub fn data(&self) -> mtcal_instrument::RunData<'_> {
+        mtcal_instrument::RunData {
+            q: &self.q,
+            t: &self.t,
+            context: &self.context,
+        }
     }
 }
 
@@ -181,9 +245,11 @@ impl Study {
             .runs
             .iter()
             .map(|r| LoadedRun {
-                table: r.table.clone(),
+                file: r.file.clone(),
+                t: r.t.clone(),
                 q: r.q.clone(),
                 readings: r.readings.clone(),
+                context: r.context.clone(),
                 labels: r.labels.clone(),
                 position_blocks: r.position_blocks.clone(),
             })
@@ -349,9 +415,11 @@ impl Study {
                 name: spec.name.clone(),
                 fit,
                 setup: setup_index,
-                table: run.table,
+                file: run.file,
+                t: run.t,
                 q: run.q,
                 readings: run.readings,
+                context: run.context,
                 labels: run.labels,
                 position_blocks: run.position_blocks,
             });
@@ -466,8 +534,10 @@ impl Study {
                 .iter()
                 .map(|run| {
                     let mut out = vec![0.0; run.len() * 6 * na];
-                    for (q, jac) in run.q.chunks_exact(na).zip(out.chunks_exact_mut(6 * na)) {
-                        model.tool_jacobian(q, &zeros, &mut ws, jac);
+                    let mut q = vec![0.0; na];
+                    for (i, jac) in out.chunks_exact_mut(6 * na).enumerate() {
+                        run.q.row_into(i, &mut q);
+                        model.tool_jacobian(&q, &zeros, &mut ws, jac);
                     }
                     out
                 })
@@ -517,9 +587,13 @@ impl Study {
                 name: r.name.clone(),
                 setup: r.setup,
                 fit: r.fit,
-                t: r.table.t.clone(),
-                q: r.q.clone(),
-                context: r.table.context.clone(),
+                t: r.t.to_vec(),
+                q: r.q.to_row_major(),
+                context: r
+                    .context
+                    .iter()
+                    .map(|(n, c)| (n.clone(), c.to_vec()))
+                    .collect(),
             })
             .collect();
         let mut is_estimated = vec![false; self.model.n_coeffs()];
@@ -623,7 +697,7 @@ fn load_session_machine(session: &Session) -> Result<LoadedMachine, IdentifyErro
         None => PathBuf::from(&session.machine),
     };
     load_machine(&arg.to_string_lossy(), Reading::default()).map_err(|e| IdentifyError::Machine {
-        manifest: session.manifest.clone(),
+        at: session.machine_at.to_string(),
         message: e.to_string(),
     })
 }
@@ -643,7 +717,7 @@ fn check_identify_keys(session: &Session) -> Result<(), IdentifyError> {
 
 fn identify_key(session: &Session, key: &str, message: &str) -> IdentifyError {
     IdentifyError::Options {
-        manifest: session.manifest.clone(),
+        at: session.identify_location(key),
         key: key.to_string(),
         message: message.to_string(),
     }
@@ -749,10 +823,11 @@ fn estimated_coefficients(
     Ok(out)
 }
 
-/// A run file's table → the run as the study keeps it (checked first): positions and
-/// readings converted to SI in place (a validation run keeps its positions in file units too,
-/// for [`crate::write_predictions`]), labels resolved to numbers (a fitted run's label texts
-/// dropped), the positions' summary for the mismatch analysis.
+/// A run file's table → the run as the study keeps it (checked first): times, positions,
+/// readings and context in compact columns ([`mtcal_session::Column`]: bit for bit the values
+/// read) that convert positions to SI as they are read, readings prepared by the set-up, labels
+/// resolved to numbers (a fitted run's label texts dropped), the positions' summary for the
+/// mismatch analysis.
 fn load_run(
     model: &MachineModel,
     setup: &dyn Setup,
@@ -762,14 +837,28 @@ fn load_run(
     crate::checks::check_run(model, setup, &table)?;
     let labels = run_labels(setup, &table)?;
     let position_blocks = crate::mismatch::PositionBlocks::of(&table);
-    let positions = if fit {
-        std::mem::take(&mut table.positions)
-    } else {
-        table.positions.clone()
-    };
-    let q = positions_si(model, positions);
+    let scales: Vec<Scale> = model
+        .machine()
+        .axes()
+        .iter()
+        .map(|a| match a.kind() {
+            // What `v * 1e-3` and `v.to_radians()` compute.
+            AxisKind::Linear => Scale::Mul(1e-3),
+            AxisKind::Rotary => Scale::Mul(std::f64::consts::PI / 180.0),
+        })
+        .collect();
+    let q = Columns::from_row_major(&table.positions, &scales);
+    let t = Column::new(&table.t);
+    let context: Vec<(String, Column)> = table
+        .context
+        .iter()
+        .map(|(n, v)| (n.clone(), Column::new(v)))
+        .collect();
     let readings = match table.values.take() {
-        Some(v) => Some(prepared_readings(setup, &table, &q, v)?),
+        Some(raw) => {
+            let q_si = positions_si(model, std::mem::take(&mut table.positions));
+            Some(prepared_readings(setup, &table, &q_si, raw)?)
+        }
         None => None,
     };
     if fit {
@@ -777,10 +866,19 @@ fn load_run(
             *column = Vec::new();
         }
     }
+    let file = RunFile {
+        path: table.path,
+        columns: table.columns,
+        axes: table.axes,
+        readings: table.readings,
+        labels: table.labels,
+    };
     Ok(LoadedRun {
-        table,
+        file,
+        t,
         q,
         readings,
+        context,
         labels,
         position_blocks,
     })
@@ -799,17 +897,6 @@ fn positions_si(model: &MachineModel, mut positions: Vec<f64>) -> Vec<f64> {
         }
     }
     positions
-}
-
-/// `file:line:column` of data row `i` (0-based) and column `name` of a run file (its header is
-/// line 1).
-fn cell(table: &RunTable, i: usize, name: &str) -> String {
-    let column = table
-        .columns
-        .iter()
-        .position(|c| c == name)
-        .map_or(String::new(), |j| format!(":{}", j + 1));
-    format!("{}:{}{column}", table.path.display(), i + 2)
 }
 
 /// Every sample's label number, or an error naming the cell that does not resolve.
@@ -831,19 +918,22 @@ fn run_labels(setup: &dyn Setup, table: &RunTable) -> Result<Vec<u32>, IdentifyE
 }
 
 /// The run's readings in SI, prepared by the set-up (environmental compensation), or an error
-/// naming the cell at fault.
+/// naming the cell at fault. A channel the set-up leaves as it is (the file's value divided by
+/// its unit) is kept as the file's numbers with that division; one it changes, as computed.
 fn prepared_readings(
     setup: &dyn Setup,
     table: &RunTable,
     q: &[f64],
-    values: Vec<f64>,
-) -> Result<Vec<f64>, IdentifyError> {
+    raw: Vec<f64>,
+) -> Result<Columns, IdentifyError> {
     let ch = setup.channels();
-    let mut readings = values;
-    for row in readings.chunks_exact_mut(ch.len()) {
-        for (x, c) in row.iter_mut().zip(ch) {
-            *x /= c.unit.per_si();
-        }
+    let scales: Vec<Scale> = ch.iter().map(|c| Scale::Div(c.unit.per_si())).collect();
+    // The file's numbers, read as `value / unit` (µm → m); the vector is then reused for the
+    // set-up's preparation, which starts from exactly these values.
+    let as_read = Columns::from_row_major(&raw, &scales);
+    let mut readings = raw;
+    for (i, row) in readings.chunks_exact_mut(ch.len()).enumerate() {
+        as_read.row_into(i, row);
     }
     let data = mtcal_instrument::RunData {
         q,
@@ -866,5 +956,24 @@ fn prepared_readings(
             message: format!("column \"{c}\": the prepared reading is not a finite number"),
         });
     }
-    Ok(readings)
+    let nch = ch.len();
+    let mut column = Vec::new();
+    let columns = (0..nch)
+        .map(|c| {
+            let prepared = readings.iter().skip(c).step_by(nch);
+            let as_read_c = as_read.column(c);
+            if prepared
+                .clone()
+                .enumerate()
+                .all(|(i, p)| as_read_c.get(i).to_bits() == p.to_bits())
+            {
+                as_read_c.clone()
+            } else {
+                column.clear();
+                column.extend(prepared);
+                Column::new(&column)
+            }
+        })
+        .collect();
+    Ok(Columns::from_columns(columns))
 }

@@ -309,11 +309,11 @@ fn below_noise_scales_a_planted_effect_to_the_noise() {
     let mut largest: f64 = 0.0;
     for (r, run) in plain.runs.iter().enumerate() {
         let (a, b) = (
-            run.readings.as_ref().unwrap(),
-            planted.runs[r].readings.as_ref().unwrap(),
+            run.readings.as_ref().unwrap().to_row_major(),
+            planted.runs[r].readings.as_ref().unwrap().to_row_major(),
         );
         let channels = plain.channels(r);
-        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        for (k, (x, y)) in a.iter().zip(&b).enumerate() {
             largest = largest.max((x - y).abs() / channels[k % channels.len()].sigma);
         }
     }

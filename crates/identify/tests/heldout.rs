@@ -85,7 +85,7 @@ fn one_pass_cross_validation_equals_refitting_every_fold() {
             let n = run.len();
             for i in (0..n).filter(|&i| Folds::fold_of(folds, i, n) == k) {
                 for (c, ch) in channels.iter().enumerate() {
-                    let d = (p[i * nch + c] - readings[i * nch + c]) / ch.sigma;
+                    let d = (p[i * nch + c] - readings.get(i, c)) / ch.sigma;
                     sum += d * d;
                     count += 1;
                 }

@@ -174,7 +174,7 @@ fn last_mae(study: &Study, x: &[f64]) -> [f64; 5] {
     let mut mae = [0.0; 5];
     for i in 0..n {
         for c in 0..5 {
-            mae[c] += (pred[i * 5 + c] - readings[i * 5 + c]).abs() * 1e6 / n as f64;
+            mae[c] += (pred[i * 5 + c] - readings.get(i, c)).abs() * 1e6 / n as f64;
         }
     }
     mae

@@ -34,7 +34,8 @@ fn reduced_fit_model_gives_the_full_models_poses() {
         }
         for run in &study.runs {
             let na = study.model.machine().n_axes();
-            for q in run.q.chunks_exact(na).step_by(7) {
+            let q_all = run.q.to_row_major();
+            for q in q_all.chunks_exact(na).step_by(7) {
                 let a = study.model.tool_pose(q, &full, &mut ws_full);
                 let b = study.fit_model.tool_pose(q, &fit, &mut ws_fit);
                 assert!((a.t - b.t).norm() < 1e-15, "{:?} vs {:?}", a.t, b.t);

@@ -347,8 +347,19 @@ fn read_coefficients(item: &Item, name: &ParamName, basis: &Basis) -> Parsed<Vec
     let list = read::array(item, "`coefficients`", "a list of numbers")?;
     let labels = basis.labels();
     if list.len() != labels.len() {
+        // `[4,0, -1,5]`: TOML reads decimal commas as twice as many whole numbers.
+        let commas = list.len() == 2 * labels.len()
+            && list
+                .iter()
+                .all(|c| matches!(c.get_ref(), DeValue::Integer(_)));
+        let hint = if commas {
+            "; these look like numbers written with decimal commas (`1,5` is two numbers \
+             in TOML): write `1.5`"
+        } else {
+            ""
+        };
         let msg = format!(
-            "{name} has {} coefficients in this model ({}: {}), got {}",
+            "{name} has {} coefficients in this model ({}: {}), got {}{hint}",
             labels.len(),
             labels.join(", "),
             describe(basis, position_unit(name)),

@@ -160,6 +160,38 @@ pub enum CorrectError {
     Poses { failures: Vec<Failure> },
 }
 
+impl CorrectError {
+    /// The program line (1-based) and column the error is about, when it is about one place;
+    /// its text then starts with `line L, column C: ` or `line L: `, which a caller that knows
+    /// the file replaces by `file:L:C: ` ([`CorrectError::message`]).
+    pub fn location(&self) -> Option<(usize, Option<usize>)> {
+        match self {
+            CorrectError::Incremental { line }
+            | CorrectError::Arc { line }
+            | CorrectError::NoMotionMode { line }
+            | CorrectError::NonModal { line, .. }
+            | CorrectError::UnknownAxis { line, .. }
+            | CorrectError::MissingAxis { line, .. } => Some((*line, None)),
+            CorrectError::BeyondLimit { line, column, .. }
+            | CorrectError::LooksLikeMetres { line, column, .. } => Some((*line, Some(*column))),
+            CorrectError::UnsupportedMachine { .. }
+            | CorrectError::NoMotion
+            | CorrectError::Poses { .. } => None,
+        }
+    }
+
+    /// The text without its leading location (the whole text when it has none).
+    pub fn message(&self) -> String {
+        let text = self.to_string();
+        match self.location() {
+            Some(_) => text
+                .split_once(": ")
+                .map_or(text.clone(), |(_, rest)| rest.to_string()),
+            None => text,
+        }
+    }
+}
+
 /// The corrected program and every corrected pose.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Correction {

@@ -77,16 +77,18 @@
 //! problems with the header as a whole point at line 1, column 1. A byte that is not UTF-8
 //! is located by its character column in either file. Nothing here panics on bad input.
 
+mod column;
 mod error;
 mod manifest;
 mod run;
 
+pub use column::{Column, Columns, Scale, Storage};
 pub use error::{Location, SessionError};
 pub use manifest::{
     MANIFEST_NAME, Manifest, ManifestRun, RUN_KEYS, RunSpec, RunUse, Session, SetupRef, TOP_KEYS,
     load_session, write_session,
 };
-pub use run::{CONTEXT_COLUMNS, RunColumns, RunTable, read_run, write_run};
+pub use run::{CONTEXT_COLUMNS, RunColumns, RunTable, read_run, row_line, write_run};
 
 use std::path::Path;
 

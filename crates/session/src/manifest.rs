@@ -29,6 +29,8 @@ pub struct Session {
     pub manifest: PathBuf,
     /// `machine` as written: a path relative to the manifest or a topology code.
     pub machine: String,
+    /// Where `machine`'s value is written, for messages.
+    pub machine_at: Location,
     /// `dir/machine` when that is an existing file or `machine` ends in `.urdf`; `None` means
     /// `machine` is meant as a topology code.
     pub machine_path: Option<PathBuf>,
@@ -39,6 +41,18 @@ pub struct Session {
     /// `[identify]`: options of the identification (mtcal's addition; `mtcal-identify`
     /// documents its keys). Empty when absent.
     pub identify: toml::Table,
+    /// Where each `[identify]` key's value is written, for messages.
+    pub identify_at: BTreeMap<String, Location>,
+}
+
+impl Session {
+    /// `manifest:line:column` of `[identify]` key `key` (the manifest alone for a key it lacks).
+    pub fn identify_location(&self, key: &str) -> String {
+        match self.identify_at.get(key) {
+            Some(at) => at.to_string(),
+            None => self.manifest.display().to_string(),
+        }
+    }
 }
 
 /// One `[[run]]` of a loaded session.
@@ -203,14 +217,22 @@ pub fn load_session(dir_or_manifest: &Path) -> Result<Session, SessionError> {
     let machine_file = dir.join(&parsed.machine);
     let machine_path =
         (machine_file.is_file() || parsed.machine.ends_with(".urdf")).then_some(machine_file);
+    let machine_at = locate(&manifest, &text, parsed.machine_span.start);
+    let identify_at = parsed
+        .identify_spans
+        .into_iter()
+        .map(|(k, span)| (k, locate(&manifest, &text, span.start)))
+        .collect();
     Ok(Session {
         dir,
         manifest,
         machine: parsed.machine,
+        machine_at,
         machine_path,
         setups: parsed.setups,
         runs,
         identify: parsed.identify,
+        identify_at,
     })
 }
 
@@ -274,6 +296,8 @@ struct ParsedRun {
 
 struct ParsedManifest {
     machine: String,
+    machine_span: Range<usize>,
+    identify_spans: BTreeMap<String, Range<usize>>,
     setups: BTreeMap<String, toml::Table>,
     runs: Vec<ParsedRun>,
     identify: toml::Table,
@@ -289,6 +313,14 @@ fn parse(text: &str) -> Parsed<ParsedManifest> {
         toml::from_str(text).map_err(|e| problem(e.span().unwrap_or(0..0), e.message()))?;
     check_top_keys(&de)?;
     let machine = read_machine(&de)?;
+    let machine_span = de.get("machine").map_or(0..0, |item| item.span());
+    let identify_spans = match de.get("identify").map(|item| item.get_ref()) {
+        Some(DeValue::Table(t)) => t
+            .iter()
+            .map(|(k, v)| (k.get_ref().to_string(), v.span()))
+            .collect(),
+        _ => BTreeMap::new(),
+    };
     let setups = read_setups(&de, &values)?;
     let runs = read_runs(text, &de, &values, &setups)?;
     let identify = match (de.get("identify"), values.get("identify")) {
@@ -303,6 +335,8 @@ fn parse(text: &str) -> Parsed<ParsedManifest> {
         setups,
         runs,
         identify,
+        machine_span,
+        identify_spans,
     })
 }
 

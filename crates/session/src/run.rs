@@ -43,6 +43,18 @@ impl RunTable {
         self.t.len()
     }
 
+    /// Room for `rows` more rows in every numeric column.
+    fn reserve(&mut self, rows: usize) {
+        self.t.reserve_exact(rows);
+        self.positions.reserve_exact(rows * self.axes.len());
+        if let Some(v) = &mut self.values {
+            v.reserve_exact(rows * self.readings.len());
+        }
+        for (_, c) in &mut self.context {
+            c.reserve_exact(rows);
+        }
+    }
+
     /// Whether the table has no rows (a file never gives one).
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
@@ -155,7 +167,8 @@ fn read_run_streaming(path: &Path, cols: &RunColumns) -> Result<RunTable, Sessio
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(input);
-    parse_records(path, cols, reader)
+    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    parse_records(path, cols, reader, bytes)
 }
 
 /// [`read_run`] from the whole text, with every check's located error.
@@ -188,14 +201,33 @@ fn read_run_text(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionErro
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
-    parse_records(path, cols, reader)
+    let bytes = text.len() as u64;
+    parse_records(path, cols, reader, bytes)
 }
 
-/// The records of a run file after the checks on its text.
+/// Rows read before the columns are given their estimated final size.
+const ROWS_TO_ESTIMATE: usize = 256;
+
+/// The 1-based line of data row `row` (0-based) of the run file at `path`: the header is line 1,
+/// blank lines are skipped as the reader skips them, CRLF counts as one line end. Read again
+/// from the file, for the located message of a problem found after reading; `None` if the
+/// file cannot be read or has fewer rows.
+pub fn row_line(path: &Path, row: usize) -> Option<usize> {
+    let bytes = std::fs::read(path).ok()?;
+    let text = String::from_utf8_lossy(&bytes);
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .nth(row + 1)
+        .map(|(k, _)| k + 1)
+}
+
+/// The records of a run file (`file_bytes` long) after the checks on its text.
 fn parse_records<R: std::io::Read>(
     path: &Path,
     cols: &RunColumns,
     mut reader: csv::Reader<R>,
+    file_bytes: u64,
 ) -> Result<RunTable, SessionError> {
     // One record, reused row after row.
     let mut record = csv::StringRecord::new();
@@ -230,8 +262,19 @@ fn parse_records<R: std::io::Read>(
     let mut row_q = vec![0.0; cols.axes.len()];
     let mut row_r = vec![0.0; cols.readings.len()];
     let mut last_t: Option<(f64, u64)> = None;
+    let mut first_row_byte = None;
     while read(&mut reader, &mut record)? {
         let line = record.position().map_or(0, csv::Position::line);
+        let byte = record.position().map_or(0, csv::Position::byte);
+        let first_byte = *first_row_byte.get_or_insert(byte);
+        if table.t.len() == ROWS_TO_ESTIMATE && byte > first_byte {
+            // The columns are sized once for the whole file, from the rows so far, instead
+            // of doubling as they grow: the buffers a doubling frees stay resident as holes
+            // in the heap, a run's worth of them.
+            let per_row = (byte - first_byte) as f64 / ROWS_TO_ESTIMATE as f64;
+            let rows = ((file_bytes.saturating_sub(first_byte)) as f64 / per_row * 1.05) as usize;
+            table.reserve(rows.saturating_sub(table.t.len()));
+        }
         if record.len() == 1 && record[0].is_empty() {
             continue; // a line of blanks
         }

@@ -299,10 +299,11 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
     if n_axes == 0 || ev.q.len() % n_axes != 0 || ev.q.len() / n_axes != ev.readings.len() {
         return Vec::new();
     }
-    let rows: Vec<&[f64]> = ev.q.chunks_exact(n_axes).collect();
+    // Rows one at a time: a run can hold millions of samples.
+    let rows = || ev.q.chunks_exact(n_axes);
     match setup.mode() {
         Mode::Straightness => {
-            let travel: Vec<f64> = rows.iter().map(|q| setup.travel(q)).collect();
+            let travel: Vec<f64> = rows().map(|q| setup.travel(q)).collect();
             return straightness(&travel, ev.readings)
                 .map(|value| {
                     vec![Metric {
@@ -333,11 +334,11 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
         Mode::StepDiagonal => return Vec::new(),
         Mode::Linear | Mode::Diagonal => {}
     }
-    let Some(first) = rows.first() else {
+    let Some(first) = rows().next() else {
         return Vec::new();
     };
     let moving: Vec<usize> = (0..n_axes)
-        .filter(|&i| rows.iter().any(|q| (q[i] - first[i]).abs() > TARGET_TOL))
+        .filter(|&i| rows().any(|q| (q[i] - first[i]).abs() > TARGET_TOL))
         .collect();
     let along_axis = match (setup.mode(), moving.as_slice()) {
         (Mode::Linear, &[i]) => {
@@ -353,11 +354,11 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
     };
     let (travel, deviation): (Vec<f64>, Vec<f64>) = match along_axis {
         Some((i, sign)) => (
-            rows.iter().map(|q| q[i]).collect(),
+            rows().map(|q| q[i]).collect(),
             ev.readings.iter().map(|d| sign * d).collect(),
         ),
         None => (
-            rows.iter().map(|q| setup.travel(q)).collect(),
+            rows().map(|q| setup.travel(q)).collect(),
             ev.readings.to_vec(),
         ),
     };

@@ -42,6 +42,7 @@
 //! | `ball` | required | `[x, y, z]` mm, nominal ball (= head) centre, workpiece frame |
 //! | `head` | `"ideal"` | head model: `"ideal"` or `"three-sensor"` |
 //! | `sigma_um` | `0.5` | µm, standard deviation of one reading (each of `dx, dy, dz`), > 0 |
+//! | `range_um` | `2000` | µm, the measuring range of each reading (±): a run file with a reading beyond it is refused, naming the cell, > 0 |
 //! | `ball_free` | `true` | fit the head position offset (nuisance `ball_x`, `ball_y`, `ball_z`, µm) |
 //! | `tool_length_free` | `true` | fit the tool-length error (nuisance `tool_length`, µm, positive = longer tool: the ball moves by −δℓ along the tool axis) |
 //! | `ball_diameter_mm` | `22.0` | three-sensor only: ball diameter, mm (documentation; flat contacts do not see it) |

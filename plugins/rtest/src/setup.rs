@@ -5,6 +5,9 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Default standard deviation of one reading, µm.
 pub const DEFAULT_SIGMA_UM: f64 = 0.5;
+/// Default measuring range of each reading, ±µm: the ±2 mm of the common R-test probes
+/// (a reading beyond it is a unit mistake or a crash, never a measurement).
+pub const DEFAULT_RANGE_UM: f64 = 2000.0;
 /// Default ball diameter of the three-sensor head, mm (the MT-Check's Ø22 mm ball).
 pub const DEFAULT_BALL_DIAMETER_MM: f64 = 22.0;
 
@@ -19,6 +22,7 @@ pub const SETUP_KEYS: &[&str] = &[
     "ball",
     "head",
     "sigma_um",
+    "range_um",
     "ball_free",
     "tool_length_free",
     "ball_diameter_mm",
@@ -165,6 +169,7 @@ pub struct RTest {
     ball_mm: [f64; 3],
     ball_m: Vector3<f64>,
     sigma_um: f64,
+    range_um: f64,
     ball_free: bool,
     tool_length_free: bool,
     head: Head,
@@ -268,6 +273,8 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
     };
     let sigma_um =
         positive("sigma_um", read::number(table, "sigma_um")?)?.unwrap_or(DEFAULT_SIGMA_UM);
+    let range_um =
+        positive("range_um", read::number(table, "range_um")?)?.unwrap_or(DEFAULT_RANGE_UM);
     let ball_free = read::boolean(table, "ball_free")?.unwrap_or(true);
     let tool_length_free = read::boolean(table, "tool_length_free")?.unwrap_or(true);
 
@@ -360,6 +367,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
         ball_mm,
         ball_m: Vector3::from(ball_mm) * 1e-3,
         sigma_um,
+        range_um,
         ball_free,
         tool_length_free,
         head,
@@ -379,6 +387,10 @@ pub fn load_setup(
 impl Setup for RTest {
     fn channels(&self) -> &[Channel] {
         &self.channels
+    }
+
+    fn reading_range(&self, _channel: usize) -> Option<f64> {
+        Some(self.range_um * 1e-6)
     }
 
     fn nuisance(&self) -> &[Nuisance] {
@@ -444,6 +456,7 @@ impl Setup for RTest {
         );
         t.insert("head".into(), self.head_kind().as_str().into());
         t.insert("sigma_um".into(), self.sigma_um.into());
+        t.insert("range_um".into(), self.range_um.into());
         t.insert("ball_free".into(), self.ball_free.into());
         t.insert("tool_length_free".into(), self.tool_length_free.into());
         if let Head::ThreeSensor(h) = &self.head {
