@@ -102,10 +102,14 @@
 //! can move oppositely have "only their sum observed". Every parameter that appears in a
 //! combination is *unidentified*: its σ is `None` and its row and column of the covariance are
 //! zero. Before that, a direction's members that move by less than 10⁻⁵ of their plausible
-//! range ([`ParamSpec::scale`]) while its main members move over theirs are left out of it: a
-//! direction made of an almost invisible angle and a set-up constant often carries a
-//! second-order trace of a well-determined parameter, which is determined for any plausible
-//! value of the others and keeps its number.
+//! range ([`ParamSpec::scale`]), or traces (below 10⁻³ of it) of well-determined parameters (σ
+//! below 5 % of the plausible range) that move by less than a tenth of their own σ, while its
+//! main members move over their whole plausible ranges are left out of it: a
+//! direction made of an almost invisible angle and a set-up constant, or a genuine set-up null
+//! space (ball height and tool length), often carries a second-order trace of a
+//! well-determined parameter, which is determined for any plausible value of the others and
+//! keeps its number. (Without this, a trace at the 10⁻⁵ level decided whether a rotary axis'
+//! location error of ±0.7 µm got its number, and a change of the data at 10⁻¹¹ flipped it.)
 //!
 //! The covariance is `C = D⁻¹ V Σ⁻² Vᵀ D⁻¹` over the identified singular directions — the
 //! pseudo-inverse of `JᵀJ` computed from the triangular factor, never an explicit inverse of

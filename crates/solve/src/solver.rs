@@ -15,6 +15,15 @@ const ACCEPT: f64 = 1e-4;
 /// direction, while the direction's main members move over theirs, is not counted as part of
 /// it (`without_negligible_members`).
 const NEGLIGIBLE_MEMBER: f64 = 1e-5;
+/// ... or by less than this fraction of its own standard uncertainty while the others roam
+/// over their whole plausible ranges,
+const NEGLIGIBLE_SHARE_OF_SIGMA: f64 = 0.1;
+/// ... provided it is a trace of the direction: it moves by less than this fraction of its
+/// plausible range relative to the largest such fraction (a main member is never dropped),
+const TRACE_MEMBER: f64 = 1e-3;
+/// ... and the data determine it: its σ is below this fraction of its plausible range (a
+/// parameter the pseudo-inverse gives a σ as wide as its range is not determined by anything).
+const DETERMINED_SIGMA: f64 = 0.05;
 /// When the cost drop matches the prediction this well (`|ρ − 1|` below it), the linear model is
 /// as good as exact and the next step is undamped (Gauss–Newton): linear problems converge in two
 /// steps and nonlinear ones quadratically near the solution.
@@ -653,29 +662,44 @@ fn shortened_into_box(dx: &[f64], x: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64>
         .collect()
 }
 
-/// A null direction's members that move by a negligible part of their plausible range while
-/// the others roam over theirs: below [`NEGLIGIBLE_MEMBER`] of the largest such fraction.
+/// A null direction's members that move by a negligible amount while the others roam over
+/// their plausible ranges: by less than [`NEGLIGIBLE_MEMBER`] of their own plausible range
+/// relative to the largest such fraction, or — for a trace, below [`TRACE_MEMBER`] of it, whose
+/// `sigma` (from the identified directions) is below [`DETERMINED_SIGMA`] of its plausible
+/// range — by less than [`NEGLIGIBLE_SHARE_OF_SIGMA`] of that σ.
 ///
 /// A direction that exists only because an almost invisible parameter (one whose column is
-/// zero at first order and tiny at second) pairs with a set-up constant picks up rounding-size
-/// or second-order components along well-determined parameters; moving it over a milliradian
-/// moves, say, a positioning coefficient by a nanometre. That parameter is determined for any
-/// plausible value of the others and keeps its number. Entries are in scaled units (`scale`:
-/// column norms), `floor[p]` is `1/plausible range` of parameter `p` (0 when it has none: then
-/// nothing is dropped against it).
+/// zero at first order and tiny at second) pairs with a set-up constant, or a genuine set-up
+/// null space (ball height and tool length), picks up rounding-size or second-order components
+/// along well-determined parameters; moving it over a millimetre moves, say, a location error
+/// by a hundredth of a micrometre while its interval is ±0.7 µm. That parameter is determined
+/// for any plausible value of the others and keeps its number (and its interval). Entries are
+/// in scaled units (`scale`: column norms), `floor[p]` is `1/plausible range` of parameter `p`
+/// (0 when it has none: then nothing is dropped against it).
 fn without_negligible_members(
     mut dir: Vec<f64>,
     scale: &[f64],
     params: &[usize],
     floor: &[f64],
+    sigma: &[f64],
 ) -> Vec<f64> {
     let fraction = |i: usize| (dir[i] / scale[i]).abs() * floor[params[i]];
     if params.iter().any(|&p| floor[p] <= 0.0) {
         return dir;
     }
     let largest = (0..dir.len()).map(fraction).fold(0.0, f64::max);
+    if largest <= 0.0 {
+        return dir;
+    }
+    // Moving along the direction until its fastest member has crossed its plausible range
+    // moves member i by |dir[i] / scale[i]| / largest (parameter units).
     let small: Vec<usize> = (0..dir.len())
-        .filter(|&i| fraction(i) < NEGLIGIBLE_MEMBER * largest)
+        .filter(|&i| {
+            fraction(i) < NEGLIGIBLE_MEMBER * largest
+                || (fraction(i) < TRACE_MEMBER * largest
+                    && sigma[i] * floor[params[i]] < DETERMINED_SIGMA
+                    && (dir[i] / scale[i]).abs() / largest < NEGLIGIBLE_SHARE_OF_SIGMA * sigma[i])
+        })
         .collect();
     for i in small {
         dir[i] = 0.0;
@@ -704,10 +728,15 @@ fn assemble(
     sorted.sort_unstable();
     let null = an.null_space();
     let scale: Vec<f64> = sorted.iter().map(|&p| an.d[col_of[p]]).collect();
+    let cov_col = an.covariance();
+    let sigma_sorted: Vec<f64> = sorted
+        .iter()
+        .map(|&p| cov_col[(col_of[p], col_of[p])].max(0.0).sqrt())
+        .collect();
     let dirs: Vec<Vec<f64>> = (0..null.ncols())
         .map(|k| {
             let dir: Vec<f64> = sorted.iter().map(|&p| null[(col_of[p], k)]).collect();
-            without_negligible_members(dir, &scale, &sorted, &setup.floor)
+            without_negligible_members(dir, &scale, &sorted, &setup.floor, &sigma_sorted)
         })
         .collect();
     let names: Vec<&str> = sorted.iter().map(|&p| setup.names[p].as_str()).collect();
@@ -726,7 +755,6 @@ fn assemble(
             identified[p] = false;
         }
     }
-    let cov_col = an.covariance();
     let mut covariance = vec![0.0; n * n];
     for (ci, &pi) in lin.order.iter().enumerate() {
         if !identified[pi] {

@@ -197,8 +197,44 @@ fn a_negligible_member_of_a_null_direction_keeps_its_number() {
     assert!(sol.identified[0], "{:#?}", sol.combinations);
     assert!(sol.sigma[0].is_some());
     assert_eq!(sol.combinations.len(), 1);
-    assert_eq!(sol.combinations[0].params, vec![1, 2]);
+    // p1 moves by 2.5e-4 while p2 crosses its plausible range: a hundredth of p1's σ (≈ 0.02),
+    // so p1 keeps its number too, and what is left unobserved is p2 itself.
+    assert_eq!(sol.combinations[0].params, vec![2]);
+    assert!(sol.identified[1]);
     // Without plausible ranges the trace keeps p0 in the combination (the old rule).
     let sol = solve(&p, &params(3), &options(1), &mut Silent).unwrap();
     assert!(!sol.identified[0], "{:#?}", sol.combinations);
+}
+
+/// The same kind of direction where the well-determined parameter's trace is larger (10⁻⁴ of
+/// its plausible range, above the range rule) but still moves it by less than a tenth of its
+/// own uncertainty while the others roam over their plausible ranges: it keeps its number. A
+/// trace that moves it by more than that (5·10⁻² against σ ≈ 0.02) keeps it in the
+/// combination, unidentified.
+#[test]
+fn a_member_moved_by_less_than_a_tenth_of_its_sigma_keeps_its_number() {
+    for (trace, identified) in [(1e-4, true), (5e-2, false)] {
+        let cols = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![trace, 0.5]];
+        let p = latent(3, &cols, &[2.0, 0.5, 0.0], 60, 4);
+        let mut spec = params(3);
+        for s in &mut spec {
+            s.scale = Some(1.0);
+        }
+        let sol = solve(&p, &spec, &options(1), &mut Silent).unwrap();
+        assert_eq!(sol.rank, 2);
+        let sigma0 = (1.0 / sol.n_rows as f64).sqrt();
+        assert_eq!(
+            sol.identified[0], identified,
+            "trace {trace} (σ0 ≈ {sigma0:.3}): {:#?}",
+            sol.combinations
+        );
+        assert_eq!(sol.sigma[0].is_some(), identified);
+        assert_eq!(sol.combinations.len(), 1);
+        let expected: Vec<usize> = if identified {
+            vec![1, 2]
+        } else {
+            vec![0, 1, 2]
+        };
+        assert_eq!(sol.combinations[0].params, expected, "trace {trace}");
+    }
 }
