@@ -6,6 +6,9 @@
 //! precision, for the five-axis R-test (readings as read) and for laser runs whose readings the
 //! set-up prepares (wavelength compensation from the logged air).
 
+mod common;
+
+use common::planted::TRUTH;
 use mtcal_identify::Study;
 use mtcal_session::{RunColumns, Storage, read_run};
 use mtcal_solve::{Options, Silent};
@@ -301,11 +304,13 @@ fn a_recorded_session_identifies_the_truth() {
         "interval_s = 0.001\n",
         "interval_s = 0.001\ntruth = \"truth.params.toml\"\n",
     );
+    let values: String = TRUTH
+        .iter()
+        .map(|(n, v)| format!("{n} = {v:?}\n"))
+        .collect();
     std::fs::write(
         dir.path().join("truth.params.toml"),
-        "schema = \"mtcal.params/1\"\n[values]\nEC0Y = 12.0\nEB0Z = -8.0\nEA0Z = 15.0\n\
-         EY0A = 18.0\nEZ0A = -25.0\nEB0A = 20.0\nEC0A = -10.0\nEX0C = 12.0\nEY0C = -6.0\n\
-         EA0C = 30.0\nEB0C = -15.0\n",
+        format!("schema = \"mtcal.params/1\"\n[values]\n{values}"),
     )
     .unwrap();
     let session = simulate(dir.path(), &plan);
@@ -317,20 +322,7 @@ fn a_recorded_session_identifies_the_truth() {
     }
     let study = Study::load(&session).unwrap();
     let id = mtcal_identify::identify(&study, &Options::default(), &mut Silent).unwrap();
-    let truth = [
-        ("EC0Y", 12.0),
-        ("EB0Z", -8.0),
-        ("EA0Z", 15.0),
-        ("EY0A", 18.0),
-        ("EZ0A", -25.0),
-        ("EB0A", 20.0),
-        ("EC0A", -10.0),
-        ("EX0C", 12.0),
-        ("EY0C", -6.0),
-        ("EA0C", 30.0),
-        ("EB0C", -15.0),
-    ];
-    for (name, value) in truth {
+    for (name, value) in TRUTH {
         let p = id
             .parameters
             .iter()

@@ -176,6 +176,14 @@ fn scaled_columns_give_coefficients_in_parameter_units() {
     let _ = ParamSpec::default();
 }
 
+/// Every parameter with a plausible range of 1.
+fn with_plausible_ranges(mut spec: Vec<ParamSpec>) -> Vec<ParamSpec> {
+    for s in &mut spec {
+        s.scale = Some(1.0);
+    }
+    spec
+}
+
 /// A null direction made of an almost invisible parameter and a constant (an angle seen only
 /// as an offset the run's zero takes) that carries, through a tiny second coupling, a trace of
 /// a well-determined parameter: that parameter moves by 10⁻⁹ of its plausible range while the
@@ -188,10 +196,7 @@ fn a_negligible_member_of_a_null_direction_keeps_its_number() {
     // scaled units p0's share of the direction is 4e-6, above the rounding threshold.
     let cols = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![1e-9, 2.5e-4]];
     let p = latent(3, &cols, &[2.0, 0.5, 0.0], 60, 4);
-    let mut spec = params(3);
-    for s in &mut spec {
-        s.scale = Some(1.0);
-    }
+    let spec = with_plausible_ranges(params(3));
     let sol = solve(&p, &spec, &options(1), &mut Silent).unwrap();
     assert_eq!(sol.rank, 2);
     assert!(sol.identified[0], "{:#?}", sol.combinations);
@@ -216,10 +221,7 @@ fn a_member_moved_by_less_than_a_tenth_of_its_sigma_keeps_its_number() {
     for (trace, identified) in [(1e-4, true), (5e-2, false)] {
         let cols = vec![vec![1.0, 0.0], vec![0.0, 1.0], vec![trace, 0.5]];
         let p = latent(3, &cols, &[2.0, 0.5, 0.0], 60, 4);
-        let mut spec = params(3);
-        for s in &mut spec {
-            s.scale = Some(1.0);
-        }
+        let spec = with_plausible_ranges(params(3));
         let sol = solve(&p, &spec, &options(1), &mut Silent).unwrap();
         assert_eq!(sol.rank, 2);
         let sigma0 = (1.0 / sol.n_rows as f64).sqrt();
