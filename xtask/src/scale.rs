@@ -186,22 +186,23 @@ fn write_plan(layout: &str, samples: usize, dir: &Path) -> Result<PathBuf> {
     Ok(path)
 }
 
+/// The plans' top: the machine written beside them, the noise seed, 1 kHz sampling, `top`
+/// (more top-level keys) and `[record]`: files written as a controller (0.1 µm, 0.0001°) and
+/// an instrument (0.0001 µm, 1 ms, air to three decimals) write them.
+fn header(top: &str) -> String {
+    format!(
+        "machine = \"m.urdf\"\nseed = 7\ninterval_s = 0.001\n{top}\n[record]\npositions = 4\n\
+         readings = 4\ntime = 3\ncontext = 3\n"
+    )
+}
+
 fn rtest_plan(samples: usize) -> String {
     // The R-test path takes at most 10⁶ samples: above 6·10⁶ the six runs are repeated.
     let cycles = samples.div_ceil(6_000_000).max(1);
     let n = (samples / (6 * cycles)).max(2);
-    let mut plan = String::from(
-        r#"machine = "m.urdf"
-seed = 7
-interval_s = 0.001
-pause_s = 10.0
-
-[record]
-positions = 4
-readings = 4
-time = 3
-context = 3
-
+    let mut plan = header("pause_s = 10.0\n");
+    plan.push_str(
+        r#"
 [identify]
 parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
 
@@ -246,17 +247,9 @@ ball_y = -5.0
 
 fn ballbar_plan(samples: usize) -> String {
     let n = (samples / 6).max(2);
-    let mut plan = String::from(
-        r#"machine = "m.urdf"
-seed = 7
-interval_s = 0.001
-
-[record]
-positions = 4
-readings = 4
-time = 3
-context = 3
-
+    let mut plan = header("");
+    plan.push_str(
+        r#"
 [identify]
 parameters = ["EC0Y", "EB0Z", "EA0Z"]
 
@@ -288,17 +281,9 @@ fn laser_plan(samples: usize) -> String {
     // samples (17 minutes at 1 kHz): above 3·10⁶ samples the three runs are repeated.
     let repeats = samples.div_ceil(3_000_000).max(1);
     let points = (samples / (30 * repeats)).max(2);
-    let mut plan = String::from(
-        r#"machine = "m.urdf"
-seed = 7
-interval_s = 0.001
-
-[record]
-positions = 4
-readings = 4
-time = 3
-context = 3
-
+    let mut plan = header("");
+    plan.push_str(
+        r#"
 [identify]
 parameters = ["EXX", "EYY", "EZZ"]
 

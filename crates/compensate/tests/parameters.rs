@@ -1,35 +1,12 @@
 //! Error-parameter files (ISG CSV, Etalon Exchange): export → reload → the model a controller
 //! builds from the file gives the same pose errors as the identified model at the nodes.
 
+mod common;
+
+use common::{Rng, TOL_UM, load};
 use mtcal_compensate::*;
 use mtcal_kinematics::model::Role;
 use mtcal_kinematics::{AxisKind, MachineModel};
-use mtcal_machine::topology::Reading;
-use std::path::Path;
-
-/// The 0.1 µm round-trip tolerance of the issue.
-const TOL_UM: f64 = 0.1;
-
-fn load(name: &str) -> MachineModel {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../machines")
-        .join(name);
-    let m = mtcal_machine::load_machine(path.to_str().unwrap(), Reading::FromWorkpiece).unwrap();
-    MachineModel::new(m.machine, &m.config).unwrap()
-}
-
-/// splitmix64 in [-1, 1).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
-}
 
 /// Machine errors uniform in ±5 µm / µrad per coefficient; set-up offsets zero (the files
 /// leave them out, they belong to the set-up).

@@ -4,19 +4,12 @@
 //! identified model's tool point relative to the workpiece, when the machine's errors are the
 //! ones those kinematics can hold (where the C and A lines pass).
 
+mod common;
+
+use common::load;
 use mtcal_compensate::*;
 use mtcal_kinematics::{MachineModel, ParamName};
-use mtcal_machine::topology::Reading;
 use nalgebra::Vector3;
-use std::path::Path;
-
-fn load(name: &str) -> MachineModel {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../machines")
-        .join(name);
-    let m = mtcal_machine::load_machine(path.to_str().unwrap(), Reading::FromWorkpiece).unwrap();
-    MachineModel::new(m.machine, &m.config).unwrap()
-}
 
 /// LinuxCNC xyzac-trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm).
 fn xyzac_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {

@@ -7,6 +7,7 @@
 use crate::escape::display_unit;
 use crate::{ComponentCurve, MapSlice, PathPoint, PolarRun, ReportError, ResidualPlot};
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -59,6 +60,35 @@ fn svg(
             })?;
     }
     Ok(buf)
+}
+
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A chart on `area` in the report's style: the title as caption, room for the tick labels,
+/// axes with their descriptions `(x, y)`, ticks by [`tick`], and no grid lines.
+fn xy_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    title: &str,
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+    (x_desc, y_desc): (&str, &str),
+) -> Result<Chart<'a, 'b>, DrawingAreaErrorKind<std::io::Error>> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 17))
+        .margin(8)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .label_style((FONT, LABEL))
+        .axis_desc_style((FONT, DESC))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .draw()?;
+    Ok(chart)
 }
 
 fn invalid(what: &str, message: String) -> ReportError {
@@ -232,22 +262,7 @@ pub(crate) fn residuals(p: &ResidualPlot) -> Result<String, ReportError> {
             root.fill(&WHITE)?;
             let areas = root.split_evenly((1, panels.len()));
             for (area, (title, pts, color)) in areas.iter().zip(&panels) {
-                let mut chart = ChartBuilder::on(area)
-                    .caption(*title, (FONT, 17))
-                    .margin(8)
-                    .x_label_area_size(40)
-                    .y_label_area_size(60)
-                    .build_cartesian_2d(x0..x1, -ymax..ymax)?;
-                chart
-                    .configure_mesh()
-                    .light_line_style(WHITE)
-                    .label_style((FONT, LABEL))
-                    .axis_desc_style((FONT, DESC))
-                    .x_label_formatter(&tick)
-                    .y_label_formatter(&tick)
-                    .x_desc(x_desc.as_str())
-                    .y_desc(y_desc.as_str())
-                    .draw()?;
+                let mut chart = xy_chart(area, title, (x0..x1, -ymax..ymax), (&x_desc, &y_desc))?;
                 chart.draw_series(LineSeries::new([(x0, 0.0), (x1, 0.0)], GRID))?;
                 let k = stride(pts.len());
                 chart.draw_series(
@@ -288,22 +303,7 @@ pub(crate) fn component(c: &ComponentCurve) -> Result<String, ReportError> {
     let y_desc = format!("{} ({})", c.name, display_unit(&c.value_unit));
     svg((460, 300), &c.name, |root| {
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(root)
-            .caption(c.name.as_str(), (FONT, 17))
-            .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .light_line_style(WHITE)
-            .label_style((FONT, LABEL))
-            .axis_desc_style((FONT, DESC))
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
-            .x_desc(x_desc.as_str())
-            .y_desc(y_desc.as_str())
-            .draw()?;
+        let mut chart = xy_chart(root, &c.name, (x0..x1, y0..y1), (&x_desc, &y_desc))?;
         chart.draw_series(LineSeries::new([(x0, 0.0), (x1, 0.0)], GRID))?;
         let band: Vec<(f64, f64)> = pts
             .iter()
@@ -362,22 +362,12 @@ pub(crate) fn path_error(title: &str, points: &[PathPoint]) -> Result<String, Re
                     .fold(0.0f64, |m, &(_, y)| m.max(y.abs()))
                     .max(1e-6),
             );
-            let mut chart = ChartBuilder::on(area)
-                .caption(*name, (FONT, 17))
-                .margin(8)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(x0..x1, 0.0..top)?;
-            chart
-                .configure_mesh()
-                .light_line_style(WHITE)
-                .label_style((FONT, LABEL))
-                .axis_desc_style((FONT, DESC))
-                .x_label_formatter(&tick)
-                .y_label_formatter(&tick)
-                .x_desc("along the path (mm)")
-                .y_desc(*desc)
-                .draw()?;
+            let mut chart = xy_chart(
+                area,
+                name,
+                (x0..x1, 0.0..top),
+                ("along the path (mm)", desc),
+            )?;
             chart.draw_series(LineSeries::new(pts.iter().copied(), MODEL.stroke_width(2)))?;
         }
         Ok(())
