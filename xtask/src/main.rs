@@ -162,6 +162,10 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Everything on the screen (the whole information account; otherwise its first
+        /// lines, and all of it in the JSON).
+        #[arg(long)]
+        verbose: bool,
         /// Worker threads (default: all cores).
         #[arg(long, default_value_t = 0)]
         threads: usize,
@@ -179,6 +183,10 @@ enum Command {
         /// parameters, what the data cannot separate, discoveries.
         #[arg(long, value_name = "DIR")]
         report: Option<PathBuf>,
+        /// Write the error model these runs identify (an .errors.toml to keep beside the
+        /// URDF): the parameters they determine, without those they cannot.
+        #[arg(long, value_name = "FILE")]
+        suggest_model: Option<PathBuf>,
     },
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
@@ -290,10 +298,12 @@ fn run(cli: Cli) -> Result<()> {
             json,
             predict,
             quiet,
+            verbose,
             threads,
             search,
             what_if,
             report,
+            suggest_model,
         } => identify(
             &mut stdout,
             &session,
@@ -303,6 +313,8 @@ fn run(cli: Cli) -> Result<()> {
                 search,
                 what_if,
                 report,
+                suggest_model,
+                verbose,
             },
             quiet,
             threads,
@@ -539,6 +551,10 @@ struct IdentifyOutputs {
     what_if: Option<PathBuf>,
     /// The HTML report's folder.
     report: Option<PathBuf>,
+    /// Where to write the suggested error model.
+    suggest_model: Option<PathBuf>,
+    /// Everything on the screen.
+    verbose: bool,
 }
 
 fn identify(
@@ -554,8 +570,17 @@ fn identify(
         search,
         what_if,
         report,
+        suggest_model,
+        verbose,
     } = outputs;
-    let study = mtcal_identify::Study::load(session)?;
+    let options = mtcal_solve::Options {
+        threads,
+        ..Default::default()
+    };
+    // Without `[identify] parameters`, the model the runs can determine: the rest is held
+    // and reported as combinations or not identifiable (mtcal_identify::base).
+    let (study, base) =
+        mtcal_identify::base::identifiable_study(mtcal_identify::Study::load(session)?, &options)?;
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
     writeln!(
         out,
@@ -568,10 +593,14 @@ fn identify(
         study.n_x,
         study.estimated.len()
     )?;
-    let options = mtcal_solve::Options {
-        threads,
-        ..Default::default()
-    };
+    if let Some(base) = &base.as_ref().filter(|b| !b.held.is_empty()) {
+        writeln!(
+            out,
+            "model: {} parameters the runs cannot determine are held at their start values \
+             (no [identify] parameters given; see below)",
+            base.held.len()
+        )?;
+    }
     let mut progress = Progress::new(quiet);
     // The fit before the physics search, for the report's before/after.
     let mut initial = None;
@@ -581,7 +610,14 @@ fn identify(
             solver: options,
             ..Default::default()
         };
-        let result = mtcal_identify::search::search(study, &options)?;
+        let mut result = mtcal_identify::search::search(study, &options)?;
+        if let Some(base) = &base {
+            result.initial.apply_base(base);
+            result.identification.apply_base(base);
+        }
+        result
+            .identification
+            .add_prediction_bands(&result.study, &result.solution);
         writeln!(out, "before the physics search:")?;
         write!(out, "{}", result.initial.summary())?;
         write!(out, "\n{}", result.identification.search_summary())?;
@@ -590,15 +626,23 @@ fn identify(
         initial = Some(result.initial);
         (result.identification, result.study, result.solution)
     } else {
-        let (id, solution) =
+        let (mut id, solution) =
             mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
         progress.finish();
+        if let Some(base) = &base {
+            id.apply_base(base);
+        }
+        id.add_prediction_bands(&study, &solution);
         write!(out, "{}", id.summary())?;
         (id, study, solution)
     };
     let mut id = id;
     let account = mtcal_identify::information::account(&study, &solution)?;
-    write!(out, "\n{}", account.summary())?;
+    write!(
+        out,
+        "\n{}",
+        screen_lines(&account.summary(), verbose, ACCOUNT_LINES)
+    )?;
     id.information = Some(account);
     if let Some(dir) = what_if {
         let extra = mtcal_identify::Study::load(&dir)?;
@@ -619,6 +663,12 @@ fn identify(
             }
         }
     }
+    if let Some(path) = suggest_model {
+        let text = mtcal_identify::base::suggested_model(&study, base.as_ref());
+        mtcal_machine::write_atomically(&path, text.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        writeln!(out, "wrote {}", path.display())?;
+    }
     if let Some(path) = json {
         mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
@@ -634,6 +684,23 @@ fn identify(
         writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
+}
+
+/// Lines of the information account on the screen without `--verbose` (all in the JSON).
+const ACCOUNT_LINES: usize = 12;
+
+/// `text` cut to its first line and `keep` more unless `verbose`, with a line saying so.
+fn screen_lines(text: &str, verbose: bool, keep: usize) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    if verbose || lines.len() <= keep + 2 {
+        return text.to_string();
+    }
+    let mut s = lines[..=keep].join("\n");
+    s.push_str(&format!(
+        "\n  … {} more (--verbose, or the JSON)\n",
+        lines.len() - keep - 1
+    ));
+    s
 }
 
 /// A progress bar on standard error for long fits (hidden when quiet or not a terminal).

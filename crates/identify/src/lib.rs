@@ -14,6 +14,8 @@
 //! - `start = "file.params.toml"`: start values (and the values of parameters not estimated);
 //!   default zero.
 
+pub mod band;
+pub mod base;
 mod checks;
 pub mod fit;
 pub mod information;

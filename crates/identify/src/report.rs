@@ -33,6 +33,21 @@ pub struct ComponentCurve {
     pub samples: Vec<[f64; 3]>,
 }
 
+/// What the runs determine of parameters they cannot separate: the taken parameter's estimate
+/// stands for `name + Σ coefficient·term` ([`crate::base`]).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CombinationValue {
+    /// Readable form, e.g. `EC0Y − 0.5·EXX.P1`.
+    pub expression: String,
+    /// The parameter that carries the number (coefficient 1).
+    pub name: String,
+    pub terms: Vec<crate::base::Term>,
+    pub value: f64,
+    pub unit: String,
+    pub u95: f64,
+    pub kind: String,
+}
+
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Unidentifiable {
     pub parameters: Vec<String>,
@@ -115,7 +130,15 @@ pub struct Identification {
     pub schema: &'static str,
     pub parameters: Vec<ParameterValue>,
     pub component_errors: Vec<ComponentCurve>,
+    /// Combinations of parameters the runs determine although they cannot separate them
+    /// ([`crate::base`]); in the JSON only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub combinations: Vec<CombinationValue>,
     pub unidentifiable: Vec<Unidentifiable>,
+    /// Parameters held at their start because the runs do not determine them
+    /// ([`crate::base`]); in the JSON only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<crate::base::Held>,
     /// Identified parameters the runs barely determine ([`WeaklyDetermined`]); in the JSON
     /// only when there are any.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -223,7 +246,9 @@ impl Identification {
             schema: "mtcal.identify/1",
             parameters,
             component_errors,
+            combinations: Vec::new(),
             unidentifiable,
+            held: Vec::new(),
             weakly_determined,
             fit: Fit {
                 rms_um: if n > 0 { (ss / n as f64).sqrt() } else { 0.0 },
@@ -258,9 +283,67 @@ impl Identification {
         serde_json::to_string_pretty(self).expect("the report serialises") + "\n"
     }
 
+    /// The verdict a person reads first: did the fit converge, and does the model explain the
+    /// recordings? `None` when both hold.
+    pub fn verdict(&self) -> Option<String> {
+        if !self.solver.converged {
+            return Some(format!(
+                "NOT CONVERGED ({}) after {} iterations: the numbers below are the last iterate, \
+                 not a calibration",
+                self.solver.termination, self.solver.iterations
+            ));
+        }
+        if !self.model_explains_recordings() {
+            let worst = self
+                .fit
+                .runs
+                .iter()
+                .flat_map(|r| r.channels.iter().map(move |c| (r, c)))
+                .max_by(|a, b| a.1.chi2.total_cmp(&b.1.chi2));
+            let total: f64 = self
+                .fit
+                .runs
+                .iter()
+                .flat_map(|r| &r.channels)
+                .map(|c| c.chi2)
+                .sum();
+            let at = worst.map_or(String::new(), |(r, c)| {
+                format!(
+                    "; most of it in run `{}`, channel {} (rms {:.3} {}, {:.0} % of the χ²)",
+                    r.name,
+                    c.name,
+                    c.rms,
+                    c.unit,
+                    100.0 * c.chi2 / total.max(f64::MIN_POSITIVE)
+                )
+            });
+            return Some(format!(
+                "THE MODEL DOES NOT EXPLAIN THE RECORDINGS: chi2/dof {:.2} where the noise alone \
+                 gives {:.2} ± {:.2}{at}. The parameters below are not a calibration: check the \
+                 set-up (R-test `mount`, units, axis signs) or look for what the model leaves \
+                 out (--search)",
+                self.fit.chi2_reduced,
+                1.0,
+                chi2_spread(self.fit.dof)
+            ));
+        }
+        None
+    }
+
+    /// Whether χ²/dof lies within what noise of the stated σ could give: below twice, and
+    /// below 1 + 5 standard deviations of χ²/dof. A σ stated 20 % off or mildly coloured noise
+    /// stays inside; readings in the wrong frame (χ²/dof of 50) do not.
+    pub fn model_explains_recordings(&self) -> bool {
+        let limit = (1.0 + 5.0 * chi2_spread(self.fit.dof)).max(2.0);
+        self.fit.chi2_reduced <= limit
+    }
+
     /// A plain-text summary for the terminal.
     pub fn summary(&self) -> String {
         let mut s = String::new();
+        if let Some(v) = self.verdict() {
+            let _ = writeln!(s, "{v}\n");
+        }
         let _ = writeln!(
             s,
             "fit: rms {:.3} um, chi2/dof {:.3} ({} dof), {} iterations{}, rank {}/{}, condition {:.3e}",
@@ -289,12 +372,26 @@ impl Identification {
                 if p.kind == "machine" { "" } else { &p.kind }
             );
         }
-        if !self.unidentifiable.is_empty() {
-            let _ = writeln!(s, "\nnot identifiable from these runs (no values given):");
-            for u in &self.unidentifiable {
-                let _ = writeln!(s, "  {}: {}", u.parameters.join(", "), u.why);
+        if !self.combinations.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nidentified combinations (these runs cannot separate their members; 95 % intervals):"
+            );
+            for c in &self.combinations {
+                // The four largest terms on the screen; all of them in the JSON.
+                let shown = crate::base::expression(&c.name, &c.terms[..c.terms.len().min(4)]);
+                let more = if c.terms.len() > 4 { " + …" } else { "" };
+                let _ = writeln!(
+                    s,
+                    "  {:<40} {:>12.4} ± {:<10.4} {}",
+                    format!("{shown}{more}"),
+                    unsigned_zero(c.value, 4),
+                    c.u95,
+                    c.unit
+                );
             }
         }
+        self.write_unidentifiable(&mut s);
         if !self.weakly_determined.is_empty() {
             let _ = writeln!(
                 s,
@@ -346,6 +443,97 @@ impl Identification {
             }
         }
         s
+    }
+}
+
+/// One standard deviation of χ²/dof for pure noise: `√(2/dof)`.
+fn chi2_spread(dof: usize) -> f64 {
+    (2.0 / dof.max(1) as f64).sqrt()
+}
+
+/// Null-space directions longer than this are named by their largest members on the screen.
+const SCREEN_MEMBERS: usize = 6;
+/// At most this many null-space directions on the screen; all of them are in the JSON.
+const SCREEN_DIRECTIONS: usize = 8;
+
+impl Identification {
+    /// What the runs cannot determine, readable on a screen: held parameters grouped by why,
+    /// short null directions as they are, long ones by their size; the full list is in the
+    /// JSON.
+    fn write_unidentifiable(&self, s: &mut String) {
+        let held_names: Vec<&str> = self.held.iter().map(|h| h.name.as_str()).collect();
+        let directions: Vec<&Unidentifiable> = self
+            .unidentifiable
+            .iter()
+            .filter(|u| {
+                !(u.parameters.len() == 1 && held_names.contains(&u.parameters[0].as_str()))
+            })
+            .filter(|u| !self.combinations.iter().any(|c| c.name == u.parameters[0]))
+            .collect();
+        if directions.is_empty() && self.held.is_empty() {
+            return;
+        }
+        let _ = writeln!(s, "\nnot identifiable from these runs (no values given):");
+        for u in directions.iter().take(SCREEN_DIRECTIONS) {
+            if u.parameters.len() <= SCREEN_MEMBERS {
+                let _ = writeln!(s, "  {}: {}", u.parameters.join(", "), u.why);
+            } else {
+                let _ = writeln!(
+                    s,
+                    "  a combination of {} parameters ({}, …) is not observed",
+                    u.parameters.len(),
+                    u.parameters[..3].join(", ")
+                );
+            }
+        }
+        if directions.len() > SCREEN_DIRECTIONS {
+            let _ = writeln!(
+                s,
+                "  … and {} more directions (all in the JSON, `unidentifiable`)",
+                directions.len() - SCREEN_DIRECTIONS
+            );
+        }
+        let group = |f: &dyn Fn(&crate::base::HeldWhy) -> bool| -> Vec<&str> {
+            self.held
+                .iter()
+                .filter(|h| f(&h.why))
+                .map(|h| h.name.as_str())
+                .collect()
+        };
+        use crate::base::HeldWhy;
+        for (names, what) in [
+            (
+                group(&|w| matches!(w, HeldWhy::Aliased)),
+                "seen only within the combinations above",
+            ),
+            (
+                group(&|w| matches!(w, HeldWhy::TooWeak { .. })),
+                "seen too weakly to determine (intervals in the JSON)",
+            ),
+            (
+                group(&|w| matches!(w, HeldWhy::NotObserved)),
+                "not observed at all",
+            ),
+        ] {
+            if names.is_empty() {
+                continue;
+            }
+            let shown: Vec<&str> = names.iter().take(10).copied().collect();
+            let more = if names.len() > shown.len() {
+                format!(", … ({} in all)", names.len())
+            } else {
+                String::new()
+            };
+            let _ = writeln!(s, "  {what}: {}{more}", shown.join(", "));
+        }
+        if !self.held.is_empty() {
+            let _ = writeln!(
+                s,
+                "  (these {} are held at their start values; `--suggest-model FILE` writes the \
+                 model these runs identify)",
+                self.held.len()
+            );
+        }
     }
 }
 

@@ -194,6 +194,10 @@ pub struct Changes {
     pub raise: Vec<(ParamName, usize)>,
     /// Effects fitted along with the machine (their parameters come last in `x`).
     pub effects: Vec<Arc<dyn Effect>>,
+    /// Parameters held at their start value although the session would estimate them, by
+    /// name (`EXX.P3`, `bar.tool_length`): what the runs cannot determine
+    /// ([`crate::base`]). Held machine coefficients leave the fit model altogether.
+    pub hold: Vec<String>,
 }
 
 impl Study {
@@ -311,6 +315,7 @@ impl Study {
         }
         estimated.sort_unstable();
         estimated.dedup();
+        estimated.retain(|&k| !changes.hold.contains(&coeff_labels[k]));
         let (fit_model, fit_coeffs) = reduced_model(&machine, &model, &estimated, &base_coeffs)?;
         let mut in_fit = vec![usize::MAX; model.n_coeffs()];
         for (j, &k) in fit_coeffs.iter().enumerate() {
@@ -366,7 +371,9 @@ impl Study {
                         .nuisance()
                         .iter()
                         .enumerate()
-                        .filter(|(_, n)| n.free)
+                        .filter(|(_, n)| {
+                            n.free && !changes.hold.contains(&format!("{setup_name}.{}", n.name))
+                        })
                         .map(|(i, _)| i)
                         .collect();
                     let slot = SetupSlot {

@@ -1,0 +1,102 @@
+//! Prediction bands of validation runs: how far the identified model's prediction of a run it
+//! did not fit may be from the truth, from the covariance of the fitted parameters.
+//!
+//! The prediction of a reading is `f(x)`; with the fitted parameters' covariance `C`, its
+//! variance is `g·C·gᵀ` with `g = ∂f/∂x` (first order, the same linearisation as the
+//! intervals). `g` comes from central differences of the whole prediction, one parameter at a
+//! time, with steps of the parameter's own standard deviation: exact for a model quadratic
+//! over ±σ, and independent of how each instrument computes its readings. The band is
+//! `1.96·√(g·C·gᵀ)`: where the truth (noise-free readings) should lie in 95 % of the samples.
+//! It does not contain the reading noise (a measured reading scatters around the truth by σ
+//! more), nor what held parameters ([`crate::base`]) would add: a run that depends on those
+//! is named by [`crate::base`], not covered by a wider band.
+
+use crate::fit::predict_run;
+use crate::report::K95;
+use crate::study::Study;
+use mtcal_solve::Solution;
+
+/// 95 % prediction band of run `r` (one entry per sample and channel, row-major, SI), for the
+/// parameters of `solution`.
+pub fn prediction_u95(study: &Study, solution: &Solution, r: usize) -> Vec<f64> {
+    let n = solution.x.len();
+    let free: Vec<usize> = (0..n)
+        .filter(|&i| solution.sigma[i].is_some_and(|s| s > 0.0))
+        .collect();
+    let base = predict_run(study, r, &solution.x);
+    let m = base.len();
+    // g[k][s] = ∂ prediction s / ∂ x_free[k].
+    let mut g = Vec::with_capacity(free.len());
+    let mut x = solution.x.clone();
+    for &i in &free {
+        let h = solution.sigma[i].unwrap_or(0.0);
+        x[i] = solution.x[i] + h;
+        let up = predict_run(study, r, &x);
+        x[i] = solution.x[i] - h;
+        let down = predict_run(study, r, &x);
+        x[i] = solution.x[i];
+        g.push(
+            up.iter()
+                .zip(&down)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<f64>>(),
+        );
+    }
+    (0..m)
+        .map(|s| {
+            let mut var = 0.0;
+            for (a, &i) in free.iter().enumerate() {
+                for (b, &j) in free.iter().enumerate() {
+                    var += g[a][s] * solution.cov(i, j) * g[b][s];
+                }
+            }
+            K95 * var.max(0.0).sqrt()
+        })
+        .collect()
+}
+
+impl crate::report::Identification {
+    /// Adds to every validation run its mean 95 % prediction band and, where it has readings,
+    /// its RMS prediction error in units of the stated noise (1 = predicted to the noise).
+    pub fn add_prediction_bands(&mut self, study: &Study, solution: &Solution) {
+        for (r, run) in study.runs.iter().enumerate() {
+            if run.fit {
+                continue;
+            }
+            let Some(fit) = self.validation.iter_mut().find(|v| v.name == run.name) else {
+                continue;
+            };
+            let channels = study.channels(r);
+            let band = prediction_u95(study, solution, r);
+            if band.is_empty() {
+                continue;
+            }
+            let per_si = channels[0].unit.per_si();
+            let mean = band.iter().sum::<f64>() / band.len() as f64;
+            fit.metrics.push(crate::report::MetricValue {
+                name: "95 % prediction band (mean, model uncertainty)".into(),
+                value: mean * per_si,
+                unit: channels[0].unit.as_str().to_string(),
+            });
+            if run.readings.is_some() {
+                // RMS of (measured − predicted)/σ over every channel.
+                let ratio = (fit
+                    .channels
+                    .iter()
+                    .zip(channels)
+                    .map(|(c, ch)| {
+                        let rel = c.rms / (ch.sigma * ch.unit.per_si());
+                        rel * rel * c.samples as f64
+                    })
+                    .sum::<f64>()
+                    / fit.channels.iter().map(|c| c.samples).sum::<usize>().max(1) as f64)
+                    .sqrt();
+                fit.metrics.push(crate::report::MetricValue {
+                    name: "prediction error over the stated noise (rms)".into(),
+                    value: ratio,
+                    unit: "".into(),
+                });
+            }
+        }
+    }
+}

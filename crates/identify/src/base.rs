@@ -1,0 +1,462 @@
+//! The model a session can identify: which parameters its runs determine (the *base
+//! parameters*), which they see only in combination with those, and which they do not see.
+//!
+//! A user who brings a URDF and no `[identify] parameters` gets the full ISO 230-1 model: on a
+//! five-axis trunnion 116 coefficients, of which an R-test and ball-bar session determines
+//! perhaps half. Fitting them all leaves the solver stepping along directions the data barely
+//! see (a cubic term of an axis the paths hardly move), where the second-order terms of the
+//! model decide the step: the fit does not converge and prints numbers that mean nothing.
+//!
+//! Instead, before the fit, the problem is linearised once at the start and the parameters are
+//! chosen greedily, in an order of physical priority, among the columns of the whitened
+//! Jacobian scaled by each parameter's plausible range:
+//! 1. set-up parameters (a ball's position, a tool length: every run needs them),
+//! 2. location and squareness errors and the machine's set-up parameters,
+//! 3. component errors by increasing order (a constant angular error, then the linear term —
+//!    a scale —, then curvature…; Fourier harmonics likewise; tables and splines last).
+//!
+//! A parameter is taken when the part of its column the parameters already taken do not
+//! explain would determine it to better than [`DETERMINED_SHARE`] of its plausible range (95 %
+//! interval). A last check on the joint covariance of everything taken drops, lowest priority
+//! first, any parameter whose interval is still too wide. Parameters not taken are *held* at
+//! their start values: their columns leave the fit, which is then of full rank and converges
+//! like any small linear problem.
+//!
+//! A held parameter whose column lies (to within the same threshold) in the span of the taken
+//! ones is *aliased*: moving it changes the readings exactly as moving the taken ones by `κ`
+//! times as much would. A taken parameter's estimate is then the combination `x_i + Σ κ_ij·x_j`
+//! (first order), reported as such, never as `x_i` alone. The choice of which parameter of a
+//! combination carries the number follows the priority order: a ball's position absorbs the
+//! first harmonic of C's radial error motion, squareness absorbs what of a straightness the
+//! paths see as a slope.
+
+use crate::fit::FitProblem;
+use crate::study::{Changes, Study};
+use crate::{IdentifyError, param_specs};
+use mtcal_solve::Options;
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// A parameter is determined when its 95 % interval is at most this share of its plausible
+/// range (a millimetre or milliradian for machine and set-up parameters: ±20 µm or µrad).
+pub const DETERMINED_SHARE: f64 = 0.02;
+/// Set-up parameters get more room: a ball's height known to ±100 µm still serves the fit.
+pub const DETERMINED_SHARE_SETUP: f64 = 0.1;
+/// A column whose scaled norm is below this is not seen by the runs at all.
+const UNSEEN: f64 = 1e-6;
+/// A held parameter is aliased when the part of its scaled column outside the span of the
+/// taken ones is below this share of its norm (else it is seen, but too weakly).
+const ALIASED: f64 = 1e-3;
+/// Alias coefficients (file units per file unit) below this are left out of a combination.
+pub const ALIAS_MIN: f64 = 1e-3;
+
+/// Why a parameter is held.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum HeldWhy {
+    /// The runs do not see it at all.
+    NotObserved,
+    /// The runs see it only as part of the combinations the taken parameters stand for.
+    Aliased,
+    /// The runs see it, but would determine it only to this 95 % interval (file units).
+    TooWeak { u95: f64 },
+}
+
+/// A parameter held at its start value.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Held {
+    pub name: String,
+    pub unit: String,
+    pub why: HeldWhy,
+}
+
+/// One term `κ·x_j` of a combination.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Term {
+    pub name: String,
+    /// File units of the combination per file unit of `name`.
+    pub coefficient: f64,
+}
+
+/// The model a session identifies ([`select`]).
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct BaseModel {
+    /// The parameters held, in the session's parameter order.
+    pub held: Vec<Held>,
+    /// Per taken parameter (by name) that stands for a combination: the held parameters it
+    /// absorbs, largest first.
+    pub aliases: Vec<(String, Vec<Term>)>,
+}
+
+impl BaseModel {
+    /// The terms a taken parameter's estimate also carries (empty: it is itself).
+    pub fn aliases_of(&self, name: &str) -> &[Term] {
+        self.aliases
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or(&[], |(_, t)| t.as_slice())
+    }
+
+    /// The held machine coefficients, by name.
+    pub fn held_names(&self) -> Vec<String> {
+        self.held.iter().map(|h| h.name.clone()).collect()
+    }
+}
+
+/// Physical priority of parameter `i` (lower is taken first); `None`: always estimated (an
+/// effect's parameters, a set-up parameter with a prior).
+fn priority(study: &Study, i: usize) -> Option<(u32, usize)> {
+    if i >= study.effect_offset {
+        return None;
+    }
+    let info = study.param_info(i);
+    if !info.machine {
+        return info.prior_sigma.is_none().then_some((0, i));
+    }
+    let Some((_, term)) = info.name.split_once('.') else {
+        // Location, squareness, tool and workpiece set-up: single values.
+        return Some((1, i));
+    };
+    let order = term[1..].parse::<u32>().unwrap_or(0);
+    let class = match term.as_bytes()[0] {
+        b'P' | b'C' | b'S' => 2 + order,
+        // Table knots and spline control points: after every polynomial order that matters.
+        _ => 10,
+    };
+    Some((class, i))
+}
+
+/// Chooses the parameters `study`'s runs determine (see the module doc). `study` is as loaded:
+/// every parameter of its model estimated.
+pub fn select(study: &Study, options: &Options) -> Result<BaseModel, IdentifyError> {
+    let specs = param_specs(study);
+    let problem = FitProblem::new(study);
+    let lin = mtcal_solve::linearize(&problem, &specs, &study.initial_x(), options.threads)?;
+    let n = study.n_x;
+    let range: Vec<f64> = specs.iter().map(|s| s.scale.unwrap_or(1.0)).collect();
+    // Columns of the factor (Rᵀ R = Jᵀ J), each scaled by its parameter's plausible range: a
+    // column's norm is then how many standard deviations of the readings a move over the
+    // whole range makes.
+    let col = |j: usize| DVector::from_fn(n, |i, _| lin.r[i * n + j] * range[j]);
+    let share = |i: usize| {
+        if study.param_info(i).machine {
+            DETERMINED_SHARE
+        } else {
+            DETERMINED_SHARE_SETUP
+        }
+    };
+    let mut forced = Vec::new();
+    let mut order = Vec::new();
+    for i in 0..n {
+        match priority(study, i) {
+            None => forced.push(i),
+            Some(p) => order.push(p),
+        }
+    }
+    order.sort_unstable();
+    // Greedy Gram–Schmidt (twice, for orthogonality) in priority order.
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let mut taken = forced.clone();
+    let project_out = |v: &mut DVector<f64>, basis: &[DVector<f64>]| {
+        for _ in 0..2 {
+            for q in basis {
+                let d = q.dot(v);
+                v.axpy(-d, q, 1.0);
+            }
+        }
+    };
+    for &i in &forced {
+        let mut v = col(i);
+        project_out(&mut v, &basis);
+        let norm = v.norm();
+        if norm > UNSEEN {
+            basis.push(v / norm);
+        }
+    }
+    for &(_, i) in &order {
+        let c = col(i);
+        let mut v = c.clone();
+        project_out(&mut v, &basis);
+        let norm = v.norm();
+        // 95 % interval in plausible ranges if it were taken: 1.96/‖residual column‖. A
+        // quick test first; then the joint covariance: a parameter is taken only if every
+        // parameter taken so far stays within its share, so that a group of weakly seen
+        // higher orders never pushes out the location error they all resemble.
+        if norm <= 1e-9 * c.norm() || crate::report::K95 / norm > share(i) {
+            continue;
+        }
+        taken.push(i);
+        let fits = covariance(&taken, &col).is_some_and(|cov| {
+            taken.iter().enumerate().all(|(k, &p)| {
+                forced.contains(&p) || crate::report::K95 * cov[(k, k)].max(0.0).sqrt() <= share(p)
+            })
+        });
+        if fits {
+            basis.push(v / norm);
+        } else {
+            taken.pop();
+        }
+    }
+    taken.sort_unstable();
+    Ok(describe(study, &taken, &col, &range))
+}
+
+/// `(AᵀA)⁻¹` of the scaled columns `taken`, or `None` when they are (numerically) dependent.
+fn covariance(taken: &[usize], col: &dyn Fn(usize) -> DVector<f64>) -> Option<DMatrix<f64>> {
+    let a = a_matrix(taken, col)?;
+    (a.transpose() * &a).cholesky().map(|c| c.inverse())
+}
+
+fn a_matrix(taken: &[usize], col: &dyn Fn(usize) -> DVector<f64>) -> Option<DMatrix<f64>> {
+    let cols: Vec<DVector<f64>> = taken.iter().map(|&i| col(i)).collect();
+    if cols.is_empty() {
+        return None;
+    }
+    Some(DMatrix::from_columns(&cols))
+}
+
+/// Held parameters, why, and the combinations the taken ones stand for.
+fn describe(
+    study: &Study,
+    taken: &[usize],
+    col: &dyn Fn(usize) -> DVector<f64>,
+    range: &[f64],
+) -> BaseModel {
+    let n = study.n_x;
+    let a = a_matrix(taken, col);
+    let chol = a.as_ref().and_then(|a| (a.transpose() * a).cholesky());
+    let mut held = Vec::new();
+    let mut terms: Vec<Vec<Term>> = vec![Vec::new(); taken.len()];
+    for j in 0..n {
+        if taken.contains(&j) || j >= study.effect_offset {
+            continue;
+        }
+        let info = study.param_info(j);
+        let c = col(j);
+        let norm = c.norm();
+        let why = match (&a, &chol) {
+            _ if norm <= UNSEEN => HeldWhy::NotObserved,
+            (Some(a), Some(chol)) => {
+                let beta = chol.solve(&(a.transpose() * &c));
+                let outside = (&c - a * &beta).norm();
+                if outside <= ALIASED * norm {
+                    for (k, &i) in taken.iter().enumerate() {
+                        // x̂_i absorbs κ·x_j with κ = β·range_i/range_j (SI), the same in file
+                        // units up to the units' ratio.
+                        let per_si_i = study.param_info(i).per_si;
+                        let kappa = beta[k] * range[i] / range[j] * per_si_i / info.per_si;
+                        if kappa.abs() >= ALIAS_MIN {
+                            terms[k].push(Term {
+                                name: info.name.clone(),
+                                coefficient: kappa,
+                            });
+                        }
+                    }
+                    HeldWhy::Aliased
+                } else {
+                    HeldWhy::TooWeak {
+                        u95: crate::report::K95 / outside * range[j] * info.per_si,
+                    }
+                }
+            }
+            _ => HeldWhy::TooWeak {
+                u95: crate::report::K95 / norm * range[j] * info.per_si,
+            },
+        };
+        held.push(Held {
+            name: info.name,
+            unit: info.unit,
+            why,
+        });
+    }
+    let aliases = taken
+        .iter()
+        .zip(terms)
+        .filter(|(_, t)| !t.is_empty())
+        .map(|(&i, mut t)| {
+            t.sort_by(|x, y| y.coefficient.abs().total_cmp(&x.coefficient.abs()));
+            (study.param_info(i).name, t)
+        })
+        .collect();
+    BaseModel { held, aliases }
+}
+
+/// The study with the parameters its runs cannot determine held ([`select`]), or `study`
+/// itself (and `None`) when the session names the parameters to estimate (`[identify]
+/// parameters`: the user's choice stands, and what it cannot determine is reported as null
+/// combinations) or nothing needs holding.
+pub fn identifiable_study(
+    study: Study,
+    options: &Options,
+) -> Result<(Study, Option<BaseModel>), IdentifyError> {
+    if study.session.identify.contains_key("parameters") {
+        return Ok((study, None));
+    }
+    let base = select(&study, options)?;
+    if base.held.is_empty() {
+        return Ok((study, Some(base)));
+    }
+    let changes = Changes {
+        hold: base.held_names(),
+        ..study.changes().clone()
+    };
+    let reduced = study.rebuild(changes)?;
+    Ok((reduced, Some(base)))
+}
+
+/// `name + 0.5·A − 2·B` with the coefficients in 3 significant digits.
+pub fn expression(name: &str, terms: &[Term]) -> String {
+    let mut s = name.to_string();
+    for t in terms {
+        let sign = if t.coefficient < 0.0 { '−' } else { '+' };
+        let c = t.coefficient.abs();
+        if (c - 1.0).abs() < 5e-4 {
+            s.push_str(&format!(" {sign} {}", t.name));
+        } else {
+            s.push_str(&format!(" {sign} {}·{}", significant(c, 3), t.name));
+        }
+    }
+    s
+}
+
+/// `x` with `digits` significant digits, without trailing zeros.
+fn significant(x: f64, digits: i32) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return "0".into();
+    }
+    let magnitude = x.abs().log10().floor() as i32;
+    let decimals = (digits - 1 - magnitude).max(0) as usize;
+    let s = format!("{x:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+impl crate::report::Identification {
+    /// Reports what `base` says: a parameter that stands for a combination moves from
+    /// `parameters` to `combinations` (FORMATS.md: what the data cannot separate never has a
+    /// value of its own), and every held parameter is named in `unidentifiable`.
+    pub fn apply_base(&mut self, base: &BaseModel) {
+        let mut kept = Vec::new();
+        for p in std::mem::take(&mut self.parameters) {
+            let terms = base.aliases_of(&p.name);
+            if terms.is_empty() {
+                kept.push(p);
+                continue;
+            }
+            let names: Vec<String> = std::iter::once(p.name.clone())
+                .chain(terms.iter().map(|t| t.name.clone()))
+                .collect();
+            let expr = expression(&p.name, terms);
+            self.unidentifiable.push(crate::report::Unidentifiable {
+                parameters: names,
+                why: format!(
+                    "these runs see only their combination {expr} = {:.4} ± {:.4} {}",
+                    p.value, p.u95, p.unit
+                ),
+            });
+            self.combinations.push(crate::report::CombinationValue {
+                expression: expr,
+                name: p.name,
+                terms: terms.to_vec(),
+                value: p.value,
+                unit: p.unit,
+                u95: p.u95,
+                kind: p.kind,
+            });
+        }
+        self.parameters = kept;
+        for h in &base.held {
+            let why = match &h.why {
+                HeldWhy::NotObserved => "not observed by these runs".to_string(),
+                HeldWhy::Aliased => "seen only within the combinations above".to_string(),
+                HeldWhy::TooWeak { u95 } => format!(
+                    "these runs see it too weakly to determine it (its 95 % interval would be \
+                     ±{u95:.4} {}); held at its start value",
+                    h.unit
+                ),
+            };
+            if matches!(h.why, HeldWhy::Aliased) {
+                continue;
+            }
+            self.unidentifiable.push(crate::report::Unidentifiable {
+                parameters: vec![h.name.clone()],
+                why,
+            });
+        }
+        self.held = base.held.clone();
+    }
+}
+
+/// The error-model configuration (`.errors.toml`, `mtcal_machine::config`) of the parameters
+/// `study` estimates: what a session like this one identifies. A component error is kept when
+/// any of its coefficients is, with its basis cut to the highest order kept (a lower order the
+/// runs could not determine comes along and is held again by [`select`]).
+pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
+    use std::collections::BTreeMap;
+    use std::fmt::Write as _;
+    let mut components: BTreeMap<String, (char, u32)> = BTreeMap::new();
+    let mut locations = Vec::new();
+    let mut setup = Vec::new();
+    let mut order_of = Vec::new();
+    for &k in &study.estimated {
+        let label = &study.coeff_labels[k];
+        match label.split_once('.') {
+            Some((name, term)) => {
+                let kind = term.chars().next().unwrap_or('P');
+                let order = term[1..].parse::<u32>().unwrap_or(0);
+                if !components.contains_key(name) {
+                    order_of.push(name.to_string());
+                }
+                let e = components.entry(name.to_string()).or_insert((kind, 0));
+                e.1 = e.1.max(order);
+            }
+            None if label.starts_with("TOOL_") || label.starts_with("WP_") => {
+                setup.push(label.clone())
+            }
+            None => locations.push(label.clone()),
+        }
+    }
+    let list = |v: &[String]| {
+        v.iter()
+            .map(|n| format!("\"{n}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# The error model this session's runs identify, suggested by `mtcal identify \
+         --suggest-model`\n# from {} ({} parameters of the machine's model were estimated, {} \
+         held: not determined).\n# Keep it beside the URDF as <stem>.errors.toml. Format: \
+         crates/machine/src/config.rs.\nschema = \"mtcal.errors/1\"",
+        study.session.manifest.display(),
+        study.estimated.len(),
+        base.map_or(0, |b| b.held.len()),
+    );
+    let _ = writeln!(s, "components = [{}]", list(&order_of));
+    let _ = writeln!(s, "locations = [{}]", list(&locations));
+    let _ = writeln!(s, "setup = [{}]", list(&setup));
+    for name in &order_of {
+        let (kind, order) = components[name];
+        match kind {
+            'P' => {
+                let _ = writeln!(
+                    s,
+                    "\n[component.{name}]\nkind = \"legendre\"\ndegree = {order}"
+                );
+            }
+            'C' | 'S' => {
+                let _ = writeln!(
+                    s,
+                    "\n[component.{name}]\nkind = \"fourier\"\nharmonics = {order}"
+                );
+            }
+            // Tables and splines keep the machine's own configuration of their knots.
+            _ => {}
+        }
+    }
+    s
+}
