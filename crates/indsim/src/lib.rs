@@ -245,3 +245,6 @@ impl Campaign {
         write_session(dir, &machine, &truth, &plan, realism)
     }
 }
+
+#[cfg(test)]
+mod tests;
