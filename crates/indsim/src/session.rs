@@ -166,7 +166,7 @@ pub fn write_session(
         offsets.push((s.name.clone(), off));
     }
     let stated_sigma = (realism.noise_sigma_um > 0.0)
-        .then(|| realism.noise_sigma_um * realism.manifest_sigma_factor);
+        .then_some(realism.noise_sigma_um * realism.manifest_sigma_factor);
 
     let mut manifest = String::from(
         "# Written by mtcal-indsim, an independent simulator (ground truth in truth/).\n",

@@ -7,6 +7,10 @@
 //! straightness P2..P3, angular P0..P3; Fourier C1 S1 C2 S2), so [`Truth::params_toml`]
 //! reproduces the truth exactly in that model.
 
+// Index loops over the six parallel direction arrays (values, names, coefficients) read best
+// here; the lint is allowed module-wide for them.
+#![allow(clippy::needless_range_loop)]
+
 use rand::Rng;
 use rand::RngExt;
 use rand_distr::{Distribution, Normal};
