@@ -1,0 +1,250 @@
+//! An independent simulator of measurement sessions, for testing mtcal against physics it did
+//! not write itself.
+//!
+//! mtcal's own `cargo xtask simulate` plants errors with the same kinematics its fit then
+//! uses, so a recovery test on such a session proves arithmetic, not physics. This crate
+//! writes sessions from its own formulation and shares **no code** with mtcal: it depends on
+//! no `mtcal-*` crate (only its tests do, to compare). What it deliberately shares with mtcal
+//! is the contract: the file formats of `/work/shared/FORMATS.md` (session folder, run CSVs,
+//! units, ISO 230-1 names), the error-model conventions of ARCHITECTURE.md ("Conventions"),
+//! the parameter-file and error-model-configuration formats, and each instrument plugin's
+//! documented set-up keys and measurement physics.
+//!
+//! # What it models
+//! - [`Machine`]: a URDF parsed with `urdf-rs`; the root link is the machine frame, one branch
+//!   ends in the link `workpiece`, the other in `tool`; fixed joints stay constant transforms
+//!   in their place; moving joints (named by axis letter) in the order X Y Z U V W A B C.
+//!   Poses are plain `nalgebra::Matrix4<f64>` products, joint by joint.
+//! - [`Truth`]: the geometric errors, by ISO 230-1 name, SI inside. Conventions (second order
+//!   exact, since the agreement with mtcal is checked to 1e-9 µm):
+//!   - component errors `E = (exp([ε]×), δ)`: three translations and a rotation vector, in
+//!     machine directions at the zero pose (turned into the joint frame by the inverse of the
+//!     joint frame's zero-pose orientation), the rotation about the joint frame's origin;
+//!     `exp` is the exact rotation (Rodrigues). A linear axis moves `Trans(q·a)·E` (the error
+//!     follows the carriage), a rotary axis `E·L·Rot(a, q)·L⁻¹` (the error motion does not
+//!     turn). Errors are the tool's motion relative to the workpiece, so a workpiece-side axis
+//!     moves its body by `E⁻¹`;
+//!   - location errors `L = (exp([lw]×), lt)` of a rotary axis: where its line passes and how
+//!     it tilts, across its own direction; its own-direction location errors are constants of
+//!     its own-direction component errors;
+//!   - squareness `EC0Y`, `EB0Z`, `EA0Z`: the tilt `R_L` of Y's or Z's direction of motion
+//!     about +Z, +Y, +X: the axis moves along `R_L·a`. `EC0Y > 0` makes the angle between +X
+//!     and +Y larger than 90°: moving Y by y moves the tool by −EC0Y·y along X;
+//!   - set-up: `TOOL_DX..DZ` the tool point's offset in the tool frame, `WP_DX..WP_DC` the
+//!     actual workpiece frame in the nominal one (translation, then rotation vector);
+//!   - component errors as functions: Legendre P0..P3 over the stroke on linear axes
+//!     (positioning from P1, straightness from P2, angular from P0) and Fourier harmonics 1..2
+//!     on rotary axes — the terms mtcal's default full model keeps.
+//! - [`Instrument`]s by their physics: the R-test in both mountings ([`Mount`]), the ball bar,
+//!   the laser interferometer (`linear`, `straightness`; beam fixed to the table, optic on the
+//!   tool side) and the laser tracer (station on the table, reflector on the tool). Laser and
+//!   tracer readings are zeroed at the run's first sample, as the instruments are.
+//! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, tracer grids;
+//!   the linear axes come from this crate's own nominal inverse (Newton on the nominal chain).
+//! - [`write_session`]: `session.toml` (machine path relative to the folder, shared
+//!   `[setup.<name>]` tables, `use = "validate"` runs), one CSV per run (`t`, axis columns in
+//!   mm / degrees, readings in µm), and the sidecar `truth/`: `params.toml` (the truth,
+//!   `mtcal.params/1`), `errors.toml` (the model it lives in, `mtcal.errors/1`),
+//!   `setups.toml` (real set-up offsets, the noise used) and `<run>.csv` (noise-free readings).
+//! - [`Realism`]: sample-time jitter, quantised readings, AR(1)-coloured noise, a stated σ
+//!   that differs from the one used, positions rounded as a controller writes them, real
+//!   set-ups off the stated ones (ball / nest / pivot / station position, tool length).
+//!
+//! # R-test mount key
+//! FORMATS.md v1.1 has `setup.mount`; mtcal's R-test plugin on this branch predates it (it
+//! rejects the key and models ball-in-spindle). [`Instrument::RTest::write_mount_key`] is the
+//! switch: `false` writes no key, which today's plugin reads as ball-in-spindle.
+//!
+//! # Campaigns
+//! [`Campaign::trunnion_rtest_ballbar`] and [`Campaign::three_axis_ballbar`] write the
+//! sessions the identification tests use.
+
+pub mod instruments;
+pub mod machine;
+pub mod paths;
+pub mod session;
+pub mod truth;
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+pub use instruments::{Instrument, LaserMode, Mount, SetupOffsets};
+pub use machine::{JointKind, Machine, MachineError, Side};
+pub use session::{
+    Plan, Realism, RunPlan, SetupPlan, SimError, Written, WrittenRun, write_session,
+};
+pub use truth::{AxisTruth, Truth};
+
+/// A shipped machine of the workspace's `machines/` folder, by file name.
+pub fn shipped_machine(file: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../machines")
+        .join(file)
+}
+
+/// Ready-made sessions for the identification tests.
+#[derive(Debug)]
+pub struct Campaign;
+
+impl Campaign {
+    /// The shipped five-axis trunnion `machines/mcu630-cafyxz.urdf` (A cradle carrying a C
+    /// table, spindle on X Y Z), a random truth from `seed` ([`Truth::random`], scale 1), and
+    /// into `dir`:
+    /// - R-test, ball-in-spindle (no mount key: what mtcal's plugin models today), one shared
+    ///   set-up `ball1` at [150, 0, 200] mm: `rtest-xyc` (C 0→360°, 73 samples), `rtest-xyzac`
+    ///   (A −30→30° with C 0→360°, 145), and set-up `ball2` on the C axis at [0, 0, 200] mm:
+    ///   `rtest-yza` (A −30→90°, 49);
+    /// - ball bar, set-up `bar1` (pivot [0, 0, 200] mm, 100 mm): `ballbar-xy-ccw`,
+    ///   `ballbar-xy-cw` (XY circles at A = C = 0, 181 samples);
+    /// - validation runs: `rtest-validate` (ball1, A 20→−20° with C 0→180°, 37 samples) and
+    ///   `ballbar-validate` (bar1, an XY circle with C held at 45°).
+    pub fn trunnion_rtest_ballbar(
+        dir: &Path,
+        seed: u64,
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        let urdf = shipped_machine("mcu630-cafyxz.urdf");
+        let machine = Machine::from_urdf_file(&urdf)?;
+        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
+        let deg = f64::to_radians;
+        let ball1 = [150.0, 0.0, 200.0];
+        let ball2 = [0.0, 0.0, 200.0];
+        let rtest = |ball_mm| Instrument::RTest {
+            ball_mm,
+            mount: Mount::BallInSpindle,
+            write_mount_key: false,
+        };
+        let at = |v: [f64; 3]| Vector3::new(v[0], v[1], v[2]) * 1e-3;
+        let pivot = [0.0, 0.0, 200.0];
+        let circle = |ccw, hold: &[(char, f64)], n| {
+            paths::circle(&machine, at(pivot), 0.1, (0, 1), ccw, hold, n)
+        };
+        let run = |name: &str, setup: &str, validate, poses| RunPlan {
+            name: name.into(),
+            setup: setup.into(),
+            validate,
+            poses,
+        };
+        let plan = Plan {
+            machine_urdf: urdf.clone(),
+            setups: vec![
+                SetupPlan {
+                    name: "ball1".into(),
+                    instrument: rtest(ball1),
+                },
+                SetupPlan {
+                    name: "ball2".into(),
+                    instrument: rtest(ball2),
+                },
+                SetupPlan {
+                    name: "bar1".into(),
+                    instrument: Instrument::BallBar {
+                        pivot_mm: pivot,
+                        length_mm: 100.0,
+                    },
+                },
+            ],
+            runs: vec![
+                run(
+                    "rtest-xyc",
+                    "ball1",
+                    false,
+                    paths::follow_ball(&machine, at(ball1), &[('C', 0.0, deg(360.0))], &[], 73)?,
+                ),
+                run(
+                    "rtest-yza",
+                    "ball2",
+                    false,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball2),
+                        &[('A', deg(-30.0), deg(90.0))],
+                        &[],
+                        49,
+                    )?,
+                ),
+                run(
+                    "rtest-xyzac",
+                    "ball1",
+                    false,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball1),
+                        &[('A', deg(-30.0), deg(30.0)), ('C', 0.0, deg(360.0))],
+                        &[],
+                        145,
+                    )?,
+                ),
+                run("ballbar-xy-ccw", "bar1", false, circle(true, &[], 181)?),
+                run("ballbar-xy-cw", "bar1", false, circle(false, &[], 181)?),
+                run(
+                    "rtest-validate",
+                    "ball1",
+                    true,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball1),
+                        &[('A', deg(20.0), deg(-20.0)), ('C', 0.0, deg(180.0))],
+                        &[],
+                        37,
+                    )?,
+                ),
+                run(
+                    "ballbar-validate",
+                    "bar1",
+                    true,
+                    circle(true, &[('C', deg(45.0))], 91)?,
+                ),
+            ],
+        };
+        write_session(dir, &machine, &truth, &plan, realism)
+    }
+
+    /// The shipped three-axis `machines/mcv754-zfyx.urdf` (X and Y carry the table, Z the
+    /// spindle), a random truth from `seed`, and into `dir` one ball bar (set-up `bar1`, pivot
+    /// [0, 0, 100] mm, 150 mm) on an XY circle counter-clockwise (`ballbar-xy-ccw`) and
+    /// clockwise (`ballbar-xy-cw`), 361 samples each.
+    pub fn three_axis_ballbar(
+        dir: &Path,
+        seed: u64,
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        let urdf = shipped_machine("mcv754-zfyx.urdf");
+        let machine = Machine::from_urdf_file(&urdf)?;
+        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
+        let pivot = [0.0, 0.0, 100.0];
+        let centre = Vector3::new(pivot[0], pivot[1], pivot[2]) * 1e-3;
+        let circle = |ccw| paths::circle(&machine, centre, 0.15, (0, 1), ccw, &[], 361);
+        let plan = Plan {
+            machine_urdf: urdf.clone(),
+            setups: vec![SetupPlan {
+                name: "bar1".into(),
+                instrument: Instrument::BallBar {
+                    pivot_mm: pivot,
+                    length_mm: 150.0,
+                },
+            }],
+            runs: vec![
+                RunPlan {
+                    name: "ballbar-xy-ccw".into(),
+                    setup: "bar1".into(),
+                    validate: false,
+                    poses: circle(true)?,
+                },
+                RunPlan {
+                    name: "ballbar-xy-cw".into(),
+                    setup: "bar1".into(),
+                    validate: false,
+                    poses: circle(false)?,
+                },
+            ],
+        };
+        write_session(dir, &machine, &truth, &plan, realism)
+    }
+}
+
+#[cfg(test)]
+mod tests;

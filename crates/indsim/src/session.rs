@@ -1,0 +1,385 @@
+//! Session folders exactly as FORMATS.md ("Measurement session") describes them, plus the
+//! ground-truth sidecar `truth/` that tests compare against.
+
+use std::fmt::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal, StandardNormal};
+
+use crate::instruments::{Instrument, SetupOffsets};
+use crate::machine::{JointKind, Machine};
+use crate::truth::Truth;
+
+/// Why a session could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Machine(#[from] crate::machine::MachineError),
+    #[error("{0}")]
+    Plan(String),
+}
+
+/// A shared set-up of the manifest (`[setup.<name>]`).
+#[derive(Clone, Debug)]
+pub struct SetupPlan {
+    pub name: String,
+    pub instrument: Instrument,
+}
+
+/// One run: its commanded poses (SI, machine order).
+#[derive(Clone, Debug)]
+pub struct RunPlan {
+    pub name: String,
+    pub setup: String,
+    /// `use = "validate"`.
+    pub validate: bool,
+    pub poses: Vec<Vec<f64>>,
+}
+
+/// What to write: the machine (a URDF file, referred to by a relative path), set-ups, runs.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub machine_urdf: PathBuf,
+    pub setups: Vec<SetupPlan>,
+    pub runs: Vec<RunPlan>,
+}
+
+/// How far the files are from the ideal: all zero (or `None`) in [`Realism::ideal`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Realism {
+    /// Seed of every random draw of the realism (noise, jitter, set-up offsets).
+    pub seed: u64,
+    /// Time between samples, s.
+    pub interval_s: f64,
+    /// Time between runs, s.
+    pub pause_s: f64,
+    /// σ of the sample-time jitter, s (kept below 0.4 of the interval so `t` keeps rising).
+    pub jitter_s: f64,
+    /// σ of the reading noise in the channel's unit (µm), and its AR(1) coefficient φ:
+    /// `e_k = φ·e_(k−1) + √(1−φ²)·σ·n_k` (stationary σ, coloured for φ > 0).
+    pub noise_sigma_um: f64,
+    pub noise_phi: f64,
+    /// The σ the manifest states is this factor times the one used (1: honest).
+    pub manifest_sigma_factor: f64,
+    /// Readings are rounded to this resolution, µm (0: not quantised).
+    pub resolution_um: f64,
+    /// Commanded positions are rounded to this many decimals of mm / degrees (the machine
+    /// then moves exactly there; `None`: every digit).
+    pub position_decimals: Option<i32>,
+    /// σ of the difference between the real and the stated set-up, per coordinate, µm: the
+    /// ball / nest / pivot / station position and the tool length.
+    pub setup_position_sigma_um: f64,
+    pub tool_length_sigma_um: f64,
+}
+
+impl Realism {
+    /// Exact files: no noise, no jitter, no quantisation, the set-up as stated.
+    pub fn ideal() -> Self {
+        Realism {
+            seed: 0,
+            interval_s: 0.5,
+            pause_s: 10.0,
+            jitter_s: 0.0,
+            noise_sigma_um: 0.0,
+            noise_phi: 0.0,
+            manifest_sigma_factor: 1.0,
+            resolution_um: 0.0,
+            position_decimals: None,
+            setup_position_sigma_um: 0.0,
+            tool_length_sigma_um: 0.0,
+        }
+    }
+
+    /// A plausible measurement: 0.3 µm noise coloured with φ = 0.6, stated 20 % optimistic,
+    /// 0.1 µm resolution, 5 ms jitter, positions to 0.1 µm / 0.0001°, set-ups 20 µm off.
+    pub fn realistic(seed: u64) -> Self {
+        Realism {
+            seed,
+            jitter_s: 0.005,
+            noise_sigma_um: 0.3,
+            noise_phi: 0.6,
+            manifest_sigma_factor: 0.8,
+            resolution_um: 0.1,
+            position_decimals: Some(4),
+            setup_position_sigma_um: 20.0,
+            tool_length_sigma_um: 20.0,
+            ..Realism::ideal()
+        }
+    }
+}
+
+/// One written run.
+#[derive(Clone, Debug)]
+pub struct WrittenRun {
+    pub name: String,
+    pub setup: String,
+    pub file: PathBuf,
+    /// Commanded positions as written (mm / degrees), machine order.
+    pub positions: Vec<Vec<f64>>,
+    /// Noise-free readings (µm), also in `truth/<run>.csv`.
+    pub clean_um: Vec<Vec<f64>>,
+    /// The readings in the run file (µm).
+    pub written_um: Vec<Vec<f64>>,
+}
+
+/// A written session: where, and what it was made from.
+#[derive(Clone, Debug)]
+pub struct Written {
+    pub dir: PathBuf,
+    pub truth: Truth,
+    /// The real set-ups' offsets from the manifest's, by set-up name.
+    pub offsets: Vec<(String, SetupOffsets)>,
+    pub runs: Vec<WrittenRun>,
+}
+
+/// Writes `plan` for `machine` with errors `truth` into `dir` (created): `session.toml`, one
+/// CSV per run, and `truth/` (`params.toml`, `errors.toml` — the model the params belong to —,
+/// `setups.toml` with the real set-up offsets and the σ used, and `<run>.csv` with the
+/// noise-free readings).
+pub fn write_session(
+    dir: &Path,
+    machine: &Machine,
+    truth: &Truth,
+    plan: &Plan,
+    realism: &Realism,
+) -> Result<Written, SimError> {
+    std::fs::create_dir_all(dir.join("truth"))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(realism.seed);
+    let mut offsets = Vec::new();
+    let normal = |s: f64| Normal::new(0.0, s * 1e-6).expect("finite sigma");
+    for s in &plan.setups {
+        let pos = normal(realism.setup_position_sigma_um);
+        let len = normal(realism.tool_length_sigma_um);
+        let off = SetupOffsets {
+            position: Vector3::new(
+                pos.sample(&mut rng),
+                pos.sample(&mut rng),
+                pos.sample(&mut rng),
+            ),
+            tool_length: len.sample(&mut rng),
+        };
+        offsets.push((s.name.clone(), off));
+    }
+    let stated_sigma = (realism.noise_sigma_um > 0.0)
+        .then_some(realism.noise_sigma_um * realism.manifest_sigma_factor);
+
+    let mut manifest = String::from(
+        "# Written by mtcal-indsim, an independent simulator (ground truth in truth/).\n",
+    );
+    let rel = relative_path(dir, &plan.machine_urdf)?;
+    writeln!(manifest, "machine = \"{}\"", rel.display()).expect("string");
+    for s in &plan.setups {
+        write!(
+            manifest,
+            "\n[setup.{}]\n{}",
+            s.name,
+            s.instrument.setup_toml(stated_sigma)
+        )
+        .expect("string");
+    }
+    let mut sidecar_setups = String::from("# Real set-ups: offsets from the manifest (um).\n");
+    for (name, off) in &offsets {
+        writeln!(
+            sidecar_setups,
+            "[{name}]\nposition_um = [{:?}, {:?}, {:?}]\ntool_length_um = {:?}\nnoise_sigma_um = {:?}\nnoise_phi = {:?}\n",
+            off.position.x * 1e6,
+            off.position.y * 1e6,
+            off.position.z * 1e6,
+            off.tool_length * 1e6,
+            realism.noise_sigma_um,
+            realism.noise_phi
+        )
+        .expect("string");
+    }
+
+    let letters: Vec<char> = machine.letters().chars().collect();
+    let mut t0 = 0.0;
+    let mut runs = Vec::new();
+    for run in &plan.runs {
+        let setup_index = plan
+            .setups
+            .iter()
+            .position(|s| s.name == run.setup)
+            .ok_or_else(|| SimError::Plan(format!("run {}: no set-up {}", run.name, run.setup)))?;
+        let instrument = &plan.setups[setup_index].instrument;
+        let off = &offsets[setup_index].1;
+        // The positions as written are the positions the machine moves to.
+        let positions: Vec<Vec<f64>> = run
+            .poses
+            .iter()
+            .map(|q| {
+                q.iter()
+                    .zip(&machine.joints)
+                    .map(|(&v, j)| {
+                        let f = match j.kind {
+                            JointKind::Linear => v * 1e3,
+                            JointKind::Rotary => v.to_degrees(),
+                        };
+                        match realism.position_decimals {
+                            Some(d) => round_to(f, 10f64.powi(-d)),
+                            None => f,
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        // File units to SI as FORMATS.md defines them (mm → m, degrees → rad).
+        let si: Vec<Vec<f64>> = positions
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .zip(&machine.joints)
+                    .map(|(&v, j)| match j.kind {
+                        JointKind::Linear => v * 1e-3,
+                        JointKind::Rotary => v.to_radians(),
+                    })
+                    .collect()
+            })
+            .collect();
+        let clean_um: Vec<Vec<f64>> = instrument
+            .readings(machine, truth, &si, off)
+            .into_iter()
+            .map(|r| r.into_iter().map(|v| v * 1e6).collect())
+            .collect();
+        let n_ch = instrument.channels().len();
+        let mut noise = vec![0.0; n_ch];
+        let phi = realism.noise_phi;
+        let written_um: Vec<Vec<f64>> = clean_um
+            .iter()
+            .enumerate()
+            .map(|(k, r)| {
+                r.iter()
+                    .zip(noise.iter_mut())
+                    .map(|(&v, e)| {
+                        let n: f64 = StandardNormal.sample(&mut rng);
+                        *e = if k == 0 {
+                            realism.noise_sigma_um * n
+                        } else {
+                            phi * *e + (1.0 - phi * phi).sqrt() * realism.noise_sigma_um * n
+                        };
+                        let noisy = v + *e;
+                        if realism.resolution_um > 0.0 {
+                            round_to(noisy, realism.resolution_um)
+                        } else {
+                            noisy
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let jitter = 0.4 * realism.interval_s;
+        let times: Vec<f64> = (0..positions.len())
+            .map(|k| {
+                let j = if realism.jitter_s > 0.0 {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    (n * realism.jitter_s).clamp(-jitter, jitter)
+                } else {
+                    0.0
+                };
+                t0 + jitter + k as f64 * realism.interval_s + j
+            })
+            .collect();
+        t0 = times.last().copied().unwrap_or(t0) + realism.pause_s;
+        let file = PathBuf::from(format!("{}.csv", run.name));
+        let channels = instrument.channels();
+        write_csv(
+            &dir.join(&file),
+            &letters,
+            channels,
+            &times,
+            &positions,
+            &written_um,
+        )?;
+        write_csv(
+            &dir.join("truth").join(&file),
+            &letters,
+            channels,
+            &times,
+            &positions,
+            &clean_um,
+        )?;
+        write!(
+            manifest,
+            "\n[[run]]\nname = \"{}\"\ninstrument = \"{}\"\nfile = \"{}\"\nsetup = \"{}\"\n",
+            run.name,
+            instrument.plugin_name(),
+            file.display(),
+            run.setup
+        )
+        .expect("string");
+        if run.validate {
+            manifest.push_str("use = \"validate\"\n");
+        }
+        runs.push(WrittenRun {
+            name: run.name.clone(),
+            setup: run.setup.clone(),
+            file,
+            positions,
+            clean_um,
+            written_um,
+        });
+    }
+    std::fs::write(dir.join("session.toml"), manifest)?;
+    std::fs::write(dir.join("truth/params.toml"), truth.params_toml(machine))?;
+    std::fs::write(dir.join("truth/errors.toml"), truth.model_config(machine))?;
+    std::fs::write(dir.join("truth/setups.toml"), sidecar_setups)?;
+    Ok(Written {
+        dir: dir.to_path_buf(),
+        truth: truth.clone(),
+        offsets,
+        runs,
+    })
+}
+
+fn round_to(v: f64, step: f64) -> f64 {
+    (v / step).round() * step
+}
+
+fn write_csv(
+    path: &Path,
+    letters: &[char],
+    channels: &[&str],
+    t: &[f64],
+    positions: &[Vec<f64>],
+    readings: &[Vec<f64>],
+) -> std::io::Result<()> {
+    let mut s = String::from("t");
+    for l in letters {
+        write!(s, ",{l}").expect("string");
+    }
+    for c in channels {
+        write!(s, ",{c}").expect("string");
+    }
+    s.push('\n');
+    for ((t, p), r) in t.iter().zip(positions).zip(readings) {
+        // `{}` prints the shortest decimal that reads back to the same f64.
+        write!(s, "{t}").expect("string");
+        for v in p.iter().chain(r) {
+            write!(s, ",{v}").expect("string");
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s)
+}
+
+/// `target` relative to the folder `from` (both made absolute first).
+fn relative_path(from: &Path, target: &Path) -> std::io::Result<PathBuf> {
+    let from = std::fs::canonicalize(from)?;
+    let target = std::fs::canonicalize(target)?;
+    let a: Vec<Component> = from.components().collect();
+    let b: Vec<Component> = target.components().collect();
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut out = PathBuf::new();
+    for _ in common..a.len() {
+        out.push("..");
+    }
+    for c in &b[common..] {
+        out.push(c.as_os_str());
+    }
+    Ok(out)
+}

@@ -1,0 +1,363 @@
+//! Agreement with mtcal: for every shipped machine an instrument fits, a random truth (with
+//! set-up errors and own-direction location constants too), zero noise and the set-up as
+//! stated, the readings this crate writes equal mtcal's predictions for the same session and
+//! truth. mtcal reads the session through its own loaders (`mtcal-session`, the plugins'
+//! `load_setup`), the truth through its parameter and model files, and predicts with
+//! `MachineModel::tool_pose` and the plugin's `Setup::predict` — what its simulator and
+//! `identify --predict` do per sample.
+
+use std::path::Path;
+
+use mtcal_instrument::{At, Setup, SetupContext};
+use mtcal_kinematics::MachineModel;
+use mtcal_session::{RunColumns, read_run};
+use nalgebra::Vector3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use mtcal_indsim::machine::{JointKind, translation_of};
+use mtcal_indsim::{
+    Instrument, LaserMode, Machine, Mount, Plan, Realism, RunPlan, SetupPlan, Side, Truth, paths,
+    shipped_machine, write_session,
+};
+
+/// µm per metre of reach: the acceptance, 1e-9 µm, on machines whose branch poses stay within
+/// 1 m of the machine frame. Both sides compose metre-sized transforms in f64 in different
+/// orders, so each rounds at a few ulp of the largest coordinate (ulp(1 m) = 2.2e-10 µm); on a
+/// gantry whose tool branch reaches 3.6 m up (headhead-xyzca) that floor is ~1e-9 µm itself, so
+/// the tolerance scales with the reach (`max(1, |f_p_tool|, |f_p_workpiece|)` in m).
+const TOL_UM: f64 = 1e-9;
+
+const MACHINES: [&str; 6] = [
+    "mcu630-cafyxz.urdf",
+    "mcv754-zfyx.urdf",
+    "headhead-xyzca.urdf",
+    "mcv1000-5ax220-bc.urdf",
+    "mixed-c-table-b-head.urdf",
+    "mu6300-caxfyz.urdf",
+];
+
+/// Largest |ours − mtcal| per instrument, µm.
+#[derive(Default, Debug)]
+struct Worst {
+    by_instrument: Vec<(String, f64, usize)>,
+}
+
+impl Worst {
+    fn add(&mut self, instrument: &str, diff: f64) {
+        match self
+            .by_instrument
+            .iter_mut()
+            .find(|(n, _, _)| n == instrument)
+        {
+            Some(e) => {
+                e.1 = e.1.max(diff);
+                e.2 += 1;
+            }
+            None => self.by_instrument.push((instrument.to_string(), diff, 1)),
+        }
+    }
+}
+
+fn deg(d: f64) -> f64 {
+    d.to_radians()
+}
+
+/// A plan that exercises every instrument the machine fits, around the pose with the linear
+/// axes mid-stroke and the rotary axes at zero.
+fn plan_for(machine: &Machine, urdf: &Path, mount: Mount, write_mount_key: bool) -> Plan {
+    let n = machine.n_axes();
+    let mut home = vec![0.0; n];
+    for (i, j) in machine.joints.iter().enumerate() {
+        if j.kind == JointKind::Linear {
+            let (lo, hi) = j.stroke();
+            home[i] = 0.5 * (lo + hi);
+        }
+    }
+    let p_home = translation_of(&machine.tool_in_workpiece(&home, None));
+    let mm = |v: Vector3<f64>| [v.x * 1e3, v.y * 1e3, v.z * 1e3];
+    let hold_lin: Vec<(char, f64)> = machine
+        .joints
+        .iter()
+        .zip(&home)
+        .filter(|(j, _)| j.kind == JointKind::Linear)
+        .map(|(j, &v)| (j.letter, v))
+        .collect();
+    let rotary: Vec<char> = machine
+        .joints
+        .iter()
+        .filter(|j| j.kind == JointKind::Rotary)
+        .map(|j| j.letter)
+        .collect();
+    // A rotary angle inside the axis' limits (a B head of −105..15°, say).
+    let clip = |c: char, v: f64| match machine.joints[machine.index(c).unwrap()].limits {
+        Some((lo, hi)) => v.clamp(lo + 0.01, hi - 0.01),
+        None => v,
+    };
+    let mut setups = Vec::new();
+    let mut runs = Vec::new();
+    let mut run = |name: String, setup: &str, poses| {
+        runs.push(RunPlan {
+            name,
+            setup: setup.into(),
+            validate: false,
+            poses,
+        })
+    };
+
+    if !rotary.is_empty() {
+        let ball = p_home + Vector3::new(0.06, 0.04, 0.0);
+        setups.push(SetupPlan {
+            name: "rtest".into(),
+            instrument: Instrument::RTest {
+                ball_mm: mm(ball),
+                mount,
+                write_mount_key,
+            },
+        });
+        for &c in &rotary {
+            let sweep = [(c, clip(c, deg(-20.0)), clip(c, deg(25.0)))];
+            let poses = paths::follow_ball(machine, ball, &sweep, &[], 19).unwrap();
+            run(format!("rtest-{c}"), "rtest", poses);
+        }
+        if rotary.len() == 2 {
+            let sweep = [
+                (
+                    rotary[0],
+                    clip(rotary[0], deg(15.0)),
+                    clip(rotary[0], deg(-20.0)),
+                ),
+                (
+                    rotary[1],
+                    clip(rotary[1], deg(-25.0)),
+                    clip(rotary[1], deg(20.0)),
+                ),
+            ];
+            let poses = paths::follow_ball(machine, ball, &sweep, &[], 19).unwrap();
+            run("rtest-both".into(), "rtest", poses);
+        }
+    }
+
+    // Ball bar: an XY circle with the rotary axes turned by 10°.
+    setups.push(SetupPlan {
+        name: "bar".into(),
+        instrument: Instrument::BallBar {
+            pivot_mm: mm(p_home),
+            length_mm: 80.0,
+        },
+    });
+    let hold_rot: Vec<(char, f64)> = rotary.iter().map(|&c| (c, clip(c, deg(10.0)))).collect();
+    let poses = paths::circle(machine, p_home, 0.08, (0, 1), true, &hold_rot, 37).unwrap();
+    run("ballbar-xy".into(), "bar", poses);
+
+    // Laser: a linear run along each linear axis, a straightness run along the first; the beam
+    // along the nominal travel, the optic off the tool point (Abbe offsets).
+    let lin: Vec<usize> = (0..n)
+        .filter(|&i| machine.joints[i].kind == JointKind::Linear)
+        .collect();
+    for (k, &i) in lin.iter().enumerate() {
+        let j = &machine.joints[i];
+        let (lo, hi) = j.stroke();
+        let poses = paths::line(
+            machine,
+            j.letter,
+            0.8 * lo + 0.2 * hi,
+            0.2 * lo + 0.8 * hi,
+            11,
+            &hold_lin,
+        )
+        .unwrap();
+        let a = translation_of(&machine.tool_in_workpiece(&poses[0], None));
+        let b = translation_of(&machine.tool_in_workpiece(poses.last().unwrap(), None));
+        let dir = (b - a).normalize();
+        let modes: &[LaserMode] = if k == 0 {
+            &[LaserMode::Linear, LaserMode::Straightness]
+        } else {
+            &[LaserMode::Linear]
+        };
+        for &mode in modes {
+            let sense = dir.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize();
+            let name = format!(
+                "laser-{}-{}",
+                j.letter,
+                if mode == LaserMode::Linear {
+                    "lin"
+                } else {
+                    "str"
+                }
+            );
+            setups.push(SetupPlan {
+                name: name.clone(),
+                instrument: Instrument::Laser {
+                    mode,
+                    direction: [dir.x, dir.y, dir.z],
+                    sense: [sense.x, sense.y, sense.z],
+                    optic_offset_mm: [20.0, -15.0, 80.0],
+                },
+            });
+            run(name.clone(), &name, poses.clone());
+        }
+    }
+
+    // Tracer: a grid from two stations with two reflectors.
+    let grid = paths::grid(machine, 0.6, [3, 3, 3], &hold_rot).unwrap();
+    for (k, (station, reflector)) in [
+        (Vector3::new(0.6, 0.4, -0.3), [0.0, 0.0, 100.0]),
+        (Vector3::new(-0.5, 0.6, 0.2), [50.0, 30.0, 80.0]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let name = format!("tracer-{k}");
+        setups.push(SetupPlan {
+            name: name.clone(),
+            instrument: Instrument::Tracer {
+                station_mm: mm(p_home + station),
+                reflector_mm: reflector,
+            },
+        });
+        run(name.clone(), &name, grid.clone());
+    }
+    Plan {
+        machine_urdf: urdf.to_path_buf(),
+        setups,
+        runs,
+    }
+}
+
+fn load_mtcal_setup(
+    instrument: &str,
+    table: &toml::Table,
+    machine: &mtcal_kinematics::Machine,
+) -> Box<dyn Setup> {
+    let ctx = SetupContext { machine };
+    let r = match instrument {
+        "rtest" => mtcal_rtest::load_setup(table, &ctx),
+        "ballbar" => mtcal_ballbar::load_setup(table, &ctx),
+        "laser" => mtcal_laser::load_setup(table, &ctx),
+        "tracer" => mtcal_tracer::load_setup(table, &ctx),
+        other => panic!("no plugin {other}"),
+    };
+    r.unwrap_or_else(|e| panic!("mtcal rejects the {instrument} set-up {table:?}: {e}"))
+}
+
+/// Writes the session for `file`, reads it back with mtcal, and returns the worst differences.
+fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst {
+    let urdf = shipped_machine(file);
+    let machine = Machine::from_urdf_file(&urdf).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut truth = Truth::random(&machine, &mut rng, 1.0);
+    truth.randomise_extras(&machine, &mut rng, 1.0);
+    let plan = plan_for(&machine, &urdf, mount, write_mount_key);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    write_session(&dir, &machine, &truth, &plan, &Realism::ideal()).unwrap();
+
+    // mtcal's side, from the files only.
+    let session = mtcal_session::load_session(&dir).unwrap();
+    let mpath = session.machine_path.clone().expect("a URDF path");
+    let m = mtcal_machine::urdf::load_urdf_file(&mpath).unwrap();
+    let errors_path = dir.join("truth/errors.toml");
+    let config = mtcal_machine::config::parse_config(
+        &std::fs::read_to_string(&errors_path).unwrap(),
+        &errors_path,
+        &m,
+    )
+    .unwrap();
+    let model = MachineModel::new(m.clone(), &config).unwrap();
+    let params_path = dir.join("truth/params.toml");
+    let coeffs = mtcal_machine::params::parse_params(
+        &std::fs::read_to_string(&params_path).unwrap(),
+        &params_path,
+        model.errors(),
+    )
+    .unwrap();
+    let mut ws = model.workspace();
+    let letters: Vec<char> = m.letters().chars().collect();
+    let mut worst = Worst::default();
+    for run in &session.runs {
+        let setup = load_mtcal_setup(&run.instrument, session.setup_of(run), &m);
+        let names: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
+        let cols = RunColumns {
+            axes: &letters,
+            readings: &names,
+            readings_optional: false,
+            labels: &[],
+        };
+        let table = read_run(&run.file, &cols).unwrap();
+        let clean = read_run(&dir.join("truth").join(&run.file_as_written), &cols).unwrap();
+        let nuis = vec![0.0; setup.nuisance().len()];
+        let mut out = vec![0.0; names.len()];
+        let mut first: Option<Vec<f64>> = None;
+        for k in 0..table.len() {
+            let q: Vec<f64> = table
+                .q_row(k)
+                .iter()
+                .zip(m.axes())
+                .map(|(&v, a)| match a.kind() {
+                    mtcal_kinematics::AxisKind::Linear => v * 1e-3,
+                    mtcal_kinematics::AxisKind::Rotary => v.to_radians(),
+                })
+                .collect();
+            let pose = model.tool_pose(&q, &coeffs, &mut ws);
+            let reach = [Side::Tool, Side::Workpiece]
+                .iter()
+                .map(|&s| translation_of(&machine.branch_pose(s, &q, None)).norm())
+                .fold(1.0, f64::max);
+            let at = At {
+                q: &q,
+                t: table.t[k],
+                w_t_t: &pose,
+                label: 0,
+            };
+            setup.predict(&at, &nuis, &mut out);
+            let pred: Vec<f64> = out
+                .iter()
+                .zip(setup.channels())
+                .map(|(v, c)| v * c.unit.per_si())
+                .collect();
+            // Laser and tracer readings are zeroed at the first sample; mtcal's free zero /
+            // dead path carries that constant. Compare changes from the first sample.
+            let relative = matches!(run.instrument.as_str(), "laser" | "tracer");
+            let base = first.get_or_insert_with(|| pred.clone()).clone();
+            let ours = table.reading_row(k).unwrap();
+            let ours_clean = clean.reading_row(k).unwrap();
+            for c in 0..names.len() {
+                let theirs = if relative { pred[c] - base[c] } else { pred[c] };
+                assert_eq!(
+                    ours[c], ours_clean[c],
+                    "ideal realism writes the clean readings"
+                );
+                let diff = (ours[c] - theirs).abs();
+                worst.add(&run.instrument, diff);
+                assert!(
+                    diff < TOL_UM * reach,
+                    "{file} run {} sample {k} channel {}: indsim {} µm, mtcal {} µm (diff {diff:e})",
+                    run.name,
+                    names[c],
+                    ours[c],
+                    theirs
+                );
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn readings_agree_with_mtcal_on_every_shipped_machine() {
+    for (k, file) in MACHINES.iter().enumerate() {
+        let worst = compare(file, Mount::BallInSpindle, false, 100 + k as u64);
+        for (inst, d, n) in &worst.by_instrument {
+            eprintln!("{file:28} {inst:8} readings {n:5} max |indsim - mtcal| = {d:.3e} um");
+        }
+    }
+}
+
+#[test]
+#[ignore = "needs the mount key (branch rtest-mount)"]
+fn ball_on_table_readings_agree_with_mtcal() {
+    for (k, file) in MACHINES.iter().enumerate() {
+        compare(file, Mount::BallOnTable, true, 200 + k as u64);
+    }
+}
