@@ -6,7 +6,8 @@
 //! intervals). `g` comes from central differences of the whole prediction, one parameter at a
 //! time, with steps of the parameter's own standard deviation: exact for a model quadratic
 //! over ±σ, and independent of how each instrument computes its readings. The band is
-//! `1.96·√(g·C·gᵀ)`: where the truth (noise-free readings) should lie in 95 % of the samples.
+//! `1.96·√(k·g·C·gᵀ)` (`k`: [`noise_inflation`], what the residuals say of the noise the
+//! stated σ does not: a σ stated too small, coloured noise): where the truth (noise-free readings) should lie in 95 % of the samples.
 //! It does not contain the reading noise (a measured reading scatters around the truth by σ
 //! more), nor what held parameters ([`crate::base`]) would add: a run that depends on those
 //! is named by [`crate::base`], not covered by a wider band.
@@ -16,9 +17,46 @@ use crate::report::K95;
 use crate::study::Study;
 use mtcal_solve::Solution;
 
+/// How much larger the parameters' covariance is than the stated noise makes it: the residual
+/// scatter over the stated σ (`χ²/dof`, when above 1: a σ stated too small) times the variance
+/// inflation of AR(1)-coloured noise, `(1 + φ)/(1 − φ)` with `φ` the lag-1 autocorrelation of
+/// the whitened residuals pooled over the fitted runs' channels (when positive: neighbouring
+/// samples that share their error carry less information than independent ones). Both are
+/// 1 for white noise of the stated σ.
+pub fn noise_inflation(study: &Study, solution: &Solution) -> f64 {
+    let (mut lag0, mut lag1) = (0.0, 0.0);
+    for (r, run) in study.runs.iter().enumerate() {
+        let (true, Some(readings)) = (run.fit, run.readings.as_ref()) else {
+            continue;
+        };
+        let channels = study.channels(r);
+        let nch = channels.len();
+        let pred = predict_run(study, r, &solution.x);
+        for (c, ch) in channels.iter().enumerate() {
+            let w = |i: usize| (readings.get(i, c) - pred[i * nch + c]) / ch.sigma;
+            let mut prev = None;
+            for i in 0..run.len() {
+                let e = w(i);
+                lag0 += e * e;
+                if let Some(p) = prev {
+                    lag1 += e * p;
+                }
+                prev = Some(e);
+            }
+        }
+    }
+    let phi = if lag0 > 0.0 {
+        (lag1 / lag0).clamp(0.0, 0.95)
+    } else {
+        0.0
+    };
+    solution.chi2_reduced.max(1.0) * (1.0 + phi) / (1.0 - phi)
+}
+
 /// 95 % prediction band of run `r` (one entry per sample and channel, row-major, SI), for the
-/// parameters of `solution`.
+/// parameters of `solution`, with their covariance scaled by [`noise_inflation`].
 pub fn prediction_u95(study: &Study, solution: &Solution, r: usize) -> Vec<f64> {
+    let inflation = noise_inflation(study, solution);
     let n = solution.x.len();
     let free: Vec<usize> = (0..n)
         .filter(|&i| solution.sigma[i].is_some_and(|s| s > 0.0))
@@ -50,7 +88,7 @@ pub fn prediction_u95(study: &Study, solution: &Solution, r: usize) -> Vec<f64> 
                     var += g[a][s] * solution.cov(i, j) * g[b][s];
                 }
             }
-            K95 * var.max(0.0).sqrt()
+            K95 * (var * inflation).max(0.0).sqrt()
         })
         .collect()
 }

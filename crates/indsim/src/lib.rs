@@ -106,9 +106,21 @@ impl Campaign {
         seed: u64,
         realism: &Realism,
     ) -> Result<Written, SimError> {
+        let machine = Machine::from_urdf_file(&shipped_machine("mcu630-cafyxz.urdf"))?;
+        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
+        Self::trunnion_rtest_ballbar_with(dir, &truth, realism)
+    }
+
+    /// [`Self::trunnion_rtest_ballbar`] with a given truth (e.g. a random draw with the rotary
+    /// axes' component errors removed).
+    pub fn trunnion_rtest_ballbar_with(
+        dir: &Path,
+        truth: &Truth,
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
         let urdf = shipped_machine("mcu630-cafyxz.urdf");
         let machine = Machine::from_urdf_file(&urdf)?;
-        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
+        let truth = truth.clone();
         let deg = f64::to_radians;
         let ball1 = [150.0, 0.0, 200.0];
         let ball2 = [0.0, 0.0, 200.0];
