@@ -180,6 +180,7 @@ fn a_session_of_one_sample_names_everything_it_cannot_identify() {
     std::fs::write(
         s.join("session.toml"),
         "machine = \"machine.urdf\"\n[setup.ball]\nball = [100.0, 0.0, 200.0]\n\
+         mount = \"ball-in-spindle\"\n\
          [[run]]\nname = \"r\"\ninstrument = \"rtest\"\nfile = \"r.csv\"\nsetup = \"ball\"\n\
          [identify]\nparameters = [\"EC0Y\", \"EY0A\", \"EX0C\", \"EY0C\", \"EA0C\"]\n",
     )

@@ -11,8 +11,10 @@
 //! [identify]                                  # copied into the session manifest
 //! parameters = ["EC0Y", "EB0Z", "EA0Z"]
 //!
-//! [setup.ball1]                               # shared set-ups, as in session.toml
-//! ball = [150.0, 0.0, 100.0]
+//! [setup.ball1]                               # shared set-ups, as in session.toml: the
+//! ball = [150.0, 0.0, 100.0]                  # plugin's keys, written into the session as
+//! mount = "ball-on-table"                     # given (R-test: or "ball-in-spindle"; default
+//!                                             # "ball-on-table", plugins/rtest)
 //!
 //! [nuisance.ball1]                            # true nuisance values (their units, e.g. um)
 //! ball_x = 3.0

@@ -20,8 +20,8 @@ fn session(dir: &Path) -> std::path::PathBuf {
     let mut plan = format!(
         "machine = {:?}\ntruth = {:?}\nseed = 11\ninterval_s = 0.5\n[identify]\n\
          parameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\", \"EY0A\", \"EZ0A\", \"EB0A\", \"EC0A\", \"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n\
-         [setup.low]\nball = [100.0, 0.0, 200.0]\nball_free = false\ntool_length_free = false\n\
-         [setup.high]\nball = [100.0, 0.0, 300.0]\nball_free = false\ntool_length_free = false\n",
+         [setup.low]\nball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"\nball_free = false\ntool_length_free = false\n\
+         [setup.high]\nball = [100.0, 0.0, 300.0]\nmount = \"ball-in-spindle\"\nball_free = false\ntool_length_free = false\n",
         repo.join("machines/mcu630-cafyxz.urdf"),
         repo.join("examples/five-axis/truth.params.toml"),
     );

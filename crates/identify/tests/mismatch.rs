@@ -18,7 +18,8 @@ fn plan(dir: &Path, seed: u64) -> PathBuf {
         "machine = {machine:?}\ntruth = {truth:?}\nseed = {seed}\ninterval_s = 1.0\n[identify]\n\
          parameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\", \"EY0A\", \"EZ0A\", \"EB0A\", \"EC0A\", \
          \"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n\
-         [setup.low]\nball = [100.0, 0.0, 200.0]\n[setup.high]\nball = [100.0, 0.0, 300.0]\n"
+         [setup.low]\nball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"\n\
+         [setup.high]\nball = [100.0, 0.0, 300.0]\nmount = \"ball-in-spindle\"\n"
     );
     for (name, setup, path) in [
         ("xyc-a0", "low", "{ kind = \"xyc\", samples = 181 }"),

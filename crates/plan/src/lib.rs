@@ -45,7 +45,7 @@
 //! instrument = "rtest"
 //! choose = 2               # how many positions
 //! position = "ball"        # the set-up key that takes the position (default per instrument)
-//! setup = { head = "ideal" }   # the set-up's other keys
+//! setup = { head = "ideal", mount = "ball-on-table" }   # the set-up's other keys
 //! grid = { x = [0.0, 100.0, 200.0], y = [0.0], z = [150.0, 250.0] }  # or points = [[x,y,z]..]
 //! max_radius_mm = 280.0    # fixture limits: within this radius of the workpiece origin,
 //! height_mm = [50.0, 300.0]    # and this high above the table top
@@ -66,8 +66,11 @@
 //! # Collision geometry
 //! Machine: every link's `<collision>` boxes, cylinders, spheres and capsules, placed by the
 //! nominal forward kinematics; meshes are reported as not checked. Instruments (sizes in
-//! `[geometry]`): on the tool a ball, a stem and a holder up to the gauge point; R-test: the
-//! head below the ball and its post down to the table top; ball-bar: the pivot ball, its post
+//! `[geometry]`): on the tool a ball, a stem and a holder up to the gauge point; R-test with
+//! `mount = "ball-on-table"` (the plugin's default, written into every planned R-test set-up):
+//! the ball on a post on the table, the head on the tool above it (in the ball's place); with
+//! `mount = "ball-in-spindle"`: the head below the ball and its post down to the table top;
+//! ball-bar: the pivot ball, its post
 //! and the bar (a capsule, shortened at both ends by the cups); artefact: the plate of each
 //! placement. Checked pairs: machine bodies of different branches that are not carried one
 //! by the other; tool-side bodies against every machine body but the one carrying the tool

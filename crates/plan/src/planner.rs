@@ -447,6 +447,27 @@ impl Ctx<'_> {
             .map_err(|m| err(format!("run `{name}`: {m}")))
     }
 
+    /// `setup` with an R-test's `mount` written out when it is left to the plugin's default
+    /// (`"ball-on-table"`, taken from the loaded set-up), so that the plan — and the session
+    /// simulated from it — says which mounting it was planned and collision-checked for. Other
+    /// set-ups, and set-ups that do not load (the caller reports why), are returned as given.
+    fn explicit_mount(&self, instrument: &str, setup: &toml::Table) -> toml::Table {
+        let mut out = setup.clone();
+        if instrument != "rtest" || setup.contains_key("mount") {
+            return out;
+        }
+        let ctx = SetupContext {
+            machine: &self.tooled,
+        };
+        let loaded = mtcal_instrument::find(instrument)
+            .and_then(|p| (p.load_setup)(setup, &ctx).ok())
+            .map(|s| s.to_toml());
+        if let Some(mount) = loaded.as_ref().and_then(|t| t.get("mount")) {
+            out.insert("mount".into(), mount.clone());
+        }
+        out
+    }
+
     /// Loads the set-up and generates the path; `Err` says why not.
     #[allow(clippy::too_many_arguments)]
     fn make_run(
@@ -473,6 +494,7 @@ impl Ctx<'_> {
             machine: &self.tooled,
         };
         (plugin.load_setup)(setup, &ctx).map_err(|e| format!("set-up: {e}"))?;
+        let setup = &self.explicit_mount(instrument, setup);
         let spec = PathSpec {
             path,
             setup,
@@ -636,6 +658,7 @@ impl Ctx<'_> {
                 key.clone(),
                 toml::Value::Array(pos.iter().map(|&v| toml::Value::Float(v)).collect()),
             );
+            let setup = self.explicit_mount(instrument, &setup);
             let mut report = CandidateReport {
                 group: g.name.get_ref().clone(),
                 name: name.clone(),

@@ -17,11 +17,14 @@ pub struct GeometryConfig {
     pub holder_diameter_mm: f64,
     pub holder_length_mm: f64,
     pub stem_diameter_mm: f64,
-    /// R-test: the spindle ball, the head (nest) below it and its post.
+    /// R-test: the ball, the head (nest) and the post on the table. `mount = "ball-on-table"`
+    /// (the default): the ball on the post, the head hanging from the holder above it;
+    /// `"ball-in-spindle"`: the ball on the stem, the head below it on the post.
     pub rtest_ball_diameter_mm: f64,
     pub rtest_head_diameter_mm: f64,
     pub rtest_head_height_mm: f64,
-    /// How far the head's top lies below the ball centre.
+    /// How far the head's near face lies from the ball centre (its bottom above it in the
+    /// spindle, its top below it on the table).
     pub rtest_head_gap_mm: f64,
     pub rtest_post_diameter_mm: f64,
     /// Ball-bar: both balls, the bar (a capsule between them, shortened at each end by the
@@ -214,7 +217,62 @@ pub fn instrument_bodies(
     let mm = 1e-3;
     let table_z = g.table_z_mm * mm;
     match instrument {
+        "rtest" if setup.get("mount").and_then(|v| v.as_str()) != Some("ball-in-spindle") => {
+            // Ball on the table (the plugin's default mount): the ball on its post, the head
+            // hanging from the holder, its bottom `gap` above the ball centre, and a stem from
+            // the head's top up to the holder.
+            let b = vec3(setup, "ball")?;
+            let r = 0.5 * g.rtest_ball_diameter_mm * mm;
+            let mut bodies = vec![InstrumentBody {
+                name: "rtest ball".into(),
+                mount: Mount::Workpiece,
+                offset: at(b),
+                primitive: Primitive::Sphere { radius: r },
+                only_label: None,
+            }];
+            bodies.extend(column(
+                "rtest post",
+                b.x,
+                b.y,
+                table_z,
+                b.z - r,
+                0.5 * g.rtest_post_diameter_mm * mm,
+            ));
+            let head_bottom = g.rtest_head_gap_mm * mm;
+            let head_top = head_bottom + g.rtest_head_height_mm * mm;
+            let holder_start = (tool_length - g.holder_length_mm * mm).max(head_top);
+            for (name, z0, z1, radius) in [
+                (
+                    "rtest head",
+                    head_bottom,
+                    head_top,
+                    0.5 * g.rtest_head_diameter_mm,
+                ),
+                ("stem", head_top, holder_start, 0.5 * g.stem_diameter_mm),
+                (
+                    "holder",
+                    holder_start,
+                    tool_length,
+                    0.5 * g.holder_diameter_mm,
+                ),
+            ] {
+                if z1 - z0 > 1e-9 {
+                    bodies.push(InstrumentBody {
+                        name: name.into(),
+                        mount: Mount::Tool,
+                        offset: at(Vector3::new(0.0, 0.0, 0.5 * (z0 + z1))),
+                        primitive: Primitive::Cylinder {
+                            radius: radius * mm,
+                            half_length: 0.5 * (z1 - z0),
+                        },
+                        only_label: None,
+                    });
+                }
+            }
+            Some((bodies, vec![("rtest ball".into(), "rtest head".into())]))
+        }
         "rtest" => {
+            // Ball in the spindle: the ball on the tool point, the head below it on its post.
             let b = vec3(setup, "ball")?;
             let r = 0.5 * g.rtest_ball_diameter_mm * mm;
             let mut bodies = tool_side("rtest ball", r, tool_length, g);

@@ -582,3 +582,105 @@ runs = [ {{ name = "probe", path = {{}} }} ]
         assert!((got[2] + 500.0).abs() < 1e-4, "{got:?}");
     }
 }
+
+/// The R-test's bodies follow its `mount`: ball on the table (the default) puts the ball on a
+/// post and the head on the tool above it; ball in the spindle the ball on the tool and the
+/// head on a post below it.
+#[test]
+fn rtest_bodies_follow_the_mount() {
+    use mtcal_plan::scene::Mount;
+    let m = machine("mcu630-cafyxz.urdf");
+    let cfg = GeometryConfig::default();
+    let bodies = |extra: &str| {
+        let setup: toml::Table =
+            toml::from_str(&format!("ball = [100.0, 0.0, 200.0]\n{extra}")).unwrap();
+        instrument_bodies("rtest", &setup, 0.12, &m, &cfg).unwrap()
+    };
+    let find = |b: &[mtcal_plan::scene::InstrumentBody], name: &str| {
+        b.iter()
+            .find(|x| x.name == name)
+            .unwrap_or_else(|| panic!("{name}"))
+            .clone()
+    };
+    for extra in ["", "mount = \"ball-on-table\""] {
+        let (b, allowed) = bodies(extra);
+        assert_eq!(
+            allowed,
+            [("rtest ball".to_string(), "rtest head".to_string())]
+        );
+        let ball = find(&b, "rtest ball");
+        assert_eq!(ball.mount, Mount::Workpiece);
+        assert!((ball.offset.t - Vector3::new(0.1, 0.0, 0.2)).norm() < 1e-12);
+        // The head hangs from the tool: its bottom 8 mm above the ball centre, 50 mm tall.
+        let head = find(&b, "rtest head");
+        assert_eq!(head.mount, Mount::Tool);
+        assert!((head.offset.t - Vector3::new(0.0, 0.0, 0.033)).norm() < 1e-12);
+        // The post stands on the table top up to the ball's bottom (200 − 11 mm).
+        let post = find(&b, "rtest post");
+        assert_eq!(post.mount, Mount::Workpiece);
+        assert!(
+            (post.offset.t.z - 0.0945).abs() < 1e-12,
+            "{:?}",
+            post.offset
+        );
+        assert_eq!(find(&b, "holder").mount, Mount::Tool);
+    }
+    let (b, _) = bodies("mount = \"ball-in-spindle\"");
+    assert_eq!(find(&b, "rtest ball").mount, Mount::Tool);
+    let head = find(&b, "rtest head");
+    assert_eq!(head.mount, Mount::Workpiece);
+    // The head's top 8 mm below the ball centre: centre at 200 − 8 − 25 mm.
+    assert!((head.offset.t - Vector3::new(0.1, 0.0, 0.167)).norm() < 1e-12);
+}
+
+/// New plans say which R-test mount they were planned for: the plugin's default
+/// (`ball-on-table`) written out where the planning file says nothing, the given one kept.
+#[test]
+fn planned_rtest_set_ups_say_their_mount() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let text = format!(
+        "machine = {machine:?}\nwanted = [\"EX0C\", \"EY0C\"]\ntool_length_mm = 120.0\n\
+         move_step = 0.0\nrandom_trials = 2\n\
+         [setup.fixed]\nball = [100.0, 0.0, 250.0]\n\
+         [[run]]\nname = \"fixed-xyc\"\ninstrument = \"rtest\"\nsetup = \"fixed\"\n\
+         path = {{ kind = \"xyc\", samples = 13 }}\n\
+         [[candidates]]\nname = \"table\"\ninstrument = \"rtest\"\nchoose = 1\n\
+         points = [[150.0, 0.0, 200.0]]\nruns = [{{ name = \"xyc\", path = {{ kind = \"xyc\", samples = 13 }} }}]\n\
+         [[candidates]]\nname = \"spindle\"\ninstrument = \"rtest\"\nchoose = 1\n\
+         setup = {{ mount = \"ball-in-spindle\" }}\n\
+         points = [[150.0, 0.0, 200.0]]\nruns = [{{ name = \"xyc\", path = {{ kind = \"xyc\", samples = 13 }} }}]\n"
+    );
+    let p = dir.path().join("planning.toml");
+    std::fs::write(&p, text).unwrap();
+    let planned = mtcal_plan::plan(&p).unwrap();
+    let mount_of = |run: &str| {
+        let r = planned
+            .runs
+            .iter()
+            .find(|r| r.name == run)
+            .unwrap_or_else(|| panic!("{run} planned"));
+        r.setup
+            .get("mount")
+            .and_then(|v| v.as_str())
+            .map(str::to_string)
+    };
+    assert_eq!(mount_of("fixed-xyc").as_deref(), Some("ball-on-table"));
+    assert_eq!(mount_of("table-01-xyc").as_deref(), Some("ball-on-table"));
+    assert_eq!(
+        mount_of("spindle-01-xyc").as_deref(),
+        Some("ball-in-spindle")
+    );
+    // …and the written plan.toml carries them into simulate.
+    let out = dir.path().join("out");
+    planned.write(&out).unwrap();
+    let plan: toml::Table =
+        toml::from_str(&std::fs::read_to_string(out.join("plan.toml")).unwrap()).unwrap();
+    let setup_mount = |s: &str| plan["setup"][s]["mount"].as_str().map(str::to_string);
+    assert_eq!(setup_mount("fixed").as_deref(), Some("ball-on-table"));
+    assert_eq!(setup_mount("table-01").as_deref(), Some("ball-on-table"));
+    assert_eq!(
+        setup_mount("spindle-01").as_deref(),
+        Some("ball-in-spindle")
+    );
+}

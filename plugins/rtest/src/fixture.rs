@@ -1,6 +1,7 @@
 //! A representative set-up and path on a given machine, for the conformance harness and tests.
 
 use crate::path::{check_machine, path};
+use crate::setup::Mount;
 use mtcal_instrument::{Fixture, PathSpec};
 use mtcal_kinematics::{AxisKind, Machine, Rigid, Side};
 use nalgebra::Vector3;
@@ -16,9 +17,27 @@ const TILTS_DEG: [f64; 4] = [0.0, 20.0, -20.0, 30.0];
 /// A set-up and poses on `machine`: the ball 50–150 mm from the swept rotary axis' line (a
 /// workpiece-side C axis when there is one), the linear axes following it over an xyc-like sweep
 /// of 25 samples, the other rotary axis held at a tilt cycling with the seed; even seeds use
-/// the ideal head, odd seeds the three-sensor head. `None` for machines without a rotary axis
-/// (or with other than three linear axes), or if no ball position within reach is found.
+/// the ideal head, odd seeds the three-sensor head; the mount is [`fixture_mount`]'s. `None`
+/// for machines without a rotary axis (or with other than three linear axes), or if no ball
+/// position within reach is found.
 pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
+    fixture_with_mount(machine, seed, fixture_mount(seed))
+}
+
+/// The mount [`fixture`] uses for a seed: `ball-in-spindle` where bit 1 and bit 2 of the seed
+/// differ. Seeds 0..8 then give each (head, mount) pair twice, and the sensor-geometry
+/// variants (seeds 3 and 7) one on each mount.
+pub fn fixture_mount(seed: u64) -> Mount {
+    if ((seed >> 1) ^ (seed >> 2)) & 1 == 1 {
+        Mount::BallInSpindle
+    } else {
+        Mount::BallOnTable
+    }
+}
+
+/// [`fixture`] with a given mount (written into the set-up as `mount`); the rest as the seed
+/// says.
+pub fn fixture_with_mount(machine: &Machine, seed: u64, mount: Mount) -> Option<Fixture> {
     check_machine(machine).ok()?;
     let axes = machine.axes();
     let rotary: Vec<usize> = (0..machine.n_axes())
@@ -68,7 +87,8 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
     let mid = machine.tool_in_workpiece(&q0).t;
     let line = (axes[swept].side() == Side::Workpiece).then(|| axis_line(machine, swept, &q0));
 
-    let setup = setup_table(seed);
+    let mut setup = setup_table(seed);
+    setup.insert("mount".into(), mount.as_str().into());
     let mut rng = SplitMix(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ 0x5eed);
     for _ in 0..ATTEMPTS {
         let ball = match line {

@@ -1,31 +1,58 @@
-//! The R-test: a precision ball in the spindle, a three-sensor nest ("head") on the table.
+//! The R-test: a precision ball and a three-sensor nest ("head"), one on the table, the other
+//! in the spindle.
 //!
-//! The ball rides on the machine's tool point; the head is fixed to the table (the workpiece
-//! side, so it turns and tilts with the table), its axes aligned with the workpiece frame. In
-//! the "follow the ball" tests the linear axes keep the nominal tool point on the head centre
-//! while the rotary axes sweep, and the head reports where the ball centre really is
-//! (source 000 §3.2, §3.7: MT-Check head, XYC / YZA / XYZAC trajectories).
+//! In the "follow the ball" tests the linear axes keep the nominal tool point on the nominal
+//! ball centre while the rotary axes sweep, and the nest reports the ball centre minus its
+//! own centre along its own axes (source 000 §3.2, §3.7: MT-Check, XYC / YZA / XYZAC
+//! trajectories). Which part sits where is the set-up key `mount` (FORMATS.md v1.1):
+//!
+//! - `"ball-on-table"` (**the default**): the ball is fixed to the table at `ball` and turns
+//!   and tilts with it; the nest is in the spindle on the tool point, its axes the tool
+//!   frame's (the machine X/Y/Z wherever the spindle does not tilt). This is source 000's
+//!   MT-Check set-up and what FORMATS.md v1 always meant by `dx, dy, dz`, so a file without
+//!   `mount` must keep meaning it.
+//! - `"ball-in-spindle"`: the ball rides on the tool point; the nest is fixed to the table,
+//!   centred at `ball`, its axes the workpiece axes, turning with the table (the IBS R-test,
+//!   Weikert's R-test).
+//!
+//! The same machine error reads differently in the two: with the nest on the table a C-axis
+//! location error `EX0C` reads (+10, +10, 0) µm at C = 90° where the spindle nest reads
+//! (+10, −10, 0) µm (FORMATS.md, "Worked examples"; `tests/worked_examples.rs`).
 //!
 //! # Measurement model
-//! With the actual tool pose `w_T_t = (R, t)` (workpiece frame) and the nuisance parameters
-//! (deviations from nominal, SI, starting at 0):
+//! With the actual tool pose `w_T_t = (R, t)` (workpiece frame), `ẑ` the tool axis (into the
+//! spindle), and the nuisance parameters (deviations from nominal, SI, starting at 0):
+//! `δb = (ball_x, ball_y, ball_z)`, where the table-side part really is, and `δℓ =
+//! tool_length`, a tool longer by δℓ (the spindle-side part sits δℓ further down the tool axis):
 //!
 //! ```text
-//! ball = t − δℓ·R·ẑ                  a tool longer by δℓ; ẑ = tool axis, into the spindle
-//! head = ball_nominal + δh           δh = (ball_x, ball_y, ball_z)
-//! d    = ball − head                 workpiece frame = the head's own axes
+//! ball-on-table:    B = ball_nominal + δb     ball, on the table
+//!                   n = t − δℓ·R·ẑ            nest centre, in the spindle
+//!                   d = Rᵀ·(B − n) = Rᵀ·(B − t) + δℓ·ẑ        along the nest (= tool) axes
+//! ball-in-spindle:  b = t − δℓ·R·ẑ            ball, on the tool point
+//!                   h = ball_nominal + δb     nest centre, on the table
+//!                   d = b − h                 along the nest (= workpiece) axes
 //! ideal head:         (dx, dy, dz) = d
 //! three-sensor head:  (dx, dy, dz) = N_nom⁻¹ · diag(1 + gᵢ) · N_act · d
 //! ```
 //!
-//! The readings `dx, dy, dz` (µm in files) are the ball centre minus the head centre along the
-//! head's axes. They depend on the tool position and, through the tool-length offset that turns
-//! with the tool, on its orientation; [`Setup::derivatives`](mtcal_instrument::Setup) is
-//! analytic.
+//! The readings `dx, dy, dz` (µm in files) are the ball centre minus the nest centre along the
+//! nest's axes. They depend on the tool position and orientation (on the ball-on-table mount
+//! through the nest's axes, on the ball-in-spindle mount through the tool-length offset that
+//! turns with the tool); [`Setup::derivatives`](mtcal_instrument::Setup) is analytic. Under
+//! the left perturbation `t ← t + δt`, `R ← exp([δθ]×)·R`:
 //!
-//! **Three-sensor head.** Sensor i sits below the ball's equator at azimuth 0°, 120°, 240°
-//! about the head's z axis and elevation `e`; its axis points at the ball centre:
-//! `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ, sin e)`. Its flat contact makes it read
+//! ```text
+//! ball-on-table:    ∂d/∂δt = −Rᵀ   ∂d/∂δθ = Rᵀ·[B − t]×   ∂d/∂δb = Rᵀ   ∂d/∂δℓ = ẑ
+//! ball-in-spindle:  ∂d/∂δt = I     ∂d/∂δθ = δℓ·[R·ẑ]×     ∂d/∂δb = −I   ∂d/∂δℓ = −R·ẑ
+//! ```
+//!
+//! **Three-sensor head.** Sensor i sits at azimuth 0°, 120°, 240° about the nest's z axis and
+//! elevation `e` away from the ball's equator; its axis points at the ball centre. A nest on
+//! the table (`ball-in-spindle`) holds its sensors below the equator,
+//! `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ, sin e)`; a nest hanging from the spindle
+//! (`ball-on-table`) above it, pointing down: the same mirrored in z,
+//! `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ, −sin e)`. Its flat contact makes it read
 //! `mᵢ = nᵢ·d` exactly (positive when the ball centre moves away from the sensor along its
 //! axis), whatever the ball's radius: the ball diameter does not enter flat-contact readings
 //! (it would for spherical contacts, whose contact point moves on the ball). The head converts
@@ -33,25 +60,28 @@
 //! `nᵢ`), so with zero geometry errors it reads exactly what the ideal head reads. Geometry
 //! errors per sensor: a gain error `gᵢ` and a direction error, `nᵢ' = (nᵢ + aᵢ·uᵢ + bᵢ·vᵢ) /
 //! √(1 + aᵢ² + bᵢ²)` with `uᵢ = ∂nᵢ/∂φᵢ` (unit, towards increasing azimuth) and
-//! `vᵢ = ∂nᵢ/∂e` (towards increasing elevation). At the default elevation `asin(1/√3)` ≈
-//! 35.26° the three directions are orthogonal.
+//! `vᵢ = ∂nᵢ/∂e` (towards increasing elevation, i.e. away from the equator; mirrored in z
+//! with `nᵢ`). At the default elevation `asin(1/√3)` ≈ 35.26° the three directions are
+//! orthogonal.
 //!
 //! # Set-up keys (`[run.setup]` or `[setup.<name>]`)
 //! | key | default | meaning |
 //! |---|---|---|
-//! | `ball` | required | `[x, y, z]` mm, nominal ball (= head) centre, workpiece frame |
+//! | `ball` | required | `[x, y, z]` mm, nominal centre of the table-side part (the ball, or the nest on `ball-in-spindle`; nominally the ball and nest centres coincide), workpiece frame |
+//! | `mount` | `"ball-on-table"` | which part sits where: `"ball-on-table"` (ball on the table, nest in the spindle) or `"ball-in-spindle"` (ball on the tool point, nest on the table) |
 //! | `head` | `"ideal"` | head model: `"ideal"` or `"three-sensor"` |
 //! | `sigma_um` | `0.5` | µm, standard deviation of one reading (each of `dx, dy, dz`), > 0 |
 //! | `range_um` | `2000` | µm, the measuring range of each reading (±): a run file with a reading beyond it is refused, naming the cell, > 0 |
-//! | `ball_free` | `true` | fit the head position offset (nuisance `ball_x`, `ball_y`, `ball_z`, µm) |
-//! | `tool_length_free` | `true` | fit the tool-length error (nuisance `tool_length`, µm, positive = longer tool: the ball moves by −δℓ along the tool axis) |
+//! | `ball_free` | `true` | fit where the table-side part really is (nuisance `ball_x`, `ball_y`, `ball_z`, µm, workpiece frame) |
+//! | `tool_length_free` | `true` | fit the tool-length error (nuisance `tool_length`, µm, positive = longer tool: the spindle-side part — ball or nest — moves by −δℓ along the tool axis) |
 //! | `ball_diameter_mm` | `22.0` | three-sensor only: ball diameter, mm (documentation; flat contacts do not see it) |
-//! | `sensor_elevation_deg` | `35.264…` | three-sensor only: sensor elevation below the ball's equator, strictly between 0 and 90° |
+//! | `sensor_elevation_deg` | `35.264…` | three-sensor only: sensor elevation away from the ball's equator (below it on a table nest, above it on a spindle nest), strictly between 0 and 90° |
 //! | `sensor_geometry_free` | `false` | three-sensor only: fit the sensor gain and direction errors |
 //! | `sensor_gain_u_ppm` | none | three-sensor, geometry free only: prior standard deviation of the gain errors, ppm |
 //! | `sensor_angle_u_urad` | none | three-sensor, geometry free only: prior standard deviation of the direction errors, µrad |
 //!
-//! Unknown keys, and three-sensor keys on the ideal head, are rejected with a
+//! Unknown keys, unknown `mount` or `head` values, and three-sensor keys on the ideal head, are
+//! rejected with a
 //! [`SetupError`](mtcal_instrument::SetupError) naming them.
 //!
 //! Nuisance parameters, always in this order (the flags only say which are free):
@@ -81,21 +111,21 @@ mod fixture;
 mod path;
 mod setup;
 
-pub use fixture::{axis_line, fixture};
+pub use fixture::{axis_line, fixture, fixture_mount, fixture_with_mount};
 pub use mtcal_instrument::program::nc_program;
 pub use path::{
     DEFAULT_SAMPLES, Kind, PATH_KEYS, Plan, TILT_RANGE_DEG, XYZAC_TILT_DEG, check_machine, path,
     plan, poses,
 };
 pub use setup::{
-    DEFAULT_BALL_DIAMETER_MM, DEFAULT_SIGMA_UM, HeadKind, RTest, SENSOR_AZIMUTHS_DEG, SETUP_KEYS,
-    ThreeSensor, default_sensor_elevation_deg, load, load_setup, sensor_directions,
+    DEFAULT_BALL_DIAMETER_MM, DEFAULT_SIGMA_UM, HeadKind, Mount, RTest, SENSOR_AZIMUTHS_DEG,
+    SETUP_KEYS, ThreeSensor, default_sensor_elevation_deg, load, load_setup, sensor_directions,
 };
 
 inventory::submit! {
     mtcal_instrument::InstrumentPlugin {
         name: "rtest",
-        about: "R-test: spindle ball, three-sensor nest on the table; readings dx, dy, dz (um)",
+        about: "R-test: ball and three-sensor nest (ball on the table by default, or in the spindle); readings dx, dy, dz (um)",
         load_setup,
         fixture,
         path,

@@ -20,6 +20,7 @@ pub fn default_sensor_elevation_deg() -> f64 {
 /// Every key a set-up table may have.
 pub const SETUP_KEYS: &[&str] = &[
     "ball",
+    "mount",
     "head",
     "sigma_um",
     "range_um",
@@ -43,6 +44,58 @@ const THREE_SENSOR_KEYS: &[&str] = &[
 
 /// Sensor azimuths about the head's z axis, degrees.
 pub const SENSOR_AZIMUTHS_DEG: [f64; 3] = [0.0, 120.0, 240.0];
+
+/// Which part of the R-test sits where (set-up key `mount`).
+///
+/// The default is [`Mount::BallOnTable`]: FORMATS.md v1 defined the readings for that
+/// arrangement (source 000's MT-Check), so a file without `mount` means it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mount {
+    /// The ball is fixed to the table at `ball` (workpiece frame) and turns with it; the
+    /// sensor nest is in the spindle, centred on the tool point, its axes the tool frame's.
+    #[default]
+    BallOnTable,
+    /// The ball is on the tool point; the nest is fixed to the table, centred at `ball`, its
+    /// axes the workpiece axes (the IBS R-test, Weikert's R-test).
+    BallInSpindle,
+}
+
+impl Mount {
+    /// Both mounts, the default first.
+    pub const ALL: [Mount; 2] = [Mount::BallOnTable, Mount::BallInSpindle];
+
+    /// The set-up value: `"ball-on-table"` or `"ball-in-spindle"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mount::BallOnTable => "ball-on-table",
+            Mount::BallInSpindle => "ball-in-spindle",
+        }
+    }
+
+    /// Parses a set-up value; the error names the key `mount` and both allowed values.
+    pub fn parse(value: &str) -> Result<Self, SetupError> {
+        Mount::ALL
+            .into_iter()
+            .find(|m| m.as_str() == value)
+            .ok_or_else(|| {
+                SetupError::new(
+                    "mount",
+                    format!(
+                        "unknown mount `{value}`; expected \"ball-on-table\" or \"ball-in-spindle\""
+                    ),
+                )
+            })
+    }
+
+    /// `+1` when the sensors sit below the ball's equator pointing up (the nest on the table),
+    /// `−1` when they hang above it pointing down (the nest in the spindle).
+    fn z_sign(self) -> f64 {
+        match self {
+            Mount::BallOnTable => -1.0,
+            Mount::BallInSpindle => 1.0,
+        }
+    }
+}
 
 /// Which head model converts the ball displacement into readings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,34 +133,41 @@ pub struct ThreeSensor {
     n_inv: Matrix3<f64>,
 }
 
-/// Nominal sensor directions (rows) for an elevation in degrees: sensor i sits below the ball's
-/// equator at azimuth `SENSOR_AZIMUTHS_DEG[i]` and points at the ball centre,
-/// `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ, sin e)`.
-pub fn sensor_directions(elevation_deg: f64) -> [Vector3<f64>; 3] {
+/// Nominal sensor directions (rows, nest frame) for an elevation in degrees: sensor i sits at
+/// azimuth `SENSOR_AZIMUTHS_DEG[i]` and elevation `e` away from the ball's equator and points
+/// at the ball centre. On the table (`ball-in-spindle`) the nest holds its sensors below the
+/// equator, `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ, sin e)`; hanging from the spindle
+/// (`ball-on-table`) above it, the same mirrored in z, `nᵢ = (−cos e·cos φᵢ, −cos e·sin φᵢ,
+/// −sin e)`.
+pub fn sensor_directions(elevation_deg: f64, mount: Mount) -> [Vector3<f64>; 3] {
     let (se, ce) = elevation_deg.to_radians().sin_cos();
+    let zs = mount.z_sign();
     SENSOR_AZIMUTHS_DEG.map(|phi| {
         let (sp, cp) = phi.to_radians().sin_cos();
-        Vector3::new(-ce * cp, -ce * sp, se)
+        Vector3::new(-ce * cp, -ce * sp, zs * se)
     })
 }
 
 impl ThreeSensor {
     fn new(
+        mount: Mount,
         ball_diameter_mm: f64,
         elevation_deg: f64,
         geometry_free: bool,
         gain_u_ppm: Option<f64>,
         angle_u_urad: Option<f64>,
     ) -> Result<Self, SetupError> {
-        let n = sensor_directions(elevation_deg);
+        let n = sensor_directions(elevation_deg, mount);
         let (se, ce) = elevation_deg.to_radians().sin_cos();
+        // The elevation error turns nᵢ away from the equator; mirrored with nᵢ.
+        let zs = mount.z_sign();
         let u = SENSOR_AZIMUTHS_DEG.map(|phi| {
             let (sp, cp) = phi.to_radians().sin_cos();
             Vector3::new(sp, -cp, 0.0)
         });
         let v = SENSOR_AZIMUTHS_DEG.map(|phi| {
             let (sp, cp) = phi.to_radians().sin_cos();
-            Vector3::new(se * cp, se * sp, ce)
+            Vector3::new(se * cp, se * sp, zs * ce)
         });
         let nn = Matrix3::from_rows(&[n[0].transpose(), n[1].transpose(), n[2].transpose()]);
         let n_inv = nn
@@ -160,12 +220,14 @@ enum Head {
 
 /// A loaded R-test set-up.
 ///
-/// Nuisance parameters, in order: `ball_x, ball_y, ball_z` (µm, where the head centre really
-/// is relative to `ball`), `tool_length` (µm, positive = a longer tool), and for the
+/// Nuisance parameters, in order: `ball_x, ball_y, ball_z` (µm, where the table-side part —
+/// the ball on `ball-on-table`, the nest on `ball-in-spindle` — really is relative to `ball`),
+/// `tool_length` (µm, positive = a longer tool), and for the
 /// three-sensor head, per sensor i = 1, 2, 3: `sensor<i>_gain` (ppm), `sensor<i>_azimuth` and
 /// `sensor<i>_elevation` (µrad, direction errors towards increasing azimuth and elevation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RTest {
+    mount: Mount,
     ball_mm: [f64; 3],
     ball_m: Vector3<f64>,
     sigma_um: f64,
@@ -183,14 +245,21 @@ const TOOL_LENGTH: usize = 3;
 const SENSORS: usize = 4;
 
 impl RTest {
-    /// Nominal head (= ball) centre in the workpiece frame, mm, as written in the set-up.
+    /// Nominal centre of the table-side part (the ball on `ball-on-table`, the nest on
+    /// `ball-in-spindle`; both centres coincide nominally) in the workpiece frame, mm, as
+    /// written in the set-up.
     pub fn ball_mm(&self) -> [f64; 3] {
         self.ball_mm
     }
 
-    /// Nominal head centre in the workpiece frame, m.
+    /// [`RTest::ball_mm`] in m.
     pub fn ball_m(&self) -> Vector3<f64> {
         self.ball_m
+    }
+
+    /// Which part sits where.
+    pub fn mount(&self) -> Mount {
+        self.mount
     }
 
     pub fn head_kind(&self) -> HeadKind {
@@ -208,13 +277,24 @@ impl RTest {
         }
     }
 
-    /// The ball-centre displacement `ball − head` in the workpiece frame (m), and the tool axis.
+    /// The ball centre minus the nest centre along the nest's axes (m): what the ideal head
+    /// reads.
     #[inline]
-    fn displacement(&self, at: &At<'_>, nuis: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
-        let z = at.w_t_t.r.column(2).into_owned();
-        let ball = at.w_t_t.t - z * nuis[TOOL_LENGTH];
-        let head = self.ball_m + Vector3::new(nuis[0], nuis[1], nuis[2]);
-        (ball - head, z)
+    fn displacement(&self, at: &At<'_>, nuis: &[f64]) -> Vector3<f64> {
+        let (r, t) = (&at.w_t_t.r, &at.w_t_t.t);
+        let table_part = self.ball_m + Vector3::new(nuis[0], nuis[1], nuis[2]);
+        let l = nuis[TOOL_LENGTH];
+        match self.mount {
+            // Ball at t − δℓ·R·ẑ, nest at the table part; the nest's axes are the workpiece's.
+            Mount::BallInSpindle => t - r.column(2) * l - table_part,
+            // Ball at the table part, nest at n = t − δℓ·R·ẑ with the tool's axes:
+            // Rᵀ·(B − n) = Rᵀ·(B − t) + δℓ·ẑ.
+            Mount::BallOnTable => {
+                let mut d = r.tr_mul(&(table_part - t));
+                d.z += l;
+                d
+            }
+        }
     }
 
     /// `∂reading/∂(ball − head)`: identity for the ideal head, `N_nom⁻¹·diag(1+g)·N_act` for
@@ -236,6 +316,12 @@ impl RTest {
     }
 }
 
+/// `[v]×`, the cross-product matrix: `[v]×·w = v × w`.
+#[inline]
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
 fn um(name: &str, free: bool) -> Nuisance {
     Nuisance {
         name: name.into(),
@@ -252,9 +338,14 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
     let ball_mm = read::vec3(table, "ball")?.ok_or_else(|| {
         SetupError::new(
             "ball",
-            "missing: the nominal ball (head) centre [x, y, z], mm, in the workpiece frame",
+            "missing: the nominal centre of the table-side part (ball or nest) [x, y, z], mm, \
+             in the workpiece frame",
         )
     })?;
+    let mount = match read::string(table, "mount")? {
+        None => Mount::default(),
+        Some(v) => Mount::parse(v)?,
+    };
     let head_kind = match read::string(table, "head")?.unwrap_or("ideal") {
         "ideal" => HeadKind::Ideal,
         "three-sensor" => HeadKind::ThreeSensor,
@@ -322,6 +413,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
                 }
             }
             Head::ThreeSensor(Box::new(ThreeSensor::new(
+                mount,
                 diameter,
                 elevation,
                 geometry_free,
@@ -364,6 +456,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
         }
     }
     Ok(RTest {
+        mount,
         ball_mm,
         ball_m: Vector3::from(ball_mm) * 1e-3,
         sigma_um,
@@ -398,7 +491,7 @@ impl Setup for RTest {
     }
 
     fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]) {
-        let (d, _) = self.displacement(at, nuis);
+        let d = self.displacement(at, nuis);
         let r = match self.head {
             Head::Ideal => d,
             Head::ThreeSensor(_) => self.conversion(nuis) * d,
@@ -413,19 +506,32 @@ impl Setup for RTest {
         d_pose: &mut [f64],
         d_nuis: &mut [f64],
     ) -> bool {
-        let (d, z) = self.displacement(at, nuis);
+        let d = self.displacement(at, nuis);
         let a = self.conversion(nuis);
         let l = nuis[TOOL_LENGTH];
-        // ∂(ball − head)/∂pose = [I | δℓ·[z]×]: the ball sits at −δℓ·z from the tool point.
-        let zx = Matrix3::new(0.0, -z.z, z.y, z.z, 0.0, -z.x, -z.y, z.x, 0.0) * l;
-        let a_rot = a * zx;
-        let a_len = -(a * z);
+        let (r, t) = (&at.w_t_t.r, &at.w_t_t.t);
+        // Left perturbation t ← t + δt, R ← exp([δθ]×)·R; `d` the ideal reading.
+        let (a_trans, a_rot, a_ball, a_len) = match self.mount {
+            Mount::BallInSpindle => {
+                // d = t − δℓ·R·ẑ − B: ∂/∂δt = I; R·ẑ ← R·ẑ + δθ × R·ẑ gives
+                // ∂/∂δθ = δℓ·[R·ẑ]×; ∂/∂δb = −I; ∂/∂δℓ = −R·ẑ.
+                let z = r.column(2).into_owned();
+                (a, a * skew(&z) * l, -a, -(a * z))
+            }
+            Mount::BallOnTable => {
+                // d = Rᵀ·(B − t) + δℓ·ẑ: ∂/∂δt = −Rᵀ; Rᵀ ← Rᵀ·(I − [δθ]×) gives
+                // −Rᵀ·[δθ]×·(B − t) = Rᵀ·[B − t]×·δθ; ∂/∂δb = Rᵀ; ∂/∂δℓ = ẑ.
+                let ar = a * r.transpose();
+                let b = self.ball_m + Vector3::new(nuis[0], nuis[1], nuis[2]);
+                (-ar, ar * skew(&(b - t)), ar, a.column(2).into_owned())
+            }
+        };
         let nn = self.nuisance.len();
         for c in 0..3 {
             for j in 0..3 {
-                d_pose[c * 6 + j] = a[(c, j)];
+                d_pose[c * 6 + j] = a_trans[(c, j)];
                 d_pose[c * 6 + 3 + j] = a_rot[(c, j)];
-                d_nuis[c * nn + j] = -a[(c, j)];
+                d_nuis[c * nn + j] = a_ball[(c, j)];
             }
             d_nuis[c * nn + TOOL_LENGTH] = a_len[c];
         }
@@ -454,6 +560,7 @@ impl Setup for RTest {
             "ball".into(),
             toml::Value::Array(self.ball_mm.iter().map(|&v| v.into()).collect()),
         );
+        t.insert("mount".into(), self.mount.as_str().into());
         t.insert("head".into(), self.head_kind().as_str().into());
         t.insert("sigma_um".into(), self.sigma_um.into());
         t.insert("range_um".into(), self.range_um.into());

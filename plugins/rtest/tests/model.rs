@@ -2,7 +2,7 @@
 
 use mtcal_instrument::{At, Setup, SetupContext};
 use mtcal_kinematics::{Machine, ik};
-use mtcal_rtest::{HeadKind, RTest, load, sensor_directions};
+use mtcal_rtest::{HeadKind, Mount, RTest, load, sensor_directions};
 use nalgebra::Vector3;
 
 fn mcu630() -> Machine {
@@ -49,7 +49,12 @@ fn read(s: &RTest, machine: &Machine, q: &[f64], nuis: &[f64]) -> [f64; 3] {
 #[test]
 fn a_head_offset_by_plus_5_um_in_x_reads_minus_5_um() {
     let m = mcu630();
-    let s = setup(&m, "ball = [100.0, 0.0, 200.0]");
+    // The nest on the table, its axes the workpiece's whatever C does.
+    let s = setup(
+        &m,
+        "ball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"",
+    );
+    assert_eq!(s.mount(), Mount::BallInSpindle);
     assert_eq!(s.head_kind(), HeadKind::Ideal);
     assert_eq!(s.channels().len(), 3);
     let names: Vec<&str> = s.nuisance().iter().map(|n| n.name.as_str()).collect();
@@ -63,9 +68,49 @@ fn a_head_offset_by_plus_5_um_in_x_reads_minus_5_um() {
 }
 
 #[test]
-fn a_10_um_longer_tool_at_a_30_deg_reads_along_the_tilted_tool_axis() {
+fn a_table_ball_offset_by_plus_5_um_in_x_reads_along_the_turned_nest_axes() {
     let m = mcu630();
     let s = setup(&m, "ball = [100.0, 0.0, 200.0]");
+    assert_eq!(s.mount(), Mount::BallOnTable, "the default");
+    // The ball turns with the table, the nest's axes stay the machine's: the workpiece's +X
+    // is the machine's +X at C = 0; mtcal's +C turns the tool about the workpiece's +Z
+    // (the table clockwise seen from +Z), so at C = 90° the workpiece's +X points along the
+    // machine's −Y, at C = 180° along −X, at C = 270° along +Y.
+    for (c_deg, want) in [
+        (0.0, [5e-6, 0.0, 0.0]),
+        (90.0, [0.0, -5e-6, 0.0]),
+        (180.0, [-5e-6, 0.0, 0.0]),
+        (270.0, [0.0, 5e-6, 0.0]),
+    ] {
+        let q = pose_at(&m, [100.0, 0.0, 200.0], 0.0, c_deg);
+        let r = read(&s, &m, &q, &[5e-6, 0.0, 0.0, 0.0]);
+        for i in 0..3 {
+            assert!((r[i] - want[i]).abs() < 1e-15, "C = {c_deg}: {r:?}");
+        }
+    }
+}
+
+#[test]
+fn a_10_um_longer_tool_reads_plus_10_um_in_z_of_the_spindle_nest_at_any_tilt() {
+    let m = mcu630();
+    let s = setup(&m, "ball = [100.0, 0.0, 200.0]\nmount = \"ball-on-table\"");
+    // The nest centre sits 10 µm further down the tool axis, the ball 10 µm above it along
+    // the nest's own z, whatever A and C are.
+    for (a_deg, c_deg) in [(0.0, 0.0), (30.0, 0.0), (-20.0, 125.0)] {
+        let q = pose_at(&m, [100.0, 0.0, 200.0], a_deg, c_deg);
+        let r = read(&s, &m, &q, &[0.0, 0.0, 0.0, 10e-6]);
+        assert!(r[0].abs() < 1e-15 && r[1].abs() < 1e-15, "{r:?}");
+        assert!((r[2] - 10e-6).abs() < 1e-15, "{r:?}");
+    }
+}
+
+#[test]
+fn a_10_um_longer_tool_at_a_30_deg_reads_along_the_tilted_tool_axis() {
+    let m = mcu630();
+    let s = setup(
+        &m,
+        "ball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"",
+    );
     let q = pose_at(&m, [100.0, 0.0, 200.0], 30.0, 0.0);
     // Positive A turns the tool relative to the workpiece positively about +X: the tool axis
     // in the workpiece frame is (0, −sin 30°, cos 30°), and the ball of a longer tool sits
@@ -88,11 +133,21 @@ fn a_10_um_longer_tool_at_a_30_deg_reads_along_the_tilted_tool_axis() {
 #[test]
 fn the_three_sensor_head_without_geometry_errors_reads_as_the_ideal_head() {
     let m = mcu630();
-    let ideal = setup(&m, "ball = [100.0, 0.0, 200.0]");
-    for elevation in ["", "sensor_elevation_deg = 50.0\n"] {
+    for (mount, elevation) in Mount::ALL
+        .into_iter()
+        .flat_map(|m| [(m, ""), (m, "sensor_elevation_deg = 50.0\n")])
+    {
+        let mount = mount.as_str();
+        let ideal = setup(
+            &m,
+            &format!("ball = [100.0, 0.0, 200.0]\nmount = \"{mount}\""),
+        );
         let three = setup(
             &m,
-            &format!("ball = [100.0, 0.0, 200.0]\nhead = \"three-sensor\"\n{elevation}"),
+            &format!(
+                "ball = [100.0, 0.0, 200.0]\nmount = \"{mount}\"\nhead = \"three-sensor\"\n\
+                 {elevation}"
+            ),
         );
         assert_eq!(three.nuisance().len(), 4 + 9);
         assert!(three.nuisance()[4..].iter().all(|n| !n.free));
@@ -114,14 +169,36 @@ fn the_three_sensor_head_without_geometry_errors_reads_as_the_ideal_head() {
 
 #[test]
 fn the_default_sensor_directions_are_orthonormal_and_point_at_the_ball() {
-    let n = sensor_directions(mtcal_rtest::default_sensor_elevation_deg());
+    let e = mtcal_rtest::default_sensor_elevation_deg();
+    let table = sensor_directions(e, Mount::BallInSpindle);
+    let spindle = sensor_directions(e, Mount::BallOnTable);
     for i in 0..3 {
-        assert!((n[i].norm() - 1.0).abs() < 1e-15);
-        // Below the equator, pointing up at the centre.
-        assert!(n[i].z > 0.0);
+        assert!((table[i].norm() - 1.0).abs() < 1e-15);
+        // The nest on the table: below the equator, pointing up at the centre.
+        assert!(table[i].z > 0.0);
+        // The nest in the spindle: above it, pointing down; the same mirrored in z.
+        assert!(spindle[i].z < 0.0);
+        assert_eq!(spindle[i].xy(), table[i].xy());
+        assert_eq!(spindle[i].z, -table[i].z);
         for j in 0..i {
-            assert!(n[i].dot(&n[j]).abs() < 1e-15);
+            assert!(table[i].dot(&table[j]).abs() < 1e-15);
+            assert!(spindle[i].dot(&spindle[j]).abs() < 1e-15);
         }
+    }
+}
+
+#[test]
+fn a_spindle_nest_sensor_pointing_down_reads_a_ball_below_it_as_positive() {
+    // Sensor 1 of the spindle nest at elevation 35.26° reads mᵢ = nᵢ·d: a ball centre that
+    // moves down (−z in the nest frame) moves away from a sensor above it, so with the tool
+    // 10 µm longer (the nest 10 µm lower, d = +10 µm ẑ) every sensor sees the ball come closer.
+    let n = sensor_directions(
+        mtcal_rtest::default_sensor_elevation_deg(),
+        Mount::BallOnTable,
+    );
+    let d = Vector3::new(0.0, 0.0, 10e-6);
+    for ni in n {
+        assert!(ni.dot(&d) < 0.0);
     }
 }
 
@@ -147,12 +224,47 @@ fn set_up_errors_name_the_key() {
             "sensor_gain_u_ppm",
         ),
         ("ball = [0, 0, 0]\nball_fre = true", "ball_fre"),
+        ("ball = [0, 0, 0]\nmount = \"sideways\"", "mount"),
+        ("ball = [0, 0, 0]\nmount = 1", "mount"),
         ("ball = [0, 0, 0]\ntool_length_free = 1", "tool_length_free"),
     ];
     for (text, key) in cases {
         let t: toml::Table = toml::from_str(text).expect("toml");
         let e = load(&t, &ctx).expect_err(text);
         assert_eq!(e.key, key, "{text}: {e}");
+    }
+}
+
+#[test]
+fn an_unknown_mount_names_the_key_and_both_values() {
+    let m = mcu630();
+    let t: toml::Table = toml::from_str("ball = [0, 0, 0]\nmount = \"sideways\"").expect("toml");
+    let e = load(&t, &SetupContext { machine: &m }).expect_err("sideways");
+    assert_eq!(e.key, "mount");
+    assert_eq!(
+        e.message,
+        "unknown mount `sideways`; expected \"ball-on-table\" or \"ball-in-spindle\""
+    );
+}
+
+#[test]
+fn to_toml_writes_the_mount_default_or_given() {
+    let m = mcu630();
+    for (text, want) in [
+        ("ball = [1, 2, 3]", "ball-on-table"),
+        (
+            "ball = [1, 2, 3]\nmount = \"ball-on-table\"",
+            "ball-on-table",
+        ),
+        (
+            "ball = [1, 2, 3]\nmount = \"ball-in-spindle\"",
+            "ball-in-spindle",
+        ),
+    ] {
+        let s = setup(&m, text);
+        assert_eq!(s.to_toml()["mount"].as_str(), Some(want), "{text}");
+        let again = setup(&m, &toml::to_string(&s.to_toml()).expect("toml"));
+        assert_eq!(again, s);
     }
 }
 

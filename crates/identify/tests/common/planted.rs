@@ -3,6 +3,8 @@
 //! not all follow one another), with a spindle-speed programme, a bed temperature that swings
 //! without a trend and a spindle temperature that rises during one XYC run and falls during
 //! another, one repeated reference run at the end, and an XYZAC validation run.
+//! The R-test has its ball in the spindle (`mount = "ball-in-spindle"`): the planted effects'
+//! concealments were designed with the nest's axes turning with the table.
 //! The truth is the example's 11-error set plus the planted effects.
 
 #![allow(dead_code)]
@@ -45,8 +47,10 @@ T_spindle = [[0.0, 20.0], [264.0, 20.0], [336.0, 23.0], [516.0, 23.0], [588.0, 2
 T_bed = [[0.0, 20.5], [150.0, 21.5], [300.0, 20.5], [450.0, 19.5], [600.0, 20.5], [750.0, 21.5], [900.0, 20.5], [1050.0, 19.5], [1200.0, 20.5], [1350.0, 21.5], [1500.0, 20.5]]
 [setup.low]
 ball = [100.0, 0.0, 200.0]
+mount = "ball-in-spindle"
 [setup.high]
 ball = [100.0, 0.0, 300.0]
+mount = "ball-in-spindle"
 [setup.bar]
 pivot = [0.0, 0.0, 250.0]
 length = 100.0
