@@ -715,3 +715,108 @@ fn random_sessions_give_a_result_or_a_clean_error() {
         "only {identified} of {ran} simulated cases were identified"
     );
 }
+
+/// Hard cases by hand, each a corner the random plans reach only by chance.
+#[test]
+fn hand_picked_hard_cases_give_a_result_or_a_clean_error() {
+    let rtest = |setup: &str, kind: &str, noise: &str| {
+        format!(
+            "[[run]]\nname = \"r-{kind}-{setup}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\n\
+             {noise}path = {{ kind = \"{kind}\", samples = 25 }}\n"
+        )
+    };
+    let ball =
+        "[setup.b]\nball = [100.0, 0.0, 250.0]\n[nuisance.b]\nball_x = 3.0\ntool_length = -2.0\n";
+    let circle = "[setup.bar]\npivot = [0.0, 0.0, 250.0]\nlength = 100.0\n[nuisance.bar]\npivot_z = 4.0\n\
+                  [[run]]\nname = \"circle\"\ninstrument = \"ballbar\"\nsetup = \"bar\"\n\
+                  path = { kind = \"circle\", plane = \"XY\", samples = 37 }\n";
+    let laser = "[[run]]\nname = \"laser-y\"\ninstrument = \"laser\"\n\
+                 path = { axis = \"Y\", points = 5, cycles = 1 }\n\
+                 [run.setup]\nmode = \"linear\"\ndirection = \"Y\"\n";
+    let errors = |body: &str| Some(format!("schema = \"mtcal.errors/1\"\n{body}"));
+    let truth = "schema = \"mtcal.params/1\"\n[values]\n".to_string();
+    let cases = [
+        // The empty model: only the set-ups' own offsets are fitted.
+        (
+            "mcu630-cafyxz.urdf",
+            errors("components = \"none\"\nlocations = \"none\"\n"),
+            format!("{ball}{}", rtest("b", "xyc", "")),
+        ),
+        // Noise-free readings on the full default model: χ² = 0.
+        (
+            "mcu630-cafyxz.urdf",
+            None,
+            format!(
+                "{ball}{}{}{circle}",
+                rtest("b", "xyc", "noise = 0.0\n"),
+                rtest("b", "yza", "noise = 0.0\n")
+            ),
+        ),
+        // High-order bases seen by one ball-bar circle: hundreds of null directions.
+        (
+            "mixed-c-table-b-head.urdf",
+            errors(
+                "[basis.linear]\nkind = \"legendre\"\ndegree = 7\n\
+                 [basis.rotary]\nkind = \"fourier\"\nharmonics = 4\n",
+            ),
+            circle.to_string(),
+        ),
+        // Set-up parameters of the model that duplicate the instruments' offsets exactly.
+        (
+            "mcv1000-5ax220-bc.urdf",
+            errors("components = \"none\"\nsetup = [\"TOOL_DZ\", \"WP_DX\", \"WP_DC\"]\n"),
+            format!("{ball}{}{}", rtest("b", "xyc", ""), rtest("b", "zxb", "")),
+        ),
+        // One estimated parameter no run sees, a validation run besides.
+        (
+            "headhead-xyzca.urdf",
+            None,
+            format!(
+                "[identify]\nparameters = [\"EZZ\"]\n{ball}{}[[run]]\nname = \"check\"\n\
+                 instrument = \"rtest\"\nsetup = \"b\"\nuse = \"validate\"\n\
+                 path = {{ kind = \"xyzac\", samples = 13 }}\n",
+                rtest("b", "xyc", "")
+            ),
+        ),
+        // A three-axis machine, its full model, one laser run.
+        ("mcv754-zfyx.urdf", None, laser.to_string()),
+    ];
+    for (i, (machine, errors, plan)) in cases.into_iter().enumerate() {
+        let case = Case {
+            machine: machine.into(),
+            errors,
+            truth: truth.clone(),
+            plan,
+            seed: i as u64,
+        };
+        let outcome = run_case(&case);
+        assert!(
+            !matches!(outcome, Outcome::Refused(_)),
+            "a hand-picked case must simulate: {outcome:?}\n{case:#?}"
+        );
+        eprintln!("{machine}: {outcome:?}");
+    }
+}
+
+/// The finiteness walk finds what `serde_json` would hide as `null`.
+#[test]
+fn the_finiteness_walk_finds_nan_and_infinity() {
+    #[derive(serde::Serialize)]
+    struct Inner {
+        u95: Option<f64>,
+        pairs: Vec<(String, f64)>,
+    }
+    let value = Inner {
+        u95: Some(f64::NAN),
+        pairs: vec![("a".into(), 1.0), ("b".into(), f64::NEG_INFINITY)],
+    };
+    assert_eq!(
+        non_finite(&value),
+        vec![".u95 = NaN", ".pairs[1][1] = -inf"]
+    );
+    let fine = Inner {
+        u95: None,
+        pairs: vec![("a".into(), 0.0)],
+    };
+    assert!(non_finite(&fine).is_empty());
+}
