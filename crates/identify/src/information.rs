@@ -20,7 +20,10 @@
 //! # What a run would add
 //! Repeating run `r` (the same path and set-up, new noise) adds `I_r` once more; the new
 //! covariance follows from Woodbury without refitting:
-//! `C' = C − W_rᵀ (𝟙 + R_r C R_rᵀ)⁻¹ W_r`, `W_r = R_r C`. Any other data (a run moved to
+//! `C' = C − W_rᵀ (𝟙 + R_r C R_rᵀ)⁻¹ W_r`, `W_r = R_r C`, evaluated in the equivalent form
+//! `C' = L (𝟙 + Lᵀ R_rᵀ R_r L)⁻¹ Lᵀ` on the square-root factor `C = L Lᵀ`, which is exact for
+//! the singular (pseudo-inverse) `C` of a rank-deficient fit and cannot turn indefinite by
+//! rounding ([`updated_variances`]). Any other data (a run moved to
 //! another place, another instrument, a planned campaign) is loaded as a session of its own
 //! ([`what_if`]); its set-up parameters are not shared with this session's, so they are
 //! eliminated (Schur complement) and only what it says about the machine's parameters is
@@ -136,53 +139,130 @@ fn run_factor(study: &Study, x: &[f64], runs: &[usize]) -> Result<DMatrix<f64>, 
     Ok(DMatrix::from_row_slice(n, n, &lin.r))
 }
 
-/// The pseudo-inverse of `info` over its `rank` strongest directions (columns scaled to unit
-/// diagonal, as the solver scales them). Parameters correlated with a null direction keep the
-/// variance that correlation gives them; the rows of unidentified parameters are kept too
-/// (they are what makes `C·I·C = C` hold, so the shares add up), but never reported.
-fn truncated_inverse(info: &DMatrix<f64>, rank: usize) -> DMatrix<f64> {
-    let n = info.nrows();
-    let scale: Vec<f64> = (0..n)
-        .map(|i| {
-            let d = info[(i, i)];
-            if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 }
+/// A square-root factor `L` (`n × r`, `C = L Lᵀ`) of the covariance: the pseudo-inverse of
+/// `RᵀR` over its `rank` strongest directions, where `R` (`n × n`) is the information factor
+/// of the whole fit. The column scaling, the visibility rule and the rank are the solver's
+/// ([`mtcal_solve::Options::rank_tolerance`]): columns scaled by their norm but by no less than
+/// `floor` (`1/plausible range`), columns below [`mtcal_solve::visible`] and exactly zero ones
+/// left out of the identified directions, `rank` the solver's. So the `rank` directions kept
+/// are the ones the solver identified.
+///
+/// Why the factor's SVD and not the information matrix's eigen-decomposition: the solver keeps
+/// singular values down to 10⁻⁹ of the largest, whose squares (10⁻¹⁸) are below the rounding
+/// of `RᵀR` (10⁻¹⁶ of its largest eigenvalue). An eigen-decomposition of `RᵀR` then inverts
+/// rounding noise along such directions: a covariance 10¹⁵ times too large, and the Woodbury
+/// update of [`updated_variances`] on it met an indefinite `𝟙 + UᵀCU` (a full default error
+/// model on a five-axis session has many such directions). `R`'s own SVD resolves them.
+/// Parameters correlated with a null direction keep the variance that correlation gives them;
+/// the rows of unidentified parameters are kept too (they are what makes `C·I·C = C` hold, so
+/// the shares add up), but never reported.
+fn covariance_factor(
+    r: &DMatrix<f64>,
+    floor: &[f64],
+    rank: usize,
+) -> Result<DMatrix<f64>, IdentifyError> {
+    let n = r.ncols();
+    if n == 0 {
+        return Ok(DMatrix::zeros(0, 0));
+    }
+    let mut visible = vec![true; n];
+    let d: Vec<f64> = (0..n)
+        .map(|j| {
+            let norm = r.column(j).norm();
+            let f = floor.get(j).copied().unwrap_or(0.0);
+            visible[j] = mtcal_solve::visible(norm, f);
+            let d = norm.max(f);
+            if d > 0.0 { d } else { 1.0 }
         })
         .collect();
-    let scaled = DMatrix::from_fn(n, n, |a, b| info[(a, b)] * scale[a] * scale[b]);
-    let eig = nalgebra::SymmetricEigen::new(scaled);
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-    let mut out = DMatrix::zeros(n, n);
-    for &k in order.iter().take(rank) {
-        let l = eig.eigenvalues[k];
-        if l > 0.0 {
-            let v = eig.eigenvectors.column(k);
-            out += (v * v.transpose()) / l;
+    let scaled = DMatrix::from_fn(r.nrows(), n, |i, j| {
+        if visible[j] { r[(i, j)] / d[j] } else { 0.0 }
+    });
+    let s = checked_svd(scaled, "the scaled information factor")?;
+    let Some(v_t) = s.v_t.as_ref() else {
+        return Err(IdentifyError::Information(
+            "the SVD of the information factor returned no V".into(),
+        ));
+    };
+    let mut order: Vec<usize> = (0..s.singular_values.len()).collect();
+    order.sort_by(|&a, &b| s.singular_values[b].total_cmp(&s.singular_values[a]));
+    let kept: Vec<usize> = order
+        .into_iter()
+        .take(rank)
+        .filter(|&k| s.singular_values[k] > 0.0)
+        .collect();
+    // A zero column lies exactly in the null space; the SVD leaves rounding there (as the
+    // solver does, its rows are cleared).
+    let zero = |j: usize| !visible[j] || r.column(j).iter().all(|&v| v == 0.0);
+    Ok(DMatrix::from_fn(n, kept.len(), |j, a| {
+        let k = kept[a];
+        if zero(j) {
+            0.0
+        } else {
+            v_t[(k, j)] / (s.singular_values[k] * d[j])
         }
-    }
-    for a in 0..n {
-        for b in 0..n {
-            out[(a, b)] *= scale[a] * scale[b];
-        }
-    }
-    out
+    }))
 }
 
-/// Diagonal of `C − W ᵀ (𝟙 + U ᵀ C U)⁻¹ W` with `W = Uᵀ C` for an added information `U Uᵀ`
-/// (`u` is `n × p`): the variances after adding it.
-fn updated_variances(c: &DMatrix<f64>, u: &DMatrix<f64>) -> Vec<f64> {
-    let w = u.transpose() * c;
-    let m = DMatrix::identity(u.ncols(), u.ncols()) + &w * u;
-    let chol = m
-        .cholesky()
-        .expect("𝟙 + Uᵀ C U is positive definite for a positive semi-definite C");
-    let solved = chol.solve(&w);
-    (0..c.nrows())
-        .map(|k| {
-            let drop = w.column(k).dot(&solved.column(k));
-            (c[(k, k)] - drop).max(0.0)
-        })
-        .collect()
+/// The SVD (`V` only) of a matrix that must be finite; an error, never a panic or an endless
+/// iteration, otherwise.
+fn checked_svd(
+    m: DMatrix<f64>,
+    what: &str,
+) -> Result<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>, IdentifyError> {
+    let fail = |why: &str| IdentifyError::Information(format!("{what} {why}"));
+    if !m.iter().all(|v| v.is_finite()) {
+        return Err(fail("is not finite"));
+    }
+    // Golub–Kahan converges in a few sweeps per singular value; the bound only turns a
+    // pathological case into an error.
+    let max_iterations = 1000 * (m.nrows() + m.ncols() + 1);
+    nalgebra::SVD::try_new(m, false, true, f64::EPSILON, max_iterations)
+        .ok_or_else(|| fail("has no converged SVD"))
+}
+
+/// The variances after adding the information `U Uᵀ` (`u` is `n × p`) to a fit of covariance
+/// `C = L Lᵀ` (`l` is `n × r`, from [`covariance_factor`]).
+///
+/// Woodbury gives `C' = C − C U (𝟙 + Uᵀ C U)⁻¹ Uᵀ C`; with `B = Lᵀ U` (`r × p`) the same is,
+/// by the push-through identity, `C' = L (𝟙 + B Bᵀ)⁻¹ Lᵀ`: the posterior of the `r`
+/// identified coordinates `z` (`θ = L z`, prior covariance 𝟙) given the added information
+/// `B Bᵀ` on them. This is exact for every positive semi-definite `C`, singular or not
+/// (information along directions `C` does not cover cannot move the identified ones and drops
+/// out), and it never forms `Uᵀ C U`, whose rounding can make `𝟙 + Uᵀ C U` indefinite when
+/// `C` and `U` are large along the same direction. Instead `𝟙 + B Bᵀ = Tᵀ T` comes from the
+/// Householder QR of the stacked `[𝟙; Bᵀ]` (backward stable; `T`'s diagonal is at least 1 in
+/// magnitude, the pivots of a matrix `⪰ 𝟙`), and the variances are the squared row norms of
+/// `L T⁻¹`: sums of squares, so never negative, and finite. In exact arithmetic
+/// `(𝟙 + B Bᵀ)⁻¹ ⪯ 𝟙`, so no variance grows; the clamp to `C_kk` only removes rounding.
+fn updated_variances(l: &DMatrix<f64>, u: &DMatrix<f64>) -> Result<Vec<f64>, IdentifyError> {
+    let (n, r, p) = (l.nrows(), l.ncols(), u.ncols());
+    let before: Vec<f64> = (0..n).map(|k| l.row(k).norm_squared()).collect();
+    if r == 0 || p == 0 {
+        return Ok(before);
+    }
+    let b = l.transpose() * u;
+    if !b.iter().all(|v| v.is_finite()) {
+        return Err(IdentifyError::Information(
+            "the added information is not finite on the identified parameters".into(),
+        ));
+    }
+    let mut stacked = DMatrix::zeros(r + p, r);
+    stacked.view_mut((0, 0), (r, r)).fill_with_identity();
+    stacked.view_mut((r, 0), (p, r)).copy_from(&b.transpose());
+    let t = stacked.qr().r();
+    // Rows of `L T⁻¹` are the columns of `T⁻ᵀ Lᵀ`.
+    let solved = t
+        .tr_solve_upper_triangular(&l.transpose())
+        .filter(|x| x.iter().all(|v| v.is_finite()))
+        .ok_or_else(|| {
+            IdentifyError::Information(
+                "the updated covariance has no finite factor (𝟙 + BBᵀ lost its pivots)".into(),
+            )
+        })?;
+    Ok((0..n)
+        .map(|k| solved.column(k).norm_squared().min(before[k]))
+        .collect())
 }
 
 /// The fit linearised at its solution, run by run.
@@ -193,8 +273,10 @@ struct Linearised {
     factors: Vec<DMatrix<f64>>,
     /// The priors' information (diagonal).
     prior_info: DVector<f64>,
-    /// The covariance of these very factors.
+    /// The covariance of these very factors, `C = L Lᵀ`.
     c: DMatrix<f64>,
+    /// Its square-root factor `L` (`n × rank`).
+    l: DMatrix<f64>,
 }
 
 fn linearised(study: &Study, solution: &Solution) -> Result<Linearised, IdentifyError> {
@@ -215,17 +297,33 @@ fn linearised(study: &Study, solution: &Solution) -> Result<Linearised, Identify
     );
     // The covariance of these very factors (not the solver's, which comes from its last
     // factor, a chord step earlier): the shares then add up exactly, also along weakly
-    // determined directions where a tiny difference would be amplified.
-    let mut total = DMatrix::from_diagonal(&prior_info);
+    // determined directions where a tiny difference would be amplified. The runs' factors
+    // and the priors' are stacked and reduced by QR one run at a time (`RᵀR = Σ I_r + P`
+    // without ever forming the sum, see `covariance_factor`).
+    let n = x.len();
+    let mut total = DMatrix::from_diagonal(&prior_info.map(f64::sqrt));
     for f in &factors {
-        total += f.transpose() * f;
+        let mut stacked = DMatrix::zeros(2 * n, n);
+        stacked.view_mut((0, 0), (n, n)).copy_from(&total);
+        stacked.view_mut((n, 0), (n, n)).copy_from(f);
+        total = stacked.qr().r();
     }
-    let c = truncated_inverse(&total, solution.rank);
+    let floor: Vec<f64> = specs
+        .iter()
+        .map(|s| {
+            s.scale
+                .filter(|s| *s > 0.0 && s.is_finite())
+                .map_or(0.0, |s| 1.0 / s)
+        })
+        .collect();
+    let l = covariance_factor(&total, &floor, solution.rank)?;
+    let c = &l * l.transpose();
     Ok(Linearised {
         fitted,
         factors,
         prior_info,
         c,
+        l,
     })
 }
 
@@ -237,12 +335,13 @@ pub fn account(study: &Study, solution: &Solution) -> Result<InformationAccount,
         factors,
         prior_info,
         c,
+        l,
     } = linearised(study, solution)?;
     let x = &solution.x;
     let repeats: Vec<Vec<f64>> = factors
         .iter()
-        .map(|f| updated_variances(&c, &f.transpose()))
-        .collect();
+        .map(|f| updated_variances(&l, &f.transpose()))
+        .collect::<Result<_, _>>()?;
     let mut parameters = Vec::new();
     for k in 0..x.len() {
         let info = study.param_info(k);
@@ -359,6 +458,13 @@ pub fn what_if(
         .collect();
     let r = run_factor(extra, &x_extra, &fitted)?;
     let info = r.transpose() * &r;
+    // The SVD and eigen-decompositions below iterate without end on a NaN.
+    if !info.iter().all(|v| v.is_finite()) {
+        return Err(IdentifyError::Information(format!(
+            "{}: the information of its runs is not finite",
+            extra.session.machine_at
+        )));
+    }
     let kept: Vec<usize> = (0..map.len()).filter(|&j| map[j].is_some()).collect();
     let dropped: Vec<usize> = (0..map.len()).filter(|&j| map[j].is_none()).collect();
     let pick = |rows: &[usize], cols: &[usize]| {
@@ -383,14 +489,14 @@ pub fn what_if(
     }
     let eig = nalgebra::SymmetricEigen::new(added);
     let top = eig.eigenvalues.max().max(0.0);
-    let c = linearised(study, solution)?.c;
+    let l = linearised(study, solution)?.l;
     let cols: Vec<usize> = (0..n)
         .filter(|&i| eig.eigenvalues[i] > 1e-12 * top && top > 0.0)
         .collect();
     let u = DMatrix::from_fn(n, cols.len(), |i, a| {
         eig.eigenvectors[(i, cols[a])] * eig.eigenvalues[cols[a]].sqrt()
     });
-    let after = updated_variances(&c, &u);
+    let after = updated_variances(&l, &u)?;
     Ok((0..n)
         .filter(|&k| names[k].machine && solution.sigma[k].is_some())
         .map(|k| {
@@ -400,4 +506,64 @@ pub fn what_if(
             )
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `C − C U (𝟙 + Uᵀ C U)⁻¹ Uᵀ C` by the textbook formula, for a well-conditioned case.
+    fn woodbury(c: &DMatrix<f64>, u: &DMatrix<f64>) -> Vec<f64> {
+        let w = u.transpose() * c;
+        let m = DMatrix::identity(u.ncols(), u.ncols()) + &w * u;
+        let inv = m.try_inverse().unwrap();
+        let after = c - w.transpose() * inv * &w;
+        after.diagonal().iter().copied().collect()
+    }
+
+    #[test]
+    fn the_factored_update_is_woodbury_also_for_a_singular_covariance() {
+        // C of rank 2 in 3 parameters (the third direction unidentified), information on all
+        // three directions.
+        let l = DMatrix::from_row_slice(3, 2, &[1.0, 0.5, -0.3, 2.0, 0.7, 0.1]);
+        let u = DMatrix::from_row_slice(3, 2, &[0.4, -1.0, 1.5, 0.2, 0.3, 0.9]);
+        let c = &l * l.transpose();
+        let got = updated_variances(&l, &u).unwrap();
+        for (g, w) in got.iter().zip(woodbury(&c, &u)) {
+            assert!((g - w).abs() < 1e-12 * c.diagonal().max(), "{g} vs {w}");
+        }
+        for k in 0..3 {
+            assert!(got[k] <= c[(k, k)] && got[k] >= 0.0);
+        }
+    }
+
+    #[test]
+    fn an_ill_conditioned_covariance_gives_finite_variances_that_do_not_grow() {
+        // Two parameters 10⁹ apart in scale and almost perfectly correlated: `Uᵀ C U` has
+        // entries of 10¹⁸ that cancel to order 1, which the textbook formula cannot resolve.
+        let l = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                1e9,
+                1.0,
+                0.0,
+                1e9 * (1.0 + 1e-12),
+                -1.0,
+                0.0,
+                3.0,
+                0.0,
+                1e-9,
+            ],
+        );
+        let u = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 2.0, -1.0, 1.0, 0.0, 0.5, 0.0, 1e6]);
+        let before: Vec<f64> = (0..3).map(|k| l.row(k).norm_squared()).collect();
+        let after = updated_variances(&l, &u).unwrap();
+        for (b, a) in before.iter().zip(&after) {
+            assert!(a.is_finite() && *a >= 0.0 && a <= b, "{b} → {a}");
+        }
+        // Nothing added: nothing changes.
+        let none = updated_variances(&l, &DMatrix::zeros(3, 0)).unwrap();
+        assert_eq!(none, before);
+    }
 }

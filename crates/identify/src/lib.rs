@@ -92,6 +92,9 @@ pub enum IdentifyError {
     Simulate(#[from] simulate::SimulateError),
     #[error("mismatch analysis: {0}")]
     Mismatch(#[from] mtcal_mismatch::MismatchError),
+    /// The information account ([`information`]) met numbers it cannot use.
+    #[error("information account: {0}")]
+    Information(String),
 }
 
 /// Fits `study`: every estimated machine coefficient and free nuisance parameter, priors from

@@ -1,2 +1,3 @@
+pub mod finite;
 pub mod plans;
 pub mod planted;
