@@ -51,9 +51,9 @@
 //!   set-ups off the stated ones (ball / nest / pivot / station position, tool length).
 //!
 //! # R-test mount key
-//! FORMATS.md v1.1 has `setup.mount`; mtcal's R-test plugin on this branch predates it (it
-//! rejects the key and models ball-in-spindle). [`Instrument::RTest::write_mount_key`] is the
-//! switch: `false` writes no key, which today's plugin reads as ball-in-spindle.
+//! FORMATS.md v1.1 has `setup.mount` (`"ball-on-table"`, the default, or `"ball-in-spindle"`).
+//! [`Instrument::RTest::write_mount_key`] says whether the key is written; a file without it
+//! means ball-on-table, so a ball-in-spindle set-up must write it.
 //!
 //! # Campaigns
 //! [`Campaign::trunnion_rtest_ballbar`] and [`Campaign::three_axis_ballbar`] write the
@@ -93,7 +93,7 @@ impl Campaign {
     /// The shipped five-axis trunnion `machines/mcu630-cafyxz.urdf` (A cradle carrying a C
     /// table, spindle on X Y Z), a random truth from `seed` ([`Truth::random`], scale 1), and
     /// into `dir`:
-    /// - R-test, ball-in-spindle (no mount key: what mtcal's plugin models today), one shared
+    /// - R-test, ball on the table (`mount = "ball-on-table"` written), one shared
     ///   set-up `ball1` at [150, 0, 200] mm: `rtest-xyc` (C 0→360°, 73 samples), `rtest-xyzac`
     ///   (A −30→30° with C 0→360°, 145), and set-up `ball2` on the C axis at [0, 0, 200] mm:
     ///   `rtest-yza` (A −30→90°, 49);
@@ -126,8 +126,8 @@ impl Campaign {
         let ball2 = [0.0, 0.0, 200.0];
         let rtest = |ball_mm| Instrument::RTest {
             ball_mm,
-            mount: Mount::BallInSpindle,
-            write_mount_key: false,
+            mount: Mount::BallOnTable,
+            write_mount_key: true,
         };
         let at = |v: [f64; 3]| Vector3::new(v[0], v[1], v[2]) * 1e-3;
         let pivot = [0.0, 0.0, 200.0];
