@@ -27,6 +27,10 @@ fn data_dir() -> Option<PathBuf> {
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
     let dir = base.join("robot-lasertracker-kinident");
+    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing file is a failure, not a skip.
+    if !dir.is_dir() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
+        panic!("{} not found: CI requires ../shared/data", dir.display());
+    }
     dir.is_dir().then_some(dir)
 }
 

@@ -34,6 +34,10 @@ fn data_file() -> Option<PathBuf> {
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
     let file = base.join("fl-thermal-spindle/data.csv");
+    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing file is a failure, not a skip.
+    if !file.is_file() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
+        panic!("{} not found: CI requires ../shared/data", file.display());
+    }
     file.is_file().then_some(file)
 }
 
