@@ -778,6 +778,16 @@ fn hand_picked_hard_cases_give_a_result_or_a_clean_error() {
                 rtest("b", "xyc", "")
             ),
         ),
+        // Nothing to estimate at all: the empty model and a calibrated R-test set-up.
+        (
+            "mu6300-caxfyz.urdf",
+            errors("components = \"none\"\nlocations = \"none\"\n"),
+            format!(
+                "[setup.fixed]\nball = [50.0, 0.0, 250.0]\nball_free = false\n\
+                 tool_length_free = false\n{}",
+                rtest("fixed", "xyc", "")
+            ),
+        ),
         // A three-axis machine, its full model, one laser run.
         ("mcv754-zfyx.urdf", None, laser.to_string()),
     ];
