@@ -596,8 +596,8 @@ fn identify(
     if let Some(base) = &base.as_ref().filter(|b| !b.held.is_empty()) {
         writeln!(
             out,
-            "model: {} parameters the runs cannot determine are held at their start values \
-             (no [identify] parameters given; see below)",
+            "model: {} parameters the runs cannot determine get no values (no [identify] \
+             parameters given; see below)",
             base.held.len()
         )?;
     }
@@ -612,8 +612,13 @@ fn identify(
         };
         let mut result = mtcal_identify::search::search(study, &options)?;
         if let Some(base) = &base {
-            result.initial.apply_base(base);
-            result.identification.apply_base(base);
+            let initial_study = result.study.rebuild(result.initial_changes.clone())?;
+            result
+                .initial
+                .apply_base(base, &initial_study, &result.initial_solution);
+            result
+                .identification
+                .apply_base(base, &result.study, &result.solution);
         }
         result
             .identification
@@ -630,7 +635,7 @@ fn identify(
             mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
         progress.finish();
         if let Some(base) = &base {
-            id.apply_base(base);
+            id.apply_base(base, &study, &solution);
         }
         id.add_prediction_bands(&study, &solution);
         write!(out, "{}", id.summary())?;

@@ -18,14 +18,20 @@
 //! A parameter is taken when the part of its column the parameters already taken do not
 //! explain would determine it to better than [`DETERMINED_SHARE`] of its plausible range (95 %
 //! interval). A last check on the joint covariance of everything taken drops, lowest priority
-//! first, any parameter whose interval is still too wide. Parameters not taken are *held* at
-//! their start values: their columns leave the fit, which is then of full rank and converges
-//! like any small linear problem.
+//! first, any parameter whose interval is still too wide. Parameters not taken are *held*:
+//! a set-up parameter at its start value; a machine coefficient stays in the fit with a prior
+//! of `[identify] held_prior` (3 µm or µrad by default) about its start. The fit is then of
+//! full rank and converges like any small linear problem, and the prior does two things a
+//! hard hold cannot: a held coefficient's effect on the fitted runs is not forced onto the
+//! taken ones (which would bias every prediction that sees the two differently — a validation
+//! path, a compensation table), and predictions carry its uncertainty. The prior is an
+//! assumption about the machine (its higher-order component errors are a few µm, as in a
+//! machine in calibration); it never gives a held coefficient a number in the report.
 //!
 //! A held parameter whose column lies (to within the same threshold) in the span of the taken
 //! ones is *aliased*: moving it changes the readings exactly as moving the taken ones by `κ`
-//! times as much would. A taken parameter's estimate is then the combination `x_i + Σ κ_ij·x_j`
-//! (first order), reported as such, never as `x_i` alone. The choice of which parameter of a
+//! times as much would. What the runs determine is then the combination `x_i + Σ κ_ij·x_j`
+//! (first order), reported as such — value and interval from the fit — never as `x_i` alone. The choice of which parameter of a
 //! combination carries the number follows the priority order: a ball's position absorbs the
 //! first harmonic of C's radial error motion, squareness absorbs what of a straightness the
 //! paths see as a slope.
@@ -62,7 +68,7 @@ pub enum HeldWhy {
     TooWeak { u95: f64 },
 }
 
-/// A parameter held at its start value.
+/// A parameter the runs cannot determine (see the module doc for what holding it means).
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Held {
     pub name: String,
@@ -86,6 +92,10 @@ pub struct BaseModel {
     /// Per taken parameter (by name) that stands for a combination: the held parameters it
     /// absorbs, largest first.
     pub aliases: Vec<(String, Vec<Term>)>,
+    /// Per validation run (by name) that depends on held parameters beyond what the taken ones
+    /// carry of them: those parameters, the largest first, each with the RMS change of the
+    /// run's readings per unit of it (µm per µm or µrad).
+    pub validation: Vec<(String, Vec<Term>)>,
 }
 
 impl BaseModel {
@@ -227,6 +237,8 @@ fn describe(
     let chol = a.as_ref().and_then(|a| (a.transpose() * a).cholesky());
     let mut held = Vec::new();
     let mut terms: Vec<Vec<Term>> = vec![Vec::new(); taken.len()];
+    // Per seen held parameter: how the taken ones stand in for it (SI per SI), least squares.
+    let mut stand_in: Vec<(usize, Vec<f64>)> = Vec::new();
     for j in 0..n {
         if taken.contains(&j) || j >= study.effect_offset {
             continue;
@@ -239,6 +251,14 @@ fn describe(
             (Some(a), Some(chol)) => {
                 let beta = chol.solve(&(a.transpose() * &c));
                 let outside = (&c - a * &beta).norm();
+                stand_in.push((
+                    j,
+                    taken
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &i)| beta[k] * range[i] / range[j])
+                        .collect(),
+                ));
                 if outside <= ALIASED * norm {
                     for (k, &i) in taken.iter().enumerate() {
                         // x̂_i absorbs κ·x_j with κ = β·range_i/range_j (SI), the same in file
@@ -278,7 +298,92 @@ fn describe(
             (study.param_info(i).name, t)
         })
         .collect();
-    BaseModel { held, aliases }
+    let validation = validation_dependence(study, taken, &stand_in);
+    BaseModel {
+        held,
+        aliases,
+        validation,
+    }
+}
+
+/// A held parameter is named for a validation run when, at the size of its prior
+/// ([`Study::held_prior`]), it would move the run's prediction (RMS, beyond what the taken
+/// parameters carry of it) by at least this share of the run's noise σ.
+pub const VALIDATION_DEPENDENCE_SHARE: f64 = 0.5;
+/// At most this many held parameters are named per validation run.
+const VALIDATION_DEPENDENCE_NAMED: usize = 6;
+
+/// Which held parameters each validation run depends on in a way the fitted runs do not
+/// determine: the run's sensitivity to held parameter `j` minus the sensitivity to what the
+/// taken parameters absorb of it (`stand_in`). A validation path the fit runs determine has
+/// none; one that does (a ball-bar circle at a C angle no fitted run visited, say) can be
+/// predicted only as well as those parameters happen to be zero.
+fn validation_dependence(
+    study: &Study,
+    taken: &[usize],
+    stand_in: &[(usize, Vec<f64>)],
+) -> Vec<(String, Vec<Term>)> {
+    let x0 = study.initial_x();
+    let mut out = Vec::new();
+    for (r, run) in study.runs.iter().enumerate() {
+        if run.fit || stand_in.is_empty() {
+            continue;
+        }
+        let channels = study.channels(r);
+        let nch = channels.len();
+        // Sensitivities (SI per SI) of the run's predictions by central differences, one
+        // micrometre or microradian either side: the model is linear far beyond that.
+        let h = 1e-6;
+        let mut x = x0.clone();
+        let mut sensitivity = |i: usize| -> Vec<f64> {
+            x[i] = x0[i] + h;
+            let up = crate::fit::predict_run(study, r, &x);
+            x[i] = x0[i] - h;
+            let down = crate::fit::predict_run(study, r, &x);
+            x[i] = x0[i];
+            up.iter()
+                .zip(&down)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect()
+        };
+        let g_taken: Vec<Vec<f64>> = taken.iter().map(|&i| sensitivity(i)).collect();
+        let mut terms = Vec::new();
+        for (j, alpha) in stand_in {
+            let mut delta = sensitivity(*j);
+            for (g, a) in g_taken.iter().zip(alpha) {
+                for (d, gi) in delta.iter_mut().zip(g) {
+                    *d -= a * gi;
+                }
+            }
+            // RMS in reading units per unit of the parameter.
+            let info = study.param_info(*j);
+            let ss: f64 = delta
+                .iter()
+                .enumerate()
+                .map(|(s, d)| (d * channels[s % nch].unit.per_si() / info.per_si).powi(2))
+                .sum();
+            let rms = (ss / delta.len().max(1) as f64).sqrt();
+            // The run's noise (its smallest channel σ) in reading units; the prior in the
+            // parameter's.
+            let noise = channels
+                .iter()
+                .map(|c| c.sigma * c.unit.per_si())
+                .fold(f64::INFINITY, f64::min);
+            if rms * study.held_prior * info.per_si >= VALIDATION_DEPENDENCE_SHARE * noise {
+                terms.push(Term {
+                    name: info.name,
+                    coefficient: rms,
+                });
+            }
+        }
+        if terms.is_empty() {
+            continue;
+        }
+        terms.sort_by(|a, b| b.coefficient.total_cmp(&a.coefficient));
+        terms.truncate(VALIDATION_DEPENDENCE_NAMED);
+        out.push((run.name.clone(), terms));
+    }
+    out
 }
 
 /// The study with the parameters its runs cannot determine held ([`select`]), or `study`
@@ -338,14 +443,41 @@ impl crate::report::Identification {
     /// Reports what `base` says: a parameter that stands for a combination moves from
     /// `parameters` to `combinations` (FORMATS.md: what the data cannot separate never has a
     /// value of its own), and every held parameter is named in `unidentifiable`.
-    pub fn apply_base(&mut self, base: &BaseModel) {
+    pub fn apply_base(
+        &mut self,
+        base: &BaseModel,
+        study: &Study,
+        solution: &mtcal_solve::Solution,
+    ) {
+        let index: std::collections::HashMap<String, usize> = (0..study.n_x)
+            .map(|i| (study.param_info(i).name, i))
+            .collect();
+        let held: Vec<&str> = base.held.iter().map(|h| h.name.as_str()).collect();
         let mut kept = Vec::new();
         for p in std::mem::take(&mut self.parameters) {
+            if held.contains(&p.name.as_str()) {
+                continue;
+            }
             let terms = base.aliases_of(&p.name);
             if terms.is_empty() {
                 kept.push(p);
                 continue;
             }
+            // The combination's value and interval from the fit (file units): the held members
+            // are in the fit too, near their start values.
+            let mut weights = vec![(index[&p.name], study.param_info(index[&p.name]).per_si)];
+            for t in terms {
+                if let Some(&j) = index.get(&t.name) {
+                    weights.push((j, t.coefficient * study.param_info(j).per_si));
+                }
+            }
+            let value: f64 = weights.iter().map(|&(i, w)| w * solution.x[i]).sum();
+            let var: f64 = weights
+                .iter()
+                .flat_map(|&(a, wa)| weights.iter().map(move |&(b, wb)| (a, wa, b, wb)))
+                .map(|(a, wa, b, wb)| wa * wb * solution.cov(a, b))
+                .sum();
+            let u95 = crate::report::K95 * var.max(0.0).sqrt();
             let names: Vec<String> = std::iter::once(p.name.clone())
                 .chain(terms.iter().map(|t| t.name.clone()))
                 .collect();
@@ -353,17 +485,17 @@ impl crate::report::Identification {
             self.unidentifiable.push(crate::report::Unidentifiable {
                 parameters: names,
                 why: format!(
-                    "these runs see only their combination {expr} = {:.4} ± {:.4} {}",
-                    p.value, p.u95, p.unit
+                    "these runs see only their combination {expr} = {value:.4} ± {u95:.4} {}",
+                    p.unit
                 ),
             });
             self.combinations.push(crate::report::CombinationValue {
                 expression: expr,
                 name: p.name,
                 terms: terms.to_vec(),
-                value: p.value,
+                value,
                 unit: p.unit,
-                u95: p.u95,
+                u95,
                 kind: p.kind,
             });
         }
@@ -374,7 +506,7 @@ impl crate::report::Identification {
                 HeldWhy::Aliased => "seen only within the combinations above".to_string(),
                 HeldWhy::TooWeak { u95 } => format!(
                     "these runs see it too weakly to determine it (its 95 % interval would be \
-                     ±{u95:.4} {}); held at its start value",
+                     ±{u95:.4} {}); kept near its start value",
                     h.unit
                 ),
             };
@@ -387,6 +519,7 @@ impl crate::report::Identification {
             });
         }
         self.held = base.held.clone();
+        self.undetermined_validation = base.validation.clone();
     }
 }
 

@@ -13,6 +13,9 @@
 //!   error model (its `.errors.toml`). The others stay at their start values.
 //! - `start = "file.params.toml"`: start values (and the values of parameters not estimated);
 //!   default zero.
+//! - `held_prior = 3.0`: µm or µrad; without `parameters`, the machine coefficients the runs
+//!   cannot determine stay in the fit with this prior standard deviation about their start
+//!   ([`base`]).
 
 pub mod band;
 pub mod base;
@@ -127,9 +130,21 @@ pub fn param_specs(study: &Study) -> Vec<ParamSpec> {
 
 /// [`param_specs`] starting from `x0` instead of the study's own start.
 pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
+    let held = &study.changes().hold;
+    let start = if held.is_empty() {
+        Vec::new()
+    } else {
+        study.initial_x()
+    };
     (0..study.n_x)
         .map(|i| {
             let info = study.param_info(i);
+            // What the runs cannot determine stays near its start ([`base`]).
+            let prior = if info.machine && held.contains(&info.name) {
+                Some((start[i], study.held_prior))
+            } else {
+                info.prior_sigma.map(|s| (0.0, s))
+            };
             let effect = study.effect_param(i);
             // Plausible ranges: a millimetre or milliradian of machine or set-up error, a 1 %
             // gain; an effect says its own.
@@ -141,7 +156,7 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
             ParamSpec {
                 name: info.name,
                 initial: x0[i],
-                prior: info.prior_sigma.map(|s| (0.0, s)),
+                prior,
                 bounds: effect.and_then(|d| d.bounds),
                 group: (!info.machine && effect.is_none()).then(|| "set-up".to_string()),
                 scale: Some(scale),

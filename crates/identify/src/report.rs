@@ -128,6 +128,10 @@ pub struct SolverReport {
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Identification {
     pub schema: &'static str,
+    /// What a person reads first when the fit is not a calibration ([`Self::verdict`]): it
+    /// did not converge, or the model does not explain the recordings. In the JSON only then.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<String>,
     pub parameters: Vec<ParameterValue>,
     pub component_errors: Vec<ComponentCurve>,
     /// Combinations of parameters the runs determine although they cannot separate them
@@ -135,10 +139,14 @@ pub struct Identification {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub combinations: Vec<CombinationValue>,
     pub unidentifiable: Vec<Unidentifiable>,
-    /// Parameters held at their start because the runs do not determine them
+    /// Parameters the runs do not determine, held near their start
     /// ([`crate::base`]); in the JSON only when there are any.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub held: Vec<crate::base::Held>,
+    /// Validation runs that depend on held parameters the fitted runs do not determine
+    /// ([`crate::base::BaseModel::validation`]); in the JSON only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub undetermined_validation: Vec<(String, Vec<crate::base::Term>)>,
     /// Identified parameters the runs barely determine ([`WeaklyDetermined`]); in the JSON
     /// only when there are any.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -242,13 +250,15 @@ impl Identification {
             .flat_map(|r| &r.channels)
             .map(|c| c.rms * c.rms * c.samples as f64)
             .sum();
-        Ok(Identification {
+        let mut id = Identification {
             schema: "mtcal.identify/1",
+            verdict: None,
             parameters,
             component_errors,
             combinations: Vec::new(),
             unidentifiable,
             held: Vec::new(),
+            undetermined_validation: Vec::new(),
             weakly_determined,
             fit: Fit {
                 rms_um: if n > 0 { (ss / n as f64).sqrt() } else { 0.0 },
@@ -275,7 +285,9 @@ impl Identification {
             },
             information: None,
             x,
-        })
+        };
+        id.verdict = id.verdict();
+        Ok(id)
     }
 
     /// The FORMATS.md JSON (`mtcal.identify/1`, with mtcal's additional keys).
@@ -360,7 +372,14 @@ impl Identification {
             self.solver.parameters,
             self.solver.condition_number
         );
-        let _ = writeln!(s, "\nidentified parameters (95 % intervals):");
+        let _ = if self.solver.converged && self.model_explains_recordings() {
+            writeln!(s, "\nidentified parameters (95 % intervals):")
+        } else {
+            writeln!(
+                s,
+                "\nfitted values (NOT a calibration: see the first line; 95 % intervals):"
+            )
+        };
         for p in &self.parameters {
             let _ = writeln!(
                 s,
@@ -441,6 +460,18 @@ impl Identification {
                 let value = unsigned_zero(m.value, 3);
                 let _ = writeln!(s, "  {:<22}   {}: {value:.3} {}", "", m.name, m.unit);
             }
+        }
+        for (run, terms) in &self.undetermined_validation {
+            let named: Vec<String> = terms
+                .iter()
+                .map(|t| format!("{} ({:.2} per unit)", t.name, t.coefficient))
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {run}: its prediction depends on what the fitted runs do not determine: {}; \
+                 a fitted run that moves them (another angle or position) would",
+                named.join(", ")
+            );
         }
         s
     }
@@ -529,7 +560,8 @@ impl Identification {
         if !self.held.is_empty() {
             let _ = writeln!(
                 s,
-                "  (these {} are held at their start values; `--suggest-model FILE` writes the \
+                "  (these {} are not given values: set-up parameters are held at their start, \
+                 machine coefficients kept near it by a prior; `--suggest-model FILE` writes the \
                  model these runs identify)",
                 self.held.len()
             );

@@ -741,6 +741,10 @@ pub struct SearchResult {
     pub identification: Identification,
     /// The fit before the search added anything.
     pub initial: Identification,
+    /// Its solution, and the changes of its study (`study.rebuild(initial_changes)` gives it
+    /// back: the parameter vector `initial_solution` belongs to).
+    pub initial_solution: Solution,
+    pub initial_changes: crate::study::Changes,
 }
 
 /// One accepted step.
@@ -760,6 +764,8 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     let options = &with_session_options(&study, options)?;
     let mut current = fit(study, None, options)?;
     let initial = current.id.clone();
+    let initial_solution = current.solution.clone();
+    let initial_changes = current.study.changes().clone();
     let mut report = SearchReport::default();
     let mut stages: Vec<Stage> = Vec::new();
     let mut last_ranking: Option<Vec<Ranked>> = None;
@@ -899,6 +905,8 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         solution: current.solution,
         identification,
         initial,
+        initial_solution,
+        initial_changes,
     })
 }
 

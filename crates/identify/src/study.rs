@@ -18,7 +18,18 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Keys of the manifest's `[identify]` table.
-pub const IDENTIFY_KEYS: &[&str] = &["parameters", "start", "effect", "heldout", "folds"];
+pub const IDENTIFY_KEYS: &[&str] = &[
+    "parameters",
+    "start",
+    "effect",
+    "heldout",
+    "folds",
+    "held_prior",
+];
+
+/// Default prior standard deviation of the machine coefficients the runs cannot determine
+/// (`[identify] held_prior`, µm or µrad per coefficient; [`crate::base`]).
+pub const DEFAULT_HELD_PRIOR: f64 = 3.0;
 
 /// One distinct set-up: a shared `[setup.<name>]` or a run's own `[run.setup]`.
 #[derive(Debug)]
@@ -178,6 +189,9 @@ pub struct Study {
     /// Length of the parameter vector: estimated machine coefficients, then every set-up's free
     /// nuisance parameters, then the effects' parameters.
     pub n_x: usize,
+    /// Prior standard deviation (SI) of the machine coefficients [`Changes::hold`] names:
+    /// `[identify] held_prior` (µm or µrad), default [`DEFAULT_HELD_PRIOR`].
+    pub held_prior: f64,
     changes: Changes,
     /// The session as the effects see it, built on first use.
     view: OnceLock<Arc<SessionView>>,
@@ -194,9 +208,12 @@ pub struct Changes {
     pub raise: Vec<(ParamName, usize)>,
     /// Effects fitted along with the machine (their parameters come last in `x`).
     pub effects: Vec<Arc<dyn Effect>>,
-    /// Parameters held at their start value although the session would estimate them, by
-    /// name (`EXX.P3`, `bar.tool_length`): what the runs cannot determine
-    /// ([`crate::base`]). Held machine coefficients leave the fit model altogether.
+    /// Parameters the runs cannot determine ([`crate::base`]), by name (`EXX.P3`,
+    /// `bar.tool_length`): a set-up parameter is held at its start value; a machine
+    /// coefficient stays in the fit with a prior of [`Study::held_prior`] about its start,
+    /// so that it neither takes arbitrary values nor leaves its effect to the others (which
+    /// would bias every prediction that sees it differently), and predictions carry its
+    /// uncertainty.
     pub hold: Vec<String>,
 }
 
@@ -315,7 +332,6 @@ impl Study {
         }
         estimated.sort_unstable();
         estimated.dedup();
-        estimated.retain(|&k| !changes.hold.contains(&coeff_labels[k]));
         let (fit_model, fit_coeffs) = reduced_model(&machine, &model, &estimated, &base_coeffs)?;
         let mut in_fit = vec![usize::MAX; model.n_coeffs()];
         for (j, &k) in fit_coeffs.iter().enumerate() {
@@ -438,6 +454,19 @@ impl Study {
         }
         let effect_offset = n_x;
         n_x += mtcal_effects::prepared::n_params(&changes.effects);
+        let held_prior = match session.identify.get("held_prior") {
+            None => DEFAULT_HELD_PRIOR,
+            Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+                Some(x) if x > 0.0 && x.is_finite() => x,
+                _ => {
+                    return Err(identify_key(
+                        &session,
+                        "held_prior",
+                        &format!("expected a positive number (µm or µrad), found {v}"),
+                    ));
+                }
+            },
+        } * 1e-6;
         Ok(Study {
             session,
             machine,
@@ -452,6 +481,7 @@ impl Study {
             runs,
             effect_offset,
             n_x,
+            held_prior,
             changes,
             view: OnceLock::new(),
             axis_jacobians: OnceLock::new(),

@@ -94,13 +94,17 @@ impl Campaign {
     /// table, spindle on X Y Z), a random truth from `seed` ([`Truth::random`], scale 1), and
     /// into `dir`:
     /// - R-test, ball on the table (`mount = "ball-on-table"` written), one shared
-    ///   set-up `ball1` at [150, 0, 200] mm: `rtest-xyc` (C 0→360°, 73 samples), `rtest-xyzac`
-    ///   (A −30→30° with C 0→360°, 145), and set-up `ball2` on the C axis at [0, 0, 200] mm:
-    ///   `rtest-yza` (A −30→90°, 49);
+    ///   set-up `ball1` at [150, 0, 200] mm: `rtest-xyc` (C 0→360°, 145 samples), the same at
+    ///   A = ±30° (`rtest-xyc-a+30`, `rtest-xyc-a-30`), `rtest-xyzac` (A −30→30° with C
+    ///   0→360°, 289), and set-up `ball2` on the C axis at [0, 0, 200] mm: `rtest-yza`
+    ///   (A −30→90°, 97);
     /// - ball bar, set-up `bar1` (pivot [0, 0, 200] mm, 100 mm): `ballbar-xy-ccw`,
-    ///   `ballbar-xy-cw` (XY circles at A = C = 0, 181 samples);
-    /// - validation runs: `rtest-validate` (ball1, A 20→−20° with C 0→180°, 37 samples) and
-    ///   `ballbar-validate` (bar1, an XY circle with C held at 45°).
+    ///   `ballbar-xy-cw` (XY circles at A = C = 0, 361 samples), `ballbar-xy-c90` (the same
+    ///   circle with C held at 90°);
+    /// - validation runs: `rtest-validate` (ball1, A 20→−20° with C 0→180°, 37 samples),
+    ///   `ballbar-validate` (bar1, an XY circle with C held at 45°, 91), `rtest-validate-a15`
+    ///   (ball1, XYC at A = 15°, 73) and `ballbar-validate-c180` (bar1, the XY circle clockwise
+    ///   with C held at 180°, 91).
     pub fn trunnion_rtest_ballbar(
         dir: &Path,
         seed: u64,
@@ -164,7 +168,7 @@ impl Campaign {
                     "rtest-xyc",
                     "ball1",
                     false,
-                    paths::follow_ball(&machine, at(ball1), &[('C', 0.0, deg(360.0))], &[], 73)?,
+                    paths::follow_ball(&machine, at(ball1), &[('C', 0.0, deg(360.0))], &[], 145)?,
                 ),
                 run(
                     "rtest-yza",
@@ -175,7 +179,7 @@ impl Campaign {
                         at(ball2),
                         &[('A', deg(-30.0), deg(90.0))],
                         &[],
-                        49,
+                        97,
                     )?,
                 ),
                 run(
@@ -187,11 +191,45 @@ impl Campaign {
                         at(ball1),
                         &[('A', deg(-30.0), deg(30.0)), ('C', 0.0, deg(360.0))],
                         &[],
+                        289,
+                    )?,
+                ),
+                // Source 000's XYC at the cradle tilted both ways: the C axis' location
+                // relative to the A axis, seen from three A angles.
+                run(
+                    "rtest-xyc-a+30",
+                    "ball1",
+                    false,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball1),
+                        &[('C', 0.0, deg(360.0))],
+                        &[('A', deg(30.0))],
                         145,
                     )?,
                 ),
-                run("ballbar-xy-ccw", "bar1", false, circle(true, &[], 181)?),
-                run("ballbar-xy-cw", "bar1", false, circle(false, &[], 181)?),
+                run(
+                    "rtest-xyc-a-30",
+                    "ball1",
+                    false,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball1),
+                        &[('C', 0.0, deg(360.0))],
+                        &[('A', deg(-30.0))],
+                        145,
+                    )?,
+                ),
+                run("ballbar-xy-ccw", "bar1", false, circle(true, &[], 361)?),
+                run("ballbar-xy-cw", "bar1", false, circle(false, &[], 361)?),
+                // The same circle with the table turned a quarter: the pivot's offset from
+                // C's axis line separates from the line's own position.
+                run(
+                    "ballbar-xy-c90",
+                    "bar1",
+                    false,
+                    circle(true, &[('C', deg(90.0))], 361)?,
+                ),
                 run(
                     "rtest-validate",
                     "ball1",
@@ -209,6 +247,26 @@ impl Campaign {
                     "bar1",
                     true,
                     circle(true, &[('C', deg(45.0))], 91)?,
+                ),
+                // Paths the fitted runs determine: XYC between the tilts measured, the circle
+                // with the table turned half a revolution, clockwise.
+                run(
+                    "rtest-validate-a15",
+                    "ball1",
+                    true,
+                    paths::follow_ball(
+                        &machine,
+                        at(ball1),
+                        &[('C', 0.0, deg(360.0))],
+                        &[('A', deg(15.0))],
+                        73,
+                    )?,
+                ),
+                run(
+                    "ballbar-validate-c180",
+                    "bar1",
+                    true,
+                    circle(false, &[('C', deg(180.0))], 91)?,
                 ),
             ],
         };

@@ -34,10 +34,15 @@ fn trunnion_campaign_is_a_valid_session() {
             "rtest-xyc",
             "rtest-yza",
             "rtest-xyzac",
+            "rtest-xyc-a+30",
+            "rtest-xyc-a-30",
             "ballbar-xy-ccw",
             "ballbar-xy-cw",
+            "ballbar-xy-c90",
             "rtest-validate",
-            "ballbar-validate"
+            "ballbar-validate",
+            "rtest-validate-a15",
+            "ballbar-validate-c180"
         ]
     );
     let validate: Vec<&str> = session
@@ -46,7 +51,15 @@ fn trunnion_campaign_is_a_valid_session() {
         .filter(|r| r.use_ == RunUse::Validate)
         .map(|r| r.name.as_str())
         .collect();
-    assert_eq!(validate, ["rtest-validate", "ballbar-validate"]);
+    assert_eq!(
+        validate,
+        [
+            "rtest-validate",
+            "ballbar-validate",
+            "rtest-validate-a15",
+            "ballbar-validate-c180"
+        ]
+    );
     let axes = ['X', 'Y', 'Z', 'A', 'C'];
     for run in &session.runs {
         let t = read_run(&run.file, &columns(&run.instrument, &axes)).unwrap();
@@ -57,7 +70,7 @@ fn trunnion_campaign_is_a_valid_session() {
         assert!(max > 0.5 && max < 500.0, "{}: {max} µm", run.name);
     }
     assert!(dir.join("truth/params.toml").is_file());
-    assert_eq!(written.runs.len(), 7);
+    assert_eq!(written.runs.len(), 12);
 }
 
 #[test]
