@@ -1,9 +1,9 @@
 //! Identification time against the number of samples: simulated R-test sessions on the
 //! five-axis trunnion (0.5 µm noise) with
 //! - the 11-error set (3 squareness + 8 location; 5 runs, 19 parameters with the set-ups);
-//! - the full error model (every component error too: most of it unidentifiable from R-test,
-//!   which the report says; 129 parameters, 1e3 and 1e4 samples only — it does not converge,
-//!   see the README);
+//! - the full error model (every component error too: most of it unidentifiable from R-test),
+//!   as a user without `[identify] parameters` gets it: the model the runs determine chosen
+//!   first (`base::identifiable_study`), then the fit — both timed;
 //! - the C-axis model: the 11-error set plus the six error motions of C as Fourier series of
 //!   harmonics 2…8 (84 coefficients), from 8 runs at three ball positions (each with an XYC
 //!   and a YZA run, two also with a tilted XYC): 108 parameters, rank 106, condition 80 (the
@@ -17,7 +17,7 @@
 //! `cargo bench -p mtcal-identify --bench identify`; the numbers go in the README.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use mtcal_identify::{Study, identify};
+use mtcal_identify::{Study, base, identify};
 use mtcal_solve::{Options, Silent};
 use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
@@ -164,25 +164,43 @@ path = {{ kind = "xyc", samples = {per_run} }}
 fn bench_identify(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify_rtest_trunnion");
     g.sample_size(10);
-    for (eleven, sizes) in [
-        (true, &[1_000usize, 10_000, 100_000, 1_000_000][..]),
-        (false, &[1_000, 10_000][..]),
-    ] {
-        for &n in sizes {
-            let (_dir, study) = session(n, eleven);
-            let label = if eleven { "11-errors" } else { "full-model" };
-            GLOBAL.reset_peak_memory();
-            let once = identify(&study, &Options::default(), &mut Silent).unwrap();
-            eprintln!(
-                "{label}/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations",
-                GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
-                study.n_x,
-                once.solver.iterations
-            );
-            g.bench_with_input(BenchmarkId::new(label, n), &study, |b, study| {
-                b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
-            });
-        }
+    for &n in &[1_000usize, 10_000, 100_000, 1_000_000] {
+        let (_dir, study) = session(n, true);
+        GLOBAL.reset_peak_memory();
+        let once = identify(&study, &Options::default(), &mut Silent).unwrap();
+        eprintln!(
+            "11-errors/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations",
+            GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
+            study.n_x,
+            once.solver.iterations
+        );
+        g.bench_with_input(BenchmarkId::new("11-errors", n), &study, |b, study| {
+            b.iter(|| black_box(identify(study, &Options::default(), &mut Silent).unwrap()))
+        });
+    }
+    // The full model as a user without `[identify] parameters` gets it: the model the runs
+    // determine chosen first (one linearisation, `base::select`), then the fit with the rest
+    // held by their prior. Timed together.
+    for &n in &[1_000usize, 10_000, 100_000, 1_000_000] {
+        let (_dir, study) = session(n, false);
+        let full = |study: &Study| {
+            let copy = study.rebuild(study.changes().clone()).unwrap();
+            let (reduced, _) = base::identifiable_study(copy, &Options::default()).unwrap();
+            identify(&reduced, &Options::default(), &mut Silent).unwrap()
+        };
+        GLOBAL.reset_peak_memory();
+        let once = full(&study);
+        eprintln!(
+            "full-model/{n}: peak heap during selection and identify {:.1} MiB, {} parameters, \
+             {} iterations, converged {}",
+            GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
+            study.n_x,
+            once.solver.iterations,
+            once.solver.converged
+        );
+        g.bench_with_input(BenchmarkId::new("full-model", n), &study, |b, study| {
+            b.iter(|| black_box(full(study)))
+        });
     }
     for n in [1_000usize, 10_000, 100_000, 1_000_000] {
         let (_dir, study) = c_axis_session(n);
