@@ -642,7 +642,13 @@ fn identify(
         (id, study, solution)
     };
     let mut id = id;
-    let account = mtcal_identify::information::account(&study, &solution)?;
+    let mut account = mtcal_identify::information::account(&study, &solution)?;
+    // What the runs do not determine has no value in the report, nor a line in the account.
+    if let Some(base) = &base {
+        account
+            .parameters
+            .retain(|p| !base.held.iter().any(|h| h.name == p.name));
+    }
     write!(
         out,
         "\n{}",

@@ -453,6 +453,7 @@ impl crate::report::Identification {
             .map(|i| (study.param_info(i).name, i))
             .collect();
         let held: Vec<&str> = base.held.iter().map(|h| h.name.as_str()).collect();
+        let given_held = ConditionalCovariance::new(study, solution, &held, &index);
         let mut kept = Vec::new();
         for p in std::mem::take(&mut self.parameters) {
             if held.contains(&p.name.as_str()) {
@@ -460,6 +461,9 @@ impl crate::report::Identification {
             }
             let terms = base.aliases_of(&p.name);
             if terms.is_empty() {
+                let mut p = p;
+                let i = index[&p.name];
+                p.u95_given_held = given_held.u95(&[(i, study.param_info(i).per_si)]);
                 kept.push(p);
                 continue;
             }
@@ -496,6 +500,7 @@ impl crate::report::Identification {
                 value,
                 unit: p.unit,
                 u95,
+                u95_given_held: given_held.u95(&weights),
                 kind: p.kind,
             });
         }
@@ -592,4 +597,66 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
         }
     }
     s
+}
+
+/// The covariance of the estimated parameters if the held machine coefficients were known
+/// exactly (at their start values): `C_TT − C_TH·C_HH⁻¹·C_HT` of the fit's covariance — what
+/// the runs alone determine, the interval a reduced model without them would print.
+struct ConditionalCovariance {
+    /// Parameter index → row of `cov` (the parameters that are not held and have a σ).
+    row: std::collections::HashMap<usize, usize>,
+    cov: DMatrix<f64>,
+}
+
+impl ConditionalCovariance {
+    fn new(
+        study: &Study,
+        solution: &mtcal_solve::Solution,
+        held: &[&str],
+        index: &std::collections::HashMap<String, usize>,
+    ) -> Self {
+        let with_sigma = |i: &usize| solution.sigma[*i].is_some_and(|s| s > 0.0);
+        let h: Vec<usize> = held
+            .iter()
+            .filter_map(|n| index.get(*n).copied())
+            .filter(|i| with_sigma(i) && study.param_info(*i).machine)
+            .collect();
+        let t: Vec<usize> = (0..study.n_x)
+            .filter(|i| with_sigma(i) && !h.contains(i))
+            .collect();
+        let block = |a: &[usize], b: &[usize]| {
+            DMatrix::from_fn(a.len(), b.len(), |r, c| solution.cov(a[r], b[c]))
+        };
+        let ctt = block(&t, &t);
+        let cov = if h.is_empty() {
+            ctt
+        } else {
+            let cth = block(&t, &h);
+            match block(&h, &h).cholesky() {
+                Some(chol) => ctt - &cth * chol.solve(&cth.transpose()),
+                None => ctt,
+            }
+        };
+        Self {
+            row: t.iter().enumerate().map(|(r, &i)| (i, r)).collect(),
+            cov,
+        }
+    }
+
+    /// 95 % interval of `Σ w·x` (SI weights into file units) given the held ones; `None` when
+    /// nothing is held or a member has no row (it is held itself: fixed, no variance).
+    fn u95(&self, weights: &[(usize, f64)]) -> Option<f64> {
+        if self.row.is_empty() {
+            return None;
+        }
+        let rows: Vec<(usize, f64)> = weights
+            .iter()
+            .filter_map(|&(i, w)| self.row.get(&i).map(|&r| (r, w)))
+            .collect();
+        let var: f64 = rows
+            .iter()
+            .flat_map(|&(a, wa)| rows.iter().map(move |&(b, wb)| wa * wb * self.cov[(a, b)]))
+            .sum();
+        Some(crate::report::K95 * var.max(0.0).sqrt())
+    }
 }

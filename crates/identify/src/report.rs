@@ -22,6 +22,11 @@ pub struct ParameterValue {
     pub value: f64,
     pub unit: String,
     pub u95: f64,
+    /// The 95 % interval if the parameters the runs cannot determine ([`crate::base`]) were
+    /// exactly at their start values: what the runs alone say. `u95` also holds their prior
+    /// uncertainty. Only when some are held.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u95_given_held: Option<f64>,
     /// `machine` or the set-up it belongs to.
     pub kind: String,
 }
@@ -45,6 +50,9 @@ pub struct CombinationValue {
     pub value: f64,
     pub unit: String,
     pub u95: f64,
+    /// As [`ParameterValue::u95_given_held`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u95_given_held: Option<f64>,
     pub kind: String,
 }
 
@@ -201,6 +209,7 @@ impl Identification {
                 value: xi * info.per_si,
                 unit: info.unit,
                 u95: K95 * sigma * info.per_si,
+                u95_given_held: None,
                 kind: if info.machine {
                     "machine".into()
                 } else if i >= study.effect_offset {
@@ -383,12 +392,13 @@ impl Identification {
         for p in &self.parameters {
             let _ = writeln!(
                 s,
-                "  {:<24} {:>12.4} ± {:<10.4} {:<5} {}",
+                "  {:<24} {:>12.4} ± {:<10.4} {:<5} {}{}",
                 p.name,
                 unsigned_zero(p.value, 4),
                 p.u95,
                 p.unit,
-                if p.kind == "machine" { "" } else { &p.kind }
+                if p.kind == "machine" { "" } else { &p.kind },
+                given_held(p.u95_given_held, p.u95)
             );
         }
         if !self.combinations.is_empty() {
@@ -402,11 +412,12 @@ impl Identification {
                 let more = if c.terms.len() > 4 { " + …" } else { "" };
                 let _ = writeln!(
                     s,
-                    "  {:<40} {:>12.4} ± {:<10.4} {}",
+                    "  {:<40} {:>12.4} ± {:<10.4} {}{}",
                     format!("{shown}{more}"),
                     unsigned_zero(c.value, 4),
                     c.u95,
-                    c.unit
+                    c.unit,
+                    given_held(c.u95_given_held, c.u95)
                 );
             }
         }
@@ -474,6 +485,15 @@ impl Identification {
             );
         }
         s
+    }
+}
+
+/// `(± u if the undetermined are at their start)` where that interval is clearly narrower than
+/// the full one: the runs alone say more than the held parameters' prior lets them.
+fn given_held(u95: Option<f64>, full: f64) -> String {
+    match u95 {
+        Some(u) if u < 0.8 * full => format!("  (± {u:.4} if the undetermined are zero)"),
+        _ => String::new(),
     }
 }
 
