@@ -539,8 +539,14 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
     let mut locations = Vec::new();
     let mut setup = Vec::new();
     let mut order_of = Vec::new();
+    let held: Vec<&str> = base.map_or(Vec::new(), |b| {
+        b.held.iter().map(|h| h.name.as_str()).collect()
+    });
     for &k in &study.estimated {
         let label = &study.coeff_labels[k];
+        if held.contains(&label.as_str()) {
+            continue;
+        }
         match label.split_once('.') {
             Some((name, term)) => {
                 let kind = term.chars().next().unwrap_or('P');
@@ -567,8 +573,8 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
     let _ = writeln!(
         s,
         "# The error model this session's runs identify, suggested by `mtcal identify \
-         --suggest-model`\n# from {} ({} parameters of the machine's model were estimated, {} \
-         held: not determined).\n# Keep it beside the URDF as <stem>.errors.toml. Format: \
+         --suggest-model`\n# from {} ({} coefficients of the machine's model, {} of the \
+         session's parameters not determined).\n# Keep it beside the URDF as <stem>.errors.toml. Format: \
          crates/machine/src/config.rs.\nschema = \"mtcal.errors/1\"",
         study.session.manifest.display(),
         study.estimated.len(),

@@ -436,9 +436,31 @@ impl Identification {
                 s,
                 "\nmismatch: the residuals are not noise (family-wise α = 5 %):"
             );
-            for line in &self.mismatch_detail {
+            // Where the excess lies on the screen; every test with its p-value in the JSON
+            // (`mismatch_tests`).
+            let located: Vec<&String> = self
+                .mismatch_detail
+                .iter()
+                .filter(|l| l.contains("of the excess"))
+                .collect();
+            let shown: Vec<&String> = if located.is_empty() {
+                self.mismatch_detail.iter().take(SCREEN_MISMATCH).collect()
+            } else {
+                located.into_iter().take(SCREEN_MISMATCH).collect()
+            };
+            for line in &shown {
                 let _ = writeln!(s, "  {line}");
             }
+            let rejected = self
+                .mismatch_detail
+                .iter()
+                .filter(|l| !l.contains("of the excess"))
+                .count();
+            let _ = writeln!(
+                s,
+                "  ({rejected} structure tests reject the noise; each with its p-value in the JSON, \
+                 `mismatch_tests`)"
+            );
         } else {
             let _ = writeln!(
                 s,
@@ -501,6 +523,9 @@ fn given_held(u95: Option<f64>, full: f64) -> String {
 fn chi2_spread(dof: usize) -> f64 {
     (2.0 / dof.max(1) as f64).sqrt()
 }
+
+/// At most this many lines of where the residuals are not noise on the screen.
+const SCREEN_MISMATCH: usize = 6;
 
 /// Null-space directions longer than this are named by their largest members on the screen.
 const SCREEN_MEMBERS: usize = 6;
