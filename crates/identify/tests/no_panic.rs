@@ -27,8 +27,14 @@ fn repo() -> PathBuf {
 /// What `cargo xtask identify SESSION --what-if EXTRA --search` computes, each number checked
 /// to be finite. Returns the first clean error; panics (the test fails) on a non-finite number.
 fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(), IdentifyError> {
-    let study = Study::load(session)?;
+    // As the command line: without `[identify] parameters`, the model the runs determine.
+    let (study, base) =
+        mtcal_identify::base::identifiable_study(Study::load(session)?, &Default::default())?;
     let (mut id, solution) = identify_with_solution(&study, &Default::default(), &mut Silent)?;
+    if let Some(base) = &base {
+        id.apply_base(base, &study, &solution);
+    }
+    id.add_prediction_bands(&study, &solution);
     let acc = account(&study, &solution)?;
     for p in &acc.parameters {
         assert!(
@@ -81,7 +87,16 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
             }
         }
     }
-    let result = search(study, &SearchOptions::default())?;
+    let mut result = search(study, &SearchOptions::default())?;
+    if let Some(base) = &base {
+        let initial_study = result.study.rebuild(result.initial_changes.clone())?;
+        result
+            .initial
+            .apply_base(base, &initial_study, &result.initial_solution);
+        result
+            .identification
+            .apply_base(base, &result.study, &result.solution);
+    }
     let mut found = result.identification;
     found.information = Some(account(&result.study, &result.solution)?);
     let bad = non_finite(&found);
