@@ -624,10 +624,10 @@ fn identify(
             .identification
             .add_prediction_bands(&result.study, &result.solution);
         writeln!(out, "before the physics search:")?;
-        write!(out, "{}", result.initial.summary())?;
+        write!(out, "{}", result.initial.summary_with(verbose))?;
         write!(out, "\n{}", result.identification.search_summary())?;
         writeln!(out, "\nafter the physics search:")?;
-        write!(out, "{}", result.identification.summary())?;
+        write!(out, "{}", result.identification.summary_with(verbose))?;
         initial = Some(result.initial);
         (result.identification, result.study, result.solution)
     } else {
@@ -638,7 +638,7 @@ fn identify(
             id.apply_base(base, &study, &solution);
         }
         id.add_prediction_bands(&study, &solution);
-        write!(out, "{}", id.summary())?;
+        write!(out, "{}", id.summary_with(verbose))?;
         (id, study, solution)
     };
     let mut id = id;

@@ -359,8 +359,13 @@ impl Identification {
         self.fit.chi2_reduced <= limit
     }
 
-    /// A plain-text summary for the terminal.
+    /// A plain-text summary for the terminal (a long parameter table summarised).
     pub fn summary(&self) -> String {
+        self.summary_with(false)
+    }
+
+    /// [`Self::summary`], every parameter and combination on its own line when `verbose`.
+    pub fn summary_with(&self, verbose: bool) -> String {
         let mut s = String::new();
         if let Some(v) = self.verdict() {
             let _ = writeln!(s, "{v}\n");
@@ -389,7 +394,25 @@ impl Identification {
                 "\nfitted values (NOT a calibration: see the first line; 95 % intervals):"
             )
         };
+        // A long table (a rich model) is summarised on the screen: single-valued errors in
+        // full, a component error's coefficients on one line, set-up parameters counted; every
+        // number is in the JSON and with `--verbose`.
+        let concise =
+            !verbose && self.parameters.len() + self.combinations.len() > SCREEN_PARAMETERS;
+        let mut components: Vec<(String, Vec<&ParameterValue>)> = Vec::new();
+        let mut setup = 0;
         for p in &self.parameters {
+            if concise && p.kind != "machine" && p.kind != "effect" {
+                setup += 1;
+                continue;
+            }
+            if concise && let Some((component, _)) = p.name.split_once('.') {
+                match components.iter_mut().find(|(c, _)| c == component) {
+                    Some((_, list)) => list.push(p),
+                    None => components.push((component.to_string(), vec![p])),
+                }
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "  {:<24} {:>12.4} ± {:<10.4} {:<5} {}{}",
@@ -401,12 +424,33 @@ impl Identification {
                 given_held(p.u95_given_held, p.u95)
             );
         }
+        for (component, list) in &components {
+            let terms: Vec<String> = list
+                .iter()
+                .map(|p| {
+                    let term = p.name.split_once('.').map_or("", |(_, t)| t);
+                    format!("{term} {:.2} ± {:.2}", unsigned_zero(p.value, 2), p.u95)
+                })
+                .collect();
+            let _ = writeln!(s, "  {component:<6} {} {}", terms.join(", "), list[0].unit);
+        }
+        if setup > 0 {
+            let _ = writeln!(
+                s,
+                "  and {setup} set-up parameters (ball, pivot, tool…; in the JSON, or --verbose)"
+            );
+        }
         if !self.combinations.is_empty() {
             let _ = writeln!(
                 s,
                 "\nidentified combinations (these runs cannot separate their members; 95 % intervals):"
             );
+            let mut hidden = 0;
             for c in &self.combinations {
+                if concise && (c.name.contains('.') || c.kind != "machine") {
+                    hidden += 1;
+                    continue;
+                }
                 // The four largest terms on the screen; all of them in the JSON.
                 let shown = crate::base::expression(&c.name, &c.terms[..c.terms.len().min(4)]);
                 let more = if c.terms.len() > 4 { " + …" } else { "" };
@@ -418,6 +462,13 @@ impl Identification {
                     c.u95,
                     c.unit,
                     given_held(c.u95_given_held, c.u95)
+                );
+            }
+            if hidden > 0 {
+                let _ = writeln!(
+                    s,
+                    "  and {hidden} of component coefficients and set-up parameters (in the JSON, \
+                     or --verbose)"
                 );
             }
         }
@@ -523,6 +574,9 @@ fn given_held(u95: Option<f64>, full: f64) -> String {
 fn chi2_spread(dof: usize) -> f64 {
     (2.0 / dof.max(1) as f64).sqrt()
 }
+
+/// Parameters and combinations beyond this make the screen summary concise.
+const SCREEN_PARAMETERS: usize = 30;
 
 /// At most this many lines of where the residuals are not noise on the screen.
 const SCREEN_MISMATCH: usize = 6;
