@@ -71,7 +71,10 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-pub use instruments::{Instrument, LaserMode, Mount, SetupOffsets};
+pub use instruments::{
+    DisplacementSensor, Instrument, LaserMode, Mount, PlatePlacement, Probed, SensorDirection,
+    SetupOffsets,
+};
 pub use machine::{JointKind, Machine, MachineError, Side};
 pub use session::{
     Plan, Realism, RunPlan, SetupPlan, SimError, Written, WrittenRun, write_session,
@@ -143,6 +146,7 @@ impl Campaign {
             setup: setup.into(),
             validate,
             poses,
+            labels: Vec::new(),
         };
         let plan = Plan {
             machine_urdf: urdf.clone(),
@@ -303,12 +307,14 @@ impl Campaign {
                     setup: "bar1".into(),
                     validate: false,
                     poses: circle(true)?,
+                    labels: Vec::new(),
                 },
                 RunPlan {
                     name: "ballbar-xy-cw".into(),
                     setup: "bar1".into(),
                     validate: false,
                     poses: circle(false)?,
+                    labels: Vec::new(),
                 },
             ],
         };

@@ -149,7 +149,7 @@ fn rtest_at(machine: &Machine, truth: &Truth, mount: Mount, c_deg: f64) -> Vecto
                 .unwrap(),
         ]
     });
-    let r = instrument.readings(machine, truth, &q[..1], &SetupOffsets::default());
+    let r = instrument.readings(machine, truth, &q[..1], &[], &SetupOffsets::default());
     Vector3::new(r[0][0], r[0][1], r[0][2]) * 1e6
 }
 
