@@ -63,13 +63,14 @@ pub struct Realism {
     pub pause_s: f64,
     /// σ of the sample-time jitter, s (kept below 0.4 of the interval so `t` keeps rising).
     pub jitter_s: f64,
-    /// σ of the reading noise in the channel's unit (µm), and its AR(1) coefficient φ:
+    /// σ of the reading noise, µm (in mm on the artefact's mm channels), and its AR(1)
+    /// coefficient φ:
     /// `e_k = φ·e_(k−1) + √(1−φ²)·σ·n_k` (stationary σ, coloured for φ > 0).
     pub noise_sigma_um: f64,
     pub noise_phi: f64,
     /// The σ the manifest states is this factor times the one used (1: honest).
     pub manifest_sigma_factor: f64,
-    /// Readings are rounded to this resolution, µm (0: not quantised).
+    /// Readings are rounded to this resolution, µm (likewise; 0: not quantised).
     pub resolution_um: f64,
     /// Commanded positions are rounded to this many decimals of mm / degrees (the machine
     /// then moves exactly there; `None`: every digit).
