@@ -603,3 +603,51 @@ fn ball_on_table_readings_agree_with_mtcal() {
         compare(file, Mount::BallOnTable, true, 200 + k as u64);
     }
 }
+
+/// With a realistic measurement the new instruments' files still load in mtcal, and the noise
+/// is the stated µm in their own units (the artefact's readings are in mm).
+#[test]
+fn realistic_displacement_and_artefact_files_load_with_noise_in_their_units() {
+    let file = "mcv754-zfyx.urdf";
+    let urdf = shipped_machine(file);
+    let machine = Machine::from_urdf_file(&urdf).unwrap();
+    let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(7), 1.0);
+    let mut plan = plan_for(&machine, &urdf, Mount::BallOnTable, true);
+    plan.runs
+        .retain(|r| r.name.starts_with("disp") || r.name.starts_with("artefact"));
+    let realism = Realism::realistic(11);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    write_session(&dir, &machine, &truth, &plan, &realism).unwrap();
+    let session = mtcal_session::load_session(&dir).unwrap();
+    let m = mtcal_machine::urdf::load_urdf_file(session.machine_path.as_ref().unwrap()).unwrap();
+    let letters: Vec<char> = m.letters().chars().collect();
+    let mut noise_um = Vec::new();
+    for run in &session.runs {
+        let setup = load_mtcal_setup(&run.instrument, session.setup_of(run), &m);
+        let names: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
+        let cols = RunColumns {
+            axes: &letters,
+            readings: &names,
+            readings_optional: false,
+            labels: setup.label_columns(),
+        };
+        let table = read_run(&run.file, &cols).unwrap();
+        let clean = read_run(&dir.join("truth").join(&run.file_as_written), &cols).unwrap();
+        for k in 0..table.len() {
+            for (c, ch) in setup.channels().iter().enumerate() {
+                let um_per_unit = 1e6 / ch.unit.per_si();
+                noise_um.push(
+                    (table.reading_row(k).unwrap()[c] - clean.reading_row(k).unwrap()[c])
+                        * um_per_unit,
+                );
+            }
+        }
+    }
+    let rms = (noise_um.iter().map(|e| e * e).sum::<f64>() / noise_um.len() as f64).sqrt();
+    assert!(
+        (0.15..0.6).contains(&rms),
+        "noise rms {rms} µm over {} readings, stated 0.3 µm",
+        noise_um.len()
+    );
+}
