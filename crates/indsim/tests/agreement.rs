@@ -4,7 +4,15 @@
 //! truth. mtcal reads the session through its own loaders (`mtcal-session`, the plugins'
 //! `load_setup`), the truth through its parameter and model files, and predicts with
 //! `MachineModel::tool_pose` and the plugin's `Setup::predict` — what its simulator and
-//! `identify --predict` do per sample.
+//! `identify --predict` do per sample. The file's readings are compared as the fit sees them:
+//! in SI, after the plugin's `prepare_readings` (the artefact's measured centre minus the
+//! probed position), each sample's label resolved by the plugin (the artefact's `feature`).
+//!
+//! Instruments: R-test (both mounts), ball bar, laser (linear, straightness), tracer,
+//! displacement sensors (at a held pose, sensors touching up the tool only where the nominal
+//! tool frame is the workpiece frame's, the plugin's documented approximation) and artefact
+//! plates (2-D at three placements, 3-D at one; axis columns the reported centres, and again
+//! the commanded nominal centres, see [`COMMANDED_ARTEFACT_TOL_UM`]).
 
 use std::path::Path;
 
