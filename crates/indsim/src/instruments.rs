@@ -5,7 +5,7 @@
 //! frame, and its own set-up: the manifest's nominal geometry plus the [`SetupOffsets`] by
 //! which the real set-up differs from it.
 
-use nalgebra::{Matrix4, Vector3};
+use nalgebra::{Matrix3, Matrix4, Vector3};
 
 use crate::machine::{Machine, rotation_of, translation_of};
 use crate::truth::Truth;
@@ -59,6 +59,117 @@ pub enum Instrument {
         station_mm: [f64; 3],
         reflector_mm: [f64; 3],
     },
+    /// Fixed displacement sensors in a fixture on the table against a mandrel (or ball) on the
+    /// tool point, the machine held at one position (ISO 230-3 thermal tests). Each sensor
+    /// reads how far the point of the mandrel it touches is from where the sensor was set
+    /// (zeroed), along its direction: the nominal mandrel at `position_mm` with the nominal tool
+    /// orientation of the run's first sample.
+    Displacement {
+        /// The nominal tool point where the sensors touch it, mm, workpiece frame.
+        position_mm: [f64; 3],
+        /// The sensors, in the order given (the file's columns follow it).
+        sensors: Vec<DisplacementSensor>,
+    },
+    /// A ball or hole plate probed by the machine: each sample is one feature of one placement
+    /// (its label), the reading the axis positions X, Y, Z at which the machine's actual tool
+    /// point sits on the feature's true centre (the measured centre, machine coordinates).
+    Artefact {
+        /// Feature names and calibrated positions in the plate's own frame, mm: `[x, y]` (a 2-D
+        /// plate: only X, Y are measured) or `[x, y, z]`.
+        features: Vec<(String, Vec<f64>)>,
+        placements: Vec<PlatePlacement>,
+        probed: Probed,
+    },
+}
+
+/// Where a displacement sensor reads (FORMATS.md `setup.sensors.<sensor>`), in the workpiece
+/// frame, in which the sensor fixture on the table is fixed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SensorDirection {
+    /// An axis of the workpiece frame, written as a letter (`"X"`, `"-Y"`).
+    Axis { letter: char, negative: bool },
+    /// A vector, written as given, normalised for the physics.
+    Vector([f64; 3]),
+    /// No known direction (`{}`): a sensor the model treats on its own. It reads nothing of the
+    /// machine here (its zero offset is 0).
+    Unknown,
+}
+
+/// One fixed displacement sensor (eddy-current or capacitive probe) against the mandrel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DisplacementSensor {
+    /// The column is `d_<name>`.
+    pub name: String,
+    /// The direction in which a displacement of the touched point reads positive.
+    pub direction: SensorDirection,
+    /// Where the sensor touches the mandrel, from the tool point in the tool frame, mm
+    /// (`None`: at the tool point, the key is not written).
+    pub at_mm: Option<[f64; 3]>,
+}
+
+impl DisplacementSensor {
+    /// Unit measuring direction, workpiece frame (`None` without one).
+    fn unit(&self) -> Option<Vector3<f64>> {
+        match &self.direction {
+            SensorDirection::Axis { letter, negative } => {
+                let mut n = match letter {
+                    'X' => Vector3::x(),
+                    'Y' => Vector3::y(),
+                    'Z' => Vector3::z(),
+                    other => panic!("sensor {}: no axis {other}", self.name),
+                };
+                if *negative {
+                    n = -n;
+                }
+                Some(n)
+            }
+            SensorDirection::Vector(v) => Some(Vector3::from(*v).normalize()),
+            SensorDirection::Unknown => None,
+        }
+    }
+
+    /// The manifest value of the sensor.
+    fn toml_value(&self) -> String {
+        let dir = match &self.direction {
+            SensorDirection::Axis { letter, negative } => {
+                Some(format!("\"{}{letter}\"", if *negative { "-" } else { "" }))
+            }
+            SensorDirection::Vector(v) => Some(format!("[{:?}, {:?}, {:?}]", v[0], v[1], v[2])),
+            SensorDirection::Unknown => None,
+        };
+        match (dir, self.at_mm) {
+            (Some(d), None) => d,
+            (None, _) => "{}".into(),
+            (Some(d), Some(a)) => {
+                format!(
+                    "{{ direction = {d}, at = [{:?}, {:?}, {:?}] }}",
+                    a[0], a[1], a[2]
+                )
+            }
+        }
+    }
+}
+
+/// One placement of an artefact plate on the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlatePlacement {
+    pub name: String,
+    /// Where the plate's origin sits, in axis coordinates (mm): the point the nominal tool point
+    /// reaches with X, Y, Z at these values and every other axis at zero.
+    pub origin_mm: [f64; 3],
+    /// The plate turned about the workpiece frame's +Z, degrees.
+    pub rotation_deg: f64,
+    /// The plate turned over about its own X axis.
+    pub flipped: bool,
+}
+
+/// The axis positions an artefact run's file gives for each probed feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Probed {
+    /// The commanded positions of the plan (e.g. the features' nominal centres).
+    Commanded,
+    /// The position the probing cycle reports: the measured centre itself.
+    Reported,
 }
 
 /// How the real set-up differs from the manifest's (SI): the ball / nest / pivot / station
@@ -77,15 +188,61 @@ impl Instrument {
             Instrument::BallBar { .. } => "ballbar",
             Instrument::Laser { .. } => "laser",
             Instrument::Tracer { .. } => "tracer",
+            Instrument::Displacement { .. } => "displacement",
+            Instrument::Artefact { .. } => "artefact",
         }
     }
 
     /// The reading columns FORMATS.md gives the instrument.
-    pub fn channels(&self) -> &'static [&'static str] {
-        match self {
+    pub fn channels(&self) -> Vec<String> {
+        let fixed: &[&str] = match self {
             Instrument::RTest { .. } => &["dx", "dy", "dz"],
             Instrument::BallBar { .. } => &["dr"],
             Instrument::Laser { .. } | Instrument::Tracer { .. } => &["d"],
+            Instrument::Displacement { sensors, .. } => {
+                return sensors.iter().map(|s| format!("d_{}", s.name)).collect();
+            }
+            Instrument::Artefact { features, .. } => {
+                let dim = features.first().map_or(2, |f| f.1.len());
+                &["x", "y", "z"][..dim]
+            }
+        };
+        fixed.iter().map(|c| c.to_string()).collect()
+    }
+
+    /// The text columns of a run (FORMATS.md: the artefact's `feature`).
+    pub fn label_columns(&self) -> &'static [&'static str] {
+        match self {
+            Instrument::Artefact { .. } => &["feature"],
+            _ => &[],
+        }
+    }
+
+    /// File units per SI unit of the readings: µm (1e6), or mm (1e3) for the artefact, whose
+    /// readings are positions.
+    pub fn file_per_si(&self) -> f64 {
+        match self {
+            Instrument::Artefact { .. } => 1e3,
+            _ => 1e6,
+        }
+    }
+
+    /// The axis positions (SI) the run file gives: the commanded `poses`, except for an
+    /// artefact whose probing cycle reports the measured centre ([`Probed::Reported`]).
+    pub fn recorded_poses(
+        &self,
+        machine: &Machine,
+        truth: &Truth,
+        poses: &[Vec<f64>],
+        labels: &[String],
+        off: &SetupOffsets,
+    ) -> Vec<Vec<f64>> {
+        match self {
+            Instrument::Artefact {
+                probed: Probed::Reported,
+                ..
+            } => self.probe_centres(machine, truth, poses, labels, off),
+            _ => poses.to_vec(),
         }
     }
 
@@ -98,6 +255,7 @@ impl Instrument {
         machine: &Machine,
         truth: &Truth,
         poses: &[Vec<f64>],
+        labels: &[String],
         off: &SetupOffsets,
     ) -> Vec<Vec<f64>> {
         let actual: Vec<Matrix4<f64>> = poses
@@ -187,7 +345,155 @@ impl Instrument {
                     .collect();
                 dev.iter().map(|d| vec![d - dev[0]]).collect()
             }
+            Instrument::Displacement {
+                position_mm,
+                sensors,
+            } => {
+                // Where each sensor reads zero: the touched point of the nominal mandrel at the
+                // stated position, oriented as the nominal tool at the held position, moved with
+                // the fixture by its misplacement.
+                let r_set = poses.first().map_or_else(Matrix3::identity, |q| {
+                    rotation_of(&machine.tool_in_workpiece(q, None))
+                });
+                // Per sensor with a direction: (direction, touched point on the mandrel, where
+                // it reads zero).
+                type Zeroed = Option<(Vector3<f64>, Vector3<f64>, Vector3<f64>)>;
+                let zero: Vec<Zeroed> = sensors
+                    .iter()
+                    .map(|s| {
+                        s.unit().map(|n| {
+                            let a = s.at_mm.as_ref().map_or_else(Vector3::zeros, mm);
+                            (n, a, mm(position_mm) + off.position + r_set * a)
+                        })
+                    })
+                    .collect();
+                actual
+                    .iter()
+                    .map(|m| {
+                        let tip = spindle_point(m);
+                        zero.iter()
+                            .map(|z| match z {
+                                Some((n, a, set)) => n.dot(&((tip - set) + rotation_of(m) * a)),
+                                None => 0.0,
+                            })
+                            .collect()
+                    })
+                    .collect()
+            }
+            Instrument::Artefact { .. } => {
+                let centres = self.probe_centres(machine, truth, poses, labels, off);
+                let dim = self.channels().len();
+                let xyz = xyz_indices(machine);
+                centres
+                    .iter()
+                    .map(|q| xyz[..dim].iter().map(|&i| q[i]).collect())
+                    .collect()
+            }
         }
+    }
+
+    /// Artefact: for each sample, the axis positions (the sample's other axes kept) at which the
+    /// actual tool point sits on the true centre of the labelled feature, in the measured
+    /// coordinates (X, Y on a 2-D plate, Z kept; X, Y, Z on a 3-D one). Newton on the actual
+    /// chain with the nominal chain's Jacobian.
+    fn probe_centres(
+        &self,
+        machine: &Machine,
+        truth: &Truth,
+        poses: &[Vec<f64>],
+        labels: &[String],
+        off: &SetupOffsets,
+    ) -> Vec<Vec<f64>> {
+        let Instrument::Artefact {
+            features,
+            placements,
+            ..
+        } = self
+        else {
+            return poses.to_vec();
+        };
+        assert_eq!(poses.len(), labels.len(), "one feature label per sample");
+        let dim = self.channels().len();
+        let xyz = xyz_indices(machine);
+        let n = machine.n_axes();
+        let tool_point = |q: &[f64], t: Option<&Truth>| {
+            let m = machine.tool_in_workpiece(q, t);
+            translation_of(&m) - rotation_of(&m) * Vector3::z() * off.tool_length
+        };
+        // The nominal tool point's motion per metre of X, Y, Z (other axes at 0).
+        let zero = vec![0.0; n];
+        let p0 = translation_of(&machine.tool_in_workpiece(&zero, None));
+        let mut jac = Matrix3::zeros();
+        for c in 0..3 {
+            let mut q = zero.clone();
+            q[xyz[c]] = 0.1;
+            jac.set_column(
+                c,
+                &((translation_of(&machine.tool_in_workpiece(&q, None)) - p0) / 0.1),
+            );
+        }
+        // The plate's pose in the workpiece frame, per placement.
+        let frames: Vec<(Vector3<f64>, Matrix3<f64>)> = placements
+            .iter()
+            .map(|p| {
+                let mut q = zero.clone();
+                for c in 0..3 {
+                    q[xyz[c]] = p.origin_mm[c] * 1e-3;
+                }
+                let origin = translation_of(&machine.tool_in_workpiece(&q, None));
+                let turn = crate::machine::axis_angle(&Vector3::z(), p.rotation_deg.to_radians());
+                let over = if p.flipped {
+                    Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0))
+                } else {
+                    Matrix3::identity()
+                };
+                (origin + off.position, turn * over)
+            })
+            .collect();
+        poses
+            .iter()
+            .zip(labels)
+            .map(|(q0, label)| {
+                let (pi, fname) = match label.split_once('/') {
+                    Some((p, f)) => (
+                        placements
+                            .iter()
+                            .position(|x| x.name == p)
+                            .unwrap_or_else(|| panic!("no placement {p}")),
+                        f,
+                    ),
+                    None => (0, label.as_str()),
+                };
+                let f = &features
+                    .iter()
+                    .find(|(name, _)| name == fname)
+                    .unwrap_or_else(|| panic!("no feature {fname}"))
+                    .1;
+                let f_plate = Vector3::new(f[0], f[1], f.get(2).copied().unwrap_or(0.0)) * 1e-3;
+                let (origin, r) = &frames[pi];
+                let centre = origin + r * f_plate;
+                let mut q = q0.clone();
+                for _ in 0..30 {
+                    let miss = centre - tool_point(&q, Some(truth));
+                    // Only the measured coordinates are solved for: X, Y (and Z on a 3-D plate).
+                    let step = if dim == 3 {
+                        jac.try_inverse().expect("X, Y, Z span space") * miss
+                    } else {
+                        let j2 = jac.fixed_view::<2, 2>(0, 0).into_owned();
+                        let s2 = j2.try_inverse().expect("X, Y span the plane")
+                            * miss.fixed_rows::<2>(0).into_owned();
+                        Vector3::new(s2.x, s2.y, 0.0)
+                    };
+                    for c in 0..dim {
+                        q[xyz[c]] += step[c];
+                    }
+                    if step.norm() < 1e-17 {
+                        break;
+                    }
+                }
+                q
+            })
+            .collect()
     }
 
     /// The set-up table of the manifest (TOML lines), `sigma` the σ to state (channel units,
@@ -242,12 +548,79 @@ impl Instrument {
                 v(station_mm),
                 v(reflector_mm)
             ),
+            Instrument::Displacement {
+                position_mm,
+                sensors,
+            } => {
+                let list: Vec<String> = sensors
+                    .iter()
+                    .map(|s| format!("{} = {}", toml_key(&s.name), s.toml_value()))
+                    .collect();
+                format!(
+                    "position = {}\nsensors = {{ {} }}\n",
+                    v(position_mm),
+                    list.join(", ")
+                )
+            }
+            Instrument::Artefact {
+                features,
+                placements,
+                ..
+            } => {
+                let feats: Vec<String> = features
+                    .iter()
+                    .map(|(name, p)| {
+                        let xs: Vec<String> = p.iter().map(|x| format!("{x:?}")).collect();
+                        format!("{} = [{}]", toml_key(name), xs.join(", "))
+                    })
+                    .collect();
+                let places: Vec<String> = placements
+                    .iter()
+                    .map(|p| {
+                        format!(
+                            "{} = {{ origin = {}, rotation_deg = {:?}, flipped = {} }}",
+                            toml_key(&p.name),
+                            v(&p.origin_mm),
+                            p.rotation_deg,
+                            p.flipped
+                        )
+                    })
+                    .collect();
+                format!(
+                    "features = {{ {} }}\nplacements = {{ {} }}\n",
+                    feats.join(", "),
+                    places.join(", ")
+                )
+            }
         };
         if let Some(sig) = sigma_um {
             s.push_str(&format!("sigma_um = {sig:?}\n"));
         }
         s
     }
+}
+
+/// A TOML key: bare when it can be (letters, digits, `_`, `-`), quoted otherwise (a feature
+/// name such as `c.5` would otherwise be a dotted key).
+fn toml_key(name: &str) -> String {
+    if !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        name.to_string()
+    } else {
+        format!("{name:?}")
+    }
+}
+
+/// The indices of the linear axes X, Y, Z in the machine's order.
+fn xyz_indices(machine: &Machine) -> [usize; 3] {
+    ['X', 'Y', 'Z'].map(|l| {
+        machine
+            .index(l)
+            .unwrap_or_else(|| panic!("an artefact needs an {l} axis"))
+    })
 }
 
 fn mm(v: &[f64; 3]) -> Vector3<f64> {

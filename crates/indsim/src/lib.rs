@@ -37,13 +37,31 @@
 //!     on rotary axes — the terms mtcal's default full model keeps.
 //! - [`Instrument`]s by their physics: the R-test in both mountings ([`Mount`]), the ball bar,
 //!   the laser interferometer (`linear`, `straightness`; beam fixed to the table, optic on the
-//!   tool side) and the laser tracer (station on the table, reflector on the tool). Laser and
-//!   tracer readings are zeroed at the run's first sample, as the instruments are.
+//!   tool side), the laser tracer (station on the table, reflector on the tool), fixed
+//!   displacement sensors and artefact plates. Laser and tracer readings are zeroed at the
+//!   run's first sample, as the instruments are.
+//!   - `displacement` ([`Instrument::Displacement`], ISO 230-3 thermal tests): sensors in a
+//!     fixture on the table (directions fixed in the workpiece frame: an axis letter, a vector,
+//!     or none), a mandrel on the tool point, touched at the tool point or `at` an offset in
+//!     the tool frame. A sensor reads, along its direction, how far the touched point is from
+//!     where the sensor was zeroed: the nominal mandrel at `setup.position`, oriented as the
+//!     nominal tool at the run's first sample, moved with the fixture's misplacement. A sensor
+//!     without a direction reads 0. Columns `d_<sensor>` in the order given.
+//!   - `artefact` ([`Instrument::Artefact`]): a 2-D (`[x, y]`) or 3-D plate at one or more
+//!     placements (origin in axis coordinates — where the nominal tool point is with X, Y, Z
+//!     there and the other axes at zero —, turned about +Z, flipped about its own X). Each
+//!     sample probes one feature, named by its label (`feature`, or `placement/feature` with
+//!     several placements; [`RunPlan::labels`]); the reading `x, y(, z)` (mm, the only
+//!     readings not in µm) is the axis position at which the machine's actual tool point sits
+//!     on the feature's true centre (Newton on the actual chain; a 2-D plate solves X, Y and
+//!     keeps Z). The axis columns are the commanded positions ([`Probed::Commanded`]) or the
+//!     probing cycle's reported centre ([`Probed::Reported`]). The label column is written
+//!     after the readings.
 //! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, tracer grids;
 //!   the linear axes come from this crate's own nominal inverse (Newton on the nominal chain).
 //! - [`write_session`]: `session.toml` (machine path relative to the folder, shared
 //!   `[setup.<name>]` tables, `use = "validate"` runs), one CSV per run (`t`, axis columns in
-//!   mm / degrees, readings in µm), and the sidecar `truth/`: `params.toml` (the truth,
+//!   mm / degrees, readings in µm — mm for the artefact —, label columns), and the sidecar `truth/`: `params.toml` (the truth,
 //!   `mtcal.params/1`), `errors.toml` (the model it lives in, `mtcal.errors/1`),
 //!   `setups.toml` (real set-up offsets, the noise used) and `<run>.csv` (noise-free readings).
 //! - [`Realism`]: sample-time jitter, quantised readings, AR(1)-coloured noise, a stated σ
@@ -71,7 +89,10 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-pub use instruments::{Instrument, LaserMode, Mount, SetupOffsets};
+pub use instruments::{
+    DisplacementSensor, Instrument, LaserMode, Mount, PlatePlacement, Probed, SensorDirection,
+    SetupOffsets,
+};
 pub use machine::{JointKind, Machine, MachineError, Side};
 pub use session::{
     Plan, Realism, RunPlan, SetupPlan, SimError, Written, WrittenRun, write_session,
@@ -143,6 +164,7 @@ impl Campaign {
             setup: setup.into(),
             validate,
             poses,
+            labels: Vec::new(),
         };
         let plan = Plan {
             machine_urdf: urdf.clone(),
@@ -303,12 +325,14 @@ impl Campaign {
                     setup: "bar1".into(),
                     validate: false,
                     poses: circle(true)?,
+                    labels: Vec::new(),
                 },
                 RunPlan {
                     name: "ballbar-xy-cw".into(),
                     setup: "bar1".into(),
                     validate: false,
                     poses: circle(false)?,
+                    labels: Vec::new(),
                 },
             ],
         };

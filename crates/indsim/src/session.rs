@@ -39,6 +39,9 @@ pub struct RunPlan {
     /// `use = "validate"`.
     pub validate: bool,
     pub poses: Vec<Vec<f64>>,
+    /// One text per sample for an instrument with a label column (the artefact's `feature`:
+    /// `feature`, or `placement/feature` with several placements); empty otherwise.
+    pub labels: Vec<String>,
 }
 
 /// What to write: the machine (a URDF file, referred to by a relative path), set-ups, runs.
@@ -60,13 +63,14 @@ pub struct Realism {
     pub pause_s: f64,
     /// σ of the sample-time jitter, s (kept below 0.4 of the interval so `t` keeps rising).
     pub jitter_s: f64,
-    /// σ of the reading noise in the channel's unit (µm), and its AR(1) coefficient φ:
+    /// σ of the reading noise, µm (in mm on the artefact's mm channels), and its AR(1)
+    /// coefficient φ:
     /// `e_k = φ·e_(k−1) + √(1−φ²)·σ·n_k` (stationary σ, coloured for φ > 0).
     pub noise_sigma_um: f64,
     pub noise_phi: f64,
     /// The σ the manifest states is this factor times the one used (1: honest).
     pub manifest_sigma_factor: f64,
-    /// Readings are rounded to this resolution, µm (0: not quantised).
+    /// Readings are rounded to this resolution, µm (likewise; 0: not quantised).
     pub resolution_um: f64,
     /// Commanded positions are rounded to this many decimals of mm / degrees (the machine
     /// then moves exactly there; `None`: every digit).
@@ -208,9 +212,19 @@ pub fn write_session(
             .ok_or_else(|| SimError::Plan(format!("run {}: no set-up {}", run.name, run.setup)))?;
         let instrument = &plan.setups[setup_index].instrument;
         let off = &offsets[setup_index].1;
-        // The positions as written are the positions the machine moves to.
-        let positions: Vec<Vec<f64>> = run
-            .poses
+        if run.labels.len() != instrument.label_columns().len().min(1) * run.poses.len() {
+            return Err(SimError::Plan(format!(
+                "run {}: {} labels for {} samples of {}",
+                run.name,
+                run.labels.len(),
+                run.poses.len(),
+                instrument.plugin_name()
+            )));
+        }
+        // The positions as written are the positions the machine moves to (or, for a probing
+        // cycle that reports the measured centre, those).
+        let recorded = instrument.recorded_poses(machine, truth, &run.poses, &run.labels, off);
+        let positions: Vec<Vec<f64>> = recorded
             .iter()
             .map(|q| {
                 q.iter()
@@ -241,11 +255,19 @@ pub fn write_session(
                     .collect()
             })
             .collect();
+        // Readings in the file's unit (µm; mm for the artefact's positions).
+        let per_si = instrument.file_per_si();
         let clean_um: Vec<Vec<f64>> = instrument
-            .readings(machine, truth, &si, off)
+            .readings(machine, truth, &si, &run.labels, off)
             .into_iter()
-            .map(|r| r.into_iter().map(|v| v * 1e6).collect())
+            .map(|r| r.into_iter().map(|v| v * per_si).collect())
             .collect();
+        // Noise and resolution are stated in µm.
+        let to_unit = per_si * 1e-6;
+        let (noise_sigma, resolution) = (
+            realism.noise_sigma_um * to_unit,
+            realism.resolution_um * to_unit,
+        );
         let n_ch = instrument.channels().len();
         let mut noise = vec![0.0; n_ch];
         let phi = realism.noise_phi;
@@ -258,13 +280,13 @@ pub fn write_session(
                     .map(|(&v, e)| {
                         let n: f64 = StandardNormal.sample(&mut rng);
                         *e = if k == 0 {
-                            realism.noise_sigma_um * n
+                            noise_sigma * n
                         } else {
-                            phi * *e + (1.0 - phi * phi).sqrt() * realism.noise_sigma_um * n
+                            phi * *e + (1.0 - phi * phi).sqrt() * noise_sigma * n
                         };
                         let noisy = v + *e;
-                        if realism.resolution_um > 0.0 {
-                            round_to(noisy, realism.resolution_um)
+                        if resolution > 0.0 {
+                            round_to(noisy, resolution)
                         } else {
                             noisy
                         }
@@ -287,10 +309,15 @@ pub fn write_session(
         t0 = times.last().copied().unwrap_or(t0) + realism.pause_s;
         let file = PathBuf::from(format!("{}.csv", run.name));
         let channels = instrument.channels();
+        let labels = Labels {
+            columns: instrument.label_columns(),
+            values: &run.labels,
+        };
         write_csv(
             &dir.join(&file),
             &letters,
-            channels,
+            &channels,
+            &labels,
             &times,
             &positions,
             &written_um,
@@ -298,7 +325,8 @@ pub fn write_session(
         write_csv(
             &dir.join("truth").join(&file),
             &letters,
-            channels,
+            &channels,
+            &labels,
             &times,
             &positions,
             &clean_um,
@@ -340,10 +368,17 @@ fn round_to(v: f64, step: f64) -> f64 {
     (v / step).round() * step
 }
 
+/// A run's text column (at most one) and its value per sample.
+struct Labels<'a> {
+    columns: &'a [&'a str],
+    values: &'a [String],
+}
+
 fn write_csv(
     path: &Path,
     letters: &[char],
-    channels: &[&str],
+    channels: &[String],
+    labels: &Labels<'_>,
     t: &[f64],
     positions: &[Vec<f64>],
     readings: &[Vec<f64>],
@@ -352,15 +387,23 @@ fn write_csv(
     for l in letters {
         write!(s, ",{l}").expect("string");
     }
-    for c in channels {
+    for c in channels
+        .iter()
+        .map(String::as_str)
+        .chain(labels.columns.iter().copied())
+    {
         write!(s, ",{c}").expect("string");
     }
     s.push('\n');
-    for ((t, p), r) in t.iter().zip(positions).zip(readings) {
+    for (k, ((t, p), r)) in t.iter().zip(positions).zip(readings).enumerate() {
         // `{}` prints the shortest decimal that reads back to the same f64.
         write!(s, "{t}").expect("string");
         for v in p.iter().chain(r) {
             write!(s, ",{v}").expect("string");
+        }
+        if !labels.columns.is_empty() {
+            // Names are plain (letters, digits, `_ - . /`): no quoting needed.
+            write!(s, ",{}", labels.values[k]).expect("string");
         }
         s.push('\n');
     }

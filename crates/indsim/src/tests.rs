@@ -149,7 +149,7 @@ fn rtest_at(machine: &Machine, truth: &Truth, mount: Mount, c_deg: f64) -> Vecto
                 .unwrap(),
         ]
     });
-    let r = instrument.readings(machine, truth, &q[..1], &SetupOffsets::default());
+    let r = instrument.readings(machine, truth, &q[..1], &[], &SetupOffsets::default());
     Vector3::new(r[0][0], r[0][1], r[0][2]) * 1e6
 }
 
@@ -226,4 +226,119 @@ fn truth_files_name_every_parameter_of_the_default_model() {
     assert_eq!(comps["EBX"]["coefficients"].as_array().unwrap().len(), 4);
     assert_eq!(comps["ECC"]["coefficients"].as_array().unwrap().len(), 4);
     assert!(truth.model_config(&m).contains("locations = \"iso\""));
+}
+
+#[test]
+fn displacement_sensors_read_along_their_direction() {
+    use crate::instruments::{DisplacementSensor, SensorDirection};
+    let m = Machine::from_urdf_text(SIMPLE).unwrap();
+    let q = vec![0.0, 0.2, -0.25];
+    let sensor = |name: &str, direction| DisplacementSensor {
+        name: name.into(),
+        direction,
+        at_mm: None,
+    };
+    let axis = |letter, negative| SensorDirection::Axis { letter, negative };
+    let instrument = Instrument::Displacement {
+        // The nominal tool point there: (0, 0.2, 0.15) m.
+        position_mm: [0.0, 200.0, 150.0],
+        sensors: vec![
+            sensor("x", axis('X', false)),
+            sensor("mx", axis('X', true)),
+            sensor("z", axis('Z', false)),
+            sensor("xy", SensorDirection::Vector([1.0, 1.0, 0.0])),
+            sensor("free", SensorDirection::Unknown),
+        ],
+    };
+    assert_eq!(
+        instrument.channels(),
+        ["d_x", "d_mx", "d_z", "d_xy", "d_free"]
+    );
+    // EC0Y > 0: Y at 200 mm puts the tool 2 µm towards −X; the fixture sits 5 µm towards +X
+    // (the mandrel is relatively 5 µm further −X), and a tool 10 µm longer reaches 10 µm lower.
+    let mut truth = Truth::zero(&m);
+    truth.set(&m, "EC0Y", 10e-6).unwrap();
+    let off = SetupOffsets {
+        position: Vector3::new(5e-6, 0.0, 0.0),
+        tool_length: 10e-6,
+    };
+    let r = instrument.readings(&m, &truth, &[q.clone(), q], &[], &off);
+    let want = [-7.0, 7.0, -10.0, -7.0 / 2f64.sqrt(), 0.0];
+    for row in &r {
+        for (got, want) in row.iter().zip(want) {
+            // First order; EC0Y's second order is 1e-5 µm.
+            assert!((got * 1e6 - want).abs() < 1e-4, "{row:?}");
+        }
+    }
+    let toml = instrument.setup_toml(None);
+    assert!(
+        toml.contains(
+            r#"sensors = { x = "X", mx = "-X", z = "Z", xy = [1.0, 1.0, 0.0], free = {} }"#
+        ),
+        "{toml}"
+    );
+}
+
+#[test]
+fn artefact_reads_the_axis_positions_on_the_true_centre() {
+    use crate::instruments::{PlatePlacement, Probed};
+    let m = Machine::from_urdf_text(SIMPLE).unwrap();
+    // On SIMPLE the tool point in the workpiece frame is (X, Y, Z + 0.4 m): origin [0, 0, −250]
+    // mm puts the plate's origin at (0, 0, 0.15) m. Feature f2 = [100, 50] mm, flipped
+    // (100, −50), turned by 90° (50, 100): it is probed at X = 50, Y = 100 mm. With EC0Y > 0
+    // the tool lands EC0Y·Y short in X, so the machine sits on the centre at X + 1 µm.
+    let instrument = |probed| Instrument::Artefact {
+        features: vec![
+            ("f1".into(), vec![0.0, 0.0]),
+            ("f2".into(), vec![100.0, 50.0]),
+        ],
+        placements: vec![
+            PlatePlacement {
+                name: "a".into(),
+                origin_mm: [0.0, 0.0, -250.0],
+                rotation_deg: 0.0,
+                flipped: false,
+            },
+            PlatePlacement {
+                name: "b".into(),
+                origin_mm: [0.0, 0.0, -250.0],
+                rotation_deg: 90.0,
+                flipped: true,
+            },
+        ],
+        probed,
+    };
+    let mut truth = Truth::zero(&m);
+    truth.set(&m, "EC0Y", 10e-6).unwrap();
+    let commanded = vec![vec![0.0, 0.0, -0.25], vec![0.05, 0.1, -0.25]];
+    let labels = vec!["a/f1".to_string(), "b/f2".to_string()];
+    let off = SetupOffsets::default();
+    let plate = instrument(Probed::Commanded);
+    assert_eq!(plate.channels(), ["x", "y"]);
+    assert_eq!(plate.label_columns(), ["feature"]);
+    assert_eq!(plate.file_per_si(), 1e3);
+    let r = plate.readings(&m, &truth, &commanded, &labels, &off);
+    assert!(r[0][0].abs() < 1e-15 && r[0][1].abs() < 1e-15, "{r:?}");
+    // First order (m); EC0Y's second order is 5e-12 m.
+    assert!((r[1][0] - 0.050_001).abs() < 1e-10, "{r:?}");
+    assert!((r[1][1] - 0.1).abs() < 1e-10, "{r:?}");
+    assert_eq!(
+        plate.recorded_poses(&m, &truth, &commanded, &labels, &off),
+        commanded
+    );
+    // The probing cycle's reported centre as the axis columns: the same X, Y; Z as commanded.
+    let reported =
+        instrument(Probed::Reported).recorded_poses(&m, &truth, &commanded, &labels, &off);
+    assert!((reported[1][0] - 0.050_001).abs() < 1e-10, "{reported:?}");
+    assert_eq!(reported[1][2], -0.25);
+    let toml = plate.setup_toml(Some(0.5));
+    assert!(
+        toml.contains("features = { f1 = [0.0, 0.0], f2 = [100.0, 50.0] }"),
+        "{toml}"
+    );
+    assert!(
+        toml.contains("b = { origin = [0.0, 0.0, -250.0], rotation_deg = 90.0, flipped = true }"),
+        "{toml}"
+    );
+    assert!(toml.ends_with("sigma_um = 0.5\n"), "{toml}");
 }
