@@ -383,6 +383,25 @@ pub fn exp_rotation(w: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity() + k * (th.sin() / th) + k * k * (2.0 * half * half / (th * th))
 }
 
+/// `log`: the rotation vector of `r`, the inverse of [`exp_rotation`] for angles below π. The
+/// axis times `sin θ` is the skew-symmetric part of `r`, `cos θ = (tr r − 1)/2`, and the angle
+/// comes from both (`atan2`), which keeps its digits at error-motion sizes where `acos` would
+/// not. Near π (not an error motion) the axis loses its digits.
+pub fn log_rotation(r: &Matrix3<f64>) -> Vector3<f64> {
+    let sin_axis = 0.5
+        * Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        );
+    let sin = sin_axis.norm();
+    if sin == 0.0 {
+        return Vector3::zeros();
+    }
+    let cos = 0.5 * (r.trace() - 1.0);
+    sin_axis * (sin.atan2(cos) / sin)
+}
+
 pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }

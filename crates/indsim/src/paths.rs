@@ -150,3 +150,51 @@ pub fn grid(
     }
     Ok(out)
 }
+
+/// A diagonal of the work volume (ISO 230-6): the centred `fraction` of the three linear axes'
+/// strokes (machine order), from the corner at `mid − signs·half` to the one at
+/// `mid + signs·half` (`signs` ±1 per linear axis: which of the four body diagonals), `points`
+/// targets evenly spaced, the rotary axes held. With `steps` (a step diagonal), the machine
+/// moves one linear axis at a time from one target to the next, in the machine's axis order,
+/// and a sample is recorded after every step (the last step lands on the target): between two
+/// targets the nominal tool point leaves the diagonal along each axis in turn.
+pub fn diagonal(
+    machine: &Machine,
+    fraction: f64,
+    signs: [f64; 3],
+    points: usize,
+    steps: bool,
+    hold: &[(char, f64)],
+) -> Result<Vec<Vec<f64>>, MachineError> {
+    let q0 = base(machine, hold)?;
+    let lin: Vec<usize> = (0..machine.n_axes())
+        .filter(|&i| machine.joints[i].kind == JointKind::Linear)
+        .collect();
+    if lin.len() != 3 {
+        return Err(MachineError::Structure(
+            "a volume diagonal needs three linear axes".into(),
+        ));
+    }
+    let target = |k: usize| {
+        let s = 2.0 * k as f64 / (points - 1) as f64 - 1.0;
+        let mut q = q0.clone();
+        for (a, &i) in lin.iter().enumerate() {
+            let (lo, hi) = machine.joints[i].stroke();
+            q[i] = 0.5 * (lo + hi) + s * signs[a] * 0.5 * (hi - lo) * fraction;
+        }
+        q
+    };
+    let mut out = vec![checked(machine, target(0), "diagonal")?];
+    for k in 1..points {
+        let next = target(k);
+        if steps {
+            let mut q = out.last().expect("a first target").clone();
+            for &i in &lin[..2] {
+                q[i] = next[i];
+                out.push(checked(machine, q.clone(), "step diagonal")?);
+            }
+        }
+        out.push(checked(machine, next, "diagonal")?);
+    }
+    Ok(out)
+}

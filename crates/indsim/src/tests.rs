@@ -342,3 +342,52 @@ fn artefact_reads_the_axis_positions_on_the_true_centre() {
     );
     assert!(toml.ends_with("sigma_um = 0.5\n"), "{toml}");
 }
+
+#[test]
+fn log_rotation_inverts_exp_rotation() {
+    use crate::machine::{exp_rotation, log_rotation};
+    for w in [
+        Vector3::new(3e-6, -7e-6, 1e-5),
+        Vector3::new(1e-12, 0.0, -2e-12),
+        Vector3::new(0.4, -1.1, 0.9),
+        Vector3::zeros(),
+    ] {
+        let back = log_rotation(&exp_rotation(&w));
+        assert!(
+            (back - w).norm() <= 1e-15 * (1.0 + w.norm()),
+            "{w} -> {back}"
+        );
+    }
+}
+
+#[test]
+fn a_step_diagonal_moves_one_axis_at_a_time_between_the_diagonals_targets() {
+    let m = Machine::from_urdf_text(SIMPLE).unwrap();
+    let straight = paths::diagonal(&m, 0.5, [1.0, -1.0, 1.0], 5, false, &[]).unwrap();
+    let steps = paths::diagonal(&m, 0.5, [1.0, -1.0, 1.0], 5, true, &[]).unwrap();
+    assert_eq!(straight.len(), 5);
+    assert_eq!(steps.len(), 1 + 4 * 3);
+    // The targets: every third step-diagonal sample, from X −0.2, Y +0.15, Z −0.375 (a
+    // quarter of each stroke from its middle) to the opposite corner.
+    for (k, q) in straight.iter().enumerate() {
+        assert_eq!(&steps[3 * k], q);
+    }
+    let first = &straight[0];
+    let want = [-0.2, 0.15, -0.375];
+    assert!(
+        first.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-15),
+        "{first:?}"
+    );
+    // Between targets, X then Y then Z move, one per sample.
+    for w in steps.windows(2) {
+        let moved = w[0].iter().zip(&w[1]).filter(|(a, b)| a != b).count();
+        assert_eq!(moved, 1, "{w:?}");
+    }
+    for k in 0..4 {
+        let changed = |s: usize| (0..3).find(|&i| steps[s][i] != steps[s + 1][i]).unwrap();
+        assert_eq!(
+            [changed(3 * k), changed(3 * k + 1), changed(3 * k + 2)],
+            [0, 1, 2]
+        );
+    }
+}
