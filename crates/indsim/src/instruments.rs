@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
-use crate::machine::{Machine, rotation_of, translation_of};
+use crate::machine::{Machine, log_rotation, rotation_of, translation_of};
 use crate::truth::Truth;
 
 /// How an R-test is mounted (FORMATS.md `setup.mount`).
@@ -21,13 +21,51 @@ pub enum Mount {
     BallInSpindle,
 }
 
-/// What a laser optic reads.
+/// What a laser optic reads (the plugin's `mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LaserMode {
-    /// Displacement of the moving optic along the beam.
+    /// Displacement of the moving optic along the beam, one axis moving (ISO 230-2).
     Linear,
-    /// Displacement of the moving optic across the beam, along `sense`.
+    /// Displacement of the moving optic across the beam, along `across` (the key `sense`).
     Straightness,
+    /// Angular optics (pitch / yaw): the rotation of the tool relative to the workpiece, beyond
+    /// the commanded one, about `across` (the key `about`), in rad (µrad in the file). The
+    /// interferometer reads the difference of two parallel beams' path lengths over the spacing
+    /// of the moving optic's two reflectors: the optic's turn about the axis across both beams.
+    /// Modelled as that component of the rotation vector of the actual tool orientation
+    /// relative to the nominal one, in the workpiece frame where the beams are fixed (for
+    /// error motions of some 10 µrad the sine of the path difference differs from it by parts
+    /// in 10¹¹); where on the tool the optic sits does not matter.
+    Angular,
+    /// Displacement of the moving optic along a beam through the work volume, several linear
+    /// axes moving together (ISO 230-6 body / face diagonal): what [`LaserMode::Linear`] reads,
+    /// along a beam that no single axis follows.
+    Diagonal,
+    /// The same beam and reading, the machine moving one axis at a time between the targets
+    /// (ISO 230-6 step diagonal): the optic also moves across the beam, and reads the
+    /// deviations of each axis' steps along the diagonal.
+    StepDiagonal,
+}
+
+impl LaserMode {
+    /// The plugin's `mode` value.
+    pub fn key(self) -> &'static str {
+        match self {
+            LaserMode::Linear => "linear",
+            LaserMode::Straightness => "straightness",
+            LaserMode::Angular => "angular",
+            LaserMode::Diagonal => "diagonal",
+            LaserMode::StepDiagonal => "step-diagonal",
+        }
+    }
+
+    /// Whether the mode reads a length along the beam (`linear`, `diagonal`, `step-diagonal`).
+    pub fn is_length(self) -> bool {
+        matches!(
+            self,
+            LaserMode::Linear | LaserMode::Diagonal | LaserMode::StepDiagonal
+        )
+    }
 }
 
 /// An instrument and its nominal set-up, as the manifest states it (mm, workpiece frame).
@@ -50,9 +88,12 @@ pub enum Instrument {
         mode: LaserMode,
         /// Beam (= travel) direction, workpiece frame (normalised when read).
         direction: [f64; 3],
-        /// Straightness only: the direction the deviation is read in, across the beam.
-        sense: [f64; 3],
-        /// Moving optic relative to the tool point, tool frame, mm.
+        /// A direction across the beam (workpiece frame, normalised when read): the straightness
+        /// deviation's `sense`, the angular optics' axis `about`; unused (and not written) in
+        /// the length modes.
+        across: [f64; 3],
+        /// Moving optic relative to the tool point, tool frame, mm (not written in angular
+        /// mode, which does not depend on it).
         optic_offset_mm: [f64; 3],
     },
     Tracer {
@@ -298,27 +339,33 @@ impl Instrument {
             Instrument::Laser {
                 mode,
                 direction,
-                sense,
+                across,
                 optic_offset_mm,
             } => {
                 let a = mm(optic_offset_mm);
-                let read_along = match mode {
-                    LaserMode::Linear => Vector3::from(*direction).normalize(),
-                    LaserMode::Straightness => {
-                        // The sense as the instrument aligns it: across the beam.
-                        let n = Vector3::from(*direction).normalize();
-                        let s = Vector3::from(*sense);
-                        (s - n * n.dot(&s)).normalize()
-                    }
+                let n = Vector3::from(*direction).normalize();
+                // The across-beam direction as the instrument is aligned: perpendicular to it
+                // (straightness and angular modes only).
+                let across = || {
+                    let s = Vector3::from(*across);
+                    (s - n * n.dot(&s)).normalize()
                 };
-                // Deviation of the optic from its nominal position, read along the measuring
-                // direction, relative to the datum (first sample).
+                // Deviation from nominal, relative to the datum (first sample).
                 let dev: Vec<f64> = actual
                     .iter()
                     .zip(nominal())
-                    .map(|(m, n)| {
-                        let p_minus_p0 = (translation_of(m) - translation_of(&n))
-                            + (rotation_of(m) - rotation_of(&n)) * a;
+                    .map(|(m, n0)| {
+                        if *mode == LaserMode::Angular {
+                            // The tool's rotation beyond the commanded one, in the workpiece
+                            // frame (where the beam and the fixed optic are), about `about`.
+                            let r_rel = rotation_of(m) * rotation_of(&n0).transpose();
+                            return across().dot(&log_rotation(&r_rel));
+                        }
+                        // The optic's deviation from its nominal position, read along the beam
+                        // (length modes) or across it (straightness).
+                        let read_along = if mode.is_length() { n } else { across() };
+                        let p_minus_p0 = (translation_of(m) - translation_of(&n0))
+                            + (rotation_of(m) - rotation_of(&n0)) * a;
                         read_along.dot(&p_minus_p0)
                     })
                     .collect();
@@ -497,7 +544,7 @@ impl Instrument {
     }
 
     /// The set-up table of the manifest (TOML lines), `sigma` the σ to state (channel units,
-    /// `None`: the plugin's default).
+    /// `None`: the plugin's default): `sigma_um`, or `sigma_urad` for angular laser optics.
     pub fn setup_toml(&self, sigma_um: Option<f64>) -> String {
         let v = |x: &[f64; 3]| format!("[{:?}, {:?}, {:?}]", x[0], x[1], x[2]);
         let mut s = match self {
@@ -523,20 +570,17 @@ impl Instrument {
             Instrument::Laser {
                 mode,
                 direction,
-                sense,
+                across,
                 optic_offset_mm,
             } => {
-                let mut s = format!(
-                    "mode = \"{}\"\ndirection = {}\noptic_offset = {}\n",
-                    match mode {
-                        LaserMode::Linear => "linear",
-                        LaserMode::Straightness => "straightness",
-                    },
-                    v(direction),
-                    v(optic_offset_mm)
-                );
-                if *mode == LaserMode::Straightness {
-                    s.push_str(&format!("sense = {}\n", v(sense)));
+                let mut s = format!("mode = \"{}\"\ndirection = {}\n", mode.key(), v(direction));
+                match mode {
+                    LaserMode::Straightness => s.push_str(&format!("sense = {}\n", v(across))),
+                    LaserMode::Angular => s.push_str(&format!("about = {}\n", v(across))),
+                    _ => {}
+                }
+                if *mode != LaserMode::Angular {
+                    s.push_str(&format!("optic_offset = {}\n", v(optic_offset_mm)));
                 }
                 s
             }
@@ -594,7 +638,15 @@ impl Instrument {
             }
         };
         if let Some(sig) = sigma_um {
-            s.push_str(&format!("sigma_um = {sig:?}\n"));
+            // An angular reading's σ is stated in its own unit (µrad), the others' in µm.
+            let key = match self {
+                Instrument::Laser {
+                    mode: LaserMode::Angular,
+                    ..
+                } => "sigma_urad",
+                _ => "sigma_um",
+            };
+            s.push_str(&format!("{key} = {sig:?}\n"));
         }
         s
     }

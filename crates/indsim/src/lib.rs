@@ -36,10 +36,23 @@
 //!     (positioning from P1, straightness from P2, angular from P0) and Fourier harmonics 1..2
 //!     on rotary axes — the terms mtcal's default full model keeps.
 //! - [`Instrument`]s by their physics: the R-test in both mountings ([`Mount`]), the ball bar,
-//!   the laser interferometer (`linear`, `straightness`; beam fixed to the table, optic on the
-//!   tool side), the laser tracer (station on the table, reflector on the tool), fixed
-//!   displacement sensors and artefact plates. Laser and tracer readings are zeroed at the
+//!   the laser interferometer, the laser tracer (station on the table, reflector on the tool),
+//!   fixed displacement sensors and artefact plates. Laser and tracer readings are zeroed at the
 //!   run's first sample, as the instruments are.
+//!   - `laser` ([`Instrument::Laser`], [`LaserMode`]): beam and fixed optic on the table
+//!     (directions fixed in the workpiece frame), moving optic on the tool side at
+//!     `optic_offset` in the tool frame (the plugin's `optic = "tool"`, not written).
+//!     `linear`, `diagonal`, `step-diagonal`: the moving optic's deviation from its nominal
+//!     position along the beam `direction` (Abbe errors through the offset); a diagonal is a
+//!     beam through the work volume with the linear axes moving together, a step diagonal the
+//!     same beam with one axis moving at a time between its targets (ISO 230-6; the optic then
+//!     also moves across the beam). `straightness`: the same deviation across the beam, along
+//!     `sense`. `angular` (pitch / yaw optics): the tool's rotation relative to the workpiece
+//!     beyond the commanded one, about `about` across the beam — the component of the rotation
+//!     vector of `R R₀ᵀ` (actual times nominal orientation transposed, workpiece frame), read in
+//!     µrad (the one reading in µrad; its stated σ is `sigma_urad`, and [`Realism`]'s µm
+//!     figures are taken as µrad for it, i.e. per metre); the optic's place on the tool does not
+//!     enter (`optic_offset` not written). The beam is aligned: no tilt, no cosine error.
 //!   - `displacement` ([`Instrument::Displacement`], ISO 230-3 thermal tests): sensors in a
 //!     fixture on the table (directions fixed in the workpiece frame: an axis letter, a vector,
 //!     or none), a mandrel on the tool point, touched at the tool point or `at` an offset in
@@ -57,11 +70,14 @@
 //!     keeps Z). The axis columns are the commanded positions ([`Probed::Commanded`]) or the
 //!     probing cycle's reported centre ([`Probed::Reported`]). The label column is written
 //!     after the readings.
-//! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, tracer grids;
-//!   the linear axes come from this crate's own nominal inverse (Newton on the nominal chain).
+//! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, diagonals and
+//!   step diagonals of the work volume ([`paths::diagonal`]), tracer grids; the linear axes
+//!   come from this crate's own nominal inverse (Newton on the nominal chain) where a path
+//!   follows a point.
 //! - [`write_session`]: `session.toml` (machine path relative to the folder, shared
 //!   `[setup.<name>]` tables, `use = "validate"` runs), one CSV per run (`t`, axis columns in
-//!   mm / degrees, readings in µm — mm for the artefact —, label columns), and the sidecar `truth/`: `params.toml` (the truth,
+//!   mm / degrees, readings in µm — mm for the artefact, µrad for angular laser optics —,
+//!   label columns), and the sidecar `truth/`: `params.toml` (the truth,
 //!   `mtcal.params/1`), `errors.toml` (the model it lives in, `mtcal.errors/1`),
 //!   `setups.toml` (real set-up offsets, the noise used) and `<run>.csv` (noise-free readings).
 //! - [`Realism`]: sample-time jitter, quantised readings, AR(1)-coloured noise, a stated σ

@@ -63,8 +63,8 @@ pub struct Realism {
     pub pause_s: f64,
     /// σ of the sample-time jitter, s (kept below 0.4 of the interval so `t` keeps rising).
     pub jitter_s: f64,
-    /// σ of the reading noise, µm (in mm on the artefact's mm channels), and its AR(1)
-    /// coefficient φ:
+    /// σ of the reading noise, µm (in mm on the artefact's mm channels, µrad on an angular
+    /// laser's), and its AR(1) coefficient φ:
     /// `e_k = φ·e_(k−1) + √(1−φ²)·σ·n_k` (stationary σ, coloured for φ > 0).
     pub noise_sigma_um: f64,
     pub noise_phi: f64,
@@ -255,7 +255,8 @@ pub fn write_session(
                     .collect()
             })
             .collect();
-        // Readings in the file's unit (µm; mm for the artefact's positions).
+        // Readings in the file's unit (µm; mm for the artefact's positions, µrad for angular
+        // laser optics).
         let per_si = instrument.file_per_si();
         let clean_um: Vec<Vec<f64>> = instrument
             .readings(machine, truth, &si, &run.labels, off)

@@ -54,24 +54,28 @@ const MACHINES: [&str; 6] = [
     "mu6300-caxfyz.urdf",
 ];
 
-/// Largest |ours − mtcal| per instrument, µm.
+/// Per instrument: the largest |ours − mtcal|, the number of readings compared and the largest
+/// |reading| (µm; µrad for angular laser optics).
 #[derive(Default, Debug)]
 struct Worst {
-    by_instrument: Vec<(String, f64, usize)>,
+    by_instrument: Vec<(String, f64, usize, f64)>,
 }
 
 impl Worst {
-    fn add(&mut self, instrument: &str, diff: f64) {
+    fn add(&mut self, instrument: &str, diff: f64, reading: f64) {
         match self
             .by_instrument
             .iter_mut()
-            .find(|(n, _, _)| n == instrument)
+            .find(|(n, ..)| n == instrument)
         {
             Some(e) => {
                 e.1 = e.1.max(diff);
                 e.2 += 1;
+                e.3 = e.3.max(reading.abs());
             }
-            None => self.by_instrument.push((instrument.to_string(), diff, 1)),
+            None => self
+                .by_instrument
+                .push((instrument.to_string(), diff, 1, reading.abs())),
         }
     }
 }
@@ -170,51 +174,97 @@ fn plan_for(machine: &Machine, urdf: &Path, mount: Mount, write_mount_key: bool)
     run("ballbar-xy".into(), "bar", poses);
 
     // Laser: a linear run along each linear axis, a straightness run along the first; the beam
-    // along the nominal travel, the optic off the tool point (Abbe offsets).
+    // along the nominal travel, the optic off the tool point (Abbe offsets). Angular optics
+    // along each linear axis about two directions across the beam (pitch and yaw on an axis whose beam is a machine axis), and along
+    // the first again with the rotary axes held at their 10° (the rotation read in the
+    // workpiece frame, not the tool's). Diagonal and step-diagonal runs along the four body
+    // diagonals of the work volume.
     let lin: Vec<usize> = (0..n)
         .filter(|&i| machine.joints[i].kind == JointKind::Linear)
         .collect();
+    let nominal_travel = |poses: &[Vec<f64>]| {
+        let a = translation_of(&machine.tool_in_workpiece(&poses[0], None));
+        let b = translation_of(&machine.tool_in_workpiece(poses.last().unwrap(), None));
+        (b - a).normalize()
+    };
+    let laser = |mode, dir: Vector3<f64>, across: Vector3<f64>| Instrument::Laser {
+        mode,
+        direction: [dir.x, dir.y, dir.z],
+        across: [across.x, across.y, across.z],
+        optic_offset_mm: [20.0, -15.0, 80.0],
+    };
     for (k, &i) in lin.iter().enumerate() {
         let j = &machine.joints[i];
         let (lo, hi) = j.stroke();
-        let poses = paths::line(
-            machine,
-            j.letter,
-            0.8 * lo + 0.2 * hi,
-            0.2 * lo + 0.8 * hi,
-            11,
-            &hold_lin,
-        )
-        .unwrap();
-        let a = translation_of(&machine.tool_in_workpiece(&poses[0], None));
-        let b = translation_of(&machine.tool_in_workpiece(poses.last().unwrap(), None));
-        let dir = (b - a).normalize();
+        let line = |hold: &[(char, f64)]| {
+            paths::line(
+                machine,
+                j.letter,
+                0.8 * lo + 0.2 * hi,
+                0.2 * lo + 0.8 * hi,
+                11,
+                hold,
+            )
+            .unwrap()
+        };
+        let poses = line(&hold_lin);
+        let dir = nominal_travel(&poses);
+        let sense = dir.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize();
         let modes: &[LaserMode] = if k == 0 {
             &[LaserMode::Linear, LaserMode::Straightness]
         } else {
             &[LaserMode::Linear]
         };
         for &mode in modes {
-            let sense = dir.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize();
-            let name = format!(
-                "laser-{}-{}",
-                j.letter,
-                if mode == LaserMode::Linear {
-                    "lin"
-                } else {
-                    "str"
-                }
-            );
+            let name = format!("laser-{}-{}", j.letter, mode.key());
             setups.push(SetupPlan {
                 name: name.clone(),
-                instrument: Instrument::Laser {
-                    mode,
-                    direction: [dir.x, dir.y, dir.z],
-                    sense: [sense.x, sense.y, sense.z],
-                    optic_offset_mm: [20.0, -15.0, 80.0],
-                },
+                instrument: laser(mode, dir, sense),
             });
             run(name.clone(), &name, poses.clone());
+        }
+        let mut angular = vec![
+            ("about-1", poses.clone(), dir, sense),
+            ("about-2", poses.clone(), dir, dir.cross(&sense)),
+        ];
+        if k == 0 && !rotary.is_empty() {
+            let mut hold = hold_lin.clone();
+            hold.extend(&hold_rot);
+            let turned = line(&hold);
+            let dir = nominal_travel(&turned);
+            let about = dir.cross(&Vector3::new(-0.6, 0.2, 0.7)).normalize();
+            angular.push(("turned", turned, dir, about));
+        }
+        for (what, poses, dir, about) in angular {
+            let name = format!("laser-{}-angular-{what}", j.letter);
+            setups.push(SetupPlan {
+                name: name.clone(),
+                instrument: laser(LaserMode::Angular, dir, about),
+            });
+            run(name.clone(), &name, poses);
+        }
+    }
+    for (k, signs) in [
+        [1.0, 1.0, 1.0],
+        [-1.0, 1.0, 1.0],
+        [1.0, -1.0, 1.0],
+        [1.0, 1.0, -1.0],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for (mode, steps) in [
+            (LaserMode::Diagonal, false),
+            (LaserMode::StepDiagonal, true),
+        ] {
+            let poses = paths::diagonal(machine, 0.6, signs, 9, steps, &[]).unwrap();
+            let dir = nominal_travel(&poses);
+            let name = format!("laser-{}-{k}", mode.key());
+            setups.push(SetupPlan {
+                name: name.clone(),
+                instrument: laser(mode, dir, Vector3::zeros()),
+            });
+            run(name.clone(), &name, poses);
         }
     }
 
@@ -478,6 +528,55 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
                     .collect()
             })
             .collect();
+        // A diagonal is the path the plugin plans between the run's end targets (its path
+        // checks that the tool point travels along the set-up's beam): same poses.
+        let mode = session.setup_of(run).get("mode").and_then(|v| v.as_str());
+        if let Some(steps) = match mode {
+            Some("diagonal") => Some(false),
+            Some("step-diagonal") => Some(true),
+            _ => None,
+        } {
+            let corner = |q: &[f64]| {
+                let mut t = toml::Table::new();
+                for (i, a) in m.axes().iter().enumerate() {
+                    if a.kind() == mtcal_kinematics::AxisKind::Linear {
+                        t.insert(a.letter().to_string(), (q[i] * 1e3).into());
+                    }
+                }
+                toml::Value::Table(t)
+            };
+            let targets = if steps {
+                (q_all.len() - 1) / 3 + 1
+            } else {
+                q_all.len()
+            };
+            let mut path = toml::Table::new();
+            path.insert("from".into(), corner(&q_all[0]));
+            path.insert("to".into(), corner(q_all.last().unwrap()));
+            path.insert("points".into(), (targets as i64).into());
+            path.insert("bidirectional".into(), false.into());
+            let planned = mtcal_laser::path(&mtcal_instrument::PathSpec {
+                path: &path,
+                setup: session.setup_of(run),
+                machine: &m,
+            })
+            .unwrap_or_else(|e| panic!("{file} run {}: the plugin's path: {e}", run.name));
+            assert_eq!(planned.len(), q_all.len(), "{file} run {}", run.name);
+            for (k, (a, b)) in planned.iter().zip(&q_all).enumerate() {
+                // Axis positions (m, rad; µm in the table below, against 0 as the reading).
+                let off = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                assert!(
+                    off < 1e-12,
+                    "{file} run {} sample {k}: the plugin plans {a:?}, indsim {b:?}",
+                    run.name
+                );
+                worst.add(&format!("laser {} path", mode.unwrap()), off * 1e6, 0.0);
+            }
+        }
         // The readings as the model reads them (SI): the file's values in SI units, then the
         // plugin's own preparation (the artefact's measured centre minus the probed position).
         let mut prepared: Vec<f64> = (0..table.len())
@@ -506,6 +605,9 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
         let xyz = ['X', 'Y', 'Z'].map(|l| m.axis_index(l).unwrap_or(0));
         let inst_label = if commanded_artefact {
             "artefact (commanded)".to_string()
+        } else if run.instrument == "laser" {
+            let mode = session.setup_of(run)["mode"].as_str().unwrap();
+            format!("laser {mode}")
         } else {
             run.instrument.clone()
         };
@@ -561,7 +663,7 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
                 for c in 0..nc {
                     let dropped = ((p_star[c] - pose.t[c]) - prepared[k * nc + c]) * 1e6;
                     let diff = (ours[c] - (pred[c] - dropped)).abs();
-                    worst.add("artefact (commanded, dropped term added)", diff);
+                    worst.add("artefact (commanded, dropped term added)", diff, ours[c]);
                     assert!(
                         diff < TOL_UM * reach,
                         "{file} run {} sample {k} channel {}: indsim {} µm, mtcal {} µm with \
@@ -580,7 +682,7 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
                     "ideal realism writes the clean readings"
                 );
                 let diff = (ours[c] - theirs).abs();
-                worst.add(&inst_label, diff);
+                worst.add(&inst_label, diff, ours[c]);
                 assert!(
                     diff < tol,
                     "{file} run {} sample {k} channel {}: indsim {} µm, mtcal {} µm (diff {diff:e})",
@@ -599,8 +701,10 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
 fn readings_agree_with_mtcal_on_every_shipped_machine() {
     for (k, file) in MACHINES.iter().enumerate() {
         let worst = compare(file, Mount::BallInSpindle, true, 100 + k as u64);
-        for (inst, d, n) in &worst.by_instrument {
-            eprintln!("{file:28} {inst:42} readings {n:5} max |indsim - mtcal| = {d:.3e} um");
+        for (inst, d, n, size) in &worst.by_instrument {
+            eprintln!(
+                "{file:28} {inst:42} readings {n:5} up to {size:9.3} max |indsim - mtcal| = {d:.3e}"
+            );
         }
     }
 }
@@ -612,17 +716,23 @@ fn ball_on_table_readings_agree_with_mtcal() {
     }
 }
 
-/// With a realistic measurement the new instruments' files still load in mtcal, and the noise
-/// is the stated µm in their own units (the artefact's readings are in mm).
+/// With a realistic measurement the newer instruments' and laser modes' files still load in
+/// mtcal (an angular laser states its σ as `sigma_urad`), and the noise is the stated µm in
+/// their own units (the artefact's readings are in mm, the angular laser's in µrad).
 #[test]
-fn realistic_displacement_and_artefact_files_load_with_noise_in_their_units() {
+fn realistic_files_of_the_newer_instruments_load_with_noise_in_their_units() {
     let file = "mcv754-zfyx.urdf";
     let urdf = shipped_machine(file);
     let machine = Machine::from_urdf_file(&urdf).unwrap();
     let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(7), 1.0);
     let mut plan = plan_for(&machine, &urdf, Mount::BallOnTable, true);
-    plan.runs
-        .retain(|r| r.name.starts_with("disp") || r.name.starts_with("artefact"));
+    plan.runs.retain(|r| {
+        ["disp", "artefact", "laser-diagonal", "laser-step-diagonal"]
+            .iter()
+            .any(|p| r.name.starts_with(p))
+            || r.name.contains("angular")
+    });
+    assert!(plan.runs.iter().any(|r| r.name.contains("angular")));
     let realism = Realism::realistic(11);
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
