@@ -8,11 +8,16 @@
 //! in SI, after the plugin's `prepare_readings` (the artefact's measured centre minus the
 //! probed position), each sample's label resolved by the plugin (the artefact's `feature`).
 //!
-//! Instruments: R-test (both mounts), ball bar, laser (linear, straightness), tracer,
-//! displacement sensors (at a held pose, sensors touching up the tool only where the nominal
-//! tool frame is the workpiece frame's, the plugin's documented approximation) and artefact
-//! plates (2-D at three placements, 3-D at one; axis columns the reported centres, and again
-//! the commanded nominal centres, see [`COMMANDED_ARTEFACT_TOL_UM`]).
+//! Instruments: R-test (both mounts), ball bar, laser (linear and angular along each linear
+//! axis, angular also with the rotary axes turned, straightness along the first; diagonal and
+//! step-diagonal along the four body diagonals, whose poses must also be the plugin's own
+//! planned path between the same corners), tracer, displacement sensors (at a held pose,
+//! sensors touching up the tool only where the nominal tool frame is the workpiece frame's,
+//! the plugin's documented approximation) and artefact plates (2-D at three placements, 3-D at
+//! one; axis columns the reported centres, and again the commanded nominal centres, see
+//! [`COMMANDED_ARTEFACT_TOL_UM`]). Laser and tracer readings are compared as changes from the
+//! run's first sample (both instruments are zeroed there; mtcal carries the zero as a
+//! nuisance).
 
 use std::path::Path;
 
@@ -633,8 +638,14 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
                 label,
             };
             setup.predict(&at, &nuis, &mut out);
-            // Both sides in µm (every plugin here models deviations in metres).
+            // Both sides in µm (every plugin here models deviations in metres; an angular laser
+            // in rad, so µrad).
             let pred: Vec<f64> = out.iter().map(|v| v * 1e6).collect();
+            let unit = if mode == Some("angular") {
+                "µrad"
+            } else {
+                "µm"
+            };
             // Laser and tracer readings are zeroed at the first sample; mtcal's free zero /
             // dead path carries that constant. Compare changes from the first sample.
             let relative = matches!(run.instrument.as_str(), "laser" | "tracer");
@@ -685,7 +696,8 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
                 worst.add(&inst_label, diff, ours[c]);
                 assert!(
                     diff < tol,
-                    "{file} run {} sample {k} channel {}: indsim {} µm, mtcal {} µm (diff {diff:e})",
+                    "{file} run {} sample {k} channel {}: indsim {} {unit}, mtcal {} {unit} (diff \
+                     {diff:e})",
                     run.name,
                     names[c],
                     ours[c],
