@@ -612,13 +612,7 @@ fn identify(
         };
         let mut result = mtcal_identify::search::search(study, &options)?;
         if let Some(base) = &base {
-            let initial_study = result.study.rebuild(result.initial_changes.clone())?;
-            result
-                .initial
-                .apply_base(base, &initial_study, &result.initial_solution);
-            result
-                .identification
-                .apply_base(base, &result.study, &result.solution);
+            result.apply_base(base)?;
         }
         result
             .identification

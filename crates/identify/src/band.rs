@@ -16,6 +16,7 @@ use crate::fit::predict_run;
 use crate::report::K95;
 use crate::study::Study;
 use mtcal_solve::Solution;
+use nalgebra::DMatrix;
 
 /// How much larger the parameters' covariance is than the stated noise makes it: the residual
 /// scatter over the stated σ (`χ²/dof`, when above 1: a σ stated too small) times the variance
@@ -56,38 +57,43 @@ pub fn noise_inflation(study: &Study, solution: &Solution) -> f64 {
 /// 95 % prediction band of run `r` (one entry per sample and channel, row-major, SI), for the
 /// parameters of `solution`, with their covariance scaled by [`noise_inflation`].
 pub fn prediction_u95(study: &Study, solution: &Solution, r: usize) -> Vec<f64> {
-    let inflation = noise_inflation(study, solution);
+    prediction_u95_inflated(study, solution, r, noise_inflation(study, solution))
+}
+
+/// [`prediction_u95`] with the covariance scaled by `inflation` (computed once per fit).
+fn prediction_u95_inflated(
+    study: &Study,
+    solution: &Solution,
+    r: usize,
+    inflation: f64,
+) -> Vec<f64> {
     let n = solution.x.len();
     let free: Vec<usize> = (0..n)
         .filter(|&i| solution.sigma[i].is_some_and(|s| s > 0.0))
         .collect();
-    let base = predict_run(study, r, &solution.x);
-    let m = base.len();
-    // g[k][s] = ∂ prediction s / ∂ x_free[k].
-    let mut g = Vec::with_capacity(free.len());
+    let m = study.runs[r].len() * study.channels(r).len();
+    // G (readings × parameters): ∂prediction/∂x by central differences of ±σ.
+    let mut g = DMatrix::zeros(m, free.len());
     let mut x = solution.x.clone();
-    for &i in &free {
+    for (k, &i) in free.iter().enumerate() {
         let h = solution.sigma[i].unwrap_or(0.0);
         x[i] = solution.x[i] + h;
         let up = predict_run(study, r, &x);
         x[i] = solution.x[i] - h;
         let down = predict_run(study, r, &x);
         x[i] = solution.x[i];
-        g.push(
-            up.iter()
-                .zip(&down)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect::<Vec<f64>>(),
-        );
+        for (s, (a, b)) in up.iter().zip(&down).enumerate() {
+            g[(s, k)] = (a - b) / (2.0 * h);
+        }
     }
+    let c = DMatrix::from_fn(free.len(), free.len(), |a, b| {
+        solution.cov(free[a], free[b])
+    });
+    // diag(G C Gᵀ), row by row.
+    let gc = &g * c;
     (0..m)
         .map(|s| {
-            let mut var = 0.0;
-            for (a, &i) in free.iter().enumerate() {
-                for (b, &j) in free.iter().enumerate() {
-                    var += g[a][s] * solution.cov(i, j) * g[b][s];
-                }
-            }
+            let var = gc.row(s).dot(&g.row(s));
             K95 * (var * inflation).max(0.0).sqrt()
         })
         .collect()
@@ -97,6 +103,7 @@ impl crate::report::Identification {
     /// Adds to every validation run its mean 95 % prediction band and, where it has readings,
     /// its RMS prediction error in units of the stated noise (1 = predicted to the noise).
     pub fn add_prediction_bands(&mut self, study: &Study, solution: &Solution) {
+        let inflation = noise_inflation(study, solution);
         for (r, run) in study.runs.iter().enumerate() {
             if run.fit {
                 continue;
@@ -105,7 +112,7 @@ impl crate::report::Identification {
                 continue;
             };
             let channels = study.channels(r);
-            let band = prediction_u95(study, solution, r);
+            let band = prediction_u95_inflated(study, solution, r, inflation);
             if band.is_empty() {
                 continue;
             }

@@ -386,6 +386,50 @@ fn validation_dependence(
     out
 }
 
+/// What [`identify`] returns: the study fitted (the parameters the runs cannot determine
+/// held), its solution, the report with [`BaseModel`] applied, and the model (`None` when the
+/// session names its parameters).
+#[derive(Debug)]
+pub struct Identified {
+    pub study: Study,
+    pub solution: mtcal_solve::Solution,
+    pub identification: crate::report::Identification,
+    pub base: Option<BaseModel>,
+}
+
+/// [`identifiable_study`], then [`crate::identify_with_solution`], then the report with the
+/// model applied: what `mtcal identify` does before its extras.
+pub fn identify(
+    study: Study,
+    options: &Options,
+    observer: &mut dyn mtcal_solve::Observer,
+) -> Result<Identified, IdentifyError> {
+    let (study, base) = identifiable_study(study, options)?;
+    let (mut identification, solution) = crate::identify_with_solution(&study, options, observer)?;
+    if let Some(base) = &base {
+        identification.apply_base(base, &study, &solution);
+    }
+    Ok(Identified {
+        study,
+        solution,
+        identification,
+        base,
+    })
+}
+
+impl crate::search::SearchResult {
+    /// Applies `base` to the reports before and after the search (each with its own study's
+    /// parameter vector).
+    pub fn apply_base(&mut self, base: &BaseModel) -> Result<(), IdentifyError> {
+        let initial_study = self.study.rebuild(self.initial_changes.clone())?;
+        self.initial
+            .apply_base(base, &initial_study, &self.initial_solution);
+        self.identification
+            .apply_base(base, &self.study, &self.solution);
+        Ok(())
+    }
+}
+
 /// The study with the parameters its runs cannot determine held ([`select`]), or `study`
 /// itself (and `None`) when the session names the parameters to estimate (`[identify]
 /// parameters`: the user's choice stands, and what it cannot determine is reported as null

@@ -5,7 +5,7 @@
 //! 20 µm off what the manifest says), identified as a user would: a bare URDF (no
 //! `.errors.toml`: the full ISO 230-1 model) and no `[identify] parameters`.
 
-use mtcal_identify::{Study, band, base, identify_with_solution};
+use mtcal_identify::{Study, band, base};
 use mtcal_indsim::{Campaign, JointKind, Machine, Realism, Truth, Written, shipped_machine};
 use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
@@ -63,12 +63,13 @@ fn run_seed(seed: u64, realism: &Realism) -> Outcome {
     }
     let written = Campaign::trunnion_rtest_ballbar_with(&dir, &truth, realism).unwrap();
     bare_urdf_session(&dir, &written);
-    let options = Options::default();
-    let study = Study::load(&dir).unwrap();
-    let (study, model) = base::identifiable_study(study, &options).unwrap();
-    let model = model.expect("no [identify] parameters: the model is chosen");
-    let (mut id, solution) = identify_with_solution(&study, &options, &mut Silent).unwrap();
-    id.apply_base(&model, &study, &solution);
+    let fitted =
+        base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent).unwrap();
+    assert!(
+        fitted.base.is_some(),
+        "no [identify] parameters: the model is chosen"
+    );
+    let (study, solution, id) = (fitted.study, fitted.solution, fitted.identification);
     // The noise the simulator used: AR(1) of σ, plus the quantisation's.
     let noise_um = (realism.noise_sigma_um.powi(2) + realism.resolution_um.powi(2) / 12.0).sqrt();
     let (mut covered, mut samples) = (0, 0);
@@ -222,12 +223,9 @@ fn three_axis_ball_bar_from_a_bare_urdf_gives_squareness_scales_and_iso_230_4() 
         let dir = tmp.path().join("session");
         let written = Campaign::three_axis_ballbar(&dir, seed, &Realism::realistic(seed)).unwrap();
         bare_urdf_session(&dir, &written);
-        let options = Options::default();
-        let (study, model) =
-            base::identifiable_study(Study::load(&dir).unwrap(), &options).unwrap();
-        let model = model.unwrap();
-        let (mut id, solution) = identify_with_solution(&study, &options, &mut Silent).unwrap();
-        id.apply_base(&model, &study, &solution);
+        let fitted =
+            base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent).unwrap();
+        let (solution, id) = (fitted.solution, fitted.identification);
         assert!(
             solution.converged && solution.iterations < 30,
             "seed {seed}"
@@ -324,10 +322,12 @@ fn the_other_mounting_declared_is_reported_as_a_model_that_does_not_explain_the_
         text.replace("mount = \"ball-on-table\"", "mount = \"ball-in-spindle\""),
     )
     .unwrap();
-    let options = Options::default();
-    let (study, model) = base::identifiable_study(Study::load(&dir).unwrap(), &options).unwrap();
-    let (mut id, solution) = identify_with_solution(&study, &options, &mut Silent).unwrap();
-    id.apply_base(&model.unwrap(), &study, &solution);
+    let identify = || {
+        base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent)
+            .unwrap()
+            .identification
+    };
+    let id = identify();
     assert!(
         !id.model_explains_recordings(),
         "chi2/dof {}",
@@ -343,8 +343,6 @@ fn the_other_mounting_declared_is_reported_as_a_model_that_does_not_explain_the_
     assert!(id.to_json().contains("\"verdict\""));
     // The same session read in its own frame is explained.
     std::fs::write(&manifest, text).unwrap();
-    let (study, model) = base::identifiable_study(Study::load(&dir).unwrap(), &options).unwrap();
-    let (mut id, solution) = identify_with_solution(&study, &options, &mut Silent).unwrap();
-    id.apply_base(&model.unwrap(), &study, &solution);
+    let id = identify();
     assert!(id.model_explains_recordings(), "{}", id.summary());
 }

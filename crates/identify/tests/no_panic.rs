@@ -28,12 +28,12 @@ fn repo() -> PathBuf {
 /// to be finite. Returns the first clean error; panics (the test fails) on a non-finite number.
 fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(), IdentifyError> {
     // As the command line: without `[identify] parameters`, the model the runs determine.
-    let (study, base) =
-        mtcal_identify::base::identifiable_study(Study::load(session)?, &Default::default())?;
-    let (mut id, solution) = identify_with_solution(&study, &Default::default(), &mut Silent)?;
-    if let Some(base) = &base {
-        id.apply_base(base, &study, &solution);
-    }
+    let mtcal_identify::base::Identified {
+        study,
+        solution,
+        identification: mut id,
+        base,
+    } = mtcal_identify::base::identify(Study::load(session)?, &Default::default(), &mut Silent)?;
     id.add_prediction_bands(&study, &solution);
     let acc = account(&study, &solution)?;
     for p in &acc.parameters {
@@ -89,13 +89,7 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
     }
     let mut result = search(study, &SearchOptions::default())?;
     if let Some(base) = &base {
-        let initial_study = result.study.rebuild(result.initial_changes.clone())?;
-        result
-            .initial
-            .apply_base(base, &initial_study, &result.initial_solution);
-        result
-            .identification
-            .apply_base(base, &result.study, &result.solution);
+        result.apply_base(base)?;
     }
     let mut found = result.identification;
     found.information = Some(account(&result.study, &result.solution)?);

@@ -175,6 +175,16 @@ impl Campaign {
         let circle = |ccw, hold: &[(char, f64)], n| {
             paths::circle(&machine, at(pivot), 0.1, (0, 1), ccw, hold, n)
         };
+        // Source 000's XYC: C turned once round with the cradle held at `a_deg`.
+        let xyc = |a_deg: f64, n| {
+            paths::follow_ball(
+                &machine,
+                at(ball1),
+                &[('C', 0.0, deg(360.0))],
+                &[('A', deg(a_deg))],
+                n,
+            )
+        };
         let run = |name: &str, setup: &str, validate, poses| RunPlan {
             name: name.into(),
             setup: setup.into(),
@@ -202,12 +212,7 @@ impl Campaign {
                 },
             ],
             runs: vec![
-                run(
-                    "rtest-xyc",
-                    "ball1",
-                    false,
-                    paths::follow_ball(&machine, at(ball1), &[('C', 0.0, deg(360.0))], &[], 145)?,
-                ),
+                run("rtest-xyc", "ball1", false, xyc(0.0, 145)?),
                 run(
                     "rtest-yza",
                     "ball2",
@@ -232,32 +237,10 @@ impl Campaign {
                         289,
                     )?,
                 ),
-                // Source 000's XYC at the cradle tilted both ways: the C axis' location
-                // relative to the A axis, seen from three A angles.
-                run(
-                    "rtest-xyc-a+30",
-                    "ball1",
-                    false,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball1),
-                        &[('C', 0.0, deg(360.0))],
-                        &[('A', deg(30.0))],
-                        145,
-                    )?,
-                ),
-                run(
-                    "rtest-xyc-a-30",
-                    "ball1",
-                    false,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball1),
-                        &[('C', 0.0, deg(360.0))],
-                        &[('A', deg(-30.0))],
-                        145,
-                    )?,
-                ),
+                // The XYC at the cradle tilted both ways: the C axis' location relative to
+                // the A axis, seen from three A angles.
+                run("rtest-xyc-a+30", "ball1", false, xyc(30.0, 145)?),
+                run("rtest-xyc-a-30", "ball1", false, xyc(-30.0, 145)?),
                 run("ballbar-xy-ccw", "bar1", false, circle(true, &[], 361)?),
                 run("ballbar-xy-cw", "bar1", false, circle(false, &[], 361)?),
                 // The same circle with the table turned a quarter: the pivot's offset from
@@ -286,20 +269,10 @@ impl Campaign {
                     true,
                     circle(true, &[('C', deg(45.0))], 91)?,
                 ),
-                // Paths the fitted runs determine: XYC between the tilts measured, the circle
-                // with the table turned half a revolution, clockwise.
-                run(
-                    "rtest-validate-a15",
-                    "ball1",
-                    true,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball1),
-                        &[('C', 0.0, deg(360.0))],
-                        &[('A', deg(15.0))],
-                        73,
-                    )?,
-                ),
+                // An XYC between the tilts measured (within what the fitted runs determine),
+                // and the circle with the table turned half a revolution, clockwise (which,
+                // like the one at 45°, also sees C's radial motion at that angle).
+                run("rtest-validate-a15", "ball1", true, xyc(15.0, 73)?),
                 run(
                     "ballbar-validate-c180",
                     "bar1",
