@@ -33,11 +33,16 @@ pub fn noise_inflation(study: &Study, solution: &Solution) -> f64 {
         let channels = study.channels(r);
         let nch = channels.len();
         let pred = predict_run(study, r, &solution.x);
-        for (c, ch) in channels.iter().enumerate() {
-            let w = |i: usize| (readings.get(i, c) - pred[i * nch + c]) / ch.sigma;
+        for c in 0..channels.len() {
+            // In units of the noise the fit assumed, prewhitened as its rows were: what is
+            // left beyond that model inflates the band.
+            let sigma = study.sigma(r, c);
+            let raw: Vec<f64> = (0..run.len())
+                .map(|i| (readings.get(i, c) - pred[i * nch + c]) / sigma)
+                .collect();
+            let white = crate::noise::prewhiten(&raw, study.noise(r, c).phi);
             let mut prev = None;
-            for i in 0..run.len() {
-                let e = w(i);
+            for &e in &white {
                 lag0 += e * e;
                 if let Some(p) = prev {
                     lag1 += e * p;

@@ -9,6 +9,7 @@
 //! run share their columns (all estimated machine coefficients + the run's set-up's free
 //! nuisance parameters), which is the structure the streaming solver exploits.
 
+use crate::noise::ArStep;
 use crate::study::Study;
 use mtcal_effects::prepared::shape_values;
 use mtcal_effects::{PreparedEffects, SampleEffects};
@@ -201,17 +202,34 @@ impl Problem for FitProblem<'_> {
 pub(crate) trait RowTarget {
     /// The block's column set (estimated coefficients, then the set-up's free nuisance).
     fn columns(&mut self, cols: &[usize]);
-    /// One whitened residual and Jacobian row, with the sample's evaluation, the sample index
+    /// One residual and Jacobian row ([`Row`]), with the sample's evaluation, the sample index
     /// and the channel (the channels of one sample come in order).
-    fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize);
+    fn row(&mut self, row: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize);
+}
+
+/// One row of the fit: whitened by the channel's σ and, with a coloured noise model,
+/// prewhitened (`res`, `jac`: what the solver sees), and as it was before the prewhitening
+/// (`raw_res`, `raw_jac`: the residual in units of σ). `step` is the filter that made the one
+/// from the other: a target with columns of its own (candidates) applies it to them.
+pub(crate) struct Row<'r> {
+    pub res: f64,
+    pub jac: &'r [f64],
+    pub raw_res: f64,
+    pub raw_jac: &'r [f64],
+    pub step: ArStep,
+    /// The sample before a block that starts inside a run: given only so that a target can
+    /// prime its own filter, not a row of the block.
+    pub seed: bool,
 }
 
 impl RowTarget for RowSink<'_> {
     fn columns(&mut self, cols: &[usize]) {
         RowSink::columns(self, cols);
     }
-    fn row(&mut self, res: f64, row: &[f64], _: &SampleEval<'_>, _: usize, _: usize) {
-        RowSink::row(self, res, row);
+    fn row(&mut self, row: &Row<'_>, _: &SampleEval<'_>, _: usize, _: usize) {
+        if !row.seed {
+            RowSink::row(self, row.res, row.jac);
+        }
     }
 }
 
@@ -239,17 +257,34 @@ impl FitProblem<'_> {
             .collect();
         target.columns(&cols);
         let nch = eval.n_channels();
-        let mut row = vec![0.0; cols.len()];
-        for i in start..end {
-            if let Some((assign, held)) = &self.held_out
-                && assign.of(r, i) == *held
-            {
+        let phi: Vec<f64> = (0..nch).map(|c| study.noise(r, c).phi).collect();
+        let coloured = phi.iter().any(|&p| p != 0.0);
+        let w = cols.len();
+        // Per channel the previous sample's raw residual and row (the filter's memory).
+        let mut prev_res = vec![0.0; nch];
+        let mut prev_jac = vec![0.0; nch * w];
+        let (mut raw, mut out) = (vec![0.0; w], vec![0.0; w]);
+        let held = |i: usize| {
+            self.held_out
+                .as_ref()
+                .is_some_and(|(assign, k)| assign.of(r, i) == *k)
+        };
+        let mut last: Option<usize> = None;
+        // A block that starts inside a run continues the filter from the sample before it.
+        let first = if coloured && start > 0 && !held(start - 1) {
+            start - 1
+        } else {
+            start
+        };
+        for i in first..end {
+            if held(i) {
                 continue;
             }
             eval.at(i, true);
+            let continued = coloured && i > 0 && last == Some(i - 1);
             for c in 0..nch {
-                let res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
-                if !res.is_finite() {
+                let raw_res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
+                if !raw_res.is_finite() {
                     return Err(EvalError::new(format!(
                         "run {}: sample {} (CSV line {}) channel {}: the model gives no finite \
                          prediction",
@@ -259,9 +294,35 @@ impl FitProblem<'_> {
                         study.channels(r)[c].name
                     )));
                 }
-                eval.whitened_row(c, &mut row);
-                target.row(res, &row, &eval, i, c);
+                eval.whitened_row(c, &mut raw);
+                let step = ArStep {
+                    phi: phi[c],
+                    continued,
+                };
+                let prev = &mut prev_jac[c * w..(c + 1) * w];
+                let res = step.apply(raw_res, prev_res[c]);
+                if step.active() {
+                    for ((o, &v), &p) in out.iter_mut().zip(&raw).zip(prev.iter()) {
+                        *o = step.apply(v, p);
+                    }
+                } else {
+                    out.copy_from_slice(&raw);
+                }
+                let row = Row {
+                    res,
+                    jac: &out,
+                    raw_res,
+                    raw_jac: &raw,
+                    step,
+                    seed: i < start,
+                };
+                target.row(&row, &eval, i, c);
+                if coloured {
+                    prev_res[c] = raw_res;
+                    prev.copy_from_slice(&raw);
+                }
             }
+            last = Some(i);
         }
         Ok(())
     }
@@ -359,7 +420,7 @@ impl<'a> SampleEval<'a> {
             pred: vec![0.0; nch],
             d_pose: vec![[0.0; 6]; nch],
             d_nuis: vec![0.0; nch * nn],
-            inv_sigma: setup.channels().iter().map(|c| 1.0 / c.sigma).collect(),
+            inv_sigma: (0..nch).map(|c| 1.0 / study.sigma(run, c)).collect(),
             scratch: vec![0.0; 2 * nch],
             q: vec![0.0; na],
         }

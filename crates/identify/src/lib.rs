@@ -23,6 +23,7 @@ mod checks;
 pub mod fit;
 pub mod information;
 pub mod mismatch;
+pub mod noise;
 pub mod report;
 pub mod search;
 pub mod simulate;

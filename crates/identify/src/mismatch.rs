@@ -105,7 +105,14 @@ fn run_data(study: &Study, r: usize, pred: &[f64]) -> RunData {
     let mut channels_out = Vec::new();
     let mut excess = Vec::new();
     for (c, ch) in channels.iter().enumerate() {
-        let w = |i: usize| (pred[i * nch + c] - readings.get(i, c)) / ch.sigma;
+        // In units of the noise the fit assumes, prewhitened as the fit's rows are: coloured
+        // noise is not structure.
+        let sigma = study.sigma(r, c);
+        let raw: Vec<f64> = (0..n)
+            .map(|i| (pred[i * nch + c] - readings.get(i, c)) / sigma)
+            .collect();
+        let white = crate::noise::prewhiten(&raw, study.noise(r, c).phi);
+        let w = |i: usize| white[i];
         let chi2: f64 = (0..n).map(|i| w(i) * w(i)).sum();
         if (chi2 / n as f64).sqrt() >= MIN_RMS {
             channels_out.push((ch.name.clone(), sum_over(&w, Norm::Residual)));

@@ -160,6 +160,10 @@ pub struct Identification {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub weakly_determined: Vec<WeaklyDetermined>,
     pub fit: Fit,
+    /// The noise the fit assumed where it is not the stated white noise ([`crate::noise`]),
+    /// one sentence per set-up; in the JSON only when there is one.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub noise: Vec<String>,
     /// Validation runs: not fitted; how well the identified model predicts them.
     pub validation: Vec<RunFit>,
     /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
@@ -276,6 +280,11 @@ impl Identification {
                 dof: solution.dof,
                 runs,
             },
+            noise: study
+                .changes()
+                .noise
+                .as_ref()
+                .map_or_else(Vec::new, |n| n.describe(study)),
             validation,
             mismatch: analysis.mismatch.clone(),
             mismatch_detail: analysis.describe(),
@@ -386,6 +395,9 @@ impl Identification {
             self.solver.parameters,
             self.solver.condition_number
         );
+        for line in &self.noise {
+            let _ = writeln!(s, "noise (from the residuals; the fit weighs by it): {line}");
+        }
         let _ = if self.solver.converged && self.model_explains_recordings() {
             writeln!(s, "\nidentified parameters (95 % intervals):")
         } else {
@@ -803,7 +815,7 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
             name: ch.name.clone(),
             unit: ch.unit.as_str().to_string(),
             rms: (ss / n as f64).sqrt() * ch.unit.per_si(),
-            chi2: ss / (ch.sigma * ch.sigma),
+            chi2: ss / (study.sigma(r, c).powi(2)),
             samples: n,
         });
     }

@@ -41,7 +41,7 @@
 //! machine model with the candidate parameters added (held-out parameters are zero at the
 //! solution, so the pose is the fit's).
 
-use crate::fit::{FitProblem, FoldOf, RowTarget, SampleEval};
+use crate::fit::{FitProblem, FoldOf, Row, RowTarget, SampleEval};
 use crate::report::{Identification, K95};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs, param_specs_from};
@@ -508,6 +508,8 @@ impl ScoredProblem for Scoring<'_> {
             effects,
             model_columns: &self.model_columns,
             effect_columns: &self.effect_columns,
+            extra_raw: vec![0.0; self.widths.iter().sum()],
+            extra_prev: vec![0.0; max_ch * self.widths.iter().sum::<usize>()],
         };
         self.fit.walk_rows(b, x, &mut target)
     }
@@ -540,6 +542,10 @@ struct Target<'a, 's> {
     effects: Option<CandidateEffects>,
     model_columns: &'a [(usize, usize)],
     effect_columns: &'a [Option<usize>],
+    /// The row's candidate columns before the noise model's prewhitening, and per channel the
+    /// previous sample's (the filter's memory).
+    extra_raw: Vec<f64>,
+    extra_prev: Vec<f64>,
 }
 
 impl RowTarget for Target<'_, '_> {
@@ -547,7 +553,7 @@ impl RowTarget for Target<'_, '_> {
         self.sink.columns(cols);
     }
 
-    fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
+    fn row(&mut self, row: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
         let run = &self.study.runs[eval.run];
         let na = self.study.model.machine().n_axes();
         if channel == 0 {
@@ -589,30 +595,46 @@ impl RowTarget for Target<'_, '_> {
                 }
             }
         }
-        let (aug, jac, effects) = (&self.aug, &self.jac, &self.effects);
-        let model_columns = self.model_columns;
-        self.sink.row_with(res, row, |extra| {
-            if let Some((aug, _)) = aug {
-                let n_aug = aug.model.n_coeffs();
-                for &(col, k) in model_columns {
-                    extra[col] = jac[channel * n_aug + k];
-                }
+        let extra = &mut self.extra_raw;
+        extra.fill(0.0);
+        if let Some((aug, _)) = &self.aug {
+            let n_aug = aug.model.n_coeffs();
+            for &(col, k) in self.model_columns {
+                extra[col] = self.jac[channel * n_aug + k];
             }
-            if let Some(fx) = effects {
-                let nn = eval.d_nuis.len() / eval.n_channels().max(1);
-                let w = eval.inv_sigma[channel];
-                for &(col, e) in &fx.placed {
-                    let through = match e.slot {
-                        mtcal_effects::Slot::Axis(a) => fx.pose_axis[channel * na + a],
-                        mtcal_effects::Slot::Nuisance(j) => eval.d_nuis[channel * nn + j],
-                        mtcal_effects::Slot::Channel(c) if c == channel => w,
-                        mtcal_effects::Slot::Gain(c) if c == channel => eval.pred[channel] * w,
-                        _ => 0.0,
-                    };
-                    extra[col] += e.value * through;
-                }
+        }
+        if let Some(fx) = &self.effects {
+            let nn = eval.d_nuis.len() / eval.n_channels().max(1);
+            let w = eval.inv_sigma[channel];
+            for &(col, e) in &fx.placed {
+                let through = match e.slot {
+                    mtcal_effects::Slot::Axis(a) => fx.pose_axis[channel * na + a],
+                    mtcal_effects::Slot::Nuisance(j) => eval.d_nuis[channel * nn + j],
+                    mtcal_effects::Slot::Channel(c) if c == channel => w,
+                    mtcal_effects::Slot::Gain(c) if c == channel => eval.pred[channel] * w,
+                    _ => 0.0,
+                };
+                extra[col] += e.value * through;
             }
-        });
+        }
+        // The candidates' columns go through the same prewhitening as the fit's.
+        let e = extra.len();
+        let prev = &mut self.extra_prev[channel * e..(channel + 1) * e];
+        if !row.seed {
+            let step = row.step;
+            self.sink.row_with(row.res, row.jac, |out| {
+                if step.active() {
+                    for ((o, &v), &p) in out.iter_mut().zip(extra.iter()).zip(prev.iter()) {
+                        *o = step.apply(v, p);
+                    }
+                } else {
+                    out.copy_from_slice(extra);
+                }
+            });
+        }
+        if row.step.phi != 0.0 {
+            prev.copy_from_slice(extra);
+        }
     }
 }
 
@@ -763,6 +785,21 @@ struct Stage {
 pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
     let options = &with_session_options(&study, options)?;
     let mut current = fit(study, None, options)?;
+    // Every decision below is a χ² statistic: on the noise the recordings really carry, not the
+    // σ the manifest states (crate::noise). Kept fixed through the search, so that every model
+    // is compared on the same metric.
+    if current.study.changes().noise.is_none() {
+        let noise = crate::noise::estimate(&current.study, &current.solution.x);
+        if !noise.is_stated() {
+            let changes = Changes {
+                noise: Some(Arc::new(noise)),
+                ..current.study.changes().clone()
+            };
+            let study = current.study.rebuild(changes)?;
+            let x0 = current.solution.x.clone();
+            current = fit(study, Some(x0), options)?;
+        }
+    }
     let initial = current.id.clone();
     let initial_solution = current.solution.clone();
     let initial_changes = current.study.changes().clone();
@@ -1163,7 +1200,10 @@ impl RowTarget for FoldTarget<'_> {
         self.cols.extend_from_slice(cols);
     }
 
-    fn row(&mut self, res: f64, row: &[f64], eval: &SampleEval<'_>, sample: usize, channel: usize) {
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
+        if out.seed {
+            return;
+        }
         let n = self.sums.n;
         let k = self.assign.of(eval.run, sample);
         let sigma = 1.0 / eval.inv_sigma[channel];
@@ -1172,21 +1212,27 @@ impl RowTarget for FoldTarget<'_> {
             &mut self.sums.a[k * n * n..(k + 1) * n * n],
             &mut self.sums.au[k * n * n..(k + 1) * n * n],
         );
+        // The decision's sums from the prewhitened rows; the RMS in the channels' units from
+        // the residuals as they are.
+        let (row, res) = (out.jac, out.res);
+        let (raw, raw_res) = (out.raw_jac, out.raw_res);
         for (p, &i) in self.cols.iter().enumerate() {
-            let ri = row[p];
-            if ri == 0.0 {
-                continue;
+            let (ri, ui) = (row[p], raw[p]);
+            if ri != 0.0 {
+                for (q, &j) in self.cols.iter().enumerate() {
+                    a[i * n + j] += ri * row[q];
+                }
+                self.sums.g[k * n + i] += ri * res;
             }
-            for (q, &j) in self.cols.iter().enumerate() {
-                let v = ri * row[q];
-                a[i * n + j] += v;
-                au[i * n + j] += v * s2;
+            if ui != 0.0 {
+                for (q, &j) in self.cols.iter().enumerate() {
+                    au[i * n + j] += ui * raw[q] * s2;
+                }
+                self.sums.gu[k * n + i] += ui * raw_res * s2;
             }
-            self.sums.g[k * n + i] += ri * res;
-            self.sums.gu[k * n + i] += ri * res * s2;
         }
         self.sums.rr[k] += res * res;
-        self.sums.rru[k] += res * res * s2;
+        self.sums.rru[k] += raw_res * raw_res * s2;
         self.sums.count[k] += 1;
     }
 }

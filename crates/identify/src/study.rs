@@ -215,6 +215,9 @@ pub struct Changes {
     /// would bias every prediction that sees it differently), and predictions carry its
     /// uncertainty.
     pub hold: Vec<String>,
+    /// The noise the recordings carry, when it is not the stated white noise
+    /// ([`crate::noise`]): every channel's σ scaled and its rows prewhitened.
+    pub noise: Option<Arc<crate::noise::NoiseModel>>,
 }
 
 impl Study {
@@ -712,6 +715,22 @@ impl Study {
     /// The channels of run `r`.
     pub fn channels(&self, r: usize) -> &[Channel] {
         self.setups[self.runs[r].setup].setup.channels()
+    }
+
+    /// The noise of channel `c` of run `r` the fit assumes: the stated σ and white, unless
+    /// [`Changes::noise`] says otherwise.
+    pub fn noise(&self, r: usize, c: usize) -> crate::noise::ChannelNoise {
+        self.changes
+            .noise
+            .as_ref()
+            .map_or(crate::noise::ChannelNoise::STATED, |n| {
+                n.of(self.runs[r].setup, c)
+            })
+    }
+
+    /// σ of channel `c` of run `r` (SI): the stated one times the noise model's scale.
+    pub fn sigma(&self, r: usize, c: usize) -> f64 {
+        self.channels(r)[c].sigma * self.noise(r, c).scale
     }
 }
 
