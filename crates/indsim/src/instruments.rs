@@ -7,6 +7,7 @@
 
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
+use crate::effects::{SampleState, actual_pose};
 use crate::machine::{Machine, log_rotation, rotation_of, translation_of};
 use crate::truth::Truth;
 
@@ -278,11 +279,24 @@ impl Instrument {
         labels: &[String],
         off: &SetupOffsets,
     ) -> Vec<Vec<f64>> {
+        self.recorded_poses_at(machine, truth, poses, labels, off, &[])
+    }
+
+    /// [`Self::recorded_poses`] with the effects' state at each sample (`states` empty: none).
+    pub(crate) fn recorded_poses_at(
+        &self,
+        machine: &Machine,
+        truth: &Truth,
+        poses: &[Vec<f64>],
+        labels: &[String],
+        off: &SetupOffsets,
+        states: &[SampleState<'_>],
+    ) -> Vec<Vec<f64>> {
         match self {
             Instrument::Artefact {
                 probed: Probed::Reported,
                 ..
-            } => self.probe_centres(machine, truth, poses, labels, off),
+            } => self.probe_centres(machine, truth, poses, labels, off, states),
             _ => poses.to_vec(),
         }
     }
@@ -299,9 +313,25 @@ impl Instrument {
         labels: &[String],
         off: &SetupOffsets,
     ) -> Vec<Vec<f64>> {
+        self.readings_at(machine, truth, poses, labels, off, &[])
+    }
+
+    /// [`Self::readings`] with the effects' state at each sample (`states` empty: none): the
+    /// actual pose of every sample is the effects' ([`crate::effects`]), which every
+    /// instrument reads alike.
+    pub(crate) fn readings_at(
+        &self,
+        machine: &Machine,
+        truth: &Truth,
+        poses: &[Vec<f64>],
+        labels: &[String],
+        off: &SetupOffsets,
+        states: &[SampleState<'_>],
+    ) -> Vec<Vec<f64>> {
         let actual: Vec<Matrix4<f64>> = poses
             .iter()
-            .map(|q| machine.tool_in_workpiece(q, Some(truth)))
+            .enumerate()
+            .map(|(k, q)| actual_pose(machine, truth, q, states.get(k)))
             .collect();
         let nominal = || poses.iter().map(|q| machine.tool_in_workpiece(q, None));
         // The tool-side ball (spindle ball, nest centre) for a tool longer by δℓ.
@@ -428,7 +458,7 @@ impl Instrument {
                     .collect()
             }
             Instrument::Artefact { .. } => {
-                let centres = self.probe_centres(machine, truth, poses, labels, off);
+                let centres = self.probe_centres(machine, truth, poses, labels, off, states);
                 let dim = self.channels().len();
                 let xyz = xyz_indices(machine);
                 centres
@@ -442,7 +472,8 @@ impl Instrument {
     /// Artefact: for each sample, the axis positions (the sample's other axes kept) at which the
     /// actual tool point sits on the true centre of the labelled feature, in the measured
     /// coordinates (X, Y on a 2-D plate, Z kept; X, Y, Z on a 3-D one). Newton on the actual
-    /// chain with the nominal chain's Jacobian.
+    /// chain with the nominal chain's Jacobian; with effects, the actual chain of the sample's
+    /// state (lost motion as the approach to the commanded position left it).
     fn probe_centres(
         &self,
         machine: &Machine,
@@ -450,6 +481,7 @@ impl Instrument {
         poses: &[Vec<f64>],
         labels: &[String],
         off: &SetupOffsets,
+        states: &[SampleState<'_>],
     ) -> Vec<Vec<f64>> {
         let Instrument::Artefact {
             features,
@@ -463,8 +495,8 @@ impl Instrument {
         let dim = self.channels().len();
         let xyz = xyz_indices(machine);
         let n = machine.n_axes();
-        let tool_point = |q: &[f64], t: Option<&Truth>| {
-            let m = machine.tool_in_workpiece(q, t);
+        let tool_point = |q: &[f64], k: usize| {
+            let m = actual_pose(machine, truth, q, states.get(k));
             translation_of(&m) - rotation_of(&m) * Vector3::z() * off.tool_length
         };
         // The nominal tool point's motion per metre of X, Y, Z (other axes at 0).
@@ -500,7 +532,8 @@ impl Instrument {
         poses
             .iter()
             .zip(labels)
-            .map(|(q0, label)| {
+            .enumerate()
+            .map(|(k, (q0, label))| {
                 let (pi, fname) = match label.split_once('/') {
                     Some((p, f)) => (
                         placements
@@ -521,7 +554,7 @@ impl Instrument {
                 let centre = origin + r * f_plate;
                 let mut q = q0.clone();
                 for _ in 0..30 {
-                    let miss = centre - tool_point(&q, Some(truth));
+                    let miss = centre - tool_point(&q, k);
                     // Only the measured coordinates are solved for: X, Y (and Z on a 3-D plate).
                     let step = if dim == 3 {
                         jac.try_inverse().expect("X, Y, Z span space") * miss

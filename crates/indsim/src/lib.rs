@@ -70,19 +70,41 @@
 //!     keeps Z). The axis columns are the commanded positions ([`Probed::Commanded`]) or the
 //!     probing cycle's reported centre ([`Probed::Reported`]). The label column is written
 //!     after the readings.
-//! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, diagonals and
-//!   step diagonals of the work volume ([`paths::diagonal`]), tracer grids; the linear axes
-//!   come from this crate's own nominal inverse (Newton on the nominal chain) where a path
-//!   follows a point.
+//! - [`Effect`]s a geometric model leaves out, by their physics ([`effects`] has each one's
+//!   formula and sign), acting along the session's timeline (runs in plan order, state
+//!   carried from run to run, validation runs alike; [`Plan::effects`], empty by default):
+//!   - on an axis' actual position (the written commands stay the commands): lost motion
+//!     ([`Effect::Backlash`], a dead band along the commanded sequence), a periodic screw
+//!     error ([`Effect::ScrewError`]), scale expansion about a reference with its temperature
+//!     ([`Effect::ThermalScale`]);
+//!   - as a translation of the tool point relative to the workpiece in machine directions,
+//!     `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)` at the actual axis positions `a`: the
+//!     spindle head's thermal growth from first-order nodes integrated exactly
+//!     ([`Effect::Thermal`], [`HeatSource`], [`Programme`]), a table twist `k·x·y` along Z
+//!     ([`Effect::Twist`]), a sag `k·q²` ([`Effect::Sag`]);
+//!   - on the instrument alone: the ball bar's own expansion ([`Effect::BallBarThermal`]).
+//!
+//!   Every instrument reads the same actual pose. Context columns (after the readings and
+//!   labels): a scale's temperature `T_<name>` (°C) in every run, the bar's in its set-up's
+//!   runs, the spindle speed `S` (rpm, [`Effect::SpindleSpeed`], which heat sources may
+//!   follow) in every run; temperatures as a sensor reads them ([`Realism`]).
+//! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, ISO 230-2
+//!   bidirectional runs ([`paths::bidirectional`]), diagonals and step diagonals of the work
+//!   volume ([`paths::diagonal`]), tracer grids; the linear axes come from this crate's own
+//!   nominal inverse (Newton on the nominal chain) where a path follows a point.
 //! - [`write_session`]: `session.toml` (machine path relative to the folder, shared
 //!   `[setup.<name>]` tables, `use = "validate"` runs), one CSV per run (`t`, axis columns in
 //!   mm / degrees, readings in µm — mm for the artefact, µrad for angular laser optics —,
-//!   label columns), and the sidecar `truth/`: `params.toml` (the truth,
+//!   label columns, context columns), and the sidecar `truth/`: `params.toml` (the truth,
 //!   `mtcal.params/1`), `errors.toml` (the model it lives in, `mtcal.errors/1`),
-//!   `setups.toml` (real set-up offsets, the noise used) and `<run>.csv` (noise-free readings).
+//!   `setups.toml` (real set-up offsets, the noise used), `<run>.csv` (noise-free readings,
+//!   true context values) and, when effects are planted, `effects.toml` (each with its
+//!   parameters, in µm / µrad / mm / s / K).
 //! - [`Realism`]: sample-time jitter, quantised readings, AR(1)-coloured noise, a stated σ
 //!   that differs from the one used, positions rounded as a controller writes them, real
-//!   set-ups off the stated ones (ball / nest / pivot / station position, tool length).
+//!   set-ups off the stated ones (ball / nest / pivot / station position, tool length),
+//!   temperature sensors' noise and resolution (a random stream of their own: with or without
+//!   effects, every other draw is the same).
 //!
 //! # R-test mount key
 //! FORMATS.md v1.1 has `setup.mount` (`"ball-on-table"`, the default, or `"ball-in-spindle"`).
@@ -91,8 +113,13 @@
 //!
 //! # Campaigns
 //! [`Campaign::trunnion_rtest_ballbar`] and [`Campaign::three_axis_ballbar`] write the
-//! sessions the identification tests use.
+//! sessions the identification tests use; [`Campaign::trunnion_rtest_ballbar_effects`] (the
+//! trunnion's runs with effects, timed to half an hour) and
+//! [`Campaign::three_axis_laser_tracer`] (ISO 230-2 laser runs, straightness, a laser-tracer
+//! grid from four stations, validation runs; half an hour) plant effects.
 
+pub mod campaign;
+pub mod effects;
 pub mod instruments;
 pub mod machine;
 pub mod paths;
@@ -101,10 +128,8 @@ pub mod truth;
 
 use std::path::{Path, PathBuf};
 
-use nalgebra::Vector3;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-
+pub use campaign::Campaign;
+pub use effects::{Effect, HeatSource, Programme, TemperatureProgramme};
 pub use instruments::{
     DisplacementSensor, Instrument, LaserMode, Mount, PlatePlacement, Probed, SensorDirection,
     SetupOffsets,
@@ -120,213 +145,6 @@ pub fn shipped_machine(file: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../machines")
         .join(file)
-}
-
-/// Ready-made sessions for the identification tests.
-#[derive(Debug)]
-pub struct Campaign;
-
-impl Campaign {
-    /// The shipped five-axis trunnion `machines/mcu630-cafyxz.urdf` (A cradle carrying a C
-    /// table, spindle on X Y Z), a random truth from `seed` ([`Truth::random`], scale 1), and
-    /// into `dir`:
-    /// - R-test, ball on the table (`mount = "ball-on-table"` written), one shared
-    ///   set-up `ball1` at [150, 0, 200] mm: `rtest-xyc` (C 0→360°, 145 samples), the same at
-    ///   A = ±30° (`rtest-xyc-a+30`, `rtest-xyc-a-30`), `rtest-xyzac` (A −30→30° with C
-    ///   0→360°, 289), and set-up `ball2` on the C axis at [0, 0, 200] mm: `rtest-yza`
-    ///   (A −30→90°, 97);
-    /// - ball bar, set-up `bar1` (pivot [0, 0, 200] mm, 100 mm): `ballbar-xy-ccw`,
-    ///   `ballbar-xy-cw` (XY circles at A = C = 0, 361 samples), `ballbar-xy-c90` (the same
-    ///   circle with C held at 90°);
-    /// - validation runs: `rtest-validate` (ball1, A 20→−20° with C 0→180°, 37 samples),
-    ///   `ballbar-validate` (bar1, an XY circle with C held at 45°, 91), `rtest-validate-a15`
-    ///   (ball1, XYC at A = 15°, 73) and `ballbar-validate-c180` (bar1, the XY circle clockwise
-    ///   with C held at 180°, 91).
-    pub fn trunnion_rtest_ballbar(
-        dir: &Path,
-        seed: u64,
-        realism: &Realism,
-    ) -> Result<Written, SimError> {
-        let machine = Machine::from_urdf_file(&shipped_machine("mcu630-cafyxz.urdf"))?;
-        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
-        Self::trunnion_rtest_ballbar_with(dir, &truth, realism)
-    }
-
-    /// [`Self::trunnion_rtest_ballbar`] with a given truth (e.g. a random draw with the rotary
-    /// axes' component errors removed).
-    pub fn trunnion_rtest_ballbar_with(
-        dir: &Path,
-        truth: &Truth,
-        realism: &Realism,
-    ) -> Result<Written, SimError> {
-        let urdf = shipped_machine("mcu630-cafyxz.urdf");
-        let machine = Machine::from_urdf_file(&urdf)?;
-        let truth = truth.clone();
-        let deg = f64::to_radians;
-        let ball1 = [150.0, 0.0, 200.0];
-        let ball2 = [0.0, 0.0, 200.0];
-        let rtest = |ball_mm| Instrument::RTest {
-            ball_mm,
-            mount: Mount::BallOnTable,
-            write_mount_key: true,
-        };
-        let at = |v: [f64; 3]| Vector3::new(v[0], v[1], v[2]) * 1e-3;
-        let pivot = [0.0, 0.0, 200.0];
-        let circle = |ccw, hold: &[(char, f64)], n| {
-            paths::circle(&machine, at(pivot), 0.1, (0, 1), ccw, hold, n)
-        };
-        // Source 000's XYC: C turned once round with the cradle held at `a_deg`.
-        let xyc = |a_deg: f64, n| {
-            paths::follow_ball(
-                &machine,
-                at(ball1),
-                &[('C', 0.0, deg(360.0))],
-                &[('A', deg(a_deg))],
-                n,
-            )
-        };
-        let run = |name: &str, setup: &str, validate, poses| RunPlan {
-            name: name.into(),
-            setup: setup.into(),
-            validate,
-            poses,
-            labels: Vec::new(),
-        };
-        let plan = Plan {
-            machine_urdf: urdf.clone(),
-            setups: vec![
-                SetupPlan {
-                    name: "ball1".into(),
-                    instrument: rtest(ball1),
-                },
-                SetupPlan {
-                    name: "ball2".into(),
-                    instrument: rtest(ball2),
-                },
-                SetupPlan {
-                    name: "bar1".into(),
-                    instrument: Instrument::BallBar {
-                        pivot_mm: pivot,
-                        length_mm: 100.0,
-                    },
-                },
-            ],
-            runs: vec![
-                run("rtest-xyc", "ball1", false, xyc(0.0, 145)?),
-                run(
-                    "rtest-yza",
-                    "ball2",
-                    false,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball2),
-                        &[('A', deg(-30.0), deg(90.0))],
-                        &[],
-                        97,
-                    )?,
-                ),
-                run(
-                    "rtest-xyzac",
-                    "ball1",
-                    false,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball1),
-                        &[('A', deg(-30.0), deg(30.0)), ('C', 0.0, deg(360.0))],
-                        &[],
-                        289,
-                    )?,
-                ),
-                // The XYC at the cradle tilted both ways: the C axis' location relative to
-                // the A axis, seen from three A angles.
-                run("rtest-xyc-a+30", "ball1", false, xyc(30.0, 145)?),
-                run("rtest-xyc-a-30", "ball1", false, xyc(-30.0, 145)?),
-                run("ballbar-xy-ccw", "bar1", false, circle(true, &[], 361)?),
-                run("ballbar-xy-cw", "bar1", false, circle(false, &[], 361)?),
-                // The same circle with the table turned a quarter: the pivot's offset from
-                // C's axis line separates from the line's own position.
-                run(
-                    "ballbar-xy-c90",
-                    "bar1",
-                    false,
-                    circle(true, &[('C', deg(90.0))], 361)?,
-                ),
-                run(
-                    "rtest-validate",
-                    "ball1",
-                    true,
-                    paths::follow_ball(
-                        &machine,
-                        at(ball1),
-                        &[('A', deg(20.0), deg(-20.0)), ('C', 0.0, deg(180.0))],
-                        &[],
-                        37,
-                    )?,
-                ),
-                run(
-                    "ballbar-validate",
-                    "bar1",
-                    true,
-                    circle(true, &[('C', deg(45.0))], 91)?,
-                ),
-                // An XYC between the tilts measured (within what the fitted runs determine),
-                // and the circle with the table turned half a revolution, clockwise (which,
-                // like the one at 45°, also sees C's radial motion at that angle).
-                run("rtest-validate-a15", "ball1", true, xyc(15.0, 73)?),
-                run(
-                    "ballbar-validate-c180",
-                    "bar1",
-                    true,
-                    circle(false, &[('C', deg(180.0))], 91)?,
-                ),
-            ],
-        };
-        write_session(dir, &machine, &truth, &plan, realism)
-    }
-
-    /// The shipped three-axis `machines/mcv754-zfyx.urdf` (X and Y carry the table, Z the
-    /// spindle), a random truth from `seed`, and into `dir` one ball bar (set-up `bar1`, pivot
-    /// [0, 0, 100] mm, 150 mm) on an XY circle counter-clockwise (`ballbar-xy-ccw`) and
-    /// clockwise (`ballbar-xy-cw`), 361 samples each.
-    pub fn three_axis_ballbar(
-        dir: &Path,
-        seed: u64,
-        realism: &Realism,
-    ) -> Result<Written, SimError> {
-        let urdf = shipped_machine("mcv754-zfyx.urdf");
-        let machine = Machine::from_urdf_file(&urdf)?;
-        let truth = Truth::random(&machine, &mut ChaCha8Rng::seed_from_u64(seed), 1.0);
-        let pivot = [0.0, 0.0, 100.0];
-        let centre = Vector3::new(pivot[0], pivot[1], pivot[2]) * 1e-3;
-        let circle = |ccw| paths::circle(&machine, centre, 0.15, (0, 1), ccw, &[], 361);
-        let plan = Plan {
-            machine_urdf: urdf.clone(),
-            setups: vec![SetupPlan {
-                name: "bar1".into(),
-                instrument: Instrument::BallBar {
-                    pivot_mm: pivot,
-                    length_mm: 150.0,
-                },
-            }],
-            runs: vec![
-                RunPlan {
-                    name: "ballbar-xy-ccw".into(),
-                    setup: "bar1".into(),
-                    validate: false,
-                    poses: circle(true)?,
-                    labels: Vec::new(),
-                },
-                RunPlan {
-                    name: "ballbar-xy-cw".into(),
-                    setup: "bar1".into(),
-                    validate: false,
-                    poses: circle(false)?,
-                    labels: Vec::new(),
-                },
-            ],
-        };
-        write_session(dir, &machine, &truth, &plan, realism)
-    }
 }
 
 #[cfg(test)]

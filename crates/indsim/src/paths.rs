@@ -198,3 +198,55 @@ pub fn diagonal(
     }
     Ok(out)
 }
+
+/// An ISO 230-2 positioning run of one linear axis: `points` targets evenly spaced from `from`
+/// to `to` (m, ascending), `cycles` bidirectional cycles, the other axes held. Each pass
+/// starts `overrun` (m) beyond its first target — a recorded sample there, as the laser
+/// plugin's path records it — so that every target is approached from the side of its pass;
+/// the run ends with the overrun below the first target. Without overrun (`0`) the reversal
+/// point is recorded twice (last ascending, first descending reading).
+#[allow(clippy::too_many_arguments)]
+pub fn bidirectional(
+    machine: &Machine,
+    axis: char,
+    from: f64,
+    to: f64,
+    points: usize,
+    cycles: usize,
+    overrun: f64,
+    hold: &[(char, f64)],
+) -> Result<Vec<Vec<f64>>, MachineError> {
+    if points < 2 || from >= to || overrun < 0.0 {
+        return Err(MachineError::Structure(format!(
+            "ISO 230-2 run of {axis}: two or more targets ascending from {from} to {to} m and \
+             an overrun ≥ 0 expected"
+        )));
+    }
+    let q0 = base(machine, hold)?;
+    let i = machine
+        .index(axis)
+        .ok_or_else(|| MachineError::Structure(format!("no axis {axis}")))?;
+    let target = |k: usize| from + (to - from) * k as f64 / (points - 1) as f64;
+    let mut along = Vec::new();
+    for _ in 0..cycles {
+        if overrun > 0.0 {
+            along.push(from - overrun);
+        }
+        along.extend((0..points).map(target));
+        if overrun > 0.0 {
+            along.push(to + overrun);
+        }
+        along.extend((0..points).rev().map(target));
+    }
+    if overrun > 0.0 {
+        along.push(from - overrun);
+    }
+    along
+        .into_iter()
+        .map(|v| {
+            let mut q = q0.clone();
+            q[i] = v;
+            checked(machine, q, "ISO 230-2 run")
+        })
+        .collect()
+}

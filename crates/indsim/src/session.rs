@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
+use crate::effects::{ContextValues, Effect, Resolved, SampleState, Timeline, effects_toml};
 use crate::instruments::{Instrument, SetupOffsets};
 use crate::machine::{JointKind, Machine};
 use crate::truth::Truth;
@@ -44,12 +45,16 @@ pub struct RunPlan {
     pub labels: Vec<String>,
 }
 
-/// What to write: the machine (a URDF file, referred to by a relative path), set-ups, runs.
+/// What to write: the machine (a URDF file, referred to by a relative path), set-ups, runs (in
+/// time order), and the physical effects beyond the geometric errors.
 #[derive(Clone, Debug)]
 pub struct Plan {
     pub machine_urdf: PathBuf,
     pub setups: Vec<SetupPlan>,
     pub runs: Vec<RunPlan>,
+    /// Effects acting through the session's timeline ([`crate::effects`]); empty: the
+    /// geometric model alone, every reading as without effects.
+    pub effects: Vec<Effect>,
 }
 
 /// How far the files are from the ideal: all zero (or `None`) in [`Realism::ideal`].
@@ -79,6 +84,11 @@ pub struct Realism {
     /// ball / nest / pivot / station position and the tool length.
     pub setup_position_sigma_um: f64,
     pub tool_length_sigma_um: f64,
+    /// σ of a temperature sensor's white noise, K, and the resolution it writes, K (0: exact):
+    /// the temperature columns of effects ([`crate::effects`]), drawn from a random stream of
+    /// their own so that the other draws stay as without effects.
+    pub temperature_sigma_k: f64,
+    pub temperature_resolution_k: f64,
 }
 
 impl Realism {
@@ -96,14 +106,19 @@ impl Realism {
             position_decimals: None,
             setup_position_sigma_um: 0.0,
             tool_length_sigma_um: 0.0,
+            temperature_sigma_k: 0.0,
+            temperature_resolution_k: 0.0,
         }
     }
 
     /// A plausible measurement: 0.3 µm noise coloured with φ = 0.6, stated 20 % optimistic,
-    /// 0.1 µm resolution, 5 ms jitter, positions to 0.1 µm / 0.0001°, set-ups 20 µm off.
+    /// 0.1 µm resolution, 5 ms jitter, positions to 0.1 µm / 0.0001°, set-ups 20 µm off;
+    /// temperatures read to 0.01 K with 0.02 K of noise.
     pub fn realistic(seed: u64) -> Self {
         Realism {
             seed,
+            temperature_sigma_k: 0.02,
+            temperature_resolution_k: 0.01,
             jitter_s: 0.005,
             noise_sigma_um: 0.3,
             noise_phi: 0.6,
@@ -123,12 +138,17 @@ pub struct WrittenRun {
     pub name: String,
     pub setup: String,
     pub file: PathBuf,
+    /// Sample times as written, s since the session started.
+    pub t: Vec<f64>,
     /// Commanded positions as written (mm / degrees), machine order.
     pub positions: Vec<Vec<f64>>,
     /// Noise-free readings (µm), also in `truth/<run>.csv`.
     pub clean_um: Vec<Vec<f64>>,
     /// The readings in the run file (µm).
     pub written_um: Vec<Vec<f64>>,
+    /// The context columns as written (`T_<name>` °C, `S` rpm), in file order; their true
+    /// values are in `truth/<run>.csv`.
+    pub context: Vec<(String, Vec<f64>)>,
 }
 
 /// A written session: where, and what it was made from.
@@ -143,8 +163,13 @@ pub struct Written {
 
 /// Writes `plan` for `machine` with errors `truth` into `dir` (created): `session.toml`, one
 /// CSV per run, and `truth/` (`params.toml`, `errors.toml` — the model the params belong to —,
-/// `setups.toml` with the real set-up offsets and the σ used, and `<run>.csv` with the
-/// noise-free readings).
+/// `setups.toml` with the real set-up offsets and the σ used, `<run>.csv` with the
+/// noise-free readings and the true context values, and, when the plan has effects,
+/// `effects.toml` naming every one with its parameters).
+///
+/// The plan's effects are checked first: a bad one (an unknown axis, a rotary axis where a
+/// linear one is needed, a malformed column name…) is a [`SimError::Plan`] and nothing is
+/// written.
 pub fn write_session(
     dir: &Path,
     machine: &Machine,
@@ -152,23 +177,14 @@ pub fn write_session(
     plan: &Plan,
     realism: &Realism,
 ) -> Result<Written, SimError> {
+    let effects = Resolved::new(machine, &plan.setups, &plan.effects)?;
     std::fs::create_dir_all(dir.join("truth"))?;
     let mut rng = ChaCha8Rng::seed_from_u64(realism.seed);
-    let mut offsets = Vec::new();
-    let normal = |s: f64| Normal::new(0.0, s * 1e-6).expect("finite sigma");
-    for s in &plan.setups {
-        let pos = normal(realism.setup_position_sigma_um);
-        let len = normal(realism.tool_length_sigma_um);
-        let off = SetupOffsets {
-            position: Vector3::new(
-                pos.sample(&mut rng),
-                pos.sample(&mut rng),
-                pos.sample(&mut rng),
-            ),
-            tool_length: len.sample(&mut rng),
-        };
-        offsets.push((s.name.clone(), off));
-    }
+    let offsets = draw_offsets(&plan.setups, realism, &mut rng);
+    // Temperature sensors draw from a stream of their own, so that a plan with effects draws
+    // the same noise, jitter and set-ups as without.
+    let mut sensor_rng = ChaCha8Rng::seed_from_u64(realism.seed);
+    sensor_rng.set_stream(1);
     let stated_sigma = (realism.noise_sigma_um > 0.0)
         .then_some(realism.noise_sigma_um * realism.manifest_sigma_factor);
 
@@ -186,22 +202,9 @@ pub fn write_session(
         )
         .expect("string");
     }
-    let mut sidecar_setups = String::from("# Real set-ups: offsets from the manifest (um).\n");
-    for (name, off) in &offsets {
-        writeln!(
-            sidecar_setups,
-            "[{name}]\nposition_um = [{:?}, {:?}, {:?}]\ntool_length_um = {:?}\nnoise_sigma_um = {:?}\nnoise_phi = {:?}\n",
-            off.position.x * 1e6,
-            off.position.y * 1e6,
-            off.position.z * 1e6,
-            off.tool_length * 1e6,
-            realism.noise_sigma_um,
-            realism.noise_phi
-        )
-        .expect("string");
-    }
 
     let letters: Vec<char> = machine.letters().chars().collect();
+    let mut timeline = Timeline::new(&effects);
     let mut t0 = 0.0;
     let mut runs = Vec::new();
     for run in &plan.runs {
@@ -221,116 +224,58 @@ pub fn write_session(
                 instrument.plugin_name()
             )));
         }
-        // The positions as written are the positions the machine moves to (or, for a probing
-        // cycle that reports the measured centre, those).
-        let recorded = instrument.recorded_poses(machine, truth, &run.poses, &run.labels, off);
-        let positions: Vec<Vec<f64>> = recorded
-            .iter()
-            .map(|q| {
-                q.iter()
-                    .zip(&machine.joints)
-                    .map(|(&v, j)| {
-                        let f = match j.kind {
-                            JointKind::Linear => v * 1e3,
-                            JointKind::Rotary => v.to_degrees(),
-                        };
-                        match realism.position_decimals {
-                            Some(d) => round_to(f, 10f64.powi(-d)),
-                            None => f,
-                        }
-                    })
-                    .collect()
-            })
+        // The random draws in their order: the reading noise's, then the sample times'.
+        let n_ch = instrument.channels().len();
+        let normals: Vec<Vec<f64>> = (0..run.poses.len())
+            .map(|_| (0..n_ch).map(|_| StandardNormal.sample(&mut rng)).collect())
             .collect();
-        // File units to SI as FORMATS.md defines them (mm → m, degrees → rad).
-        let si: Vec<Vec<f64>> = positions
-            .iter()
-            .map(|p| {
-                p.iter()
-                    .zip(&machine.joints)
-                    .map(|(&v, j)| match j.kind {
-                        JointKind::Linear => v * 1e-3,
-                        JointKind::Rotary => v.to_radians(),
-                    })
-                    .collect()
-            })
-            .collect();
+        let times = sample_times(realism, t0, run.poses.len(), &mut rng);
+        t0 = times.last().copied().unwrap_or(t0) + realism.pause_s;
+        // The effects follow the commands as the machine moves to them.
+        let commanded = to_si(machine, &to_file_units(machine, &run.poses, realism));
+        let states = timeline.run(&commanded, &times);
+
+        let measured = measure(machine, truth, instrument, off, run, &states, realism);
+        let mut clean_si = measured.readings;
+        if let Some(own) = effects.instrument_own(&run.setup, &times) {
+            for (r, d) in clean_si.iter_mut().zip(own) {
+                r[0] += d;
+            }
+        }
         // Readings in the file's unit (µm; mm for the artefact's positions, µrad for angular
         // laser optics).
         let per_si = instrument.file_per_si();
-        let clean_um: Vec<Vec<f64>> = instrument
-            .readings(machine, truth, &si, &run.labels, off)
+        let clean_um: Vec<Vec<f64>> = clean_si
             .into_iter()
             .map(|r| r.into_iter().map(|v| v * per_si).collect())
             .collect();
-        // Noise and resolution are stated in µm.
-        let to_unit = per_si * 1e-6;
-        let (noise_sigma, resolution) = (
-            realism.noise_sigma_um * to_unit,
-            realism.resolution_um * to_unit,
-        );
-        let n_ch = instrument.channels().len();
-        let mut noise = vec![0.0; n_ch];
-        let phi = realism.noise_phi;
-        let written_um: Vec<Vec<f64>> = clean_um
-            .iter()
-            .enumerate()
-            .map(|(k, r)| {
-                r.iter()
-                    .zip(noise.iter_mut())
-                    .map(|(&v, e)| {
-                        let n: f64 = StandardNormal.sample(&mut rng);
-                        *e = if k == 0 {
-                            noise_sigma * n
-                        } else {
-                            phi * *e + (1.0 - phi * phi).sqrt() * noise_sigma * n
-                        };
-                        let noisy = v + *e;
-                        if resolution > 0.0 {
-                            round_to(noisy, resolution)
-                        } else {
-                            noisy
-                        }
-                    })
-                    .collect()
-            })
+        let written_um = add_noise(&clean_um, &normals, realism, per_si);
+        let true_context = effects.context(&run.setup, &times);
+        let context = sensed(&true_context, realism, &mut sensor_rng);
+        let clean_context: Vec<(String, Vec<f64>)> = true_context
+            .into_iter()
+            .map(|c| (c.name, c.values))
             .collect();
-        let jitter = 0.4 * realism.interval_s;
-        let times: Vec<f64> = (0..positions.len())
-            .map(|k| {
-                let j = if realism.jitter_s > 0.0 {
-                    let n: f64 = StandardNormal.sample(&mut rng);
-                    (n * realism.jitter_s).clamp(-jitter, jitter)
-                } else {
-                    0.0
-                };
-                t0 + jitter + k as f64 * realism.interval_s + j
-            })
-            .collect();
-        t0 = times.last().copied().unwrap_or(t0) + realism.pause_s;
+
         let file = PathBuf::from(format!("{}.csv", run.name));
         let channels = instrument.channels();
         let labels = Labels {
             columns: instrument.label_columns(),
             values: &run.labels,
         };
-        write_csv(
-            &dir.join(&file),
-            &letters,
-            &channels,
-            &labels,
-            &times,
-            &positions,
-            &written_um,
-        )?;
+        let table = |readings, context| Table {
+            letters: &letters,
+            channels: &channels,
+            labels: &labels,
+            t: &times,
+            positions: &measured.positions,
+            readings,
+            context,
+        };
+        write_csv(&dir.join(&file), &table(&written_um, &context))?;
         write_csv(
             &dir.join("truth").join(&file),
-            &letters,
-            &channels,
-            &labels,
-            &times,
-            &positions,
-            &clean_um,
+            &table(&clean_um, &clean_context),
         )?;
         write!(
             manifest,
@@ -348,21 +293,231 @@ pub fn write_session(
             name: run.name.clone(),
             setup: run.setup.clone(),
             file,
-            positions,
+            t: times,
+            positions: measured.positions,
             clean_um,
             written_um,
+            context,
         });
     }
     std::fs::write(dir.join("session.toml"), manifest)?;
     std::fs::write(dir.join("truth/params.toml"), truth.params_toml(machine))?;
     std::fs::write(dir.join("truth/errors.toml"), truth.model_config(machine))?;
-    std::fs::write(dir.join("truth/setups.toml"), sidecar_setups)?;
+    std::fs::write(
+        dir.join("truth/setups.toml"),
+        sidecar_setups(&offsets, realism),
+    )?;
+    if !plan.effects.is_empty() {
+        std::fs::write(
+            dir.join("truth/effects.toml"),
+            effects_toml(machine, &plan.effects),
+        )?;
+    }
     Ok(Written {
         dir: dir.to_path_buf(),
         truth: truth.clone(),
         offsets,
         runs,
     })
+}
+
+/// How each set-up really differs from the manifest's.
+fn draw_offsets(
+    setups: &[SetupPlan],
+    realism: &Realism,
+    rng: &mut ChaCha8Rng,
+) -> Vec<(String, SetupOffsets)> {
+    let normal = |s: f64| Normal::new(0.0, s * 1e-6).expect("finite sigma");
+    setups
+        .iter()
+        .map(|s| {
+            let pos = normal(realism.setup_position_sigma_um);
+            let len = normal(realism.tool_length_sigma_um);
+            let off = SetupOffsets {
+                position: Vector3::new(pos.sample(rng), pos.sample(rng), pos.sample(rng)),
+                tool_length: len.sample(rng),
+            };
+            (s.name.clone(), off)
+        })
+        .collect()
+}
+
+/// `truth/setups.toml`.
+fn sidecar_setups(offsets: &[(String, SetupOffsets)], realism: &Realism) -> String {
+    let mut s = String::from("# Real set-ups: offsets from the manifest (um).\n");
+    for (name, off) in offsets {
+        writeln!(
+            s,
+            "[{name}]\nposition_um = [{:?}, {:?}, {:?}]\ntool_length_um = {:?}\nnoise_sigma_um = {:?}\nnoise_phi = {:?}\n",
+            off.position.x * 1e6,
+            off.position.y * 1e6,
+            off.position.z * 1e6,
+            off.tool_length * 1e6,
+            realism.noise_sigma_um,
+            realism.noise_phi
+        )
+        .expect("string");
+    }
+    s
+}
+
+/// The sample times of a run of `n` samples starting after `t0`: a regular interval with
+/// jitter (clamped so that `t` keeps rising).
+fn sample_times(realism: &Realism, t0: f64, n: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let jitter = 0.4 * realism.interval_s;
+    (0..n)
+        .map(|k| {
+            let j = if realism.jitter_s > 0.0 {
+                let n: f64 = StandardNormal.sample(rng);
+                (n * realism.jitter_s).clamp(-jitter, jitter)
+            } else {
+                0.0
+            };
+            t0 + jitter + k as f64 * realism.interval_s + j
+        })
+        .collect()
+}
+
+/// Axis positions (SI) in the file's units (mm / degrees), rounded as the controller writes
+/// them; the machine moves exactly there.
+fn to_file_units(machine: &Machine, poses: &[Vec<f64>], realism: &Realism) -> Vec<Vec<f64>> {
+    poses
+        .iter()
+        .map(|q| {
+            q.iter()
+                .zip(&machine.joints)
+                .map(|(&v, j)| {
+                    let f = match j.kind {
+                        JointKind::Linear => v * 1e3,
+                        JointKind::Rotary => v.to_degrees(),
+                    };
+                    match realism.position_decimals {
+                        Some(d) => round_to(f, 10f64.powi(-d)),
+                        None => f,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// File units to SI as FORMATS.md defines them (mm → m, degrees → rad).
+fn to_si(machine: &Machine, positions: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    positions
+        .iter()
+        .map(|p| {
+            p.iter()
+                .zip(&machine.joints)
+                .map(|(&v, j)| match j.kind {
+                    JointKind::Linear => v * 1e-3,
+                    JointKind::Rotary => v.to_radians(),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// What a run records: its axis columns (file units) and the instrument's noise-free
+/// readings (SI).
+struct Measured {
+    positions: Vec<Vec<f64>>,
+    readings: Vec<Vec<f64>>,
+}
+
+fn measure(
+    machine: &Machine,
+    truth: &Truth,
+    instrument: &Instrument,
+    off: &SetupOffsets,
+    run: &RunPlan,
+    states: &[SampleState<'_>],
+    realism: &Realism,
+) -> Measured {
+    // The positions as written are the positions the machine moves to (or, for a probing
+    // cycle that reports the measured centre, those).
+    let recorded =
+        instrument.recorded_poses_at(machine, truth, &run.poses, &run.labels, off, states);
+    // The readings at the positions as written, read back (rounding included).
+    let positions = to_file_units(machine, &recorded, realism);
+    let si = to_si(machine, &positions);
+    let readings = instrument.readings_at(machine, truth, &si, &run.labels, off, states);
+    Measured {
+        positions,
+        readings,
+    }
+}
+
+/// The written readings: the clean ones plus AR(1) noise from the standard normals `normals`
+/// (`e_k = φ·e_(k−1) + √(1−φ²)·σ·n_k`), quantised. Noise and resolution are stated in µm and
+/// taken in the readings' own unit (`per_si` of it per SI unit).
+fn add_noise(
+    clean: &[Vec<f64>],
+    normals: &[Vec<f64>],
+    realism: &Realism,
+    per_si: f64,
+) -> Vec<Vec<f64>> {
+    let to_unit = per_si * 1e-6;
+    let (noise_sigma, resolution) = (
+        realism.noise_sigma_um * to_unit,
+        realism.resolution_um * to_unit,
+    );
+    let phi = realism.noise_phi;
+    let mut noise = vec![0.0; normals.first().map_or(0, Vec::len)];
+    clean
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .map(|(k, (r, ns))| {
+            r.iter()
+                .zip(noise.iter_mut())
+                .zip(ns)
+                .map(|((&v, e), &n)| {
+                    *e = if k == 0 {
+                        noise_sigma * n
+                    } else {
+                        phi * *e + (1.0 - phi * phi).sqrt() * noise_sigma * n
+                    };
+                    let noisy = v + *e;
+                    if resolution > 0.0 {
+                        round_to(noisy, resolution)
+                    } else {
+                        noisy
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The context columns as written: temperatures as a sensor reads them (white noise of
+/// `temperature_sigma_k`, quantised to `temperature_resolution_k`), the spindle speed exact.
+fn sensed(
+    context: &[ContextValues],
+    realism: &Realism,
+    rng: &mut ChaCha8Rng,
+) -> Vec<(String, Vec<f64>)> {
+    context
+        .iter()
+        .map(|c| {
+            let values = if c.sensed {
+                c.values
+                    .iter()
+                    .map(|&v| {
+                        let n: f64 = StandardNormal.sample(rng);
+                        let read = v + realism.temperature_sigma_k * n;
+                        if realism.temperature_resolution_k > 0.0 {
+                            round_to(read, realism.temperature_resolution_k)
+                        } else {
+                            read
+                        }
+                    })
+                    .collect()
+            } else {
+                c.values.clone()
+            };
+            (c.name.clone(), values)
+        })
+        .collect()
 }
 
 fn round_to(v: f64, step: f64) -> f64 {
@@ -375,36 +530,50 @@ struct Labels<'a> {
     values: &'a [String],
 }
 
-fn write_csv(
-    path: &Path,
-    letters: &[char],
-    channels: &[String],
-    labels: &Labels<'_>,
-    t: &[f64],
-    positions: &[Vec<f64>],
-    readings: &[Vec<f64>],
-) -> std::io::Result<()> {
+/// One run file's content: `t`, the axes, the readings, the label, the context columns.
+struct Table<'a> {
+    letters: &'a [char],
+    channels: &'a [String],
+    labels: &'a Labels<'a>,
+    t: &'a [f64],
+    positions: &'a [Vec<f64>],
+    readings: &'a [Vec<f64>],
+    context: &'a [(String, Vec<f64>)],
+}
+
+fn write_csv(path: &Path, table: &Table<'_>) -> std::io::Result<()> {
     let mut s = String::from("t");
-    for l in letters {
+    for l in table.letters {
         write!(s, ",{l}").expect("string");
     }
-    for c in channels
+    let names = table
+        .channels
         .iter()
         .map(String::as_str)
-        .chain(labels.columns.iter().copied())
-    {
+        .chain(table.labels.columns.iter().copied())
+        .chain(table.context.iter().map(|(n, _)| n.as_str()));
+    for c in names {
         write!(s, ",{c}").expect("string");
     }
     s.push('\n');
-    for (k, ((t, p), r)) in t.iter().zip(positions).zip(readings).enumerate() {
+    for (k, ((t, p), r)) in table
+        .t
+        .iter()
+        .zip(table.positions)
+        .zip(table.readings)
+        .enumerate()
+    {
         // `{}` prints the shortest decimal that reads back to the same f64.
         write!(s, "{t}").expect("string");
         for v in p.iter().chain(r) {
             write!(s, ",{v}").expect("string");
         }
-        if !labels.columns.is_empty() {
+        if !table.labels.columns.is_empty() {
             // Names are plain (letters, digits, `_ - . /`): no quoting needed.
-            write!(s, ",{}", labels.values[k]).expect("string");
+            write!(s, ",{}", table.labels.values[k]).expect("string");
+        }
+        for (_, values) in table.context {
+            write!(s, ",{}", values[k]).expect("string");
         }
         s.push('\n');
     }

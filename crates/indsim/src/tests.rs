@@ -11,7 +11,7 @@ use crate::{paths, shipped_machine};
 /// A three-axis machine: X carries the table (axis -1 0 0), Y and Z the spindle; the tool
 /// point 0.5 m above the frame, the workpiece 0.1 m above it, a fixed joint between Y and Z
 /// turned by 90° about z (so Z's frame is rotated).
-const SIMPLE: &str = r#"<?xml version="1.0"?>
+pub(crate) const SIMPLE: &str = r#"<?xml version="1.0"?>
 <robot name="simple">
   <link name="frame"/><link name="table"/><link name="workpiece"/>
   <link name="col"/><link name="bracket"/><link name="ram"/><link name="tool"/>

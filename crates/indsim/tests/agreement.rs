@@ -436,6 +436,7 @@ fn plan_for(machine: &Machine, urdf: &Path, mount: Mount, write_mount_key: bool)
         machine_urdf: urdf.to_path_buf(),
         setups,
         runs,
+        effects: Vec::new(),
     }
 }
 

@@ -1,0 +1,975 @@
+//! Effects a geometric error model leaves out, planted by their physics: lost motion, thermal
+//! growth of the spindle head, screw pitch errors, scale expansion, table twist, sag, and the
+//! ball bar's own expansion.
+//!
+//! Formulated here from the physics of each effect, not from mtcal's effect formulas. Every
+//! value is SI inside (m, rad, s, K); a field whose unit is not SI says so in its name.
+//!
+//! # How effects enter the chain
+//! Effects act along the session's timeline: the runs in the order of the plan (which is their
+//! time order), each sample at the time its `t` column says, state carried from one run into the
+//! next (the lost motion of the last sample of a run is where the next run starts from).
+//! Validation runs get the same physics as fitted runs. At each sample:
+//! 1. **axis effects** ([`Effect::Backlash`], [`Effect::ScrewError`],
+//!    [`Effect::ThermalScale`]) move an axis' *actual* position `a` away from its command `c`;
+//!    several on one axis add, each evaluated at the command (`a = c + Σ δ_i(c)`; the error of an
+//!    error is left out). The written axis columns stay the commands;
+//! 2. the machine's branches are evaluated at the actual positions with the truth's geometric
+//!    errors ([`Machine::branch_pose`]): `f_T_w(a)`, `f_T_t(a)` in the machine frame `f`;
+//! 3. **tool effects** ([`Effect::Thermal`], [`Effect::Twist`], [`Effect::Sag`]) are a
+//!    translation `d` of the tool point relative to the workpiece in machine directions,
+//!    pre-multiplied on the tool branch's pose: `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)`.
+//!    (A workpiece-side deformation such as the twist is the same relative motion: the
+//!    workpiece moving by −d is the tool moving by +d.)
+//!
+//! Every instrument reads that actual pose, so the effects reach the R-test (both mounts), the
+//! ball bar, every laser mode, the tracer, displacement sensors and artefact plates alike. The
+//! one exception is [`Effect::BallBarThermal`], the instrument's own expansion, which only the
+//! ball bar of its set-up reads. Laser and tracer readings stay zeroed at the run's first sample,
+//! so they see an effect's change within the run.
+//!
+//! # Context columns
+//! [`Effect::ThermalScale`] writes its temperature as a column `T_<name>` (°C) in every run;
+//! [`Effect::BallBarThermal`] may write the bar's temperature in its set-up's runs;
+//! [`Effect::SpindleSpeed`] writes `S` (rpm) in every run, exactly the programme's value at the
+//! sample time. Temperatures are what a sensor reads: the true value plus [`crate::Realism`]'s
+//! `temperature_sigma_k` of white noise (its own random stream of the realism seed), quantised
+//! to `temperature_resolution_k`. The physics uses the true temperature. The columns follow
+//! the reading (and label) columns, in the order of the plan's effects.
+
+use std::fmt::Write as _;
+
+use nalgebra::{Matrix4, Vector3};
+
+use crate::instruments::Instrument;
+use crate::machine::{JointKind, Machine, Side, rigid_inverse, translation};
+use crate::session::{SetupPlan, SimError};
+use crate::truth::Truth;
+
+/// A piecewise-constant function of the session time.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Programme {
+    /// `(from_s, value)` pairs, `from_s` strictly increasing: the value holds from `from_s`
+    /// until the next step; before the first step the value is 0.
+    Steps(Vec<(f64, f64)>),
+    /// The session's spindle speed ([`Effect::SpindleSpeed`]) in thousands of rpm: the power a
+    /// spindle's bearings and motor turn into heat, taken as proportional to the speed (viscous
+    /// bearing friction grows somewhat faster; the proportional law keeps the driver plain).
+    SpindleKrpm,
+}
+
+impl Programme {
+    /// Steps from a slice (see [`Programme::Steps`]).
+    pub fn steps(steps: &[(f64, f64)]) -> Self {
+        Programme::Steps(steps.to_vec())
+    }
+
+    /// `value` from the start of the session on.
+    pub fn constant(value: f64) -> Self {
+        Programme::Steps(vec![(0.0, value)])
+    }
+}
+
+/// A first-order thermal node: `τ dx/dt = p(t) − x`, `x(0) = 0` (the machine starts cold, in
+/// equilibrium with its surroundings), `p` the programme. At steady state `x = p`; the node
+/// adds `gain · x(t)` to what it drives. Integrated exactly: between breakpoints of `p`,
+/// `x(t) = p + (x(t₀) − p)·e^{−(t − t₀)/τ}`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeatSource {
+    /// What one unit of node state adds at steady state: m ([`Effect::Thermal`]) or K (a
+    /// [`TemperatureProgramme`]'s rise).
+    pub gain: f64,
+    /// Time constant, s.
+    pub tau_s: f64,
+    pub power: Programme,
+}
+
+/// A temperature over the session: `T(t) = ambient_c + drift_k_per_h·t/3600 + Σ gain_i·x_i(t)`,
+/// each rise a first-order node ([`HeatSource`], gains in K). Only `T(t) − T(0)` acts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TemperatureProgramme {
+    /// °C at the start of the session.
+    pub ambient_c: f64,
+    /// Steady drift of the surroundings, K per hour.
+    pub drift_k_per_h: f64,
+    pub rises: Vec<HeatSource>,
+}
+
+impl TemperatureProgramme {
+    /// A constant temperature.
+    pub fn constant(ambient_c: f64) -> Self {
+        TemperatureProgramme {
+            ambient_c,
+            drift_k_per_h: 0.0,
+            rises: Vec::new(),
+        }
+    }
+}
+
+/// A physical effect planted in a session (see the module docs for how each enters the chain).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Effect {
+    /// Play with lost motion `B` (`lost_motion`, m on a linear axis, rad on a rotary one)
+    /// between the drive and the carriage: the actual position `a` follows the command `c` only
+    /// once the command has taken up the play. Along the session's commanded sequence: if
+    /// `c − a > B/2` then `a = c − B/2`; if `c − a < −B/2` then `a = c + B/2`; otherwise `a`
+    /// stays. The axis was brought to its first commanded position from below (`a = c − B/2`).
+    /// Moving up, the axis lags B/2 behind; after a reversal it stands still until the command
+    /// has travelled B, then lags B/2 the other way.
+    Backlash { axis: char, lost_motion: f64 },
+    /// The spindle head grows: the tool point moves relative to the machine frame by
+    /// `Σ_i gain_i·x_i(t)` along the unit `direction` (machine frame, normalised when used), each
+    /// source a first-order node ([`HeatSource`], gains in m). A vertical spindle whose shaft
+    /// elongates towards the table with positive gains: `direction = [0, 0, −1]`; a column
+    /// lifting the head: `[0, 0, 1]`.
+    Thermal {
+        direction: [f64; 3],
+        sources: Vec<HeatSource>,
+    },
+    /// The screw's lead varies periodically: the actual position is
+    /// `c + Σ a_k·sin(2π·k·c/pitch + φ_k)`, `harmonics` the `(k, a_k, φ_k)` (order ≥ 1, amplitude
+    /// m or rad, phase rad), `pitch` m (rad on a rotary axis: a worm's period). A positive
+    /// amplitude at a positive sine puts the axis beyond its command.
+    ScrewError {
+        axis: char,
+        pitch: f64,
+        harmonics: Vec<(u32, f64, f64)>,
+    },
+    /// The scale (or screw) of a linear axis expands with its temperature: the actual position
+    /// is `c + α·(T(t) − T(0))·(c − reference)`, `α = ppm_per_k·10⁻⁶`, `reference` (m) where
+    /// the scale is fixed (no error there). Warmer and α > 0: the axis ends up further from the
+    /// reference than commanded. `T` is written as the context column `column` (`T_<name>`,
+    /// °C) in every run. (A rotary axis is refused: a uniform expansion keeps angles.)
+    ThermalScale {
+        axis: char,
+        ppm_per_k: f64,
+        reference: f64,
+        temperature: TemperatureProgramme,
+        column: String,
+    },
+    /// The table (or fixture) twists: the tool point relative to the workpiece is displaced
+    /// along machine +Z by `k·x·y`, `k = per_m2` (m per m²), `x`, `y` the actual positions of
+    /// the linear axes X and Y (m). A pure translation of the tool point, not an error of an
+    /// axis. The machine needs linear X and Y axes.
+    Twist { per_m2: f64 },
+    /// A member sags as `axis` (linear) moves out: the tool point relative to the workpiece is
+    /// displaced along machine `direction` (`X`, `Y` or `Z`) by `k·q²`, `k = per_m2` (m per m²),
+    /// `q` the actual position of `axis` from its zero (m). A ram sagging downwards as it
+    /// extends: `direction = 'Z'`, `per_m2 < 0`.
+    Sag {
+        axis: char,
+        direction: char,
+        per_m2: f64,
+    },
+    /// The ball bar's own length grows with its temperature, and its transducer's reference
+    /// with it: the `dr` reading (bar length minus nominal) drops by
+    /// `α·(T(t) − T(0))·L_nominal`, `α = ppm_per_k·10⁻⁶`, `L_nominal` the set-up's stated length,
+    /// in the runs of set-up `setup` (a ball bar). With `column`, the bar's temperature is
+    /// written there (`T_<name>`, °C) in that set-up's runs.
+    BallBarThermal {
+        setup: String,
+        ppm_per_k: f64,
+        temperature: TemperatureProgramme,
+        column: Option<String>,
+    },
+    /// The spindle turns at `rpm` (a [`Programme::Steps`] of rpm); written as the context column
+    /// `S` in every run. Moves nothing by itself: heat sources with
+    /// [`Programme::SpindleKrpm`] follow it.
+    SpindleSpeed { rpm: Programme },
+}
+
+/// `x(t)` of `τ dx/dt = p(t) − x`, `x(0) = 0`, `p` piecewise constant (`steps`, see
+/// [`Programme::Steps`]): the exact exponential between the breakpoints up to `t`. 0 for
+/// `t ≤ 0`.
+pub fn first_order_response(steps: &[(f64, f64)], tau_s: f64, t: f64) -> f64 {
+    if t <= 0.0 {
+        return 0.0;
+    }
+    // x relaxes towards p: x + (p − x)(1 − e^{−Δt/τ}), with expm1 keeping the digits of short
+    // intervals.
+    let relax = |x: f64, p: f64, dt: f64| x - (p - x) * (-dt / tau_s).exp_m1();
+    let (mut x, mut from, mut p) = (0.0, 0.0, value_at(steps, 0.0));
+    for &(at, value) in steps.iter().filter(|s| s.0 > 0.0) {
+        if at >= t {
+            break;
+        }
+        x = relax(x, p, at - from);
+        (from, p) = (at, value);
+    }
+    relax(x, p, t - from)
+}
+
+/// The value of a piecewise-constant programme at `t` (0 before its first step).
+fn value_at(steps: &[(f64, f64)], t: f64) -> f64 {
+    steps
+        .iter()
+        .take_while(|s| s.0 <= t)
+        .last()
+        .map_or(0.0, |s| s.1)
+}
+
+/// A heat source with its programme resolved to steps.
+#[derive(Clone, Debug)]
+struct Node {
+    gain: f64,
+    tau_s: f64,
+    steps: Vec<(f64, f64)>,
+}
+
+impl Node {
+    fn at(&self, t: f64) -> f64 {
+        self.gain * first_order_response(&self.steps, self.tau_s, t)
+    }
+}
+
+/// A temperature programme, resolved.
+#[derive(Clone, Debug)]
+struct Temperature {
+    ambient_c: f64,
+    drift_k_per_s: f64,
+    nodes: Vec<Node>,
+}
+
+impl Temperature {
+    /// `T(t) − T(0)`, K.
+    fn rise(&self, t: f64) -> f64 {
+        self.drift_k_per_s * t + self.nodes.iter().map(|n| n.at(t)).sum::<f64>()
+    }
+
+    fn celsius(&self, t: f64) -> f64 {
+        self.ambient_c + self.rise(t)
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Scale {
+    axis: usize,
+    alpha_per_k: f64,
+    reference: f64,
+    temperature: Temperature,
+}
+
+#[derive(Clone, Debug)]
+struct Screw {
+    axis: usize,
+    pitch: f64,
+    harmonics: Vec<(u32, f64, f64)>,
+}
+
+impl Screw {
+    fn error(&self, c: f64) -> f64 {
+        let turns = std::f64::consts::TAU * c / self.pitch;
+        self.harmonics
+            .iter()
+            .map(|&(k, a, phase)| a * (f64::from(k) * turns + phase).sin())
+            .sum()
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Bar {
+    setup: String,
+    /// `α·L_nominal`, m per K.
+    m_per_k: f64,
+    temperature: Temperature,
+}
+
+/// What a context column shows.
+#[derive(Clone, Debug)]
+enum Shows {
+    /// The spindle speed, rpm, exactly.
+    Spindle,
+    /// A scale's temperature (index into `scales`), °C, as a sensor reads it.
+    ScaleTemperature(usize),
+    /// A bar's temperature (index into `bars`), °C, as a sensor reads it.
+    BarTemperature(usize),
+}
+
+#[derive(Clone, Debug)]
+struct Column {
+    name: String,
+    shows: Shows,
+    /// Only in the runs of this set-up (`None`: every run).
+    setup: Option<String>,
+}
+
+/// A plan's effects checked against its machine and set-ups, in the form the timeline uses.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Resolved {
+    backlash: Vec<(usize, f64)>,
+    screws: Vec<Screw>,
+    scales: Vec<Scale>,
+    /// Unit direction and nodes (gains in m) of each thermal growth.
+    growth: Vec<(Vector3<f64>, Vec<Node>)>,
+    /// `(X index, Y index, k)`.
+    twist: Vec<(usize, usize, f64)>,
+    /// `(axis index, machine direction 0..3, k)`.
+    sag: Vec<(usize, usize, f64)>,
+    bars: Vec<Bar>,
+    spindle_rpm: Option<Vec<(f64, f64)>>,
+    columns: Vec<Column>,
+}
+
+/// A context column of one run: its name, the true values and whether a sensor reads it (a
+/// temperature: noise and quantisation apply) or it is exact (the spindle speed).
+#[derive(Clone, Debug)]
+pub(crate) struct ContextValues {
+    pub name: String,
+    pub values: Vec<f64>,
+    pub sensed: bool,
+}
+
+fn plan_error(message: String) -> SimError {
+    SimError::Plan(message)
+}
+
+impl Resolved {
+    /// Checks every effect of `effects` against `machine` and `setups`; a clear
+    /// [`SimError::Plan`] names the effect and what is wrong.
+    pub(crate) fn new(
+        machine: &Machine,
+        setups: &[SetupPlan],
+        effects: &[Effect],
+    ) -> Result<Resolved, SimError> {
+        let mut out = Resolved {
+            spindle_rpm: spindle_programme(effects)?,
+            ..Resolved::default()
+        };
+        for (k, e) in effects.iter().enumerate() {
+            out.add(machine, setups, e)
+                .map_err(|m| plan_error(format!("effect {} ({}): {m}", k + 1, kind_name(e))))?;
+        }
+        let mut seen: Vec<&str> = Vec::new();
+        for c in &out.columns {
+            if seen.contains(&c.name.as_str()) {
+                return Err(plan_error(format!(
+                    "context column {} is written by two effects",
+                    c.name
+                )));
+            }
+            seen.push(&c.name);
+        }
+        Ok(out)
+    }
+
+    fn add(&mut self, machine: &Machine, setups: &[SetupPlan], e: &Effect) -> Result<(), String> {
+        match e {
+            Effect::Backlash { axis, lost_motion } => {
+                let i = axis_index(machine, *axis)?;
+                finite_at_least("lost_motion", *lost_motion, 0.0)?;
+                self.backlash.push((i, *lost_motion));
+            }
+            Effect::Thermal { direction, sources } => {
+                let d = Vector3::from(*direction);
+                if !(d.iter().all(|v| v.is_finite()) && d.norm() > 0.0) {
+                    return Err(format!("direction {direction:?} is not a direction"));
+                }
+                let nodes = self.nodes(sources)?;
+                self.growth.push((d.normalize(), nodes));
+            }
+            Effect::ScrewError {
+                axis,
+                pitch,
+                harmonics,
+            } => {
+                let i = axis_index(machine, *axis)?;
+                positive("pitch", *pitch)?;
+                for &(k, a, phase) in harmonics {
+                    if k == 0 || !a.is_finite() || !phase.is_finite() {
+                        return Err(format!(
+                            "harmonic ({k}, {a}, {phase}): the order is 1 or more, amplitude \
+                             and phase finite"
+                        ));
+                    }
+                }
+                self.screws.push(Screw {
+                    axis: i,
+                    pitch: *pitch,
+                    harmonics: harmonics.clone(),
+                });
+            }
+            Effect::ThermalScale {
+                axis,
+                ppm_per_k,
+                reference,
+                temperature,
+                column,
+            } => {
+                let i = linear_axis(machine, *axis, "a thermal scale")?;
+                finite("ppm_per_k", *ppm_per_k)?;
+                finite("reference", *reference)?;
+                check_temperature_column(column)?;
+                self.columns.push(Column {
+                    name: column.clone(),
+                    shows: Shows::ScaleTemperature(self.scales.len()),
+                    setup: None,
+                });
+                self.scales.push(Scale {
+                    axis: i,
+                    alpha_per_k: ppm_per_k * 1e-6,
+                    reference: *reference,
+                    temperature: self.temperature(temperature)?,
+                });
+            }
+            Effect::Twist { per_m2 } => {
+                finite("per_m2", *per_m2)?;
+                let x = linear_axis(machine, 'X', "a twist")?;
+                let y = linear_axis(machine, 'Y', "a twist")?;
+                self.twist.push((x, y, *per_m2));
+            }
+            Effect::Sag {
+                axis,
+                direction,
+                per_m2,
+            } => {
+                finite("per_m2", *per_m2)?;
+                let i = linear_axis(machine, *axis, "a sag")?;
+                let d = "XYZ".find(*direction).ok_or_else(|| {
+                    format!("direction {direction}: a machine direction is X, Y or Z")
+                })?;
+                self.sag.push((i, d, *per_m2));
+            }
+            Effect::BallBarThermal {
+                setup,
+                ppm_per_k,
+                temperature,
+                column,
+            } => self.add_bar(setups, setup, *ppm_per_k, temperature, column)?,
+            Effect::SpindleSpeed { .. } => self.columns.push(Column {
+                name: "S".into(),
+                shows: Shows::Spindle,
+                setup: None,
+            }),
+        }
+        Ok(())
+    }
+
+    fn add_bar(
+        &mut self,
+        setups: &[SetupPlan],
+        setup: &str,
+        ppm_per_k: f64,
+        temperature: &TemperatureProgramme,
+        column: &Option<String>,
+    ) -> Result<(), String> {
+        finite("ppm_per_k", ppm_per_k)?;
+        let length_mm = match setups.iter().find(|s| s.name == setup) {
+            Some(SetupPlan {
+                instrument: Instrument::BallBar { length_mm, .. },
+                ..
+            }) => *length_mm,
+            Some(s) => {
+                return Err(format!(
+                    "set-up {setup} is not a ball bar (its instrument is {})",
+                    s.instrument.plugin_name()
+                ));
+            }
+            None => return Err(format!("no set-up {setup}")),
+        };
+        if self.bars.iter().any(|b| b.setup == setup) {
+            return Err(format!("set-up {setup} already has a bar temperature"));
+        }
+        if let Some(name) = column {
+            check_temperature_column(name)?;
+            self.columns.push(Column {
+                name: name.clone(),
+                shows: Shows::BarTemperature(self.bars.len()),
+                setup: Some(setup.to_string()),
+            });
+        }
+        self.bars.push(Bar {
+            setup: setup.to_string(),
+            m_per_k: ppm_per_k * 1e-6 * length_mm * 1e-3,
+            temperature: self.temperature(temperature)?,
+        });
+        Ok(())
+    }
+
+    fn nodes(&self, sources: &[HeatSource]) -> Result<Vec<Node>, String> {
+        sources
+            .iter()
+            .map(|s| {
+                finite("gain", s.gain)?;
+                positive("tau_s", s.tau_s)?;
+                let steps = match &s.power {
+                    Programme::Steps(steps) => {
+                        check_steps("power", steps)?;
+                        steps.clone()
+                    }
+                    Programme::SpindleKrpm => self
+                        .spindle_rpm
+                        .as_ref()
+                        .ok_or("a heat source follows the spindle speed, but the plan has no SpindleSpeed")?
+                        .iter()
+                        .map(|&(t, rpm)| (t, rpm * 1e-3))
+                        .collect(),
+                };
+                Ok(Node {
+                    gain: s.gain,
+                    tau_s: s.tau_s,
+                    steps,
+                })
+            })
+            .collect()
+    }
+
+    fn temperature(&self, p: &TemperatureProgramme) -> Result<Temperature, String> {
+        finite("ambient_c", p.ambient_c)?;
+        finite("drift_k_per_h", p.drift_k_per_h)?;
+        Ok(Temperature {
+            ambient_c: p.ambient_c,
+            drift_k_per_s: p.drift_k_per_h / 3600.0,
+            nodes: self.nodes(&p.rises)?,
+        })
+    }
+
+    /// Whether any effect changes the actual tool pose (the bar's own expansion and the
+    /// spindle speed do not).
+    fn moves_the_machine(&self) -> bool {
+        !(self.backlash.is_empty()
+            && self.screws.is_empty()
+            && self.scales.is_empty()
+            && self.growth.is_empty()
+            && self.twist.is_empty()
+            && self.sag.is_empty())
+    }
+
+    /// What the instrument of `setup` reads besides the machine, m, at each of `times`: the
+    /// ball bar's own expansion (zero for any other set-up).
+    pub(crate) fn instrument_own(&self, setup: &str, times: &[f64]) -> Option<Vec<f64>> {
+        let bar = self.bars.iter().find(|b| b.setup == setup)?;
+        Some(
+            times
+                .iter()
+                .map(|&t| -bar.m_per_k * bar.temperature.rise(t))
+                .collect(),
+        )
+    }
+
+    /// The context columns of a run of `setup` at `times`, true values.
+    pub(crate) fn context(&self, setup: &str, times: &[f64]) -> Vec<ContextValues> {
+        self.columns
+            .iter()
+            .filter(|c| c.setup.as_deref().is_none_or(|s| s == setup))
+            .map(|c| {
+                let value = |t: f64| match c.shows {
+                    Shows::Spindle => value_at(self.spindle_rpm.as_deref().unwrap_or(&[]), t),
+                    Shows::ScaleTemperature(i) => self.scales[i].temperature.celsius(t),
+                    Shows::BarTemperature(i) => self.bars[i].temperature.celsius(t),
+                };
+                ContextValues {
+                    name: c.name.clone(),
+                    values: times.iter().map(|&t| value(t)).collect(),
+                    sensed: !matches!(c.shows, Shows::Spindle),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The spindle speed programme of the plan, if any (at most one).
+fn spindle_programme(effects: &[Effect]) -> Result<Option<Vec<(f64, f64)>>, SimError> {
+    let mut found = None;
+    for e in effects {
+        if let Effect::SpindleSpeed { rpm } = e {
+            if found.is_some() {
+                return Err(plan_error("the plan has two SpindleSpeed effects".into()));
+            }
+            let Programme::Steps(steps) = rpm else {
+                return Err(plan_error(
+                    "SpindleSpeed: the speed is a Programme::Steps of rpm".into(),
+                ));
+            };
+            check_steps("rpm", steps).map_err(|m| plan_error(format!("SpindleSpeed: {m}")))?;
+            found = Some(steps.clone());
+        }
+    }
+    Ok(found)
+}
+
+fn kind_name(e: &Effect) -> &'static str {
+    match e {
+        Effect::Backlash { .. } => "backlash",
+        Effect::Thermal { .. } => "thermal",
+        Effect::ScrewError { .. } => "screw-error",
+        Effect::ThermalScale { .. } => "thermal-scale",
+        Effect::Twist { .. } => "twist",
+        Effect::Sag { .. } => "sag",
+        Effect::BallBarThermal { .. } => "ballbar-thermal",
+        Effect::SpindleSpeed { .. } => "spindle-speed",
+    }
+}
+
+fn axis_index(machine: &Machine, letter: char) -> Result<usize, String> {
+    machine.index(letter).ok_or_else(|| {
+        format!(
+            "no axis {letter}: the machine's axes are {}",
+            machine.letters()
+        )
+    })
+}
+
+fn linear_axis(machine: &Machine, letter: char, what: &str) -> Result<usize, String> {
+    let i = axis_index(machine, letter)?;
+    match machine.joints[i].kind {
+        JointKind::Linear => Ok(i),
+        JointKind::Rotary => Err(format!(
+            "{what} needs a linear axis {letter}; {letter} is rotary here"
+        )),
+    }
+}
+
+fn finite(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{name} = {v} is not a finite number"))
+    }
+}
+
+fn positive(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} = {v}: expected a positive number"))
+    }
+}
+
+fn finite_at_least(name: &str, v: f64, min: f64) -> Result<(), String> {
+    if v.is_finite() && v >= min {
+        Ok(())
+    } else {
+        Err(format!("{name} = {v}: expected a finite number ≥ {min}"))
+    }
+}
+
+fn check_steps(name: &str, steps: &[(f64, f64)]) -> Result<(), String> {
+    if steps.iter().any(|s| !(s.0.is_finite() && s.1.is_finite())) {
+        return Err(format!("{name}: every step time and value is finite"));
+    }
+    if steps.windows(2).any(|w| w[1].0 <= w[0].0) {
+        return Err(format!("{name}: step times must increase strictly"));
+    }
+    Ok(())
+}
+
+/// FORMATS.md's temperature columns: `T_<name>`, a name of letters, digits and `_`.
+fn check_temperature_column(name: &str) -> Result<(), String> {
+    let ok = name.strip_prefix("T_").is_some_and(|rest| {
+        !rest.is_empty() && rest.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "column {name:?}: a temperature column is T_<name> (letters, digits, _)"
+        ))
+    }
+}
+
+/// The effects' state at one sample: what turns a commanded pose into the actual one.
+#[derive(Clone, Debug)]
+pub(crate) struct SampleState<'a> {
+    effects: &'a Resolved,
+    /// Per backlash effect: actual minus commanded position, as the dead band left it here.
+    lost: Vec<f64>,
+    /// Per thermal scale: `α·(T(t) − T(0))`.
+    strain: Vec<f64>,
+    /// The spindle head's thermal growth, machine frame, m.
+    growth: Vector3<f64>,
+}
+
+impl SampleState<'_> {
+    /// The actual axis positions for the commands `q` (SI): lost motion frozen as the
+    /// sample's approach left it, screw and scale errors at `q`.
+    pub(crate) fn axes(&self, q: &[f64]) -> Vec<f64> {
+        let e = self.effects;
+        let mut a = q.to_vec();
+        for (&(i, _), lost) in e.backlash.iter().zip(&self.lost) {
+            a[i] += lost;
+        }
+        for s in &e.screws {
+            a[s.axis] += s.error(q[s.axis]);
+        }
+        for (s, strain) in e.scales.iter().zip(&self.strain) {
+            a[s.axis] += strain * (q[s.axis] - s.reference);
+        }
+        a
+    }
+
+    /// The tool point's displacement relative to the workpiece, machine frame (m), at the
+    /// actual axis positions `a`.
+    pub(crate) fn tool_shift(&self, a: &[f64]) -> Vector3<f64> {
+        let e = self.effects;
+        let mut d = self.growth;
+        for &(x, y, k) in &e.twist {
+            d.z += k * a[x] * a[y];
+        }
+        for &(i, dir, k) in &e.sag {
+            d[dir] += k * a[i] * a[i];
+        }
+        d
+    }
+
+    /// The actual tool pose in the workpiece frame at the commands `q`:
+    /// `f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)` (module docs); exactly the geometric model's pose when
+    /// no effect moves the machine.
+    pub(crate) fn tool_in_workpiece(
+        &self,
+        machine: &Machine,
+        truth: &Truth,
+        q: &[f64],
+    ) -> Matrix4<f64> {
+        if !self.effects.moves_the_machine() {
+            return machine.tool_in_workpiece(q, Some(truth));
+        }
+        let a = self.axes(q);
+        let d = self.tool_shift(&a);
+        let w = machine.branch_pose(Side::Workpiece, &a, Some(truth));
+        let mut t = machine.branch_pose(Side::Tool, &a, Some(truth));
+        if d != Vector3::zeros() {
+            t = translation(&d) * t;
+        }
+        rigid_inverse(&w) * t
+    }
+}
+
+/// The actual tool pose at sample `q` with its effects' state, if any.
+pub(crate) fn actual_pose(
+    machine: &Machine,
+    truth: &Truth,
+    q: &[f64],
+    state: Option<&SampleState<'_>>,
+) -> Matrix4<f64> {
+    match state {
+        Some(s) => s.tool_in_workpiece(machine, truth, q),
+        None => machine.tool_in_workpiece(q, Some(truth)),
+    }
+}
+
+/// The session's timeline: the effects' state carried from sample to sample and run to run.
+#[derive(Debug)]
+pub(crate) struct Timeline<'a> {
+    effects: &'a Resolved,
+    /// Per backlash effect: the axis' actual position after the last sample (`None`: before
+    /// the session's first sample).
+    actual: Vec<Option<f64>>,
+}
+
+impl<'a> Timeline<'a> {
+    pub(crate) fn new(effects: &'a Resolved) -> Self {
+        Timeline {
+            effects,
+            actual: vec![None; effects.backlash.len()],
+        }
+    }
+
+    /// The states of the next run's samples: its commands `poses` (SI, as the machine moves
+    /// there) at `times` (s).
+    pub(crate) fn run(&mut self, poses: &[Vec<f64>], times: &[f64]) -> Vec<SampleState<'a>> {
+        poses
+            .iter()
+            .zip(times)
+            .map(|(q, &t)| self.sample(q, t))
+            .collect()
+    }
+
+    fn sample(&mut self, q: &[f64], t: f64) -> SampleState<'a> {
+        let e = self.effects;
+        let lost = e
+            .backlash
+            .iter()
+            .zip(&mut self.actual)
+            .map(|(&(i, b), a)| {
+                let now = take_up(*a, q[i], b);
+                *a = Some(now);
+                now - q[i]
+            })
+            .collect();
+        let strain = e
+            .scales
+            .iter()
+            .map(|s| s.alpha_per_k * s.temperature.rise(t))
+            .collect();
+        let growth = e
+            .growth
+            .iter()
+            .map(|(dir, nodes)| dir * nodes.iter().map(|n| n.at(t)).sum::<f64>())
+            .sum();
+        SampleState {
+            effects: e,
+            lost,
+            strain,
+            growth,
+        }
+    }
+}
+
+/// The dead band: where an axis with lost motion `b` ends up when the command moves to `c`
+/// from actual position `a` (`None`: the first command, approached from below).
+pub(crate) fn take_up(a: Option<f64>, c: f64, b: f64) -> f64 {
+    let half = 0.5 * b;
+    match a {
+        None => c - half,
+        Some(a) if c - a > half => c - half,
+        Some(a) if c - a < -half => c + half,
+        Some(a) => a,
+    }
+}
+
+/// `truth/effects.toml`: every planted effect with its parameters, in units a person reads
+/// (µm, µrad, mm, s, K, °C, rpm; the key names say which).
+pub(crate) fn effects_toml(machine: &Machine, effects: &[Effect]) -> String {
+    let mut list = toml::value::Array::new();
+    for e in effects {
+        list.push(toml::Value::Table(effect_table(machine, e)));
+    }
+    let mut root = toml::Table::new();
+    root.insert("effect".into(), toml::Value::Array(list));
+    let mut s = String::from(
+        "# Effects planted by mtcal-indsim (crates/indsim/src/effects.rs gives their physics).\n\
+         # Lengths in um, angles in urad, positions in mm (deg on rotary axes), times in s.\n",
+    );
+    write!(s, "{root}").expect("string");
+    s
+}
+
+fn effect_table(machine: &Machine, e: &Effect) -> toml::Table {
+    let mut t = toml::Table::new();
+    let mut put = |k: &str, v: toml::Value| {
+        t.insert(k.into(), v);
+    };
+    put("kind", kind_name(e).into());
+    let rotary = |axis: char| {
+        machine
+            .index(axis)
+            .is_some_and(|i| machine.joints[i].kind == JointKind::Rotary)
+    };
+    // Deviations in µm or µrad, positions in mm or degrees.
+    let small = |v: f64| v * 1e6;
+    let small_unit = |axis: char| if rotary(axis) { "urad" } else { "um" };
+    let place = |axis: char, v: f64| {
+        if rotary(axis) {
+            v.to_degrees()
+        } else {
+            v * 1e3
+        }
+    };
+    let place_unit = |axis: char| if rotary(axis) { "deg" } else { "mm" };
+    match e {
+        Effect::Backlash { axis, lost_motion } => {
+            put("axis", axis.to_string().into());
+            put(
+                &format!("lost_motion_{}", small_unit(*axis)),
+                small(*lost_motion).into(),
+            );
+        }
+        Effect::Thermal { direction, sources } => {
+            put("direction", floats(direction));
+            put("source", sources_value(sources, "gain_um", 1e6));
+        }
+        Effect::ScrewError {
+            axis,
+            pitch,
+            harmonics,
+        } => {
+            put("axis", axis.to_string().into());
+            put(
+                &format!("pitch_{}", place_unit(*axis)),
+                place(*axis, *pitch).into(),
+            );
+            let rows = harmonics
+                .iter()
+                .map(|&(k, a, phase)| {
+                    let mut h = toml::Table::new();
+                    h.insert("order".into(), i64::from(k).into());
+                    h.insert(format!("amplitude_{}", small_unit(*axis)), small(a).into());
+                    h.insert("phase_rad".into(), phase.into());
+                    toml::Value::Table(h)
+                })
+                .collect();
+            put("harmonic", toml::Value::Array(rows));
+        }
+        Effect::ThermalScale {
+            axis,
+            ppm_per_k,
+            reference,
+            temperature,
+            column,
+        } => {
+            put("axis", axis.to_string().into());
+            put("ppm_per_k", (*ppm_per_k).into());
+            put(
+                &format!("reference_{}", place_unit(*axis)),
+                place(*axis, *reference).into(),
+            );
+            put("column", column.clone().into());
+            put("temperature", temperature_value(temperature));
+        }
+        Effect::Twist { per_m2 } => put("um_per_m2", (per_m2 * 1e6).into()),
+        Effect::Sag {
+            axis,
+            direction,
+            per_m2,
+        } => {
+            put("axis", axis.to_string().into());
+            put("direction", direction.to_string().into());
+            put("um_per_m2", (per_m2 * 1e6).into());
+        }
+        Effect::BallBarThermal {
+            setup,
+            ppm_per_k,
+            temperature,
+            column,
+        } => {
+            put("setup", setup.clone().into());
+            put("ppm_per_k", (*ppm_per_k).into());
+            if let Some(c) = column {
+                put("column", c.clone().into());
+            }
+            put("temperature", temperature_value(temperature));
+        }
+        Effect::SpindleSpeed { rpm } => put("rpm", programme_value(rpm)),
+    }
+    t
+}
+
+fn floats(v: &[f64]) -> toml::Value {
+    toml::Value::Array(v.iter().map(|&x| x.into()).collect())
+}
+
+fn programme_value(p: &Programme) -> toml::Value {
+    match p {
+        Programme::Steps(steps) => {
+            toml::Value::Array(steps.iter().map(|&(t, v)| floats(&[t, v])).collect())
+        }
+        Programme::SpindleKrpm => "spindle_krpm".into(),
+    }
+}
+
+/// Heat sources as a list of tables, the gain under `gain_key` scaled by `scale`.
+fn sources_value(sources: &[HeatSource], gain_key: &str, scale: f64) -> toml::Value {
+    toml::Value::Array(
+        sources
+            .iter()
+            .map(|s| {
+                let mut t = toml::Table::new();
+                t.insert(gain_key.into(), (s.gain * scale).into());
+                t.insert("tau_s".into(), s.tau_s.into());
+                t.insert("power".into(), programme_value(&s.power));
+                toml::Value::Table(t)
+            })
+            .collect(),
+    )
+}
+
+fn temperature_value(p: &TemperatureProgramme) -> toml::Value {
+    let mut t = toml::Table::new();
+    t.insert("ambient_c".into(), p.ambient_c.into());
+    t.insert("drift_k_per_h".into(), p.drift_k_per_h.into());
+    t.insert("rise".into(), sources_value(&p.rises, "gain_k", 1.0));
+    toml::Value::Table(t)
+}
+
+#[cfg(test)]
+mod tests;
