@@ -15,14 +15,18 @@ pub enum Feature {
     Saturating,
     /// `(t − t₀)/3600`: hours since the session started (a steady drift).
     Hours,
+    /// A drift of any smooth shape in time: piecewise linear through `knots` values at equal
+    /// steps over the session, zero at its start (a constant is a set-up offset). `knots`
+    /// terms, the hat functions of the knots.
+    TimeSpline(usize),
     /// Hours since set-up `s` was first used; zero in other set-ups' runs.
     SetupHours(usize),
     /// The input itself (static coupling): `T − T₀` in K, or `S/1000 rpm`.
     Static(Input),
     /// First-order lag of the input (a thermal node driven by it). Shape: τ (s).
     Lag(Input),
-    /// Half the direction of the last motion of axis `a` (±½): a backlash `B` shifts the axis
-    /// by `±B/2`.
+    /// Minus half the direction of the last motion of axis `a` (∓½): a backlash `B` leaves the
+    /// axis `B/2` behind its command, on the side it came from.
     Reversal(usize),
     /// `sin(2π q/p)` and `cos(2π q/p)` of axis `a`'s position: two terms. Shape: the pitch `p`
     /// (m or rad).
@@ -36,6 +40,14 @@ pub enum Feature {
     Bilinear(usize, usize),
     /// One: the amplitude itself (a constant gain error, on a [`Target::Gain`]).
     Constant,
+    /// Thermal expansion of axis `a`'s scale (screw, glass scale) with a temperature:
+    /// `ΔT·(q_a − q_mid)` (the amplitude a scale change per kelvin), `ΔT` the input as recorded
+    /// (`T − T₀`, K), `q_mid` the middle of the stroke. Where the scale is fixed is an offset
+    /// that follows the temperature: a `temperature-coupling` of the axis, tested on its own.
+    Expansion(Input, usize),
+    /// [`Feature::Expansion`] through a first-order lag of the temperature (the scale is not
+    /// where the sensor is). Shape: τ (s).
+    LaggedExpansion(Input, usize),
 }
 
 /// An effect of one [`Feature`] on one target.
@@ -115,6 +127,9 @@ impl Basic {
             Feature::Hours | Feature::SetupHours(_) => {
                 vec![amp(&format!("rate_{u}_per_h"), format!("{u}/h"), k)]
             }
+            Feature::TimeSpline(knots) => (1..=*knots)
+                .map(|j| amp(&format!("knot{j}_{u}"), u.clone(), k))
+                .collect(),
             Feature::Static(input) | Feature::Lag(input) => {
                 let (name, unit_name) = match input {
                     Input::Speed => (format!("gain_{u}_per_krpm"), format!("{u}/krpm")),
@@ -153,8 +168,26 @@ impl Basic {
             }
             Feature::Bilinear(..) => vec![amp(&format!("corner_{u}"), u.clone(), k)],
             Feature::Constant => vec![amp("gain_ppm", "ppm".into(), 1e6)],
+            Feature::Expansion(..) | Feature::LaggedExpansion(..) => {
+                // A scale follows its temperature by some 10 ppm/K (steel 11.5, glass 8):
+                // 100 ppm/K is beyond any machine.
+                let mut p = vec![ParamDef {
+                    scale: 1e-4,
+                    ..amp("scale_ppm_per_K", "ppm/K".into(), 1e6)
+                }];
+                if matches!(feature, Feature::LaggedExpansion(..)) {
+                    p.push(tau());
+                }
+                p
+            }
         };
         let terms = match &feature {
+            Feature::TimeSpline(knots) => (0..*knots)
+                .map(|j| Term {
+                    amplitude: j,
+                    target: target.clone(),
+                })
+                .collect(),
             Feature::Cyclic(_) => vec![
                 Term {
                     amplitude: 0,
@@ -200,11 +233,13 @@ impl Effect for Basic {
     fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
         let shape_value = shape.first().copied().unwrap_or(0.0);
         let lag = match &self.feature {
-            Feature::Lag(input) => Some(view.lag(input, shape_value)),
+            Feature::Lag(input) | Feature::LaggedExpansion(input, _) => {
+                Some(view.lag(input, shape_value))
+            }
             _ => None,
         };
         let input = match &self.feature {
-            Feature::Static(input) => Some(view.input(input)),
+            Feature::Static(input) | Feature::Expansion(input, _) => Some(view.input(input)),
             _ => None,
         };
         let setup_start = match self.feature {
@@ -226,9 +261,50 @@ impl Effect for Basic {
         })
     }
 
+    fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {
+        let Feature::Cyclic(a) = self.feature else {
+            return Vec::new();
+        };
+        let Some(p0) = self.params.iter().find(|p| p.kind == ParamKind::Shape) else {
+            return Vec::new();
+        };
+        // The longest stretch of the axis a fitted run covers: a pitch off by δ turns the
+        // phase at its far end by 2π·L·δ/p², so steps of p²/(8L) keep every phase within an
+        // eighth of a turn of the best.
+        let reach = (0..view.runs.len())
+            .filter(|&r| view.runs[r].fit)
+            .map(|r| {
+                let (lo, hi) = view.motion(r, a).range;
+                (hi - lo).max(lo.abs().max(hi.abs()))
+            })
+            .fold(0.0, f64::max);
+        if reach <= 0.0 {
+            return Vec::new();
+        }
+        let (lo, hi) = (0.8 * p0.initial, 1.25 * p0.initial);
+        let (min, max) = p0.bounds.unwrap_or((0.0, f64::INFINITY));
+        let mut out = Vec::new();
+        let mut p = lo.max(min);
+        while p <= hi.min(max) && out.len() < SCAN_MAX {
+            out.push(vec![p]);
+            p += p * p / (8.0 * reach);
+        }
+        out
+    }
+
+    fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
+        let mut e = self.clone();
+        let mut values = shape.iter();
+        for p in e.params.iter_mut().filter(|p| p.kind == ParamKind::Shape) {
+            p.initial = *values.next()?;
+            p.scale = p.initial.abs().max(p.bounds.map_or(0.0, |b| b.0));
+        }
+        Some(Arc::new(e))
+    }
+
     fn cached_series(&self) -> Vec<String> {
         match &self.feature {
-            Feature::Lag(input) => vec![format!(
+            Feature::Lag(input) | Feature::LaggedExpansion(input, _) => vec![format!(
                 "{input:?}/{}",
                 self.params
                     .iter()
@@ -254,6 +330,13 @@ impl Effect for Basic {
                 p(0)
             ),
             Feature::Hours => format!("a steady drift of {target} of {}", p(0)),
+            Feature::TimeSpline(knots) => {
+                let values: Vec<String> = (0..*knots).map(|j| p(j).to_string()).collect();
+                format!(
+                    "a drift of {target} in time through {knots} points at equal steps over the session: {}",
+                    values.join(", ")
+                )
+            }
             Feature::SetupHours(_) => format!("a drift of {target} of {}", p(0)),
             Feature::Static(Input::Context(name)) => {
                 format!(
@@ -300,6 +383,17 @@ impl Effect for Basic {
                 p(0)
             ),
             Feature::Constant => format!("a scale error of {target} of {}", p(0)),
+            Feature::Expansion(input, _) => format!(
+                "a thermal expansion of {target}'s scale with the temperature {}: {}",
+                input.column(),
+                p(0)
+            ),
+            Feature::LaggedExpansion(input, _) => format!(
+                "a thermal expansion of {target}'s scale following the temperature {} with τ = {}: {}",
+                input.column(),
+                tau(1),
+                p(0)
+            ),
         }
     }
 }
@@ -354,6 +448,16 @@ fn duration(value_s: f64, u95_s: Option<f64>) -> String {
     .to_string()
 }
 
+/// Shapes a scan tries at most (a pitch between 0.8 and 1.25 of its grid value over a stroke
+/// of a metre at 2 mm needs about 120).
+const SCAN_MAX: usize = 400;
+
+/// Axis `a`'s position at sample `i` of run `r` from the middle of its stroke (SI).
+fn from_mid(view: &SessionView, r: usize, i: usize, a: usize) -> f64 {
+    let (lo, hi) = view.axes[a].stroke;
+    view.q(r, i, a) - 0.5 * (lo + hi)
+}
+
 struct BasicFeatures {
     view: Arc<SessionView>,
     feature: Feature,
@@ -376,6 +480,18 @@ impl Features for BasicFeatures {
                 df[0] = -e * t / (tau * tau);
             }
             Feature::Hours => f[0] = (run.t[i] - view.t0()) / 3600.0,
+            Feature::TimeSpline(knots) => {
+                // Knot j (1..=knots) at t₀ + j·h: f[j − 1] is its hat function.
+                let h = view.duration() / *knots as f64;
+                let u = if h > 0.0 {
+                    (run.t[i] - view.t0()) / h
+                } else {
+                    0.0
+                };
+                for (j, v) in f.iter_mut().enumerate().take(*knots) {
+                    *v = (1.0 - (u - (j + 1) as f64).abs()).max(0.0);
+                }
+            }
             Feature::SetupHours(s) => {
                 f[0] = if run.setup == *s {
                     (run.t[i] - self.setup_start) / 3600.0
@@ -396,7 +512,7 @@ impl Features for BasicFeatures {
                 f[0] = lag.y[k];
                 df[0] = lag.dy_dtau[k];
             }
-            Feature::Reversal(a) => f[0] = 0.5 * f64::from(view.motion(r, *a).direction[i]),
+            Feature::Reversal(a) => f[0] = -0.5 * f64::from(view.motion(r, *a).direction[i]),
             Feature::Cyclic(a) => {
                 let q = view.q(r, i, *a);
                 let p = self.shape;
@@ -423,6 +539,20 @@ impl Features for BasicFeatures {
                 f[0] = u(*a) * u(*b);
             }
             Feature::Constant => f[0] = 1.0,
+            Feature::Expansion(_, a) => {
+                let u = self
+                    .input
+                    .as_ref()
+                    .expect("static features have their input");
+                f[0] = u[view.timeline_index(r, i)] * from_mid(view, r, i, *a);
+            }
+            Feature::LaggedExpansion(_, a) => {
+                let lag = self.lag.as_ref().expect("lag features have their series");
+                let k = view.timeline_index(r, i);
+                let q = from_mid(view, r, i, *a);
+                f[0] = lag.y[k] * q;
+                df[0] = lag.dy_dtau[k] * q;
+            }
         }
     }
 }

@@ -129,6 +129,17 @@ pub trait Effect: fmt::Debug + Send + Sync {
     fn cached_series(&self) -> Vec<String> {
         Vec::new()
     }
+    /// Starting shapes to scan before the effect is refitted, when its fit in the shape is
+    /// many-valued (a cycle's pitch: a phase that drifts by a turn over the stroke for a
+    /// pitch a few per cent off); empty when a Gauss–Newton refinement from the starting
+    /// shape finds the optimum.
+    fn shape_scan(&self, _view: &SessionView) -> Vec<Vec<f64>> {
+        Vec::new()
+    }
+    /// The same effect starting from other shape parameters (`None` if it has none).
+    fn with_shape(&self, _shape: &[f64]) -> Option<Arc<dyn Effect>> {
+        None
+    }
 }
 
 /// An effect's features at fixed shape parameters.
@@ -300,6 +311,7 @@ mod tests {
                 "stick-slip",
                 "temperature-coupling",
                 "thermal-drift",
+                "thermal-expansion",
             ]
         );
         for name in names {

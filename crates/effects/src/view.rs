@@ -13,6 +13,33 @@ use std::sync::{Arc, Mutex};
 /// Below this (m or rad) an axis is standing between two samples.
 const STANDING: f64 = 1e-9;
 
+/// Time constant (s) of the zero-phase smoothing a recorded temperature is read through: a
+/// machine's thermal state does not change within half a minute, a sensor's reading does (its
+/// noise and resolution), and an error fitted to that noise through a gain is noise in every
+/// sample.
+const TEMPERATURE_SMOOTHING_S: f64 = 10.0;
+
+/// `values` (at the non-decreasing `times`) smoothed by a first-order filter run forwards and
+/// then backwards (zero phase: no lag), exact for any spacing of the samples and continuous in
+/// the times (a sample a little earlier or later changes the result a little).
+fn smoothed(values: &[f64], times: &[f64], tau_s: f64) -> Vec<f64> {
+    let n = values.len();
+    let mut out = values.to_vec();
+    if n < 2 || tau_s <= 0.0 {
+        return out;
+    }
+    let weight = |k: usize| (-(times[k] - times[k - 1]).max(0.0) / tau_s).exp();
+    for k in 1..n {
+        let a = weight(k);
+        out[k] = a * out[k - 1] + (1.0 - a) * out[k];
+    }
+    for k in (1..n).rev() {
+        let a = weight(k);
+        out[k - 1] = a * out[k] + (1.0 - a) * out[k - 1];
+    }
+    out
+}
+
 /// One machine axis.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AxisView {
@@ -118,9 +145,10 @@ impl Input {
 /// How one axis moves during one run.
 #[derive(Clone, Debug, Default)]
 pub struct AxisMotion {
-    /// Direction of the last motion at each sample, ±1 (0 while the axis has not moved in the
-    /// run). Before the first motion: the direction of the first motion, as the axis was
-    /// brought to its start from that side.
+    /// Direction of the last motion at each sample, ±1 (0 while the axis has neither moved in
+    /// the run nor arrived from a known side). Before the first motion: the side the axis
+    /// arrived from ([`SessionView::new`]: a linear axis from the previous run's last position;
+    /// otherwise the side of its first motion).
     pub direction: Vec<i8>,
     /// Velocity (SI per second), central differences.
     pub velocity: Vec<f64>,
@@ -178,10 +206,43 @@ impl SessionView {
             times.extend_from_slice(&runs[r].t);
         }
         let na = axes.len();
-        let motion = runs
-            .iter()
-            .map(|run| (0..na).map(|a| axis_motion(run, a, na)).collect())
-            .collect();
+        // Each run's linear axes start in the state the previous run (in time) left them in:
+        // the machine went straight from that run's last position to this run's first, so an
+        // axis arrives from the side that move came from (or, if it did not move, keeps the
+        // direction it last moved in). A rotary axis may have gone either way round between
+        // runs (a controller unwinds or takes the short way): it, and the session's first run,
+        // arrive from the side of their first motion.
+        let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
+        let mut arrived: Vec<i8> = vec![0; na];
+        let mut last_q: Option<&[f64]> = None;
+        for &r in &order {
+            let run = &runs[r];
+            if run.is_empty() {
+                motion[r] = (0..na).map(|_| AxisMotion::default()).collect();
+                continue;
+            }
+            let first = &run.q[..na];
+            motion[r] = (0..na)
+                .map(|a| {
+                    let initial = match last_q {
+                        _ if axes[a].rotary => 0,
+                        Some(prev) if (first[a] - prev[a]).abs() > STANDING => {
+                            if first[a] > prev[a] { 1 } else { -1 }
+                        }
+                        _ => arrived[a],
+                    };
+                    axis_motion(run, a, na, initial)
+                })
+                .collect();
+            for (a, d) in arrived.iter_mut().enumerate() {
+                if let Some(&last) = motion[r][a].direction.last()
+                    && last != 0
+                {
+                    *d = last;
+                }
+            }
+            last_q = Some(&run.q[(run.len() - 1) * na..]);
+        }
         Self {
             axes,
             setups,
@@ -300,7 +361,8 @@ impl SessionView {
 
     /// The input's value at every timeline sample. Runs without the column hold the last
     /// value before them (the first value in the session before it is ever recorded; 0 for a
-    /// speed never recorded).
+    /// speed never recorded). A temperature is read through a zero-phase smoothing of 10 s
+    /// ([`TEMPERATURE_SMOOTHING_S`]); a spindle speed as recorded (it steps).
     pub fn input(&self, input: &Input) -> Arc<Vec<f64>> {
         let mut cache = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(s) = cache.get(input) {
@@ -342,6 +404,9 @@ impl SessionView {
         if *input == Input::SpeedSquared {
             out.iter_mut().for_each(|x| *x *= *x);
         }
+        if let Input::Context(_) = input {
+            out = smoothed(&out, &self.times, TEMPERATURE_SMOOTHING_S);
+        }
         out
     }
 
@@ -373,7 +438,9 @@ impl SessionView {
     }
 }
 
-fn axis_motion(run: &RunView, a: usize, na: usize) -> AxisMotion {
+/// How axis `a` moves in `run`, having arrived at its first position moving in direction
+/// `initial` (±1; 0: unknown, then from the side of its first motion).
+fn axis_motion(run: &RunView, a: usize, na: usize, initial: i8) -> AxisMotion {
     let n = run.len();
     let q = |i: usize| run.q[i * na + a];
     if n == 0 {
@@ -392,15 +459,16 @@ fn axis_motion(run: &RunView, a: usize, na: usize) -> AxisMotion {
     let first_dir = raw.iter().copied().find(|&d| d != 0).unwrap_or(0);
     let mut direction = vec![0i8; n];
     let mut travel = vec![0.0; n];
-    let mut current = first_dir;
+    let mut current = if initial != 0 { initial } else { first_dir };
     let mut anchor = q(0);
     let mut reverses = false;
     for i in 0..n {
         if raw[i] != 0 && raw[i] != current {
-            // A reversal: the turning point is the previous sample.
+            // A reversal: the turning point is the previous sample (or the run's start, when
+            // the axis arrived from the other side).
             reverses = true;
             current = raw[i];
-            anchor = q(i - 1);
+            anchor = q(i.saturating_sub(1));
         }
         direction[i] = current;
         travel[i] = (q(i) - anchor).abs();

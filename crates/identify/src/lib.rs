@@ -178,6 +178,18 @@ pub fn solve_from(
     options: &Options,
     observer: &mut dyn Observer,
 ) -> Result<mtcal_solve::Solution, IdentifyError> {
+    solve_holding(study, x0, options, observer, &[])
+}
+
+/// [`solve_from`] with the parameters `held` (shape parameters of effects) kept at their values
+/// in `x0` throughout.
+pub fn solve_holding(
+    study: &Study,
+    x0: &[f64],
+    options: &Options,
+    observer: &mut dyn Observer,
+    held: &[usize],
+) -> Result<mtcal_solve::Solution, IdentifyError> {
     let problem = FitProblem::new(study);
     let mut specs = param_specs_from(study, x0);
     let shapes: Vec<usize> = (0..study.n_x)
@@ -193,6 +205,9 @@ pub fn solve_from(
         }
         let first = mtcal_solve::solve(&problem, &specs, options, observer)?;
         specs = param_specs_from(study, &first.x);
+    }
+    for &i in held {
+        specs[i].fixed = true;
     }
     Ok(mtcal_solve::solve(&problem, &specs, options, observer)?)
 }

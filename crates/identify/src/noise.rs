@@ -169,14 +169,22 @@ pub fn estimate(study: &Study, x: &[f64]) -> NoiseModel {
             let channels = study.channels(r);
             let index: Vec<usize> = channels
                 .iter()
-                .map(|ch| names.iter().position(|n| *n == ch.name).expect("named above"))
+                .map(|ch| {
+                    names
+                        .iter()
+                        .position(|n| *n == ch.name)
+                        .expect("named above")
+                })
                 .collect();
             collect_differences(study, r, x, stride, &index, &mut lagged);
         }
         let noise: Vec<ChannelNoise> = lagged.iter().map(|l| channel_noise(l)).collect();
         for &s in &setups {
             for (c, ch) in study.setups[s].setup.channels().iter().enumerate() {
-                let k = names.iter().position(|n| *n == ch.name).expect("named above");
+                let k = names
+                    .iter()
+                    .position(|n| *n == ch.name)
+                    .expect("named above");
                 per_setup[s][c] = noise[k];
             }
         }

@@ -396,7 +396,10 @@ impl Identification {
             self.solver.condition_number
         );
         for line in &self.noise {
-            let _ = writeln!(s, "noise (from the residuals; the fit weighs by it): {line}");
+            let _ = writeln!(
+                s,
+                "noise (from the residuals; the fit weighs by it): {line}"
+            );
         }
         let _ = if self.solver.converged && self.model_explains_recordings() {
             writeln!(s, "\nidentified parameters (95 % intervals):")

@@ -85,7 +85,7 @@ impl Default for SearchOptions {
         Self {
             alpha: 0.05,
             max_steps: 10,
-            tries: 3,
+            tries: 8,
             folds: 5,
             cross_validation: CrossValidation::BlocksPerRun,
             min_heldout_gain: 0.0,
@@ -713,6 +713,11 @@ pub struct Discovery {
     /// Where the residuals showed it before it was added, if the structure tests saw it.
     #[serde(rename = "where", skip_serializing_if = "Option::is_none")]
     pub location: Option<mtcal_mismatch::Location>,
+    /// Explanations the data cannot tell from this one (then the discovery names a class of
+    /// explanations, not one: the model keeps the best for its predictions). In the JSON only
+    /// when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<LookAlike>,
     pub explanation: String,
 }
 
@@ -771,6 +776,10 @@ pub struct SearchResult {
 
 /// One accepted step.
 struct Stage {
+    /// Candidates that explained nearly as well ([`LOOKALIKE_BIC`]); those still significant
+    /// once this one is in the model explained something else and are dropped
+    /// ([`Stage::confirm_lookalikes`]).
+    lookalikes: Vec<LookAlike>,
     ranked: Ranked,
     before_id: Identification,
     before_solution: Solution,
@@ -781,25 +790,156 @@ struct Stage {
     after_solution: Solution,
 }
 
+/// Information criterion (in units of the noise estimate) within which another candidate is a
+/// look-alike of the one added: below 10, the evidence for the one over the other is not
+/// "very strong" (Kass & Raftery's scale for Bayes factors).
+const LOOKALIKE_BIC: f64 = 10.0;
+
+/// Another explanation the data cannot tell from a discovery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LookAlike {
+    pub candidate: String,
+    pub effect: String,
+    pub label: String,
+    /// Its χ² over the discovery's (noise units): what the data say for the one over the other.
+    pub delta_chi2: f64,
+    /// The same in the information criterion (its parameters counted).
+    pub delta_bic: f64,
+    /// A measurement that would tell them apart.
+    pub measurement: String,
+}
+
+impl Stage {
+    /// Keeps the look-alikes that `ranking` (with this stage's effect in the model) no longer
+    /// finds significant: they explained the same thing.
+    fn confirm_lookalikes(&mut self, ranking: &[Ranked]) {
+        self.lookalikes.retain(|l| {
+            !ranking
+                .iter()
+                .any(|r| r.score.significant && r.candidate.label() == l.label)
+        });
+    }
+}
+
+/// The candidates to refit at a step: the strongest significant ones, at most two targets or
+/// drivers of one class (a drift of Z or of the tool length, a thermal expansion in time or
+/// with a temperature) and one starting shape per label, `tries` in all, so that every kind of
+/// explanation the scores point at is refitted and the look-alikes of the winner are seen.
+fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
+    // One per label and form: a drift of Z in time as a first-order rise (amplitude, τ) and
+    // as a steady rate are two forms of one label.
+    let form = |r: &Ranked| {
+        let params = match &r.candidate {
+            Candidate::Effect(e) => e.params().iter().map(|p| p.name.as_str()).collect(),
+            Candidate::Model(_) => Vec::new(),
+        };
+        (r.candidate.label(), params.join(","))
+    };
+    let mut out: Vec<Ranked> = Vec::new();
+    for r in ranked
+        .iter()
+        .filter(|r| r.score.significant && r.score.df > 0)
+    {
+        if out.len() == tries {
+            break;
+        }
+        let class = r.candidate.class();
+        let same_class = out.iter().filter(|t| t.candidate.class() == class).count();
+        if same_class < 2 && !out.iter().any(|t| form(t) == form(r)) {
+            out.push(r.clone());
+        }
+    }
+    out
+}
+
+/// `r` from the best of its shape scan ([`Effect::shape_scan`]: a cycle's pitch on a grid
+/// fine enough that no phase is off by more than an eighth of a turn), scored against the
+/// current fit; `r` itself if it has none or none scores higher. The scan picks where the
+/// refit starts; whether the candidate is kept is decided as for any other.
+fn scanned(current: &Fitted, r: Ranked, options: &SearchOptions) -> Result<Ranked, IdentifyError> {
+    let Candidate::Effect(e) = &r.candidate else {
+        return Ok(r);
+    };
+    let shapes = e.shape_scan(current.study.view());
+    if shapes.is_empty() {
+        return Ok(r);
+    }
+    let variants: Vec<Candidate> = shapes
+        .iter()
+        .filter_map(|s| e.with_shape(s))
+        .map(Candidate::Effect)
+        .collect();
+    let ranked = rank_with(
+        &current.study,
+        &current.solution,
+        variants,
+        options.alpha,
+        options.cache_bytes,
+    )?;
+    Ok(match ranked.into_iter().next() {
+        Some(mut best) if best.score.statistic > r.score.statistic => {
+            best.score.adjusted_p = r.score.adjusted_p;
+            best.score.significant = r.score.significant;
+            best
+        }
+        _ => r,
+    })
+}
+
+/// What would tell candidate `b` from `a` (both explain the data alike).
+fn telling_apart(a: &Candidate, b: &Candidate) -> String {
+    let (ca, cb) = (a.class(), b.class());
+    let driver = |c: &Candidate| match c {
+        Candidate::Effect(e) => e.info().driver.clone().unwrap_or_default(),
+        Candidate::Model(_) => String::new(),
+    };
+    let pair = |x: &str, y: &str| (ca == x && cb == y) || (ca == y && cb == x);
+    let thermal = |c: &str| {
+        matches!(
+            c,
+            "thermal-drift" | "temperature-coupling" | "thermal-expansion"
+        )
+    };
+    if ca == cb && driver(a) != driver(b) {
+        return format!(
+            "a session in which {} and {} do not follow each other (a pause, a cool-down, a \
+             change of spindle speed)",
+            driver(a),
+            driver(b)
+        );
+    }
+    if (thermal(ca) && cb == "setup-drift") || (thermal(cb) && ca == "setup-drift") {
+        return "re-measure the first run with a second set-up at the end (a set-up's drift \
+                stays with its set-up, a machine's shows in every set-up)"
+            .into();
+    }
+    if pair("reversal", "servo-lag") || pair("stick-slip", "servo-lag") {
+        return "repeat a path at a second feed: a lag grows with the velocity, lost motion does \
+                not"
+        .into();
+    }
+    if pair("reversal", "stick-slip") {
+        return "approach a reversal in steps finer than the decay: stick-slip fades with the \
+                travel, lost motion does not"
+            .into();
+    }
+    if pair("cyclic", "component-order") || pair("cyclic", "omitted-parameter") {
+        return "step the axis finer than a quarter of the pitch over its whole stroke: a cycle \
+                repeats, a higher order does not"
+            .into();
+    }
+    if ca == cb {
+        return "measure with the set-up or path changed so the two targets move differently \
+                (another ball position, another height)"
+            .into();
+    }
+    separating_measurement(b, &[])
+}
+
 /// Runs the physics search on `study` (see the module documentation).
 pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
     let options = &with_session_options(&study, options)?;
-    let mut current = fit(study, None, options)?;
-    // Every decision below is a χ² statistic: on the noise the recordings really carry, not the
-    // σ the manifest states (crate::noise). Kept fixed through the search, so that every model
-    // is compared on the same metric.
-    if current.study.changes().noise.is_none() {
-        let noise = crate::noise::estimate(&current.study, &current.solution.x);
-        if !noise.is_stated() {
-            let changes = Changes {
-                noise: Some(Arc::new(noise)),
-                ..current.study.changes().clone()
-            };
-            let study = current.study.rebuild(changes)?;
-            let x0 = current.solution.x.clone();
-            current = fit(study, Some(x0), options)?;
-        }
-    }
+    let mut current = with_noise(fit(study, None, options)?, options)?;
     let initial = current.id.clone();
     let initial_solution = current.solution.clone();
     let initial_changes = current.study.changes().clone();
@@ -819,24 +959,15 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             options.alpha,
             options.cache_bytes,
         )?;
-        // The strongest significant candidates of different effects (the same drift at two
-        // starting time constants is one explanation): each is refitted with its shape
-        // parameters refined, and the best that passes the checks wins. Their scores at grid
-        // starting values cannot decide between a drift in time and a lagged temperature that
-        // follows it; refitted, the right one explains more.
-        let mut tries: Vec<Ranked> = Vec::new();
-        for r in ranked
-            .iter()
-            .filter(|r| r.score.significant && r.score.df > 0)
-        {
-            if tries.len() == options.tries {
-                break;
-            }
-            if !tries
-                .iter()
-                .any(|t| t.candidate.label() == r.candidate.label())
-            {
-                tries.push(r.clone());
+        // What the last step added was told from its look-alikes only if they no longer
+        // explain anything now that it is in the model.
+        if let Some(stage) = stages.last_mut() {
+            stage.confirm_lookalikes(&ranked);
+        }
+        let tries = choose_tries(&ranked, options.tries);
+        if std::env::var("MTCAL_DEBUG_RANK").is_ok() {
+            for r in ranked.iter().take(12) {
+                eprintln!("  rank {step}: {}", r.describe());
             }
         }
         if tries.is_empty() {
@@ -849,34 +980,58 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             break;
         }
         let mut trials = Vec::new();
-        let mut accepted: Option<(Ranked, Refitted, usize)> = None;
+        let mut passed: Vec<(usize, Ranked, Refitted)> = Vec::new();
         for r in tries {
+            let r = scanned(&current, r, options)?;
             let (trial, fitted) = try_candidate(&current, &r, options)?;
             if let Some(f) = fitted {
-                // Among those that pass, the information criterion decides: the better fit
-                // unless it pays for it with parameters (stick-slip with an endless decay is a
-                // reversal error with one parameter more).
-                let better = accepted
-                    .as_ref()
-                    .is_none_or(|(_, best, _)| bic(&f.solution) < bic(&best.solution));
-                if better {
-                    accepted = Some((r, f, trials.len()));
-                }
+                passed.push((trials.len(), r, f));
             }
             trials.push(trial);
         }
-        // Only the winner is added; the others passed the checks but explain less.
-        if let Some((_, _, winner)) = &accepted {
-            for (k, t) in trials.iter_mut().enumerate() {
-                if t.accepted && k != *winner {
-                    t.accepted = false;
+        // Among those that pass, the information criterion decides: the better fit unless it
+        // pays for it with parameters (stick-slip with an endless decay is a reversal error
+        // with one parameter more). Those within a whisker of it are its look-alikes.
+        let scale = current.solution.chi2_reduced.max(1.0);
+        let winner = passed
+            .iter()
+            .enumerate()
+            .min_by(|a, b| bic(&a.1.2.solution).total_cmp(&bic(&b.1.2.solution)))
+            .map(|(k, _)| k);
+        let mut lookalikes = Vec::new();
+        if let Some(w) = winner {
+            let (wk, wr, wf) = &passed[w];
+            let best = bic(&wf.solution);
+            for (k, r, f) in &passed {
+                if k == wk {
+                    continue;
+                }
+                let delta = (bic(&f.solution) - best) / scale;
+                let t = &mut trials[*k];
+                t.accepted = false;
+                if delta < LOOKALIKE_BIC && r.candidate.label() != wr.candidate.label() {
+                    t.why = format!(
+                        "explains nearly as well as the one added (information criterion {delta:+.1}): \
+                         a look-alike; {}",
+                        t.why
+                    );
+                    lookalikes.push(LookAlike {
+                        candidate: r.name(),
+                        effect: r.candidate.class().to_string(),
+                        label: r.candidate.label(),
+                        delta_chi2: (f.solution.chi2 - wf.solution.chi2) / scale,
+                        delta_bic: delta,
+                        measurement: telling_apart(&wr.candidate, &r.candidate),
+                    });
+                } else {
                     t.why = format!("passed, but another candidate predicts better; {}", t.why);
                 }
             }
         }
         report.steps.push(trials);
-        let accepted = match accepted {
-            Some((r, f, _)) => {
+        let accepted = match winner {
+            Some(w) => {
+                let (_, r, f) = passed.swap_remove(w);
                 let id = Identification::new(&f.study, &f.solution)?;
                 Some((
                     r,
@@ -905,6 +1060,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             heldout,
         } = fitted;
         stages.push(Stage {
+            lookalikes,
             ranked: ranked_ok,
             before_id: current.id,
             before_solution: current.solution,
@@ -914,12 +1070,15 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             after_id: id.clone(),
             after_solution: solution.clone(),
         });
-        current = Fitted {
-            study,
-            solution,
-            id,
-            heldout,
-        };
+        current = with_noise(
+            Fitted {
+                study,
+                solution,
+                id,
+                heldout,
+            },
+            options,
+        )?;
     }
     let last_ranking = match last_ranking {
         Some(r) => r,
@@ -931,6 +1090,9 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             options.cache_bytes,
         )?,
     };
+    if let Some(stage) = stages.last_mut() {
+        stage.confirm_lookalikes(&last_ranking);
+    }
     report.concealed = concealed(&last_ranking);
     report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
     let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();
@@ -995,6 +1157,29 @@ fn with_session_options(
         ));
     }
     Ok(out)
+}
+
+/// `fitted` on the noise its residuals show ([`crate::noise`]): every decision of the search is
+/// a χ² statistic, on the noise the recordings really carry rather than the σ the manifest
+/// states. Estimated again after every step: a large effect left out inflates the estimate
+/// (a cycle of a few samples reads as noise), and once it is in the model the smaller ones
+/// need the noise it leaves. Within a step every candidate is compared on one metric.
+fn with_noise(fitted: Fitted, options: &SearchOptions) -> Result<Fitted, IdentifyError> {
+    let noise = crate::noise::estimate(&fitted.study, &fitted.solution.x);
+    let now = fitted.study.changes().noise.as_deref();
+    let same = match now {
+        Some(n) => *n == noise,
+        None => noise.is_stated(),
+    };
+    if same {
+        return Ok(fitted);
+    }
+    let changes = Changes {
+        noise: (!noise.is_stated()).then(|| Arc::new(noise)),
+        ..fitted.study.changes().clone()
+    };
+    let study = fitted.study.rebuild(changes)?;
+    fit(study, Some(fitted.solution.x), options)
 }
 
 /// Fits `study` (from `x0` or its own start) and cross-validates it.
@@ -1283,6 +1468,26 @@ fn try_candidate(
             return Ok((trial, None));
         }
     };
+    // Refined together, a second thermal node's τ may slide onto the first one's, where the
+    // two amplitudes grow without bound in opposite directions: then the earlier effects keep
+    // the shapes they were found with and only the new one's is refined.
+    let solution = match implausible(current, &study, &solution) {
+        Some(_) if current.study.effect_offset < current.study.n_x => {
+            let earlier: Vec<usize> = (current.study.effect_offset..current.study.n_x)
+                .filter(|&i| {
+                    current
+                        .study
+                        .effect_param(i)
+                        .is_some_and(|p| p.kind == mtcal_effects::ParamKind::Shape)
+                })
+                .collect();
+            match crate::solve_holding(&study, &x0, &options.solver, &mut Silent, &earlier) {
+                Ok(held) if implausible(current, &study, &held).is_none() => held,
+                _ => solution,
+            }
+        }
+        _ => solution,
+    };
     let before = &current.solution;
     let drop = before.chi2 - solution.chi2;
     let added = study.n_x.saturating_sub(current.study.n_x).max(1);
@@ -1293,6 +1498,10 @@ fn try_candidate(
             "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added} parameters",
             drop / scale
         );
+        return Ok((trial, None));
+    }
+    if let Some(why) = implausible(current, &study, &solution) {
+        trial.why = why;
         return Ok((trial, None));
     }
     let held = heldout(&study, &solution.x, options)?;
@@ -1323,6 +1532,56 @@ fn try_candidate(
             heldout: held,
         }),
     ))
+}
+
+/// Why a refit is not physics, if it is not: a parameter beyond its plausible range (a
+/// millimetre or milliradian of machine or set-up error, an effect's own: a metre per hour of
+/// set-up drift or a 96 % gain error fit numbers, not a machine), or an added parameter whose
+/// interval is wider than that range (not an identification). Parameters already beyond their
+/// range before the candidate was added are not its doing, nor are those in the null space
+/// (what the data cannot see has no value to judge).
+fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<String> {
+    let specs = param_specs(study);
+    let before: HashMap<String, f64> = (0..current.study.n_x)
+        .map(|i| (current.study.param_info(i).name, current.solution.x[i]))
+        .collect();
+    for (i, spec) in specs.iter().enumerate() {
+        let Some(range) = spec.scale else { continue };
+        if spec.bounds.is_some() {
+            // A shape parameter (τ, pitch): its box says what is plausible.
+            continue;
+        }
+        if solution.sigma[i].is_none() {
+            // In the null space: the fit's value along it is arbitrary, not a claim.
+            continue;
+        }
+        let info = study.param_info(i);
+        let value = solution.x[i];
+        let was = before.get(&info.name).copied();
+        let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
+        if value.abs() > range && was.is_none_or(|w| w.abs() <= range) {
+            return Some(format!(
+                "not physics: the refit puts {} at {}, beyond its plausible range of ±{}",
+                info.name,
+                show(value),
+                show(range)
+            ));
+        }
+        if was.is_none()
+            && let Some(sigma) = solution.sigma[i]
+            && K95 * sigma > range
+        {
+            return Some(format!(
+                "not an identification: {} = {} ± {}, an interval wider than its plausible \
+                 range of ±{}",
+                info.name,
+                show(value),
+                show(K95 * sigma),
+                show(range)
+            ));
+        }
+    }
+    None
 }
 
 /// A candidate's refit that passed the checks (its report is built only if it wins).
@@ -1387,6 +1646,16 @@ impl Effect for Relabelled {
     }
     fn cached_series(&self) -> Vec<String> {
         self.inner.cached_series()
+    }
+    fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {
+        self.inner.shape_scan(view)
+    }
+    fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
+        let inner = self.inner.with_shape(shape)?;
+        Some(Arc::new(Relabelled {
+            inner,
+            info: self.info.clone(),
+        }))
     }
 }
 
@@ -1547,6 +1816,29 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
             )
         );
     }
+    if !stage.lookalikes.is_empty() {
+        let others: Vec<String> = stage
+            .lookalikes
+            .iter()
+            .map(|l| {
+                format!(
+                    "{} ({} by {:.1} in χ²)",
+                    l.candidate,
+                    if l.delta_chi2 >= 0.0 {
+                        "worse"
+                    } else {
+                        "better"
+                    },
+                    l.delta_chi2.abs()
+                )
+            })
+            .collect();
+        explanation += &format!(
+            "; THESE DATA CANNOT TELL IT FROM {} — neither is the answer; to tell them apart: {}",
+            others.join(" or "),
+            stage.lookalikes[0].measurement
+        );
+    }
     if !corrected.is_empty() {
         let list: Vec<String> = corrected
             .iter()
@@ -1584,6 +1876,7 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         absorbed: stage.ranked.score.absorbed,
         corrected,
         location,
+        alternatives: stage.lookalikes.clone(),
         explanation,
     }
 }

@@ -293,7 +293,7 @@ impl Study {
 
     fn assemble(
         session: Session,
-        mut machine: LoadedMachine,
+        machine: LoadedMachine,
         loaded: Option<Vec<LoadedRun>>,
         changes: Changes,
     ) -> Result<Study, IdentifyError> {
@@ -302,11 +302,13 @@ impl Study {
                 source_name: machine.config_source.clone(),
                 message: e.to_string(),
             };
+        // The study keeps the session's machine as loaded (a rebuild applies its raises again,
+        // to that); its model has the raises.
+        let mut config = machine.config.clone();
         for (name, extra) in &changes.raise {
-            raise_order(&mut machine.config, name, *extra)
-                .map_err(|m| model_error(&machine, &m))?;
+            raise_order(&mut config, name, *extra).map_err(|m| model_error(&machine, &m))?;
         }
-        let model = MachineModel::new(machine.machine.clone(), &machine.config)
+        let model = MachineModel::new(machine.machine.clone(), &config)
             .map_err(|e| model_error(&machine, &e))?;
         check_identify_keys(&session)?;
         let base_coeffs = match session.identify.get("start") {
@@ -335,7 +337,8 @@ impl Study {
         }
         estimated.sort_unstable();
         estimated.dedup();
-        let (fit_model, fit_coeffs) = reduced_model(&machine, &model, &estimated, &base_coeffs)?;
+        let (fit_model, fit_coeffs) =
+            reduced_model(&machine, &config, &model, &estimated, &base_coeffs)?;
         let mut in_fit = vec![usize::MAX; model.n_coeffs()];
         for (j, &k) in fit_coeffs.iter().enumerate() {
             in_fit[k] = j;
@@ -818,6 +821,7 @@ fn raise_order(
 /// the restricted model gives the same poses for the same values.
 fn reduced_model(
     machine: &LoadedMachine,
+    config: &[mtcal_kinematics::ParamConfig],
     model: &MachineModel,
     estimated: &[usize],
     base: &[f64],
@@ -826,18 +830,18 @@ fn reduced_model(
     for &k in estimated {
         used[k] = true;
     }
-    let mut config = Vec::new();
+    let mut kept = Vec::new();
     let mut index = Vec::new();
     // `ErrorModel::new` lays the parameters out in configuration order.
-    for (entry, p) in machine.config.iter().zip(model.errors().params()) {
+    for (entry, p) in config.iter().zip(model.errors().params()) {
         let range = p.offset..p.offset + p.len;
         if range.clone().any(|k| used[k] || base[k] != 0.0) {
-            config.push(entry.clone());
+            kept.push(entry.clone());
             index.extend(range);
         }
     }
     let reduced =
-        MachineModel::new(machine.machine.clone(), &config).map_err(|e| IdentifyError::Model {
+        MachineModel::new(machine.machine.clone(), &kept).map_err(|e| IdentifyError::Model {
             source_name: machine.config_source.clone(),
             message: e.to_string(),
         })?;

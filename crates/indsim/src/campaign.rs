@@ -95,6 +95,58 @@ impl Campaign {
         write_session(dir, &machine, truth, &plan, &timed)
     }
 
+    /// [`Self::trunnion_rtest_ballbar_effects`] with the runs in the order an engineer who
+    /// expects the machine to drift would measure them: R-test and ball-bar runs alternating,
+    /// the validation runs spread over the session, and the first XYC repeated at the end
+    /// (`rtest-xyc-end`, fitted), so that every time of the session is seen by some fitted run
+    /// that reads Z and every validation run lies inside the fitted time span:
+    /// `rtest-xyc`, `ballbar-xy-ccw`, `rtest-yza`, `ballbar-xy-cw`, `rtest-validate`,
+    /// `rtest-xyzac`, `ballbar-xy-c90`, `rtest-xyc-a+30`, `ballbar-validate`, `rtest-xyc-a-30`,
+    /// `rtest-validate-a15`, `ballbar-validate-c180`, `rtest-xyc-end` (2341 samples, 32.5 min).
+    pub fn trunnion_thermal_check(
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        let urdf = shipped_machine(TRUNNION);
+        let machine = Machine::from_urdf_file(&urdf)?;
+        let mut plan = trunnion_plan(&machine, &urdf, effects.to_vec())?;
+        let order = [
+            "rtest-xyc",
+            "ballbar-xy-ccw",
+            "rtest-yza",
+            "ballbar-xy-cw",
+            "rtest-validate",
+            "rtest-xyzac",
+            "ballbar-xy-c90",
+            "rtest-xyc-a+30",
+            "ballbar-validate",
+            "rtest-xyc-a-30",
+            "rtest-validate-a15",
+            "ballbar-validate-c180",
+        ];
+        let mut runs = Vec::with_capacity(order.len() + 1);
+        for name in order {
+            let k = plan
+                .runs
+                .iter()
+                .position(|r| r.name == name)
+                .ok_or_else(|| SimError::Plan(format!("the trunnion plan has no run {name}")))?;
+            runs.push(plan.runs.swap_remove(k));
+        }
+        let mut end = runs[0].clone();
+        end.name = "rtest-xyc-end".into();
+        runs.push(end);
+        plan.runs = runs;
+        let timed = Realism {
+            interval_s: TRUNNION_EFFECTS_INTERVAL_S,
+            pause_s: TRUNNION_EFFECTS_PAUSE_S,
+            ..realism.clone()
+        };
+        write_session(dir, &machine, truth, &plan, &timed)
+    }
+
     /// The shipped three-axis `machines/mcv754-zfyx.urdf` (X and Y carry the table, Z the
     /// spindle), a random truth from `seed`, and into `dir` one ball bar (set-up `bar1`, pivot
     /// [0, 0, 100] mm, 150 mm) on an XY circle counter-clockwise (`ballbar-xy-ccw`) and

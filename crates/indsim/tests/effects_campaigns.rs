@@ -418,3 +418,56 @@ fn trunnion_campaign_with_effects_lasts_half_an_hour_and_writes_the_bar_temperat
         );
     }
 }
+
+/// The thermal check: the same runs as the trunnion campaign in an interleaved order, the first
+/// XYC repeated at the end, every validation run inside the fitted time span.
+#[test]
+fn trunnion_thermal_check_interleaves_its_runs_and_repeats_the_first_at_the_end() {
+    let tmp = tempfile::tempdir().unwrap();
+    let truth = truth_of("mcu630-cafyxz.urdf", 24);
+    let plain =
+        Campaign::trunnion_rtest_ballbar_with(&tmp.path().join("a"), &truth, &Realism::ideal())
+            .unwrap();
+    let check =
+        Campaign::trunnion_thermal_check(&tmp.path().join("b"), &truth, &[], &Realism::ideal())
+            .unwrap();
+    assert_eq!(check.runs.len(), plain.runs.len() + 1);
+    for run in &plain.runs {
+        let same = check.runs.iter().find(|r| r.name == run.name).unwrap();
+        assert_eq!(
+            (&same.positions, &same.clean_um),
+            (&run.positions, &run.clean_um)
+        );
+    }
+    let first = &check.runs[0];
+    let end = check.runs.last().unwrap();
+    assert_eq!(
+        (first.name.as_str(), end.name.as_str()),
+        ("rtest-xyc", "rtest-xyc-end")
+    );
+    assert_eq!(
+        (&first.positions, &first.clean_um),
+        (&end.positions, &end.clean_um)
+    );
+    // 2341 samples: 2328 intervals of 0.75 s and 12 pauses of 15 s (+ 0.3 s each).
+    assert!(
+        (duration_s(&check) - 1929.6).abs() < 1e-6,
+        "{} s",
+        duration_s(&check)
+    );
+    let manifest = std::fs::read_to_string(tmp.path().join("b/session.toml")).unwrap();
+    let validate_at: Vec<usize> = check
+        .runs
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| {
+            let block = manifest
+                .split("[[run]]")
+                .find(|b| b.contains(&format!("name = \"{}\"", r.name)))
+                .unwrap();
+            block.contains("use = \"validate\"")
+        })
+        .map(|(k, _)| k)
+        .collect();
+    assert_eq!(validate_at, [4, 8, 10, 11]);
+}

@@ -16,7 +16,7 @@
 //!   `driver = "K*M"`, `corner_um`.
 //!
 //! Candidates need the right motion in some fitted run: reversals for `reversal` and
-//! `stick-slip`, travel over at least one pitch with four samples per pitch for `cyclic`,
+//! `stick-slip`, travel over at least one pitch with 2.5 samples per pitch for `cyclic`,
 //! motion for `servo-lag`, both driving axes moving for `cross-coupling`.
 
 use super::{axis_aim, moves, number, plant_aim, plant_values, reverses, single_letter, string};
@@ -111,8 +111,8 @@ fn covered_harmonics(view: &SessionView, a: usize) -> u32 {
         })
 }
 
-/// Pitches (SI) a run can show on axis `a`: at least one period travelled, four samples per
-/// period.
+/// Pitches (SI) a run can show on axis `a`: at least one period travelled, two and a half
+/// samples per period (beyond Nyquist's two, so a cycle is not its own alias).
 fn pitches(view: &SessionView, a: usize) -> Vec<f64> {
     let grid: Vec<f64> = if view.axes[a].rotary {
         let covered = covered_harmonics(view, a);
@@ -128,7 +128,7 @@ fn pitches(view: &SessionView, a: usize) -> Vec<f64> {
         .filter(|&p| {
             (0..view.runs.len()).any(|r| {
                 let m = view.motion(r, a);
-                view.runs[r].fit && m.moves && m.range.1 - m.range.0 >= p && 4.0 * m.step <= p
+                view.runs[r].fit && m.moves && m.range.1 - m.range.0 >= p && 2.5 * m.step <= p
             })
         })
         .collect()

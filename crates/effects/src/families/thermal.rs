@@ -2,8 +2,11 @@
 //!
 //! **`thermal-drift`** — the machine (or a sensor modelled on its own) drifts as it warms:
 //! - driver `t`: `A·(1 − exp(−(t − t₀)/τ))` from the session's start (a first-order node
-//!   settling; plant keys `amplitude_um`, `tau_s`), or a steady `rate·(t − t₀)` (plant key
-//!   `rate_um_per_h`);
+//!   settling; plant keys `amplitude_um`, `tau_s`), a steady `rate·(t − t₀)` (plant key
+//!   `rate_um_per_h`), or — several nodes warming and cooling, nothing recorded that drives
+//!   them — a curve of free shape, piecewise linear through up to eight points at equal steps
+//!   (four minutes apart at least) over the session, zero at its start (proposed by the search;
+//!   not planted);
 //! - driver `S` / `S^2`: a first-order node heated by the spindle, `g·lag(S/1000 rpm, τ)` or
 //!   `g·lag((S/1000 rpm)², τ)` (heat from friction grows faster than the speed); plant keys
 //!   `driver = "S"` or `"S^2"`, `gain_um_per_krpm` or `gain_um_per_krpm2`, `tau_s`. Several
@@ -18,9 +21,24 @@
 //! search would fit one of them to the noise of the cycles it saw.
 //!
 //! Targets: each linear axis (when some channel reads the tool pose) and each channel modelled
-//! on its own.
+//! on its own; and for a temperature recorded only in one set-up's runs (an instrument's own,
+//! such as a ball bar's), that set-up's parameters in µm (the bar's length growing with it).
+//!
+//! **`thermal-expansion`** — an axis' scale (its screw or glass scale) grows with a recorded
+//! temperature: the axis is effectively at `q + s·ΔT·(q − q_mid)`, the scale change `s`
+//! (ppm/K) about the middle of the stroke, `ΔT` the temperature's rise (driver `T_<name>`),
+//! through a first-order lag when the static form is already in the model. Where the scale is
+//! fixed is an offset that follows the temperature: a `temperature-coupling` of the axis, a
+//! candidate of its own. Without a recorded temperature a scale warming in time is not
+//! proposed: over the few heights an R-test sees, it is a drift of the axis by another name.
+//! Plant keys `axis`, `driver`, `scale_ppm_per_K`, `tau_s` for the lagged form. Targets: each
+//! linear axis that moves, when some channel reads the tool pose.
 
-use super::{Aim, drift_taus, lag_taus, number, plant_aim, plant_values, string, thermal_aims};
+use super::{
+    Aim, axis_aim, drift_taus, lag_taus, linear_axis_aims, moves, nuisance_aim, number, plant_aim,
+    plant_values, string, thermal_aims,
+};
+use crate::Target;
 use crate::basic::{Basic, Feature};
 use crate::view::{Input, SessionView};
 use crate::{Candidate, Effect, EffectFamily, Planted};
@@ -48,6 +66,12 @@ fn coupling(aim: &Aim, feature: Feature, column: &str, shape: Option<f64>) -> Ba
     )
 }
 
+/// Knots of a drift of free shape in time at most, and their shortest spacing (a machine's
+/// thermal state does not turn within four minutes); three knots at least (a session of
+/// twelve minutes or more).
+const SPLINE_KNOTS: usize = 8;
+const SPLINE_STEP_S: f64 = 240.0;
+
 fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
     let speed = view.has_varying_column("S");
@@ -56,6 +80,10 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             out.push(drift(&aim, Feature::Saturating, "t", Some(tau)));
         }
         out.push(drift(&aim, Feature::Hours, "t", None));
+        let knots = ((view.duration() / SPLINE_STEP_S).floor() as usize).min(SPLINE_KNOTS);
+        if knots >= 3 {
+            out.push(drift(&aim, Feature::TimeSpline(knots), "t", None));
+        }
         if speed {
             for (input, driver) in [(Input::Speed, "S"), (Input::SpeedSquared, "S^2")] {
                 for tau in lag_taus(view) {
@@ -90,9 +118,44 @@ fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Strin
     Ok((Arc::new(effect), values))
 }
 
+/// Temperatures recorded in the runs of one set-up only (an instrument's own), with the set-up.
+fn own_columns(view: &SessionView) -> Vec<(usize, String)> {
+    let mut out = Vec::new();
+    for column in view.temperature_columns() {
+        let setups: Vec<usize> = view
+            .runs
+            .iter()
+            .filter(|r| r.context_column(&column).is_some())
+            .map(|r| r.setup)
+            .collect();
+        let one = setups.first().copied();
+        let elsewhere = view
+            .runs
+            .iter()
+            .any(|r| Some(r.setup) != one && r.context_column(&column).is_none());
+        if let Some(s) = one
+            && setups.iter().all(|&x| x == s)
+            && elsewhere
+        {
+            out.push((s, column));
+        }
+    }
+    out
+}
+
 fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
     let columns = view.temperature_columns();
+    // An instrument's own temperature drives its own set-up's lengths.
+    for (s, column) in own_columns(view) {
+        for (j, n) in view.setups[s].nuisance.iter().enumerate() {
+            if n.unit == mtcal_instrument::Unit::Um {
+                let aim = nuisance_aim(view, s, j);
+                let input = Input::Context(column.clone());
+                out.push(coupling(&aim, Feature::Static(input), &column, None));
+            }
+        }
+    }
     for aim in thermal_aims(view) {
         for column in &columns {
             let input = Input::Context(column.clone());
@@ -128,6 +191,87 @@ fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, St
     };
     let values = plant_values(&effect, table, &["driver"])?;
     Ok((Arc::new(effect), values))
+}
+
+fn expansion(aim: &Aim, feature: Feature, driver: &str, shape: Option<f64>) -> Basic {
+    Basic::new(
+        aim.info("thermal-expansion", Some(driver.to_string())),
+        feature,
+        aim.target.clone(),
+        aim.words.clone(),
+        aim.unit.clone(),
+        shape,
+    )
+}
+
+fn expansion_candidates(view: &SessionView) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let columns = view.temperature_columns();
+    for aim in linear_axis_aims(view) {
+        let Target::Axis(a) = aim.target else {
+            continue;
+        };
+        if !moves(view, a) {
+            continue;
+        }
+        for column in &columns {
+            let input = Input::Context(column.clone());
+            let stat = expansion(&aim, Feature::Expansion(input.clone(), a), column, None);
+            let followed = view.has_current(&stat.info().label);
+            out.push(stat);
+            if followed {
+                for tau in lag_taus(view) {
+                    let f = Feature::LaggedExpansion(input.clone(), a);
+                    out.push(expansion(&aim, f, column, Some(tau)));
+                }
+            }
+        }
+    }
+    out.into_iter()
+        .map(|e| Candidate::Effect(Arc::new(e)))
+        .collect()
+}
+
+fn expansion_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+    let aim = plant_aim(table, view)?;
+    let Target::Axis(a) = aim.target else {
+        return Err("a thermal expansion acts on a linear axis: give `axis = \"X\"`".into());
+    };
+    if view.axes[a].rotary {
+        return Err(format!(
+            "`axis = \"{}\"`: a thermal expansion acts on a linear axis",
+            view.axes[a].letter
+        ));
+    }
+    let aim = axis_aim(view, a);
+    let driver = string(table, "driver")?
+        .ok_or_else(|| "a thermal expansion needs `driver = \"T_<column>\"`".to_string())?;
+    let tau = number(table, "tau_s", 1.0)?;
+    let effect = match (driver, tau) {
+        (column, tau) if column.starts_with("T_") => {
+            let input = Input::Context(column.to_string());
+            match tau {
+                Some(tau) => expansion(&aim, Feature::LaggedExpansion(input, a), column, Some(tau)),
+                None => expansion(&aim, Feature::Expansion(input, a), column, None),
+            }
+        }
+        (other, _) => {
+            return Err(format!(
+                "`driver = \"{other}\"`: a thermal expansion follows a temperature \"T_<name>\""
+            ));
+        }
+    };
+    let values = plant_values(&effect, table, &["driver"])?;
+    Ok((Arc::new(effect), values))
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "thermal-expansion",
+        about: "an axis' scale growing with a temperature (or as the machine warms): error proportional to position",
+        candidates: expansion_candidates,
+        plant: Some(expansion_plant),
+    }
 }
 
 inventory::submit! {
