@@ -15,10 +15,6 @@ pub enum Feature {
     Saturating,
     /// `(t − t₀)/3600`: hours since the session started (a steady drift).
     Hours,
-    /// A drift of any smooth shape in time: piecewise linear through `knots` values at equal
-    /// steps over the session, zero at its start (a constant is a set-up offset). `knots`
-    /// terms, the hat functions of the knots.
-    TimeSpline(usize),
     /// Hours since set-up `s` was first used; zero in other set-ups' runs.
     SetupHours(usize),
     /// The input itself (static coupling): `T − T₀` in K, or `S/1000 rpm`.
@@ -108,6 +104,7 @@ impl Basic {
             kind: ParamKind::Amplitude,
             initial: 0.0,
             bounds: None,
+            prior: None,
         };
         let shape_def = |name: &str, unit: &str, per_si: f64, lo: f64, hi: f64| ParamDef {
             name: name.to_string(),
@@ -117,6 +114,7 @@ impl Basic {
             initial: shape.unwrap_or(0.0),
             bounds: Some((lo, hi)),
             scale: shape.unwrap_or(1.0).abs().max(lo),
+            prior: None,
         };
         let u = &unit.unit;
         let k = unit.per_si;
@@ -127,9 +125,6 @@ impl Basic {
             Feature::Hours | Feature::SetupHours(_) => {
                 vec![amp(&format!("rate_{u}_per_h"), format!("{u}/h"), k)]
             }
-            Feature::TimeSpline(knots) => (1..=*knots)
-                .map(|j| amp(&format!("knot{j}_{u}"), u.clone(), k))
-                .collect(),
             Feature::Static(input) | Feature::Lag(input) => {
                 let (name, unit_name) = match input {
                     Input::Speed => (format!("gain_{u}_per_krpm"), format!("{u}/krpm")),
@@ -182,12 +177,6 @@ impl Basic {
             }
         };
         let terms = match &feature {
-            Feature::TimeSpline(knots) => (0..*knots)
-                .map(|j| Term {
-                    amplitude: j,
-                    target: target.clone(),
-                })
-                .collect(),
             Feature::Cyclic(_) => vec![
                 Term {
                     amplitude: 0,
@@ -330,13 +319,6 @@ impl Effect for Basic {
                 p(0)
             ),
             Feature::Hours => format!("a steady drift of {target} of {}", p(0)),
-            Feature::TimeSpline(knots) => {
-                let values: Vec<String> = (0..*knots).map(|j| p(j).to_string()).collect();
-                format!(
-                    "a drift of {target} in time through {knots} points at equal steps over the session: {}",
-                    values.join(", ")
-                )
-            }
             Feature::SetupHours(_) => format!("a drift of {target} of {}", p(0)),
             Feature::Static(Input::Context(name)) => {
                 format!(
@@ -480,18 +462,6 @@ impl Features for BasicFeatures {
                 df[0] = -e * t / (tau * tau);
             }
             Feature::Hours => f[0] = (run.t[i] - view.t0()) / 3600.0,
-            Feature::TimeSpline(knots) => {
-                // Knot j (1..=knots) at t₀ + j·h: f[j − 1] is its hat function.
-                let h = view.duration() / *knots as f64;
-                let u = if h > 0.0 {
-                    (run.t[i] - view.t0()) / h
-                } else {
-                    0.0
-                };
-                for (j, v) in f.iter_mut().enumerate().take(*knots) {
-                    *v = (1.0 - (u - (j + 1) as f64).abs()).max(0.0);
-                }
-            }
             Feature::SetupHours(s) => {
                 f[0] = if run.setup == *s {
                     (run.t[i] - self.setup_start) / 3600.0

@@ -35,6 +35,7 @@
 //! candidates and parses plant tables (see `families/`); or any type implementing [`Effect`].
 //! Submit an [`EffectFamily`] with `inventory::submit!` and add its name to the registry test.
 
+pub mod bank;
 pub mod basic;
 mod families;
 pub mod lag;
@@ -95,6 +96,9 @@ pub struct ParamDef {
     /// The largest plausible value (SI): a millimetre of drift, a 10 % gain error, the
     /// starting value of a time constant (`mtcal_solve::ParamSpec::scale`).
     pub scale: f64,
+    /// A zero-mean Gaussian prior's standard deviation (SI), for effects fitted with a ridge
+    /// ([`bank::Bank`]); `None`: no prior.
+    pub prior: Option<f64>,
 }
 
 /// How an effect is named in reports and in FORMATS.md `discoveries`.
@@ -139,6 +143,11 @@ pub trait Effect: fmt::Debug + Send + Sync {
     /// The same effect starting from other shape parameters (`None` if it has none).
     fn with_shape(&self, _shape: &[f64]) -> Option<Arc<dyn Effect>> {
         None
+    }
+    /// The same effect with the priors of its parameters at every width the search should
+    /// compare by cross-validation (a ridge's strength); empty for an effect without priors.
+    fn prior_ladder(&self) -> Vec<Arc<dyn Effect>> {
+        Vec::new()
     }
 }
 
@@ -312,6 +321,7 @@ mod tests {
                 "temperature-coupling",
                 "thermal-drift",
                 "thermal-expansion",
+                "thermal-model",
             ]
         );
         for name in names {

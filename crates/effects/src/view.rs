@@ -269,6 +269,11 @@ impl SessionView {
         self.current.iter().any(|e| e.label == label)
     }
 
+    /// Every sample's time in timeline order (runs in time order; [`Self::timeline_index`]).
+    pub fn timeline(&self) -> &[f64] {
+        &self.times
+    }
+
     /// Time of the session's first sample (s).
     pub fn t0(&self) -> f64 {
         self.times.first().copied().unwrap_or(0.0)

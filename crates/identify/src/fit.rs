@@ -34,6 +34,77 @@ pub struct FitProblem<'a> {
     /// The effects prepared at the last shape parameters asked for (a pass evaluates every
     /// block at one `x`: the first block prepares, the others reuse).
     prepared: PreparedCache,
+    /// Per set-up, its channels in groups that share their columns ([`channel_groups`]).
+    groups: Vec<Vec<ChannelGroup>>,
+}
+
+/// Channels of a set-up whose rows have the same columns, and those columns.
+#[derive(Debug, Clone)]
+struct ChannelGroup {
+    channels: Vec<usize>,
+    cols: Vec<usize>,
+    /// Per column, its place in the set-up's full row (machine, set-up, every effect).
+    place: Vec<usize>,
+}
+
+/// The channel groups of every set-up: an effect parameter is a column of a channel's rows only
+/// if one of the effect's terms can reach that channel (a term on another channel, an axis for a
+/// channel that does not read the pose, another set-up's parameter do not). A set-up whose
+/// channels all see the same columns is one group, its rows in sample order; otherwise each
+/// group's rows come group by group (a joint thermal model of five sensors: each sensor's rows
+/// carry its own model's columns, not all five).
+fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
+    let m = study.estimated.len();
+    let effects = study.effects();
+    (0..study.setups.len())
+        .map(|s| {
+            let slot = &study.setups[s];
+            let nch = slot.setup.channels().len();
+            let full: Vec<usize> = (0..m)
+                .chain(slot.x_offset..slot.x_offset + slot.free.len())
+                .chain(study.effect_offset..study.n_x)
+                .collect();
+            let reaches = |c: usize, t: &mtcal_effects::Target| match t {
+                mtcal_effects::Target::Axis(_) => slot.setup.reads_pose(c),
+                mtcal_effects::Target::Nuisance { setup, .. } => *setup == s,
+                mtcal_effects::Target::Channel { per_setup }
+                | mtcal_effects::Target::Gain { per_setup } => {
+                    per_setup.get(s).copied().flatten() == Some(c)
+                }
+            };
+            let mut groups: Vec<ChannelGroup> = Vec::new();
+            for c in 0..nch {
+                let mut place = Vec::with_capacity(full.len());
+                place.extend(0..m + slot.free.len());
+                let mut o = study.effect_offset;
+                for e in effects {
+                    let any = e.terms().iter().any(|t| reaches(c, &t.target));
+                    for (j, p) in e.params().iter().enumerate() {
+                        let used = match p.kind {
+                            mtcal_effects::ParamKind::Amplitude => e
+                                .terms()
+                                .iter()
+                                .any(|t| t.amplitude == j && reaches(c, &t.target)),
+                            mtcal_effects::ParamKind::Shape => any,
+                        };
+                        if used {
+                            place.push(m + slot.free.len() + (o + j - study.effect_offset));
+                        }
+                    }
+                    o += e.params().len();
+                }
+                match groups.iter_mut().find(|g| g.place == place) {
+                    Some(g) => g.channels.push(c),
+                    None => groups.push(ChannelGroup {
+                        channels: vec![c],
+                        cols: place.iter().map(|&k| full[k]).collect(),
+                        place,
+                    }),
+                }
+            }
+            groups
+        })
+        .collect()
 }
 
 /// Effects prepared at some shape parameters, and those parameters.
@@ -125,6 +196,7 @@ impl<'a> FitProblem<'a> {
             blocks,
             held_out,
             prepared: Mutex::new(None),
+            groups: channel_groups(study),
         }
     }
 
@@ -149,6 +221,7 @@ impl<'a> FitProblem<'a> {
             blocks,
             held_out: None,
             prepared: Mutex::new(None),
+            groups: channel_groups(study),
         }
     }
 
@@ -250,79 +323,81 @@ impl FitProblem<'_> {
             .as_ref()
             .expect("fitted runs have readings (checked when loading)");
         let mut eval = SampleEval::new(study, r, x, self.effects_at(x));
-        let m = study.estimated.len();
-        let cols: Vec<usize> = (0..m)
-            .chain(slot.x_offset..slot.x_offset + slot.free.len())
-            .chain(study.effect_offset..study.n_x)
-            .collect();
-        target.columns(&cols);
+        let full = study.estimated.len() + slot.free.len() + (study.n_x - study.effect_offset);
         let nch = eval.n_channels();
         let phi: Vec<f64> = (0..nch).map(|c| study.noise(r, c).phi).collect();
         let coloured = phi.iter().any(|&p| p != 0.0);
-        let w = cols.len();
-        // Per channel the previous sample's raw residual and row (the filter's memory).
-        let mut prev_res = vec![0.0; nch];
-        let mut prev_jac = vec![0.0; nch * w];
-        let (mut raw, mut out) = (vec![0.0; w], vec![0.0; w]);
         let held = |i: usize| {
             self.held_out
                 .as_ref()
                 .is_some_and(|(assign, k)| assign.of(r, i) == *k)
         };
-        let mut last: Option<usize> = None;
         // A block that starts inside a run continues the filter from the sample before it.
         let first = if coloured && start > 0 && !held(start - 1) {
             start - 1
         } else {
             start
         };
-        for i in first..end {
-            if held(i) {
-                continue;
-            }
-            eval.at(i, true);
-            let continued = coloured && i > 0 && last == Some(i - 1);
-            for c in 0..nch {
-                let raw_res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
-                if !raw_res.is_finite() {
-                    return Err(EvalError::new(format!(
-                        "run {}: sample {} (CSV line {}) channel {}: the model gives no finite \
-                         prediction",
-                        run.name,
-                        i + 1,
-                        mtcal_session::row_line(&run.file.path, i).unwrap_or(i + 2),
-                        study.channels(r)[c].name
-                    )));
+        let mut whole = vec![0.0; full];
+        for group in &self.groups[run.setup] {
+            target.columns(&group.cols);
+            let w = group.cols.len();
+            // Per channel the previous sample's raw residual and row (the filter's memory).
+            let mut prev_res = vec![0.0; nch];
+            let mut prev_jac = vec![0.0; nch * w];
+            let (mut raw, mut out) = (vec![0.0; w], vec![0.0; w]);
+            let mut last: Option<usize> = None;
+            for i in first..end {
+                if held(i) {
+                    continue;
                 }
-                eval.whitened_row(c, &mut raw);
-                let step = ArStep {
-                    phi: phi[c],
-                    continued,
-                };
-                let prev = &mut prev_jac[c * w..(c + 1) * w];
-                let res = step.apply(raw_res, prev_res[c]);
-                if step.active() {
-                    for ((o, &v), &p) in out.iter_mut().zip(&raw).zip(prev.iter()) {
-                        *o = step.apply(v, p);
+                eval.at(i, true);
+                let continued = coloured && i > 0 && last == Some(i - 1);
+                for &c in &group.channels {
+                    let raw_res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
+                    if !raw_res.is_finite() {
+                        return Err(EvalError::new(format!(
+                            "run {}: sample {} (CSV line {}) channel {}: the model gives no \
+                             finite prediction",
+                            run.name,
+                            i + 1,
+                            mtcal_session::row_line(&run.file.path, i).unwrap_or(i + 2),
+                            study.channels(r)[c].name
+                        )));
                     }
-                } else {
-                    out.copy_from_slice(&raw);
+                    eval.whitened_row(c, &mut whole);
+                    for (v, &k) in raw.iter_mut().zip(&group.place) {
+                        *v = whole[k];
+                    }
+                    let step = ArStep {
+                        phi: phi[c],
+                        continued,
+                    };
+                    let prev = &mut prev_jac[c * w..(c + 1) * w];
+                    let res = step.apply(raw_res, prev_res[c]);
+                    if step.active() {
+                        for ((o, &v), &p) in out.iter_mut().zip(&raw).zip(prev.iter()) {
+                            *o = step.apply(v, p);
+                        }
+                    } else {
+                        out.copy_from_slice(&raw);
+                    }
+                    let row = Row {
+                        res,
+                        jac: &out,
+                        raw_res,
+                        raw_jac: &raw,
+                        step,
+                        seed: i < start,
+                    };
+                    target.row(&row, &eval, i, c);
+                    if coloured {
+                        prev_res[c] = raw_res;
+                        prev.copy_from_slice(&raw);
+                    }
                 }
-                let row = Row {
-                    res,
-                    jac: &out,
-                    raw_res,
-                    raw_jac: &raw,
-                    step,
-                    seed: i < start,
-                };
-                target.row(&row, &eval, i, c);
-                if coloured {
-                    prev_res[c] = raw_res;
-                    prev.copy_from_slice(&raw);
-                }
+                last = Some(i);
             }
-            last = Some(i);
         }
         Ok(())
     }

@@ -141,12 +141,15 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
         .map(|i| {
             let info = study.param_info(i);
             // What the runs cannot determine stays near its start ([`base`]).
+            let effect = study.effect_param(i);
             let prior = if info.machine && held.contains(&info.name) {
                 Some((start[i], study.held_prior))
+            } else if let Some(s) = effect.and_then(|d| d.prior) {
+                // A ridge on a joint model's columns (mtcal_effects::bank).
+                Some((0.0, s))
             } else {
                 info.prior_sigma.map(|s| (0.0, s))
             };
-            let effect = study.effect_param(i);
             // Plausible ranges: a millimetre or milliradian of machine or set-up error, a 1 %
             // gain; an effect says its own.
             let scale = match effect {

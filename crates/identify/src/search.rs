@@ -508,6 +508,7 @@ impl ScoredProblem for Scoring<'_> {
             effects,
             model_columns: &self.model_columns,
             effect_columns: &self.effect_columns,
+            at: None,
             extra_raw: vec![0.0; self.widths.iter().sum()],
             extra_prev: vec![0.0; max_ch * self.widths.iter().sum::<usize>()],
         };
@@ -546,6 +547,8 @@ struct Target<'a, 's> {
     /// previous sample's (the filter's memory).
     extra_raw: Vec<f64>,
     extra_prev: Vec<f64>,
+    /// The (run, sample) the per-sample columns were computed for.
+    at: Option<(usize, usize)>,
 }
 
 impl RowTarget for Target<'_, '_> {
@@ -556,7 +559,9 @@ impl RowTarget for Target<'_, '_> {
     fn row(&mut self, row: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
         let run = &self.study.runs[eval.run];
         let na = self.study.model.machine().n_axes();
-        if channel == 0 {
+        // Once per sample (rows come channel after channel, or group after group).
+        if self.at != Some((eval.run, sample)) {
+            self.at = Some((eval.run, sample));
             if let Some((aug, ws)) = self.aug.as_mut() {
                 run.q.row_into(sample, &mut self.q);
                 let n = aug.model.n_coeffs();
@@ -821,20 +826,11 @@ impl Stage {
     }
 }
 
-/// The candidates to refit at a step: the strongest significant ones, at most two targets or
+/// The candidates to refit at a step: the strongest significant ones, at most three targets or
 /// drivers of one class (a drift of Z or of the tool length, a thermal expansion in time or
 /// with a temperature) and one starting shape per label, `tries` in all, so that every kind of
 /// explanation the scores point at is refitted and the look-alikes of the winner are seen.
 fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
-    // One per label and form: a drift of Z in time as a first-order rise (amplitude, τ) and
-    // as a steady rate are two forms of one label.
-    let form = |r: &Ranked| {
-        let params = match &r.candidate {
-            Candidate::Effect(e) => e.params().iter().map(|p| p.name.as_str()).collect(),
-            Candidate::Model(_) => Vec::new(),
-        };
-        (r.candidate.label(), params.join(","))
-    };
     let mut out: Vec<Ranked> = Vec::new();
     for r in ranked
         .iter()
@@ -845,7 +841,7 @@ fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
         }
         let class = r.candidate.class();
         let same_class = out.iter().filter(|t| t.candidate.class() == class).count();
-        if same_class < 2 && !out.iter().any(|t| form(t) == form(r)) {
+        if same_class < 3 && !out.iter().any(|t| t.candidate.label() == r.candidate.label()) {
             out.push(r.clone());
         }
     }
@@ -965,11 +961,6 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             stage.confirm_lookalikes(&ranked);
         }
         let tries = choose_tries(&ranked, options.tries);
-        if std::env::var("MTCAL_DEBUG_RANK").is_ok() {
-            for r in ranked.iter().take(12) {
-                eprintln!("  rank {step}: {}", r.describe());
-            }
-        }
         if tries.is_empty() {
             report.stopped = if step == 0 {
                 "no candidate is significant: the model explains the recordings".into()
@@ -1449,9 +1440,29 @@ fn try_candidate(
         Candidate::Model(m) => changes.raise.push((m.param, m.extra_order)),
         Candidate::Effect(e) => changes.effects.push(unique(e, &changes.effects)),
     }
-    let study = current.study.rebuild(changes)?;
+    let mut study = current.study.rebuild(changes)?;
     let mut x0 = carry_over(&current.study, &current.solution.x, &study);
-    if let Candidate::Effect(e) = &ranked.candidate {
+    let ladder = match &ranked.candidate {
+        Candidate::Effect(e) => e.prior_ladder(),
+        Candidate::Model(_) => Vec::new(),
+    };
+    if !ladder.is_empty() {
+        // A joint model with a ridge prior: fitted at its starting width, the width chosen by
+        // cross-validation over whole runs, refitted at it.
+        let first = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+            Ok(s) => s,
+            Err(e) => {
+                trial.why = format!("the refit failed: {e}");
+                return Ok((trial, None));
+            }
+        };
+        let k = choose_width(&study, &first, &ladder, options)?;
+        let mut changes = study.changes().clone();
+        changes.effects.pop();
+        changes.effects.push(unique(&ladder[k], &changes.effects));
+        study = study.rebuild(changes)?;
+        x0 = first.x;
+    } else if let Candidate::Effect(e) = &ranked.candidate {
         // Start the new amplitudes where the score test put them.
         let offset = study.n_x - e.params().len();
         let mut a = ranked.score.amplitude.iter();
@@ -1490,12 +1501,12 @@ fn try_candidate(
     };
     let before = &current.solution;
     let drop = before.chi2 - solution.chi2;
-    let added = study.n_x.saturating_sub(current.study.n_x).max(1);
+    let added = added_dof(current, &study, &solution);
     let scale = solution.chi2_reduced.max(1.0);
-    let penalty = added as f64 * (solution.n_rows.max(2) as f64).ln();
+    let penalty = added * (solution.n_rows.max(2) as f64).ln();
     if drop / scale <= penalty {
         trial.why = format!(
-            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added} parameters",
+            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added:.1} parameters",
             drop / scale
         );
         return Ok((trial, None));
@@ -1582,6 +1593,184 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         }
     }
     None
+}
+
+/// The degrees of freedom `study` (the current model with a candidate added) spends beyond
+/// `current`'s: one per new parameter, less for one under a prior (a ridge's column counts
+/// `1 − σ²_fit/σ²_prior`, the share of it the data rather than the prior decide); at least 1.
+fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
+    let mut dof = 0.0;
+    for i in current.study.n_x..study.n_x {
+        dof += match (
+            study.effect_param(i).and_then(|d| d.prior),
+            solution.sigma[i],
+        ) {
+            (Some(prior), Some(post)) => (1.0 - (post / prior).powi(2)).clamp(0.0, 1.0),
+            (Some(_), None) => 0.0,
+            (None, _) => 1.0,
+        };
+    }
+    dof.max(1.0)
+}
+
+/// The prior width of `ladder` (the same effect at every width, the study's last) whose fit
+/// predicts held-out runs best: each fitted run left out in turn (three or more; otherwise
+/// the search's folds), the others' normal equations at `solution` with the ladder's priors
+/// solved for the Gauss–Newton step (the model is linear in the effect's amplitudes), the
+/// left-out rows predicted. One pass over the data for every width and fold.
+fn choose_width(
+    study: &Study,
+    solution: &Solution,
+    ladder: &[Arc<dyn Effect>],
+    options: &SearchOptions,
+) -> Result<usize, IdentifyError> {
+    let fitted = study.runs.iter().filter(|r| r.fit).count();
+    let (folds, assign) = if fitted >= 3 {
+        let mut k = 0;
+        let fold = study
+            .runs
+            .iter()
+            .map(|r| {
+                let f = k;
+                k += usize::from(r.fit);
+                f
+            })
+            .collect();
+        (fitted, FoldOf::Run(fold))
+    } else {
+        fold_assignment(study, options)
+    };
+    let x = &solution.x;
+    let n = study.n_x;
+    let sums = fold_sums(study, x, folds, &assign)?;
+    let specs = param_specs_from(study, x);
+    let first = n - ladder[0].params().len();
+    // Only the parameters that share rows with the effect's take part in the refit of a fold
+    // (the rest, another sensor's model, keep their fitted values: what they do does not
+    // depend on this effect's prior).
+    let coupled: Vec<usize> = (0..n)
+        .filter(|&i| {
+            i >= first
+                || (first..n).any(|j| (0..folds).any(|k| sums.a[k * n * n + i * n + j] != 0.0))
+        })
+        .collect();
+    let m = coupled.len();
+    let mut best = (f64::INFINITY, 0);
+    for (w, effect) in ladder.iter().enumerate() {
+        // Prior precision and gradient of every coupled parameter at x (the effect's at this
+        // width).
+        let mut precision = vec![0.0; m];
+        let mut prior_grad = vec![0.0; m];
+        for (p, &i) in coupled.iter().enumerate() {
+            let prior = if i >= first {
+                effect.params()[i - first].prior.map(|s| (0.0, s))
+            } else {
+                specs[i].prior
+            };
+            if let Some((mu, sigma)) = prior {
+                precision[p] = 1.0 / (sigma * sigma);
+                prior_grad[p] = (x[i] - mu) / (sigma * sigma);
+            }
+        }
+        let mut total = 0.0;
+        for k in 0..folds {
+            if sums.count[k] == 0 {
+                continue;
+            }
+            let mut a = vec![0.0; m * m];
+            let mut g = prior_grad.clone();
+            for j in (0..folds).filter(|&j| j != k) {
+                let (aj, gj) = (&sums.a[j * n * n..(j + 1) * n * n], &sums.g[j * n..(j + 1) * n]);
+                for (p, &i) in coupled.iter().enumerate() {
+                    g[p] += gj[i];
+                    for (q, &l) in coupled.iter().enumerate() {
+                        a[p * m + q] += aj[i * n + l];
+                    }
+                }
+            }
+            for p in 0..m {
+                a[p * m + p] += precision[p];
+            }
+            let delta = solve_psd(&a, &g, m);
+            let (ak, gk) = (&sums.a[k * n * n..(k + 1) * n * n], &sums.g[k * n..(k + 1) * n]);
+            let mut q = sums.rr[k];
+            for (p, &i) in coupled.iter().enumerate() {
+                q += 2.0 * delta[p] * gk[i];
+                for (r, &l) in coupled.iter().enumerate() {
+                    q += delta[p] * ak[i * n + l] * delta[r];
+                }
+            }
+            total += q.max(0.0);
+        }
+        if total < best.0 {
+            best = (total, w);
+        }
+    }
+    Ok(best.1)
+}
+
+/// `−A⁺g` for a symmetric positive semi-definite `A` (`n × n`): through the eigenvectors of the
+/// diagonally scaled matrix, directions below 1e-12 of the largest left out.
+fn solve_psd(a: &[f64], g: &[f64], n: usize) -> Vec<f64> {
+    let d: Vec<f64> = (0..n)
+        .map(|i| {
+            let v = a[i * n + i];
+            if v > 0.0 { v.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+        0.5 * (a[i * n + j] + a[j * n + i]) / (d[i] * d[j])
+    });
+    let eig = scaled.symmetric_eigen();
+    let top = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let gs: Vec<f64> = (0..n).map(|i| g[i] / d[i]).collect();
+    let mut out = vec![0.0; n];
+    for (k, &l) in eig.eigenvalues.iter().enumerate() {
+        if !(l > 1e-12 * top) {
+            continue;
+        }
+        let v = eig.eigenvectors.column(k);
+        let proj: f64 = (0..n).map(|i| v[i] * gs[i]).sum::<f64>() / l;
+        for i in 0..n {
+            out[i] -= v[i] * proj;
+        }
+    }
+    for i in 0..n {
+        out[i] /= d[i];
+    }
+    out
+}
+
+/// Every fold's normal equations of `study`'s rows at `x` (one pass, lanes merged in order).
+fn fold_sums(
+    study: &Study,
+    x: &[f64],
+    folds: usize,
+    assign: &FoldOf,
+) -> Result<FoldSums, IdentifyError> {
+    let n = study.n_x;
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| (FoldSums::new(folds, n), Vec::new()))
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
+        let mut target = FoldTarget {
+            sums,
+            cols: std::mem::take(cols),
+            assign,
+        };
+        let res = problem
+            .walk_rows(b, x, &mut target)
+            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source });
+        *cols = target.cols;
+        res
+    })?;
+    let mut total = FoldSums::new(folds, n);
+    for (part, _) in &parts {
+        total.add(part);
+    }
+    Ok(total)
 }
 
 /// A candidate's refit that passed the checks (its report is built only if it wins).

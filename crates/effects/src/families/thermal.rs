@@ -39,6 +39,7 @@ use super::{
     plant_values, string, thermal_aims,
 };
 use crate::Target;
+use crate::bank::{Bank, BankColumn};
 use crate::basic::{Basic, Feature};
 use crate::view::{Input, SessionView};
 use crate::{Candidate, Effect, EffectFamily, Planted};
@@ -66,11 +67,21 @@ fn coupling(aim: &Aim, feature: Feature, column: &str, shape: Option<f64>) -> Ba
     )
 }
 
-/// Knots of a drift of free shape in time at most, and their shortest spacing (a machine's
-/// thermal state does not turn within four minutes); three knots at least (a session of
-/// twelve minutes or more).
-const SPLINE_KNOTS: usize = 8;
-const SPLINE_STEP_S: f64 = 240.0;
+/// A drift in time through several thermal nodes at once (warming and cooling, fast and
+/// slow): a bank of first-order rises at the drift's time constants ([`Bank`]).
+fn several_nodes(view: &SessionView, aim: &Aim, taus: &[f64]) -> Bank {
+    let mut info = aim.info("thermal-drift", Some("t".into()));
+    info.label = format!("thermal-drift {} (t, several nodes)", aim.short);
+    Bank::new(
+        info,
+        aim.target.clone(),
+        aim.words.clone(),
+        (aim.unit.unit.clone(), aim.unit.per_si),
+        taus.iter().map(|&t| BankColumn::Rise(t)).collect(),
+        view,
+        1e-6,
+    )
+}
 
 fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
@@ -80,10 +91,6 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             out.push(drift(&aim, Feature::Saturating, "t", Some(tau)));
         }
         out.push(drift(&aim, Feature::Hours, "t", None));
-        let knots = ((view.duration() / SPLINE_STEP_S).floor() as usize).min(SPLINE_KNOTS);
-        if knots >= 3 {
-            out.push(drift(&aim, Feature::TimeSpline(knots), "t", None));
-        }
         if speed {
             for (input, driver) in [(Input::Speed, "S"), (Input::SpeedSquared, "S^2")] {
                 for tau in lag_taus(view) {
@@ -92,9 +99,17 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             }
         }
     }
-    out.into_iter()
+    let mut out: Vec<Candidate> = out
+        .into_iter()
         .map(|e| Candidate::Effect(Arc::new(e)))
-        .collect()
+        .collect();
+    let taus = drift_taus(view);
+    if taus.len() >= 3 {
+        for aim in thermal_aims(view) {
+            out.push(Candidate::Effect(Arc::new(several_nodes(view, &aim, &taus))));
+        }
+    }
+    out
 }
 
 fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
@@ -263,6 +278,77 @@ fn expansion_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, S
     };
     let values = plant_values(&effect, table, &["driver"])?;
     Ok((Arc::new(effect), values))
+}
+
+/// Time constants of a joint thermal model's lags: 5 min, growing fourfold, no shorter than
+/// five sample intervals and no longer than a sixth of the fitted span (a longer one is a
+/// trend the fitted runs cannot tell from the slow drift of the room, and it extrapolates
+/// wrongly).
+fn model_taus(view: &SessionView) -> Vec<f64> {
+    let floor = 5.0 * view.median_interval();
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for run in view.runs.iter().filter(|r| r.fit) {
+        if let (Some(a), Some(b)) = (run.t.first(), run.t.last()) {
+            lo = lo.min(*a);
+            hi = hi.max(*b);
+        }
+    }
+    let cap = (hi - lo) / 6.0;
+    (0..8)
+        .map(|k| 300.0 * 4f64.powi(k))
+        .filter(|&tau| tau >= floor && tau <= cap)
+        .collect()
+}
+
+/// The joint thermal model of every target over every recorded input ([`Bank`]): each
+/// temperature as recorded and through first-order lags, the spindle speed and its square
+/// through lags. Proposed when two inputs or more are recorded (one is a coupling).
+fn model_candidates(view: &SessionView) -> Vec<Candidate> {
+    let temps = view.temperature_columns();
+    let speed = view.has_varying_column("S");
+    let taus = model_taus(view);
+    if temps.len() + usize::from(speed) < 2 || taus.is_empty() {
+        return Vec::new();
+    }
+    let mut columns = Vec::new();
+    let mut drivers = Vec::new();
+    if speed {
+        drivers.push("S".to_string());
+        for input in [Input::Speed, Input::SpeedSquared] {
+            columns.extend(taus.iter().map(|&t| BankColumn::Lag(input.clone(), t)));
+        }
+    }
+    for t in &temps {
+        drivers.push(t.clone());
+        let input = Input::Context(t.clone());
+        columns.push(BankColumn::Static(input.clone()));
+        columns.extend(taus.iter().map(|&tau| BankColumn::Lag(input.clone(), tau)));
+    }
+    thermal_aims(view)
+        .iter()
+        .map(|aim| {
+            let mut info = aim.info("thermal-model", Some(drivers.join(",")));
+            info.label = format!("thermal-model {}", aim.short);
+            Candidate::Effect(Arc::new(Bank::new(
+                info,
+                aim.target.clone(),
+                aim.words.clone(),
+                (aim.unit.unit.clone(), aim.unit.per_si),
+                columns.clone(),
+                view,
+                1e-6,
+            )))
+        })
+        .collect()
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "thermal-model",
+        about: "a joint thermal model: the target follows every recorded temperature and the spindle speed through lags at several time constants, fitted together with a ridge prior",
+        candidates: model_candidates,
+        plant: None,
+    }
 }
 
 inventory::submit! {
