@@ -617,11 +617,27 @@ fn identify(
         result
             .identification
             .add_prediction_bands(&result.study, &result.solution);
-        writeln!(out, "before the physics search:")?;
-        write!(out, "{}", result.initial.summary_with(verbose))?;
-        write!(out, "\n{}", result.identification.search_summary())?;
+        let (before, after) = (&result.initial, &result.identification);
+        if verbose {
+            writeln!(out, "before the physics search:")?;
+            write!(out, "{}", before.summary_with(true))?;
+        } else {
+            // The verdict on the final model first; the fit before the search in one line.
+            if let Some(v) = after.verdict() {
+                writeln!(out, "{v}\n")?;
+            }
+            writeln!(
+                out,
+                "before the physics search: fit rms {:.3} um, chi2/dof {:.3}{}",
+                before.fit.rms_um,
+                before.fit.chi2_reduced,
+                validation_rms(before)
+                    .map_or(String::new(), |v| format!(", validation rms {v:.3} um"))
+            )?;
+        }
+        write!(out, "\n{}", after.search_summary_with(verbose))?;
         writeln!(out, "\nafter the physics search:")?;
-        write!(out, "{}", result.identification.summary_with(verbose))?;
+        write!(out, "{}", after.summary_with(verbose))?;
         initial = Some(result.initial);
         (result.identification, result.study, result.solution)
     } else {
@@ -689,6 +705,18 @@ fn identify(
         writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
+}
+
+/// RMS over every validation run with readings (um), if any.
+fn validation_rms(id: &mtcal_identify::Identification) -> Option<f64> {
+    let (mut ss, mut n) = (0.0, 0usize);
+    for run in &id.validation {
+        for c in &run.channels {
+            ss += c.rms * c.rms * c.samples as f64;
+            n += c.samples;
+        }
+    }
+    (n > 0).then(|| (ss / n as f64).sqrt())
 }
 
 /// Lines of the information account on the screen without `--verbose` (all in the JSON).

@@ -12,6 +12,7 @@ fn the_bundled_example_has_nothing_left_out() {
             "identify",
             "--quiet",
             "--search",
+            "--verbose",
             "examples/five-axis/session",
         ])
         .current_dir(repo)
@@ -76,7 +77,10 @@ fn a_planted_backlash_is_a_discovery_in_the_json() {
     let text = run(&[
         "identify", "--quiet", "--search", "session", "--json", "out.json",
     ]);
-    assert!(text.contains("added [reversal] reversal X (X)"), "{text}");
+    assert!(
+        text.contains("+ reversal X (X): a reversal error"),
+        "{text}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("out.json")).unwrap())
             .unwrap();

@@ -236,7 +236,11 @@ impl Effect for Bank {
                         "{} {:+.2} {u}{}",
                         c.name(),
                         size,
-                        if sure { "" } else { " (within its interval of 0)" }
+                        if sure {
+                            ""
+                        } else {
+                            " (within its interval of 0)"
+                        }
                     ),
                 )
             })

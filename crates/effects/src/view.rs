@@ -570,11 +570,60 @@ mod tests {
             vec![("T_bed".into(), vec![21.5, 22.0])],
         );
         let v = view(vec![run("x", vec![0.0, 1.0], vec![0.0, 0.0], vec![]), c]);
-        // Before the column is first recorded it holds its first value: zero change.
+        // Before the column is first recorded it holds its first value (zero change), then
+        // the readings go through the zero-phase smoothing.
         assert_eq!(
             *v.input(&Input::Context("T_bed".into())),
-            vec![0.0, 0.0, 0.0, 0.5]
+            smoothed(
+                &[0.0, 0.0, 0.0, 0.5],
+                &[0.0, 1.0, 20.0, 21.0],
+                TEMPERATURE_SMOOTHING_S
+            )
         );
         assert_eq!(v.temperature_columns(), vec!["T_bed".to_string()]);
+    }
+
+    #[test]
+    fn temperatures_are_smoothed_without_lag_and_continuously_in_time() {
+        // Noise is averaged away, a slow rise is kept where it is (no lag), and moving a
+        // sample's time a little changes the result a little.
+        let t: Vec<f64> = (0..400).map(|k| k as f64).collect();
+        let rise: Vec<f64> = t.iter().map(|&x| x / 400.0).collect();
+        let noisy: Vec<f64> = rise
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v + if k % 2 == 0 { 0.02 } else { -0.02 })
+            .collect();
+        let s = smoothed(&noisy, &t, TEMPERATURE_SMOOTHING_S);
+        for k in 50..350 {
+            assert!(
+                (s[k] - rise[k]).abs() < 2e-3,
+                "{k}: {} vs {}",
+                s[k],
+                rise[k]
+            );
+        }
+        let mut t2 = t.clone();
+        t2[200] += 1e-6;
+        let s2 = smoothed(&noisy, &t2, TEMPERATURE_SMOOTHING_S);
+        assert!(s.iter().zip(&s2).all(|(a, b)| (a - b).abs() < 1e-7));
+    }
+
+    #[test]
+    fn a_linear_axis_arrives_from_where_the_previous_run_left_it() {
+        // Run "a" ends at X = 0.01 after moving up; run "b" starts at 0.02 and moves down: it
+        // arrived moving up (from 0.01), so its first motion is a reversal.
+        let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
+        let b = run("b", vec![5.0, 6.0, 7.0], vec![0.02, 0.015, 0.01], vec![]);
+        let v = view(vec![a, b]);
+        let m = v.motion(1, 0);
+        assert_eq!(m.direction, vec![1, -1, -1]);
+        assert!(m.reverses);
+        // Started where the last run ended: keeps its last direction.
+        let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
+        let b = run("b", vec![5.0, 6.0], vec![0.01, 0.02], vec![]);
+        let v = view(vec![a, b]);
+        assert_eq!(v.motion(1, 0).direction, vec![1, 1]);
+        assert!(!v.motion(1, 0).reverses);
     }
 }

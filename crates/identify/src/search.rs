@@ -723,6 +723,8 @@ pub struct Discovery {
     /// when there are any.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub alternatives: Vec<LookAlike>,
+    /// The effect with its fitted values, in words.
+    pub sentence: String,
     pub explanation: String,
 }
 
@@ -841,7 +843,11 @@ fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
         }
         let class = r.candidate.class();
         let same_class = out.iter().filter(|t| t.candidate.class() == class).count();
-        if same_class < 3 && !out.iter().any(|t| t.candidate.label() == r.candidate.label()) {
+        if same_class < 3
+            && !out
+                .iter()
+                .any(|t| t.candidate.label() == r.candidate.label())
+        {
             out.push(r.clone());
         }
     }
@@ -1558,6 +1564,9 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         .collect();
     for (i, spec) in specs.iter().enumerate() {
         let Some(range) = spec.scale else { continue };
+        if !solution.identified[i] {
+            continue;
+        }
         if spec.bounds.is_some() {
             // A shape parameter (τ, pitch): its box says what is plausible.
             continue;
@@ -1570,7 +1579,14 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         let value = solution.x[i];
         let was = before.get(&info.name).copied();
         let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
-        if value.abs() > range && was.is_none_or(|w| w.abs() <= range) {
+        // A parameter already in the model is blamed only when its whole interval lies
+        // beyond the range (one the data barely see may wander along a near-null direction);
+        // the candidate's own by its value.
+        let margin = match (was, solution.sigma[i]) {
+            (Some(_), Some(sigma)) => K95 * sigma,
+            _ => 0.0,
+        };
+        if value.abs() - margin > range && was.is_none_or(|w| w.abs() <= range) {
             return Some(format!(
                 "not physics: the refit puts {} at {}, beyond its plausible range of ±{}",
                 info.name,
@@ -1680,7 +1696,10 @@ fn choose_width(
             let mut a = vec![0.0; m * m];
             let mut g = prior_grad.clone();
             for j in (0..folds).filter(|&j| j != k) {
-                let (aj, gj) = (&sums.a[j * n * n..(j + 1) * n * n], &sums.g[j * n..(j + 1) * n]);
+                let (aj, gj) = (
+                    &sums.a[j * n * n..(j + 1) * n * n],
+                    &sums.g[j * n..(j + 1) * n],
+                );
                 for (p, &i) in coupled.iter().enumerate() {
                     g[p] += gj[i];
                     for (q, &l) in coupled.iter().enumerate() {
@@ -1692,7 +1711,10 @@ fn choose_width(
                 a[p * m + p] += precision[p];
             }
             let delta = solve_psd(&a, &g, m);
-            let (ak, gk) = (&sums.a[k * n * n..(k + 1) * n * n], &sums.g[k * n..(k + 1) * n]);
+            let (ak, gk) = (
+                &sums.a[k * n * n..(k + 1) * n * n],
+                &sums.g[k * n..(k + 1) * n],
+            );
             let mut q = sums.rr[k];
             for (p, &i) in coupled.iter().enumerate() {
                 q += 2.0 * delta[p] * gk[i];
@@ -2066,6 +2088,7 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         corrected,
         location,
         alternatives: stage.lookalikes.clone(),
+        sentence: words,
         explanation,
     }
 }
@@ -2261,6 +2284,15 @@ impl Identification {
     /// The physics search in words: what was added and why, what was tried and not kept,
     /// what the data cannot tell apart. Empty without a search.
     pub fn search_summary(&self) -> String {
+        self.search_summary_with(true)
+    }
+
+    /// [`Self::search_summary`]; without `verbose` only what a person reads first: how the
+    /// search ended, each discovery with its values, its evidence, the parameters it had
+    /// biased and its look-alikes, and a few of what the data cannot tell apart (every trial,
+    /// every concealed candidate and the remaining candidates' tests are in the JSON and with
+    /// `verbose`).
+    pub fn search_summary_with(&self, verbose: bool) -> String {
         use std::fmt::Write as _;
         let Some(report) = &self.search else {
             return String::new();
@@ -2271,17 +2303,19 @@ impl Identification {
             "physics search: {} candidates scored (family-wise α = 5 %); {}",
             report.candidates, report.stopped
         );
-        for (k, trials) in report.steps.iter().enumerate() {
-            for t in trials {
-                let _ = writeln!(
-                    s,
-                    "  step {}: {} [{}] {}: {}",
-                    k + 1,
-                    if t.accepted { "added" } else { "not kept" },
-                    t.effect,
-                    t.candidate,
-                    t.why
-                );
+        if verbose {
+            for (k, trials) in report.steps.iter().enumerate() {
+                for t in trials {
+                    let _ = writeln!(
+                        s,
+                        "  step {}: {} [{}] {}: {}",
+                        k + 1,
+                        if t.accepted { "added" } else { "not kept" },
+                        t.effect,
+                        t.candidate,
+                        t.why
+                    );
+                }
             }
         }
         if self.discoveries.is_empty() {
@@ -2289,15 +2323,20 @@ impl Identification {
         } else {
             let _ = writeln!(s, "discoveries:");
             for d in &self.discoveries {
-                let _ = writeln!(s, "  {} — {}", d.label, d.explanation);
+                if verbose {
+                    let _ = writeln!(s, "  {} — {}", d.label, d.explanation);
+                } else {
+                    s.push_str(&d.in_brief());
+                }
             }
         }
+        let shown = if verbose { report.concealed.len() } else { 3 };
         if !report.concealed.is_empty() {
             let _ = writeln!(
                 s,
                 "concealed (these data cannot tell them from the fitted parameters):"
             );
-            for c in &report.concealed {
+            for c in report.concealed.iter().take(shown) {
                 let _ = writeln!(
                     s,
                     "  {} ({:.1} % like {}): {}",
@@ -2307,12 +2346,90 @@ impl Identification {
                     c.measurement
                 );
             }
+            if report.concealed.len() > shown {
+                let _ = writeln!(
+                    s,
+                    "  … {} more in the JSON (`search.concealed`) and with --verbose",
+                    report.concealed.len() - shown
+                );
+            }
         }
-        if !report.ranking.is_empty() {
+        if verbose && !report.ranking.is_empty() {
             let _ = writeln!(s, "strongest remaining candidates:");
             for line in &report.ranking {
                 let _ = writeln!(s, "  {line}");
             }
+        }
+        s
+    }
+}
+
+impl Discovery {
+    /// The discovery in a few lines: what it is with its values; where it showed and what it
+    /// changed; the parameters it had biased; what the data cannot tell it from.
+    pub fn in_brief(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(s, "  + {}: {}", self.label, self.sentence);
+        let mut evidence = Vec::new();
+        if let Some(loc) = &self.location {
+            evidence.push(match &loc.along {
+                Some(along) => format!("seen in run {}'s {} along {along}", loc.run, loc.channel),
+                None => format!("seen in run {}'s {}", loc.run, loc.channel),
+            });
+        }
+        evidence.push(format!(
+            "explains {:.0} % of the excess χ²",
+            100.0 * self.share_of_excess
+        ));
+        evidence.push(format!(
+            "held-out RMS {:.3} → {:.3} um",
+            self.heldout_rms_before_um, self.heldout_rms_after_um
+        ));
+        if let (Some(a), Some(b)) = (self.validation_rms_before_um, self.validation_rms_after_um) {
+            evidence.push(format!("validation RMS {a:.3} → {b:.3} um"));
+        }
+        let _ = writeln!(s, "      {}", evidence.join("; "));
+        if !self.corrected.is_empty() {
+            let list: Vec<String> = self
+                .corrected
+                .iter()
+                .take(3)
+                .map(|c| {
+                    format!(
+                        "{} by {:+.3} {} (now {:.3} ± {:.3})",
+                        c.name,
+                        c.before - c.after,
+                        c.unit,
+                        c.after,
+                        c.u95
+                    )
+                })
+                .collect();
+            let more = self.corrected.len().saturating_sub(3);
+            let _ = writeln!(
+                s,
+                "      it had biased {}{}",
+                list.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            );
+        }
+        if let Some(first) = self.alternatives.first() {
+            let names: Vec<&str> = self
+                .alternatives
+                .iter()
+                .map(|a| a.candidate.as_str())
+                .collect();
+            let _ = writeln!(
+                s,
+                "      THESE DATA CANNOT TELL IT FROM {} — neither is the answer; to tell them apart: {}",
+                names.join(" or "),
+                first.measurement
+            );
         }
         s
     }

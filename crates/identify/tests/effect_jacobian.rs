@@ -272,6 +272,10 @@ fn every_family_proposes_candidates_on_a_rich_session() {
         // error (nothing to raise): every other family must propose something here.
         if family.name == "component-order" {
             assert_eq!(n, 0);
+        } else if family.name == "thermal-model" {
+            // A joint thermal model's shortest lag (5 min) must fit six times into the fitted
+            // span: this session is too short for one.
+            assert_eq!(n, 0);
         } else {
             assert!(n > 0, "{} proposes nothing", family.name);
         }

@@ -106,7 +106,9 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     let taus = drift_taus(view);
     if taus.len() >= 3 {
         for aim in thermal_aims(view) {
-            out.push(Candidate::Effect(Arc::new(several_nodes(view, &aim, &taus))));
+            out.push(Candidate::Effect(Arc::new(several_nodes(
+                view, &aim, &taus,
+            ))));
         }
     }
     out
