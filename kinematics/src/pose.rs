@@ -954,12 +954,16 @@ impl MachineModel {
                 AxisKind::Linear => acc(&js.before_a, js.motion_dir, Vector3::zeros(), col),
                 AxisKind::Rotary => acc(&js.before_r, Vector3::zeros(), *ax.direction(), col),
             }
-            let units = self.component_twists(i, ws);
-            let e_frame = self.e_frame(i, ws);
-            for (d, (tv, tw)) in units.iter().enumerate() {
-                let rate = ws.dcomp[i][d];
-                if rate != 0.0 {
-                    acc(&e_frame, tv * rate, tw * rate, col);
+            // The component errors' rates of change along the axis (none on the nominal
+            // machine: then their twists are not needed).
+            if ws.dcomp[i].iter().any(|&rate| rate != 0.0) {
+                let units = self.component_twists(i, ws);
+                let e_frame = self.e_frame(i, ws);
+                for (d, (tv, tw)) in units.iter().enumerate() {
+                    let rate = ws.dcomp[i][d];
+                    if rate != 0.0 {
+                        acc(&e_frame, tv * rate, tw * rate, col);
+                    }
                 }
             }
         }

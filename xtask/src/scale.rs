@@ -5,7 +5,9 @@
 //! `mtcal identify --quiet` (load, fit, report with the mismatch analysis, information account)
 //! — and prints the samples, the wall time of each step and the child's peak resident memory
 //! (`VmHWM` of `/proc/self/status`, read by the child at the end). The child is separate so
-//! that the simulation's own memory does not count.
+//! that the simulation's own memory does not count. With `--search` the child runs the physics
+//! search instead (`mtcal identify --search --quiet`: the fit, every candidate effect scored,
+//! the significant ones refitted and cross-validated, prediction bands, information account).
 //!
 //! The session (`--layout rtest`, the default): the MCU 630 trunnion with the 11-error set of
 //! the five-axis example, R-test sampled at 1 kHz (0.5 µm noise) in 6 runs of N/6 samples: XYC
@@ -45,6 +47,11 @@ pub struct ScaleArgs {
     /// Write the session to this folder and keep it (default: a temporary folder, deleted).
     #[arg(long)]
     keep: Option<PathBuf>,
+    /// Run the physics search (`mtcal identify --search --quiet`: the fit, every candidate
+    /// effect scored, the significant ones refitted and cross-validated) instead of the plain
+    /// identification.
+    #[arg(long)]
+    search: bool,
     /// Identify this existing session and report (the child process' part).
     #[arg(long, hide = true)]
     session: Option<PathBuf>,
@@ -52,7 +59,7 @@ pub struct ScaleArgs {
 
 pub fn run(args: ScaleArgs, out: &mut impl Write) -> Result<()> {
     if let Some(dir) = &args.session {
-        return identify_and_measure(dir, out);
+        return identify_and_measure(dir, args.search, out);
     }
     let (dir, temporary) = match &args.keep {
         Some(d) => (d.clone(), false),
@@ -88,29 +95,34 @@ fn generate_and_measure(args: &ScaleArgs, dir: &Path, out: &mut impl Write) -> R
     let _ = std::fs::remove_dir_all(session.join("programs"));
     out.flush()?;
     let exe = std::env::current_exe().context("cannot find the mtcal executable")?;
-    let status = std::process::Command::new(exe)
-        .arg("scale-bench")
-        .arg("--session")
-        .arg(&session)
-        .status()
-        .context("cannot start the identification")?;
+    let mut child = std::process::Command::new(exe);
+    child.arg("scale-bench").arg("--session").arg(&session);
+    if args.search {
+        child.arg("--search");
+    }
+    let status = child.status().context("cannot start the identification")?;
     if !status.success() {
         bail!("the identification failed ({status})");
     }
     Ok(())
 }
 
-/// Loads and identifies `dir` as `mtcal identify --quiet` does, then prints the times and the
-/// peak resident memory.
-fn identify_and_measure(dir: &Path, out: &mut impl Write) -> Result<()> {
+/// Loads and identifies `dir` as `mtcal identify --quiet` does (with `search`, as `mtcal
+/// identify --search --quiet`), then prints the times and the peak resident memory.
+fn identify_and_measure(dir: &Path, search: bool, out: &mut impl Write) -> Result<()> {
     let start = Instant::now();
     let study = mtcal_identify::Study::load(dir)?;
     let loaded = start.elapsed().as_secs_f64();
     let samples: usize = study.runs.iter().map(|r| r.len()).sum();
     let rss_loaded = status_kib("VmRSS");
-    let options = mtcal_solve::Options::default();
-    let (id, solution) =
-        mtcal_identify::identify_with_solution(&study, &options, &mut mtcal_solve::Silent)?;
+    let (id, study, solution) = if search {
+        physics_search(study, out)?
+    } else {
+        let options = mtcal_solve::Options::default();
+        let (id, solution) =
+            mtcal_identify::identify_with_solution(&study, &options, &mut mtcal_solve::Silent)?;
+        (id, study, solution)
+    };
     let fitted = start.elapsed().as_secs_f64();
     let peak_fitted = status_kib("VmHWM");
     let account = mtcal_identify::information::account(&study, &solution)?;
@@ -124,8 +136,9 @@ fn identify_and_measure(dir: &Path, out: &mut impl Write) -> Result<()> {
     )?;
     writeln!(
         out,
-        "time: load {loaded:.2} s, fit and report {:.2} s, information account {:.2} s, \
+        "time: load {loaded:.2} s, {} {:.2} s, information account {:.2} s, \
          total {total:.2} s ({:.2} us per sample)",
+        if search { "search" } else { "fit and report" },
         fitted - loaded,
         total - fitted,
         total * 1e6 / samples as f64
@@ -134,10 +147,11 @@ fn identify_and_measure(dir: &Path, out: &mut impl Write) -> Result<()> {
         let mb = |kib: u64| kib as f64 * 1024.0 / 1e6;
         writeln!(
             out,
-            "memory: {:.1} MB resident after loading, peak {:.1} MB to the end of the report, \
+            "memory: {:.1} MB resident after loading, peak {:.1} MB to the end of the {}, \
              peak {:.1} MB in all ({:.1} bytes per sample)",
             mb(loaded),
             mb(fit),
+            if search { "search" } else { "report" },
             mb(peak),
             peak as f64 * 1024.0 / samples as f64
         )?;
@@ -148,6 +162,34 @@ fn identify_and_measure(dir: &Path, out: &mut impl Write) -> Result<()> {
         peak.unwrap_or(0)
     )?;
     Ok(())
+}
+
+/// The physics search on `study` with the command line's settings, its prediction bands added
+/// (what `identify --search` does before the information account); prints how it ended.
+fn physics_search(
+    study: mtcal_identify::Study,
+    out: &mut impl Write,
+) -> Result<(
+    mtcal_identify::Identification,
+    mtcal_identify::Study,
+    mtcal_solve::Solution,
+)> {
+    let options = mtcal_identify::search::SearchOptions::default();
+    let mut result = mtcal_identify::search::search(study, &options)?;
+    result
+        .identification
+        .add_prediction_bands(&result.study, &result.solution);
+    if let Some(report) = &result.identification.search {
+        writeln!(
+            out,
+            "search: {} candidates, {} steps, {} discoveries; {}",
+            report.candidates,
+            report.steps.len(),
+            result.identification.discoveries.len(),
+            report.stopped
+        )?;
+    }
+    Ok((result.identification, result.study, result.solution))
 }
 
 /// A `kB` line of `/proc/self/status` (Linux), in KiB.

@@ -22,6 +22,7 @@
 //! column's spread over the fitted samples): every column may contribute about `width` to the
 //! target before the data must insist.
 
+use crate::lag::LagSeries;
 use crate::view::{Input, SessionView};
 use crate::{Effect, EffectInfo, Features, ParamDef, ParamKind, Target, Term};
 use std::sync::Arc;
@@ -66,19 +67,34 @@ impl BankColumn {
     }
 
     /// The column's values over the session's timeline.
-    fn series(&self, view: &SessionView) -> Arc<Vec<f64>> {
+    fn series(&self, view: &SessionView) -> Series {
         match self {
-            BankColumn::Rise(tau) => {
-                let t0 = view.t0();
-                Arc::new(
-                    view.timeline()
-                        .iter()
-                        .map(|t| 1.0 - (-(t - t0) / tau).exp())
-                        .collect(),
-                )
-            }
-            BankColumn::Static(input) => view.input(input),
-            BankColumn::Lag(input, tau) => Arc::new(view.lag(input, *tau).y.clone()),
+            BankColumn::Rise(tau) => Series::Rise {
+                t0: view.t0(),
+                tau: *tau,
+            },
+            BankColumn::Static(input) => Series::Input(view.input(input)),
+            BankColumn::Lag(input, tau) => Series::Lag(view.lag(input, *tau)),
+        }
+    }
+}
+
+/// A column's values: a rise computed from each sample's time (kept, it would take 8 bytes a
+/// sample for every column of every candidate scored at once), an input or its lag as the
+/// view keeps them over the timeline (shared, not copied).
+enum Series {
+    Rise { t0: f64, tau: f64 },
+    Input(Arc<Vec<f64>>),
+    Lag(Arc<LagSeries>),
+}
+
+impl Series {
+    /// The value at sample `i` of run `r`.
+    fn at(&self, view: &SessionView, r: usize, i: usize) -> f64 {
+        match self {
+            Series::Rise { t0, tau } => 1.0 - (-(view.runs[r].t.get(i) - t0) / tau).exp(),
+            Series::Input(s) => s[view.timeline_index(r, i)],
+            Series::Lag(s) => s.y[view.timeline_index(r, i)],
         }
     }
 }
@@ -178,15 +194,15 @@ impl Bank {
     }
 }
 
-/// The RMS deviation from its mean of `series` (timeline values) over the fitted runs' samples.
-fn fitted_spread(series: &[f64], view: &SessionView) -> f64 {
+/// The RMS deviation from its mean of `series` over the fitted runs' samples.
+fn fitted_spread(series: &Series, view: &SessionView) -> f64 {
     let (mut n, mut sum, mut sum2) = (0usize, 0.0, 0.0);
     for (r, run) in view.runs.iter().enumerate() {
         if !run.fit {
             continue;
         }
         for i in 0..run.len() {
-            let v = series[view.timeline_index(r, i)];
+            let v = series.at(view, r, i);
             n += 1;
             sum += v;
             sum2 += v * v;
@@ -323,14 +339,13 @@ fn describe_inputs(columns: &[BankColumn]) -> String {
 
 struct BankFeatures {
     view: Arc<SessionView>,
-    series: Vec<Arc<Vec<f64>>>,
+    series: Vec<Series>,
 }
 
 impl Features for BankFeatures {
     fn eval(&self, r: usize, i: usize, f: &mut [f64], _df: &mut [f64]) {
-        let k = self.view.timeline_index(r, i);
         for (v, s) in f.iter_mut().zip(&self.series) {
-            *v = s[k];
+            *v = s.at(&self.view, r, i);
         }
     }
 }

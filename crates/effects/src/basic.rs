@@ -236,7 +236,7 @@ impl Effect for Basic {
                 .runs_in_time_order()
                 .iter()
                 .find(|&&r| view.runs[r].setup == s)
-                .and_then(|&r| view.runs[r].t.first().copied())
+                .and_then(|&r| view.runs[r].first_time())
                 .unwrap_or(0.0),
             _ => 0.0,
         };
@@ -455,16 +455,16 @@ impl Features for BasicFeatures {
         let run = &view.runs[r];
         match &self.feature {
             Feature::Saturating => {
-                let t = run.t[i] - view.t0();
+                let t = run.t.get(i) - view.t0();
                 let tau = self.shape;
                 let e = (-t / tau).exp();
                 f[0] = 1.0 - e;
                 df[0] = -e * t / (tau * tau);
             }
-            Feature::Hours => f[0] = (run.t[i] - view.t0()) / 3600.0,
+            Feature::Hours => f[0] = (run.t.get(i) - view.t0()) / 3600.0,
             Feature::SetupHours(s) => {
                 f[0] = if run.setup == *s {
-                    (run.t[i] - self.setup_start) / 3600.0
+                    (run.t.get(i) - self.setup_start) / 3600.0
                 } else {
                     0.0
                 }
@@ -482,7 +482,7 @@ impl Features for BasicFeatures {
                 f[0] = lag.y[k];
                 df[0] = lag.dy_dtau[k];
             }
-            Feature::Reversal(a) => f[0] = -0.5 * f64::from(view.motion(r, *a).direction[i]),
+            Feature::Reversal(a) => f[0] = -0.5 * f64::from(view.direction(r, *a, i)),
             Feature::Cyclic(a) => {
                 let q = view.q(r, i, *a);
                 let p = self.shape;
@@ -493,13 +493,13 @@ impl Features for BasicFeatures {
                 df[0] = c * dphase;
                 df[1] = -s * dphase;
             }
-            Feature::Velocity(a) => f[0] = -view.motion(r, *a).velocity[i],
+            Feature::Velocity(a) => f[0] = -view.velocity(r, *a, i),
             Feature::StickSlip(a) => {
-                let m = view.motion(r, *a);
+                let travel = view.travel(r, *a, i);
                 let lambda = self.shape;
-                let e = f64::from(m.direction[i]) * (-m.travel[i] / lambda).exp();
+                let e = f64::from(view.direction(r, *a, i)) * (-travel / lambda).exp();
                 f[0] = e;
-                df[0] = e * m.travel[i] / (lambda * lambda);
+                df[0] = e * travel / (lambda * lambda);
             }
             Feature::Bilinear(a, b) => {
                 let u = |k: usize| {

@@ -22,16 +22,24 @@ pub struct LagSeries {
 /// `tau_s` > 0. A step back in time (two runs recorded out of order) counts as no time passing.
 pub fn first_order_lag(u: &[f64], t: &[f64], tau_s: f64) -> LagSeries {
     debug_assert_eq!(u.len(), t.len());
+    first_order_lag_over(u, t.iter().copied(), tau_s)
+}
+
+/// [`first_order_lag`] with the times given one after another (a session's timeline, read
+/// from its runs' columns).
+pub fn first_order_lag_over(u: &[f64], t: impl IntoIterator<Item = f64>, tau_s: f64) -> LagSeries {
     let n = u.len();
     let mut y = Vec::with_capacity(n);
     let mut dy = Vec::with_capacity(n);
-    if n == 0 {
+    let mut t = t.into_iter();
+    let (Some(&u0), Some(mut t_prev)) = (u.first(), t.next()) else {
         return LagSeries { y, dy_dtau: dy };
-    }
-    y.push(u[0]);
+    };
+    y.push(u0);
     dy.push(0.0);
-    for k in 1..n {
-        let step = (t[k] - t[k - 1]).max(0.0);
+    for (k, tk) in (1..n).zip(t) {
+        let step = (tk - t_prev).max(0.0);
+        t_prev = tk;
         let a = (-step / tau_s).exp();
         let (yp, dp, up) = (y[k - 1], dy[k - 1], u[k - 1]);
         y.push(a * yp + (1.0 - a) * up);

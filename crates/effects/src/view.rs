@@ -1,17 +1,33 @@
 //! What an effect sees of a session: its runs in time order (the *timeline*: thermal states
 //! carry over from one run to the next), every run's commanded positions and context columns,
 //! the set-ups' channels and nuisance parameters, the machine's axes and error model, and the
-//! series derived from them once (direction of motion, velocity, travel since a reversal;
-//! inputs and their lags, cached).
+//! series derived from them (direction of motion, velocity, travel since a reversal; inputs
+//! and their lags, cached).
+//!
+//! # Memory
+//! A session of 10⁷ samples must fit where its identification does (README, "Scale"). The runs'
+//! samples are the study's compact columns ([`mtcal_session::Column`], shared, not copied: they
+//! give back the same bits as plain vectors), and what is derived per sample is computed when
+//! asked: direction and travel from each axis' reversals (a few per run, found once), velocity
+//! from the neighbouring samples, times from the runs' columns. Only an input and its lags
+//! ([`SessionView::input`], [`SessionView::lag`]) are kept per timeline sample, on request.
 
-use crate::lag::{LagSeries, first_order_lag};
+use crate::lag::{LagSeries, first_order_lag_over};
 use mtcal_instrument::{Channel, Nuisance};
 use mtcal_kinematics::ParamName;
+use mtcal_session::{Column, Columns, Scale};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 /// Below this (m or rad) an axis is standing between two samples.
 const STANDING: f64 = 1e-9;
+
+/// What the cache of lag series may hold (bytes; a lag and its derivative by τ take 16 bytes
+/// per timeline sample, 160 MB each at 10⁷ samples): a series several effects use is computed
+/// once, while the cache does not keep alive what no effect holds any more (a fit refining τ
+/// asks for a new one at every evaluation). The search scores candidates in passes within the
+/// same budget (`SearchOptions::cache_bytes` of `mtcal-identify`).
+const LAG_CACHE_BYTES: usize = 256 << 20;
 
 /// Time constant (s) of the zero-phase smoothing a recorded temperature is read through: a
 /// machine's thermal state does not change within half a minute, a sensor's reading does (its
@@ -19,16 +35,16 @@ const STANDING: f64 = 1e-9;
 /// sample.
 const TEMPERATURE_SMOOTHING_S: f64 = 10.0;
 
-/// `values` (at the non-decreasing `times`) smoothed by a first-order filter run forwards and
-/// then backwards (zero phase: no lag), exact for any spacing of the samples and continuous in
-/// the times (a sample a little earlier or later changes the result a little).
-fn smoothed(values: &[f64], times: &[f64], tau_s: f64) -> Vec<f64> {
+/// `values` (at the non-decreasing times `time(k)`) smoothed by a first-order filter run
+/// forwards and then backwards (zero phase: no lag), exact for any spacing of the samples and
+/// continuous in the times (a sample a little earlier or later changes the result a little).
+fn smoothed(values: &[f64], time: impl Fn(usize) -> f64, tau_s: f64) -> Vec<f64> {
     let n = values.len();
     let mut out = values.to_vec();
     if n < 2 || tau_s <= 0.0 {
         return out;
     }
-    let weight = |k: usize| (-(times[k] - times[k - 1]).max(0.0) / tau_s).exp();
+    let weight = |k: usize| (-(time(k) - time(k - 1)).max(0.0) / tau_s).exp();
     for k in 1..n {
         let a = weight(k);
         out[k] = a * out[k - 1] + (1.0 - a) * out[k];
@@ -60,7 +76,8 @@ pub struct SetupView {
     pub nuisance: Vec<Nuisance>,
 }
 
-/// One run.
+/// One run. Its numbers are columns ([`Column`]: a study shares its own, a planned run's
+/// vectors are kept as columns by [`RunView::from_vectors`]), read sample by sample.
 #[derive(Clone, Debug)]
 pub struct RunView {
     pub name: String,
@@ -69,25 +86,55 @@ pub struct RunView {
     /// Fitted (`true`) or a validation run.
     pub fit: bool,
     /// Seconds since the session started, increasing.
-    pub t: Vec<f64>,
-    /// Commanded positions, SI, row-major `samples × axes`.
-    pub q: Vec<f64>,
+    pub t: Column,
+    /// Commanded positions, SI (`get` converts), `samples × axes`.
+    pub q: Columns,
     /// Context columns (`T_<name>` in °C, `S` in rpm, `F` in mm/min) in file units.
-    pub context: Vec<(String, Vec<f64>)>,
+    pub context: Vec<(String, Column)>,
 }
 
 impl RunView {
+    /// A run from plain vectors: times, positions (SI, row-major `samples × axes`) and context
+    /// columns, kept as columns bit for bit.
+    pub fn from_vectors(
+        name: impl Into<String>,
+        setup: usize,
+        fit: bool,
+        t: &[f64],
+        q: &[f64],
+        context: &[(String, Vec<f64>)],
+    ) -> Self {
+        let axes = q.len().checked_div(t.len()).unwrap_or(0);
+        assert_eq!(axes * t.len(), q.len(), "positions are samples × axes");
+        Self {
+            name: name.into(),
+            setup,
+            fit,
+            t: Column::new(t),
+            q: Columns::from_row_major(q, &vec![Scale::One; axes]),
+            context: context
+                .iter()
+                .map(|(n, v)| (n.clone(), Column::new(v)))
+                .collect(),
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.t.len()
     }
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
-    pub fn context_column(&self, name: &str) -> Option<&[f64]> {
-        self.context
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_slice())
+    /// Time of the first sample (s).
+    pub fn first_time(&self) -> Option<f64> {
+        (!self.t.is_empty()).then(|| self.t.get(0))
+    }
+    /// Time of the last sample (s).
+    pub fn last_time(&self) -> Option<f64> {
+        self.len().checked_sub(1).map(|i| self.t.get(i))
+    }
+    pub fn context_column(&self, name: &str) -> Option<&Column> {
+        self.context.iter().find(|(n, _)| n == name).map(|(_, v)| v)
     }
 }
 
@@ -142,18 +189,19 @@ impl Input {
     }
 }
 
-/// How one axis moves during one run.
+/// How one axis moves during one run. Its per-sample series ([`SessionView::direction`],
+/// [`SessionView::velocity`], [`SessionView::travel`]) follow from the samples where it
+/// reverses: kept per sample they would take 17 bytes a sample and axis.
 #[derive(Clone, Debug, Default)]
 pub struct AxisMotion {
-    /// Direction of the last motion at each sample, ±1 (0 while the axis has neither moved in
-    /// the run nor arrived from a known side). Before the first motion: the side the axis
-    /// arrived from ([`SessionView::new`]: a linear axis from the previous run's last position;
-    /// otherwise the side of its first motion).
-    pub direction: Vec<i8>,
-    /// Velocity (SI per second), central differences.
-    pub velocity: Vec<f64>,
-    /// Distance travelled since the last reversal (or since the run started moving), SI.
-    pub travel: Vec<f64>,
+    /// Direction of motion at the run's first sample, ±1 (0 while the axis has neither moved
+    /// in the run nor arrived from a known side): the side the axis arrived from
+    /// ([`SessionView::new`]: a linear axis from the previous run's last position; otherwise
+    /// the side of its first motion).
+    initial: i8,
+    /// The samples at which the axis reverses, increasing: the direction flips there, and the
+    /// travel counts from the sample before (the turning point).
+    reversals: Vec<usize>,
     /// Whether the axis moves in both directions in this run.
     pub reverses: bool,
     /// Whether the axis moves at all.
@@ -162,6 +210,117 @@ pub struct AxisMotion {
     pub step: f64,
     /// Range of positions (SI).
     pub range: (f64, f64),
+}
+
+impl AxisMotion {
+    /// Reversals at or before sample `i`.
+    fn reversals_to(&self, i: usize) -> usize {
+        self.reversals.partition_point(|&j| j <= i)
+    }
+
+    /// Direction of the last motion at sample `i`, ±1 (0 while the axis has neither moved in
+    /// the run nor arrived from a known side); before the first motion, the side it arrived
+    /// from.
+    pub fn direction(&self, i: usize) -> i8 {
+        // Every reversal flips a known direction (a motion against 0 is the first motion,
+        // not a reversal).
+        if self.reversals_to(i) % 2 == 0 {
+            self.initial
+        } else {
+            -self.initial
+        }
+    }
+
+    /// The sample the travel at sample `i` counts from: the turning point of the last
+    /// reversal, or the run's first sample.
+    fn anchor(&self, i: usize) -> usize {
+        match self.reversals_to(i) {
+            0 => 0,
+            k => self.reversals[k - 1].saturating_sub(1),
+        }
+    }
+}
+
+/// Every sample's time in timeline order (runs in time order; [`SessionView::timeline_index`]),
+/// read from the runs' columns.
+#[derive(Clone, Copy, Debug)]
+pub struct Timeline<'v> {
+    view: &'v SessionView,
+}
+
+impl<'v> Timeline<'v> {
+    pub fn len(&self) -> usize {
+        self.view.samples
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.view.samples == 0
+    }
+
+    /// The time of timeline sample `k` (s).
+    pub fn get(&self, k: usize) -> f64 {
+        let v = self.view;
+        // The last run (in time order) starting at or before `k`: an empty run starts where
+        // the next one does, so this is the one that holds `k`.
+        let j = v.starts_in_order.partition_point(|&s| s <= k) - 1;
+        v.runs[v.order[j]].t.get(k - v.starts_in_order[j])
+    }
+
+    /// The times in timeline order.
+    pub fn iter(&self) -> impl Iterator<Item = f64> + 'v {
+        let v = self.view;
+        v.order.iter().flat_map(move |&r| {
+            let t = &v.runs[r].t;
+            (0..t.len()).map(move |i| t.get(i))
+        })
+    }
+
+    /// The intervals between consecutive samples (s), in timeline order.
+    fn intervals(&self) -> impl Iterator<Item = f64> + 'v {
+        let mut times = self.iter();
+        let mut prev = times.next().unwrap_or(0.0);
+        times.map(move |t| {
+            let d = t - prev;
+            prev = t;
+            d
+        })
+    }
+}
+
+/// The median of the positive values `values()` yields (the upper one of an even count, as
+/// `sorted[n / 2]`), without keeping them: positive floats order as their bit patterns, so the
+/// median's bits are found 16 at a time, one counting pass each (five passes in all).
+fn median_of_positive<I: Iterator<Item = f64>>(values: impl Fn() -> I) -> Option<f64> {
+    let n = values().filter(|v| *v > 0.0).count();
+    if n == 0 {
+        return None;
+    }
+    let mut rank = n / 2;
+    let mut bits: u64 = 0;
+    let mut counts = vec![0usize; 1 << 16];
+    for shift in [48u32, 32, 16, 0] {
+        // The values whose higher bits are the median's so far, by their next 16 bits.
+        let known = if shift == 48 {
+            0
+        } else {
+            u64::MAX << (shift + 16)
+        };
+        counts.fill(0);
+        for v in values().filter(|v| *v > 0.0) {
+            let b = v.to_bits();
+            if b & known == bits {
+                counts[((b >> shift) & 0xffff) as usize] += 1;
+            }
+        }
+        for (digit, &c) in counts.iter().enumerate() {
+            if rank < c {
+                bits |= (digit as u64) << shift;
+                break;
+            }
+            rank -= c;
+        }
+    }
+    Some(f64::from_bits(bits))
 }
 
 /// A session as effects see it. Build it with [`SessionView::new`]; it is shared (`Arc`) by the
@@ -175,18 +334,24 @@ pub struct SessionView {
     pub model: Vec<ModelParamView>,
     /// The effects already in the model (families may propose refinements of them).
     pub current: Vec<crate::EffectInfo>,
-    /// Runs in time order, and where each starts in the timeline.
+    /// Runs in time order, and where each starts in the timeline (per run, and per place in
+    /// time order).
     order: Vec<usize>,
     start: Vec<usize>,
-    /// Every sample's time, in timeline order.
-    times: Vec<f64>,
+    starts_in_order: Vec<usize>,
+    /// Samples in the timeline.
+    samples: usize,
+    /// The timeline's first and last time, and its median interval (s).
+    first_time: Option<f64>,
+    last_time: Option<f64>,
+    median_interval: f64,
     motion: Vec<Vec<AxisMotion>>,
     inputs: Mutex<HashMap<Input, Arc<Vec<f64>>>>,
     lags: Mutex<HashMap<(Input, u64), Arc<LagSeries>>>,
 }
 
 impl SessionView {
-    /// Builds the view and the per-run motion series.
+    /// Builds the view and each run's motion of each axis.
     pub fn new(
         axes: Vec<AxisView>,
         setups: Vec<SetupView>,
@@ -195,55 +360,22 @@ impl SessionView {
     ) -> Self {
         let mut order: Vec<usize> = (0..runs.len()).collect();
         order.sort_by(|&a, &b| {
-            let ta = runs[a].t.first().copied().unwrap_or(0.0);
-            let tb = runs[b].t.first().copied().unwrap_or(0.0);
+            let ta = runs[a].first_time().unwrap_or(0.0);
+            let tb = runs[b].first_time().unwrap_or(0.0);
             ta.total_cmp(&tb).then(a.cmp(&b))
         });
         let mut start = vec![0; runs.len()];
-        let mut times = Vec::new();
+        let mut starts_in_order = Vec::with_capacity(runs.len());
+        let mut samples = 0;
         for &r in &order {
-            start[r] = times.len();
-            times.extend_from_slice(&runs[r].t);
+            start[r] = samples;
+            starts_in_order.push(samples);
+            samples += runs[r].len();
         }
-        let na = axes.len();
-        // Each run's linear axes start in the state the previous run (in time) left them in:
-        // the machine went straight from that run's last position to this run's first, so an
-        // axis arrives from the side that move came from (or, if it did not move, keeps the
-        // direction it last moved in). A rotary axis may have gone either way round between
-        // runs (a controller unwinds or takes the short way): it, and the session's first run,
-        // arrive from the side of their first motion.
-        let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
-        let mut arrived: Vec<i8> = vec![0; na];
-        let mut last_q: Option<&[f64]> = None;
-        for &r in &order {
-            let run = &runs[r];
-            if run.is_empty() {
-                motion[r] = (0..na).map(|_| AxisMotion::default()).collect();
-                continue;
-            }
-            let first = &run.q[..na];
-            motion[r] = (0..na)
-                .map(|a| {
-                    let initial = match last_q {
-                        _ if axes[a].rotary => 0,
-                        Some(prev) if (first[a] - prev[a]).abs() > STANDING => {
-                            if first[a] > prev[a] { 1 } else { -1 }
-                        }
-                        _ => arrived[a],
-                    };
-                    axis_motion(run, a, na, initial)
-                })
-                .collect();
-            for (a, d) in arrived.iter_mut().enumerate() {
-                if let Some(&last) = motion[r][a].direction.last()
-                    && last != 0
-                {
-                    *d = last;
-                }
-            }
-            last_q = Some(&run.q[(run.len() - 1) * na..]);
-        }
-        Self {
+        let motion = motions(&axes, &runs, &order);
+        let first_time = order.iter().find_map(|&r| runs[r].first_time());
+        let last_time = order.iter().rev().find_map(|&r| runs[r].last_time());
+        let mut view = Self {
             axes,
             setups,
             runs,
@@ -251,11 +383,20 @@ impl SessionView {
             current: Vec::new(),
             order,
             start,
-            times,
+            starts_in_order,
+            samples,
+            first_time,
+            last_time,
+            median_interval: 1.0,
             motion,
             inputs: Mutex::new(HashMap::new()),
             lags: Mutex::new(HashMap::new()),
+        };
+        let timeline = view.timeline();
+        if let Some(m) = median_of_positive(|| timeline.intervals()) {
+            view.median_interval = m;
         }
+        view
     }
 
     /// The view with `current` as the effects already in the model.
@@ -270,36 +411,26 @@ impl SessionView {
     }
 
     /// Every sample's time in timeline order (runs in time order; [`Self::timeline_index`]).
-    pub fn timeline(&self) -> &[f64] {
-        &self.times
+    pub fn timeline(&self) -> Timeline<'_> {
+        Timeline { view: self }
     }
 
     /// Time of the session's first sample (s).
     pub fn t0(&self) -> f64 {
-        self.times.first().copied().unwrap_or(0.0)
+        self.first_time.unwrap_or(0.0)
     }
 
     /// Duration of the session, first to last sample (s).
     pub fn duration(&self) -> f64 {
-        match (self.times.first(), self.times.last()) {
+        match (self.first_time, self.last_time) {
             (Some(a), Some(b)) => (b - a).max(0.0),
             _ => 0.0,
         }
     }
 
-    /// Median interval between consecutive samples (s).
+    /// Median interval between consecutive samples (s; 1 without any).
     pub fn median_interval(&self) -> f64 {
-        let mut d: Vec<f64> = self
-            .times
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|d| *d > 0.0)
-            .collect();
-        if d.is_empty() {
-            return 1.0;
-        }
-        d.sort_by(f64::total_cmp);
-        d[d.len() / 2]
+        self.median_interval
     }
 
     /// Where sample `i` of run `r` sits in the timeline.
@@ -317,9 +448,34 @@ impl SessionView {
         &self.motion[r][a]
     }
 
+    /// Direction of axis `a`'s last motion at sample `i` of run `r` ([`AxisMotion::direction`]).
+    pub fn direction(&self, r: usize, a: usize, i: usize) -> i8 {
+        self.motion[r][a].direction(i)
+    }
+
+    /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences
+    /// (one-sided at the run's ends; 0 where no time passes).
+    pub fn velocity(&self, r: usize, a: usize, i: usize) -> f64 {
+        let run = &self.runs[r];
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(run.len() - 1));
+        let dt = run.t.get(hi) - run.t.get(lo);
+        if hi == lo || dt <= 0.0 {
+            0.0
+        } else {
+            (run.q.get(hi, a) - run.q.get(lo, a)) / dt
+        }
+    }
+
+    /// Distance axis `a` travelled since its last reversal (or since run `r` started) at
+    /// sample `i` (SI).
+    pub fn travel(&self, r: usize, a: usize, i: usize) -> f64 {
+        let q = self.runs[r].q.column(a);
+        (q.get(i) - q.get(self.motion[r][a].anchor(i))).abs()
+    }
+
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).
     pub fn q(&self, r: usize, i: usize, a: usize) -> f64 {
-        self.runs[r].q[i * self.axes.len() + a]
+        self.runs[r].q.get(i, a)
     }
 
     /// The axis with this letter.
@@ -338,7 +494,7 @@ impl SessionView {
         let mut first: Option<f64> = None;
         for run in &self.runs {
             if let Some(v) = run.context_column(name) {
-                for &x in v {
+                for x in (0..v.len()).map(|i| v.get(i)) {
                     match first {
                         None => first = Some(x),
                         Some(f) if f != x => return true,
@@ -380,11 +536,10 @@ impl SessionView {
 
     fn build_input(&self, input: &Input) -> Vec<f64> {
         let column = input.column();
-        let first_value = self
-            .order
-            .iter()
-            .find_map(|&r| self.runs[r].context_column(column).and_then(|v| v.first()))
-            .copied();
+        let first_value = self.order.iter().find_map(|&r| {
+            let v = self.runs[r].context_column(column)?;
+            (!v.is_empty()).then(|| v.get(0))
+        });
         let (offset, scale) = match input {
             Input::Speed | Input::SpeedSquared => (0.0, 1e-3),
             Input::Context(_) => (first_value.unwrap_or(0.0), 1.0),
@@ -393,12 +548,12 @@ impl SessionView {
             Input::Speed | Input::SpeedSquared => 0.0,
             Input::Context(_) => first_value.unwrap_or(0.0),
         };
-        let mut out = Vec::with_capacity(self.times.len());
+        let mut out = Vec::with_capacity(self.samples);
         for &r in &self.order {
             let run = &self.runs[r];
             match run.context_column(column) {
                 Some(v) => {
-                    for &x in v {
+                    for x in (0..v.len()).map(|i| v.get(i)) {
                         held = x;
                         out.push((x - offset) * scale);
                     }
@@ -410,7 +565,8 @@ impl SessionView {
             out.iter_mut().for_each(|x| *x *= *x);
         }
         if let Input::Context(_) = input {
-            out = smoothed(&out, &self.times, TEMPERATURE_SMOOTHING_S);
+            let timeline = self.timeline();
+            out = smoothed(&out, |k| timeline.get(k), TEMPERATURE_SMOOTHING_S);
         }
         out
     }
@@ -427,78 +583,124 @@ impl SessionView {
             return Arc::clone(s);
         }
         let u = self.input(input);
-        let series = Arc::new(first_order_lag(&u, &self.times, tau_s));
+        let series = Arc::new(first_order_lag_over(&u, self.timeline().iter(), tau_s));
         let mut cache = self.lags.lock().unwrap_or_else(|e| e.into_inner());
-        // Keep the cache bounded: a fit refining τ asks for a new value at every evaluation.
-        if cache.len() > 256 {
+        let limit = (LAG_CACHE_BYTES / (16 * self.samples.max(1))).clamp(1, 257);
+        if cache.len() >= limit {
             cache.clear();
         }
         cache.insert(key, Arc::clone(&series));
         series
     }
 
-    /// Drops cached lag series (after scoring a batch of candidates).
+    /// Drops the cached inputs and lag series (after scoring a batch of candidates; effects
+    /// prepared before keep theirs).
     pub fn clear_caches(&self) {
         self.lags.lock().unwrap_or_else(|e| e.into_inner()).clear();
+        self.inputs
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
     }
 }
 
-/// How axis `a` moves in `run`, having arrived at its first position moving in direction
-/// `initial` (±1; 0: unknown, then from the side of its first motion).
-fn axis_motion(run: &RunView, a: usize, na: usize, initial: i8) -> AxisMotion {
-    let n = run.len();
-    let q = |i: usize| run.q[i * na + a];
+/// Every run's motion of every axis. Each run's linear axes start in the state the previous run
+/// (in time) left them in: the machine went straight from that run's last position to this
+/// run's first, so an axis arrives from the side that move came from (or, if it did not move,
+/// keeps the direction it last moved in). A rotary axis may have gone either way round between
+/// runs (a controller unwinds or takes the short way): it, and the session's first run, arrive
+/// from the side of their first motion.
+fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<AxisMotion>> {
+    let na = axes.len();
+    let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
+    let mut arrived: Vec<i8> = vec![0; na];
+    // The previous run (in time) and its last sample.
+    let mut last: Option<(usize, usize)> = None;
+    for &r in order {
+        let run = &runs[r];
+        if run.is_empty() {
+            motion[r] = (0..na).map(|_| AxisMotion::default()).collect();
+            continue;
+        }
+        motion[r] = (0..na)
+            .map(|a| {
+                let first = run.q.get(0, a);
+                let initial = match last.map(|(p, i)| runs[p].q.get(i, a)) {
+                    _ if axes[a].rotary => 0,
+                    Some(prev) if (first - prev).abs() > STANDING => {
+                        if first > prev {
+                            1
+                        } else {
+                            -1
+                        }
+                    }
+                    _ => arrived[a],
+                };
+                axis_motion(run.q.column(a), initial)
+            })
+            .collect();
+        for (a, d) in arrived.iter_mut().enumerate() {
+            let end = motion[r][a].direction(run.len() - 1);
+            if end != 0 {
+                *d = end;
+            }
+        }
+        last = Some((r, run.len() - 1));
+    }
+    motion
+}
+
+/// The direction of the step to sample `i` of `q` (±1; 0 standing, and at the first sample).
+fn step_direction(q: &Column, i: usize) -> i8 {
+    if i == 0 {
+        return 0;
+    }
+    let d = q.get(i) - q.get(i - 1);
+    match d.abs() > STANDING {
+        true if d > 0.0 => 1,
+        true => -1,
+        false => 0,
+    }
+}
+
+/// How an axis moves along its positions `q` (one run's), having arrived at its first position
+/// moving in direction `initial` (±1; 0: unknown, then from the side of its first motion).
+fn axis_motion(q: &Column, initial: i8) -> AxisMotion {
+    let n = q.len();
     if n == 0 {
         return AxisMotion::default();
     }
-    let mut steps = Vec::new();
-    let mut raw = vec![0i8; n];
-    for (i, dir) in raw.iter_mut().enumerate().skip(1) {
-        let d = q(i) - q(i - 1);
-        if d.abs() > STANDING {
-            *dir = if d > 0.0 { 1 } else { -1 };
-            steps.push(d.abs());
-        }
-    }
+    let steps: Vec<f64> = (1..n)
+        .filter(|&i| step_direction(q, i) != 0)
+        .map(|i| (q.get(i) - q.get(i - 1)).abs())
+        .collect();
     let moves = !steps.is_empty();
-    let first_dir = raw.iter().copied().find(|&d| d != 0).unwrap_or(0);
-    let mut direction = vec![0i8; n];
-    let mut travel = vec![0.0; n];
-    let mut current = if initial != 0 { initial } else { first_dir };
-    let mut anchor = q(0);
-    let mut reverses = false;
-    for i in 0..n {
-        if raw[i] != 0 && raw[i] != current {
+    let first_dir = (1..n)
+        .map(|i| step_direction(q, i))
+        .find(|&d| d != 0)
+        .unwrap_or(0);
+    let start = if initial != 0 { initial } else { first_dir };
+    let mut current = start;
+    let mut reversals = Vec::new();
+    for i in 1..n {
+        let raw = step_direction(q, i);
+        if raw != 0 && raw != current {
             // A reversal: the turning point is the previous sample (or the run's start, when
             // the axis arrived from the other side).
-            reverses = true;
-            current = raw[i];
-            anchor = q(i.saturating_sub(1));
+            reversals.push(i);
+            current = raw;
         }
-        direction[i] = current;
-        travel[i] = (q(i) - anchor).abs();
     }
-    let velocity = (0..n)
-        .map(|i| {
-            let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
-            let dt = run.t[hi] - run.t[lo];
-            if hi == lo || dt <= 0.0 {
-                0.0
-            } else {
-                (q(hi) - q(lo)) / dt
-            }
-        })
-        .collect();
+    let mut steps = steps;
     steps.sort_by(f64::total_cmp);
     let step = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
     let (lo, hi) = (0..n).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), i| {
-        (lo.min(q(i)), hi.max(q(i)))
+        (lo.min(q.get(i)), hi.max(q.get(i)))
     });
     AxisMotion {
-        direction,
-        velocity,
-        travel,
-        reverses,
+        initial: start,
+        reverses: !reversals.is_empty(),
+        reversals,
         moves,
         step,
         range: (lo, hi),
@@ -510,14 +712,11 @@ mod tests {
     use super::*;
 
     fn run(name: &str, t: Vec<f64>, q: Vec<f64>, context: Vec<(String, Vec<f64>)>) -> RunView {
-        RunView {
-            name: name.into(),
-            setup: 0,
-            fit: true,
-            t,
-            q,
-            context,
-        }
+        RunView::from_vectors(name, 0, true, &t, &q, &context)
+    }
+
+    fn directions(v: &SessionView, r: usize) -> Vec<i8> {
+        (0..v.runs[r].len()).map(|i| v.direction(r, 0, i)).collect()
     }
 
     fn view(runs: Vec<RunView>) -> SessionView {
@@ -540,12 +739,12 @@ mod tests {
         let t: Vec<f64> = (0..q.len()).map(|i| i as f64).collect();
         let v = view(vec![run("a", t, q, vec![])]);
         let m = v.motion(0, 0);
-        assert_eq!(m.direction, vec![1, 1, 1, 1, -1, -1, -1]);
+        assert_eq!(directions(&v, 0), vec![1, 1, 1, 1, -1, -1, -1]);
         assert!(m.reverses && m.moves);
         // Travel restarts at the turning point (0.002).
-        assert!((m.travel[6] - 0.001).abs() < 1e-15);
-        assert!((m.travel[2] - 0.002).abs() < 1e-15);
-        assert!((m.velocity[1] - 0.001).abs() < 1e-15);
+        assert!((v.travel(0, 0, 6) - 0.001).abs() < 1e-15);
+        assert!((v.travel(0, 0, 2) - 0.002).abs() < 1e-15);
+        assert!((v.velocity(0, 0, 1) - 0.001).abs() < 1e-15);
     }
 
     #[test]
@@ -576,7 +775,7 @@ mod tests {
             *v.input(&Input::Context("T_bed".into())),
             smoothed(
                 &[0.0, 0.0, 0.0, 0.5],
-                &[0.0, 1.0, 20.0, 21.0],
+                |k| [0.0, 1.0, 20.0, 21.0][k],
                 TEMPERATURE_SMOOTHING_S
             )
         );
@@ -594,7 +793,7 @@ mod tests {
             .enumerate()
             .map(|(k, v)| v + if k % 2 == 0 { 0.02 } else { -0.02 })
             .collect();
-        let s = smoothed(&noisy, &t, TEMPERATURE_SMOOTHING_S);
+        let s = smoothed(&noisy, |k| t[k], TEMPERATURE_SMOOTHING_S);
         for k in 50..350 {
             assert!(
                 (s[k] - rise[k]).abs() < 2e-3,
@@ -605,7 +804,7 @@ mod tests {
         }
         let mut t2 = t.clone();
         t2[200] += 1e-6;
-        let s2 = smoothed(&noisy, &t2, TEMPERATURE_SMOOTHING_S);
+        let s2 = smoothed(&noisy, |k| t2[k], TEMPERATURE_SMOOTHING_S);
         assert!(s.iter().zip(&s2).all(|(a, b)| (a - b).abs() < 1e-7));
     }
 
@@ -616,14 +815,141 @@ mod tests {
         let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
         let b = run("b", vec![5.0, 6.0, 7.0], vec![0.02, 0.015, 0.01], vec![]);
         let v = view(vec![a, b]);
-        let m = v.motion(1, 0);
-        assert_eq!(m.direction, vec![1, -1, -1]);
-        assert!(m.reverses);
+        assert_eq!(directions(&v, 1), vec![1, -1, -1]);
+        assert!(v.motion(1, 0).reverses);
         // Started where the last run ended: keeps its last direction.
         let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
         let b = run("b", vec![5.0, 6.0], vec![0.01, 0.02], vec![]);
         let v = view(vec![a, b]);
-        assert_eq!(v.motion(1, 0).direction, vec![1, 1]);
+        assert_eq!(directions(&v, 1), vec![1, 1]);
         assert!(!v.motion(1, 0).reverses);
+    }
+
+    /// Direction, velocity and travel of one axis in one run as they were kept before they
+    /// were computed on demand (per sample, from plain vectors): the reference.
+    fn stored_motion(t: &[f64], q: &[f64], initial: i8) -> (Vec<i8>, Vec<f64>, Vec<f64>) {
+        let n = q.len();
+        let mut raw = vec![0i8; n];
+        for (i, dir) in raw.iter_mut().enumerate().skip(1) {
+            let d = q[i] - q[i - 1];
+            if d.abs() > STANDING {
+                *dir = if d > 0.0 { 1 } else { -1 };
+            }
+        }
+        let first_dir = raw.iter().copied().find(|&d| d != 0).unwrap_or(0);
+        let mut direction = vec![0i8; n];
+        let mut travel = vec![0.0; n];
+        let mut current = if initial != 0 { initial } else { first_dir };
+        let mut anchor = q[0];
+        for i in 0..n {
+            if raw[i] != 0 && raw[i] != current {
+                current = raw[i];
+                anchor = q[i.saturating_sub(1)];
+            }
+            direction[i] = current;
+            travel[i] = (q[i] - anchor).abs();
+        }
+        let velocity = (0..n)
+            .map(|i| {
+                let (lo, hi) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let dt = t[hi] - t[lo];
+                if hi == lo || dt <= 0.0 {
+                    0.0
+                } else {
+                    (q[hi] - q[lo]) / dt
+                }
+            })
+            .collect();
+        (direction, velocity, travel)
+    }
+
+    #[test]
+    fn motion_on_demand_is_the_stored_motion_bit_for_bit() {
+        // A wobbling path with plateaus, steps below the standing threshold, repeated times and
+        // recorded decimals; the second run starts below where the first ended (it arrives
+        // moving down).
+        let path = |n: usize, phase: f64| -> Vec<f64> {
+            (0..n)
+                .map(|i| {
+                    let x = i as f64 * 0.37 + phase;
+                    let v = 0.01 * x.sin() + 0.004 * (3.1 * x).cos();
+                    if i % 11 < 3 {
+                        (v * 1e4).round() / 1e4
+                    } else {
+                        v
+                    }
+                })
+                .collect()
+        };
+        let times = |n: usize, t0: f64| -> Vec<f64> {
+            (0..n)
+                .map(|i| t0 + 0.001 * (i - i % 5 / 4) as f64)
+                .collect()
+        };
+        let (qa, qb) = (path(500, 0.0), path(300, 2.0));
+        let (ta, tb) = (times(500, 0.0), times(300, 10.0));
+        let v = view(vec![
+            run("a", ta.clone(), qa.clone(), vec![]),
+            run("b", tb.clone(), qb.clone(), vec![]),
+        ]);
+        let end_a = stored_motion(&ta, &qa, 0).0[499];
+        let arrived = if qb[0] < qa[499] { -1 } else { 1 };
+        for (r, t, q, initial) in [(0, &ta, &qa, 0), (1, &tb, &qb, arrived)] {
+            let (direction, velocity, travel) = stored_motion(t, q, initial);
+            assert!(v.motion(r, 0).reverses && end_a != 0);
+            for i in 0..q.len() {
+                assert_eq!(v.direction(r, 0, i), direction[i], "run {r} sample {i}");
+                assert_eq!(v.velocity(r, 0, i).to_bits(), velocity[i].to_bits());
+                assert_eq!(v.travel(r, 0, i).to_bits(), travel[i].to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn the_timeline_reads_the_runs_in_time_order() {
+        let a = run("late", vec![10.0, 10.5, 11.0], vec![0.0; 3], vec![]);
+        let empty = run("empty", vec![], vec![], vec![]);
+        let b = run("early", vec![0.0, 1.0], vec![0.0; 2], vec![]);
+        let v = view(vec![a, empty, b]);
+        let expected = [0.0, 1.0, 10.0, 10.5, 11.0];
+        let timeline = v.timeline();
+        assert_eq!(timeline.iter().collect::<Vec<_>>(), expected);
+        assert_eq!(timeline.len(), 5);
+        for (k, &t) in expected.iter().enumerate() {
+            assert_eq!(timeline.get(k), t);
+        }
+        assert_eq!((v.t0(), v.duration()), (0.0, 11.0));
+        // Intervals 1, 9, 0.5, 0.5: the upper median.
+        assert_eq!(v.median_interval(), 1.0);
+    }
+
+    #[test]
+    fn the_median_without_a_copy_is_the_sorted_one() {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for n in [1usize, 2, 3, 10, 1001] {
+            let values: Vec<f64> = (0..n)
+                .map(|_| match next() % 5 {
+                    0 => 0.001,
+                    1 => -0.5,
+                    2 => 0.0,
+                    _ => (next() % 1_000_000) as f64 * 1e-7 + 1e-9,
+                })
+                .collect();
+            let mut positive: Vec<f64> = values.iter().copied().filter(|v| *v > 0.0).collect();
+            positive.sort_by(f64::total_cmp);
+            let expected = positive.get(positive.len() / 2).copied();
+            assert_eq!(
+                median_of_positive(|| values.iter().copied()),
+                expected,
+                "{n}"
+            );
+        }
+        assert_eq!(median_of_positive(|| [f64::NAN, -1.0].into_iter()), None);
     }
 }

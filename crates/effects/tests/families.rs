@@ -27,23 +27,17 @@ fn view() -> Arc<SessionView> {
             q.push(0.1 * a.cos()); // X goes back and forth: reversals
             q.push(a); // C turns once
         }
-        RunView {
-            name: name.into(),
-            setup,
-            fit: true,
-            t,
-            q,
-            context: vec![
-                (
-                    "S".into(),
-                    (0..n).map(|i| if i > 100 { 3000.0 } else { 0.0 }).collect(),
-                ),
-                (
-                    "T_bed".into(),
-                    (0..n).map(|i| 20.0 + (i as f64 / 70.0).sin()).collect(),
-                ),
-            ],
-        }
+        let context = vec![
+            (
+                "S".into(),
+                (0..n).map(|i| if i > 100 { 3000.0 } else { 0.0 }).collect(),
+            ),
+            (
+                "T_bed".into(),
+                (0..n).map(|i| 20.0 + (i as f64 / 70.0).sin()).collect(),
+            ),
+        ];
+        RunView::from_vectors(name, setup, true, &t, &q, &context)
     };
     Arc::new(SessionView::new(
         vec![

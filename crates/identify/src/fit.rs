@@ -436,8 +436,9 @@ struct EffectEval {
     out: SampleEffects,
     /// The set-up's prediction before the effects' gain and direct changes.
     raw: Vec<f64>,
-    /// `∂pose/∂q` at the nominal machine, 6 × axes column-major.
+    /// `∂pose/∂q` at the nominal machine, 6 × axes column-major, and its scratch.
     axis_jac: Vec<f64>,
+    axis_scratch: crate::study::AxisJacobianScratch,
     /// Nuisance values with the effects' perturbation.
     nuis: Vec<f64>,
     /// Per effect parameter, the twist its axis columns give (6 each).
@@ -475,6 +476,7 @@ impl<'a> SampleEval<'a> {
                 prepared,
                 raw: vec![0.0; nch],
                 axis_jac: vec![0.0; 6 * na],
+                axis_scratch: study.axis_jacobian_scratch(),
                 nuis: vec![0.0; nn],
             }
         });
@@ -529,8 +531,7 @@ impl<'a> SampleEval<'a> {
             fx.prepared
                 .sample(self.run, run.setup, i, &fx.params, &mut fx.out);
             if fx.out.axes_touched {
-                fx.axis_jac
-                    .copy_from_slice(study.axis_jacobian(self.run, i));
+                study.axis_jacobian(self.run, i, &mut fx.axis_scratch, &mut fx.axis_jac);
                 let twist = axis_twist(&fx.axis_jac, &fx.out.dq);
                 pose.t += nalgebra::Vector3::new(twist[0], twist[1], twist[2]);
                 pose.r = exp_so3(&nalgebra::Vector3::new(twist[3], twist[4], twist[5])) * pose.r;

@@ -498,6 +498,8 @@ impl ScoredProblem for Scoring<'_> {
             entries: Vec::new(),
             placed: Vec::new(),
             pose_axis: vec![0.0; max_ch * na],
+            axis_jac: vec![0.0; 6 * na],
+            axis_scratch: self.study.axis_jacobian_scratch(),
         });
         let mut target = Target {
             sink,
@@ -529,6 +531,9 @@ struct CandidateEffects {
     /// `∂reading_c/∂pose · ∂pose/∂q_a` (whitened), channels × axes: what displacing axis `a`
     /// does to reading `c` at this sample.
     pose_axis: Vec<f64>,
+    /// The nominal axis Jacobian at this sample, and its scratch.
+    axis_jac: Vec<f64>,
+    axis_scratch: crate::study::AxisJacobianScratch,
 }
 
 /// Adds the candidate columns to the fit's rows.
@@ -591,7 +596,9 @@ impl RowTarget for Target<'_, '_> {
                     .iter()
                     .any(|e| matches!(e.slot, mtcal_effects::Slot::Axis(_)))
                 {
-                    let jq = self.study.axis_jacobian(eval.run, sample);
+                    let jq = &mut fx.axis_jac;
+                    self.study
+                        .axis_jacobian(eval.run, sample, &mut fx.axis_scratch, jq);
                     for (c, dp) in eval.d_pose.iter().enumerate() {
                         for a in 0..na {
                             fx.pose_axis[c * na + a] = (0..6).map(|k| dp[k] * jq[6 * a + k]).sum();
@@ -1533,6 +1540,8 @@ fn try_candidate(
         return Ok((trial, None));
     }
     trial.accepted = true;
+    // Kept until the step's winner is chosen: without the lag series of its fit.
+    study.clear_view_caches();
     trial.why = format!(
         "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm (mean square {:+.2} %)",
         before.chi2,

@@ -858,13 +858,16 @@ fn planted_effects(
             })
             .collect(),
         runs.iter()
-            .map(|r| RunView {
-                name: r.name.clone(),
-                setup: r.setup,
-                fit: r.use_ == RunUse::Fit,
-                t: r.t.clone(),
-                q: r.poses.iter().flat_map(|q| q.iter().copied()).collect(),
-                context: r.context.clone(),
+            .map(|r| {
+                let q: Vec<f64> = r.poses.iter().flat_map(|q| q.iter().copied()).collect();
+                RunView::from_vectors(
+                    r.name.clone(),
+                    r.setup,
+                    r.use_ == RunUse::Fit,
+                    &r.t,
+                    &q,
+                    &r.context,
+                )
             })
             .collect(),
         Vec::new(),

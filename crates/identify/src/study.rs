@@ -195,8 +195,26 @@ pub struct Study {
     changes: Changes,
     /// The session as the effects see it, built on first use.
     view: OnceLock<Arc<SessionView>>,
-    /// Per run, the nominal machine's axis Jacobian at every sample (built on first use).
-    axis_jacobians: OnceLock<Vec<Vec<f64>>>,
+    /// Per run, the nominal machine's axis Jacobian at every sample, when they fit
+    /// [`AXIS_JACOBIAN_CACHE_BYTES`] (decided on first use); shared by the studies rebuilt with
+    /// the same reduced model.
+    axis_jacobians: Arc<OnceLock<Option<Vec<Vec<f64>>>>>,
+}
+
+/// The nominal axis Jacobians of every sample are kept when they take at most this (a session
+/// of about 70,000 samples on a five-axis machine: every example and test session): computed
+/// once per study rather than once per pass over the data, which makes a physics search on
+/// such a session about a quarter faster. A larger session computes each when it is needed,
+/// so that its memory does not grow by 48 bytes per axis and sample (README, "Scale").
+pub const AXIS_JACOBIAN_CACHE_BYTES: usize = 16 << 20;
+
+/// Scratch for [`Study::axis_jacobian`] (one per thread): the nominal machine's workspace,
+/// its zero coefficients and one sample's positions.
+#[derive(Debug)]
+pub struct AxisJacobianScratch {
+    ws: mtcal_kinematics::Workspace,
+    zeros: Vec<f64>,
+    q: Vec<f64>,
 }
 
 /// How a rebuilt study differs from the session as written: what the physics search adds.
@@ -278,12 +296,20 @@ impl Study {
                 position_blocks: r.position_blocks.clone(),
             })
             .collect();
-        Self::assemble(
+        // The same estimated parameters and orders make the same reduced model, whose axis
+        // Jacobians depend on nothing else (a search refits many effects on one model).
+        let same_model =
+            changes.estimate == self.changes.estimate && changes.raise == self.changes.raise;
+        let mut study = Self::assemble(
             self.session.clone(),
             self.machine.clone(),
             Some(runs),
             changes,
-        )
+        )?;
+        if same_model {
+            study.axis_jacobians = Arc::clone(&self.axis_jacobians);
+        }
+        Ok(study)
     }
 
     /// What this study changes from the session as written.
@@ -490,7 +516,7 @@ impl Study {
             held_prior,
             changes,
             view: OnceLock::new(),
-            axis_jacobians: OnceLock::new(),
+            axis_jacobians: Arc::new(OnceLock::new()),
         })
     }
 
@@ -564,35 +590,80 @@ impl Study {
         panic!("parameter {i} is past the parameter vector ({})", self.n_x)
     }
 
-    /// `∂pose/∂q` of the nominal machine at sample `i` of run `r` (6 × axes, column-major):
-    /// how an effect that displaces an axis moves the tool. The commanded positions are fixed,
-    /// so it is computed once per study.
-    pub fn axis_jacobian(&self, r: usize, i: usize) -> &[f64] {
-        let all = self.axis_jacobians.get_or_init(|| {
-            let model = &self.fit_model;
-            let na = model.machine().n_axes();
-            let zeros = vec![0.0; model.n_coeffs()];
-            let mut ws = model.workspace();
-            self.runs
-                .iter()
-                .map(|run| {
-                    let mut out = vec![0.0; run.len() * 6 * na];
-                    let mut q = vec![0.0; na];
-                    for (i, jac) in out.chunks_exact_mut(6 * na).enumerate() {
-                        run.q.row_into(i, &mut q);
-                        model.tool_jacobian(&q, &zeros, &mut ws, jac);
-                    }
-                    out
-                })
-                .collect()
-        });
-        let na = self.model.machine().n_axes();
-        &all[r][i * 6 * na..(i + 1) * 6 * na]
+    /// Scratch for [`Self::axis_jacobian`].
+    pub fn axis_jacobian_scratch(&self) -> AxisJacobianScratch {
+        let model = &self.fit_model;
+        AxisJacobianScratch {
+            ws: model.workspace(),
+            zeros: vec![0.0; model.n_coeffs()],
+            q: vec![0.0; model.machine().n_axes()],
+        }
+    }
+
+    /// `∂pose/∂q` of the nominal machine at sample `i` of run `r` into `out` (6 × axes,
+    /// column-major): how an effect that displaces an axis moves the tool. The commanded
+    /// positions are fixed: a small session keeps every sample's, a large one computes it at
+    /// every call ([`AXIS_JACOBIAN_CACHE_BYTES`]; the same numbers either way).
+    pub fn axis_jacobian(
+        &self,
+        r: usize,
+        i: usize,
+        scratch: &mut AxisJacobianScratch,
+        out: &mut [f64],
+    ) {
+        let kept = self
+            .axis_jacobians
+            .get_or_init(|| self.every_axis_jacobian());
+        match kept {
+            Some(all) => out.copy_from_slice(&all[r][i * out.len()..(i + 1) * out.len()]),
+            None => self.nominal_axis_jacobian(r, i, scratch, out),
+        }
+    }
+
+    /// Every sample's axis Jacobian, per run, if they fit [`AXIS_JACOBIAN_CACHE_BYTES`].
+    fn every_axis_jacobian(&self) -> Option<Vec<Vec<f64>>> {
+        let width = 6 * self.fit_model.machine().n_axes();
+        let samples: usize = self.runs.iter().map(RunSlot::len).sum();
+        if samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES {
+            return None;
+        }
+        let mut scratch = self.axis_jacobian_scratch();
+        let all = (0..self.runs.len())
+            .map(|r| {
+                let mut out = vec![0.0; self.runs[r].len() * width];
+                for (i, jac) in out.chunks_exact_mut(width).enumerate() {
+                    self.nominal_axis_jacobian(r, i, &mut scratch, jac);
+                }
+                out
+            })
+            .collect();
+        Some(all)
+    }
+
+    /// [`Self::axis_jacobian`], computed.
+    fn nominal_axis_jacobian(
+        &self,
+        r: usize,
+        i: usize,
+        scratch: &mut AxisJacobianScratch,
+        out: &mut [f64],
+    ) {
+        self.runs[r].q.row_into(i, &mut scratch.q);
+        self.fit_model
+            .tool_jacobian(&scratch.q, &scratch.zeros, &mut scratch.ws, out);
     }
 
     /// The session as the effects see it (built once).
     pub fn view(&self) -> &Arc<SessionView> {
         self.view.get_or_init(|| Arc::new(self.build_view()))
+    }
+
+    /// Drops the series the view keeps over the whole timeline ([`SessionView::clear_caches`]),
+    /// if it was built: a study kept for later need not hold them meanwhile.
+    pub fn clear_view_caches(&self) {
+        if let Some(view) = self.view.get() {
+            view.clear_caches();
+        }
     }
 
     fn build_view(&self) -> SessionView {
@@ -623,6 +694,8 @@ impl Study {
                 nuisance: s.setup.nuisance().to_vec(),
             })
             .collect();
+        // The study's columns, shared (not copied): the positions convert to SI as they are
+        // read, bit for bit what the fit reads.
         let runs = self
             .runs
             .iter()
@@ -630,13 +703,9 @@ impl Study {
                 name: r.name.clone(),
                 setup: r.setup,
                 fit: r.fit,
-                t: r.t.to_vec(),
-                q: r.q.to_row_major(),
-                context: r
-                    .context
-                    .iter()
-                    .map(|(n, c)| (n.clone(), c.to_vec()))
-                    .collect(),
+                t: r.t.clone(),
+                q: r.q.clone(),
+                context: r.context.clone(),
             })
             .collect();
         let mut is_estimated = vec![false; self.model.n_coeffs()];

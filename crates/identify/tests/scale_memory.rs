@@ -14,12 +14,21 @@
 //! file while reading it and every run's predictions at once: this test measured 241 bytes per
 //! sample then, 72 with plain `f64` vectors. The full-size measurement is
 //! `cargo xtask scale-bench N` (README, "Scale").
+//!
+//! The physics search on the recorded session must stay within about the same: under 60 bytes
+//! per sample. It used to copy every run's times and positions into the effects' view of the
+//! session, keep each axis' direction, velocity and travel per sample, a bank's thermal rises
+//! per timeline sample and the nominal axis Jacobian of every sample (240 bytes on a five-axis
+//! machine): 560 bytes per sample (`cargo xtask scale-bench N --search`).
 
 use mtcal_identify::Study;
+use mtcal_identify::search::SearchOptions;
+use mtcal_identify::study::AXIS_JACOBIAN_CACHE_BYTES;
 use mtcal_solve::{Options, Silent};
 use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
 use std::path::Path;
+use std::sync::Mutex;
 // Links every instrument plugin (inventory drops crates nobody names).
 use mtcal_plugins as _;
 
@@ -30,6 +39,11 @@ static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
 /// and for full-precision ones.
 const BYTES_PER_SAMPLE_RECORDED: f64 = 45.0;
 const BYTES_PER_SAMPLE_FULL: f64 = 72.0;
+/// The same for the physics search on recorded files.
+const BYTES_PER_SAMPLE_SEARCH: f64 = 60.0;
+
+/// The peak counter is global to the process: one measurement at a time.
+static MEASURING: Mutex<()> = Mutex::new(());
 
 fn plan(samples: usize, record: bool) -> String {
     let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines/mcu630-cafyxz.urdf");
@@ -76,12 +90,19 @@ tool_length = 2.0
     plan
 }
 
-/// Samples of the session and the peak heap (bytes) of loading and identifying it.
-fn peak_heap(samples: usize, record: bool) -> (usize, usize) {
+/// A simulated session of about `samples` samples (in the returned folder's `s`).
+fn session(samples: usize, record: bool) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("plan.toml"), plan(samples, record)).unwrap();
     let session = dir.path().join("s");
     mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &session).unwrap();
+    dir
+}
+
+/// Samples of the session and the peak heap (bytes) of loading and identifying it.
+fn peak_heap(samples: usize, record: bool) -> (usize, usize) {
+    let dir = session(samples, record);
+    let session = dir.path().join("s");
     GLOBAL.reset_peak_memory();
     let study = Study::load(&session).unwrap();
     let n: usize = study.runs.iter().map(|r| r.len()).sum();
@@ -94,6 +115,25 @@ fn peak_heap(samples: usize, record: bool) -> (usize, usize) {
         id.summary()
     );
     drop((account, id, solution, study));
+    (n, GLOBAL.get_peak_memory())
+}
+
+/// Samples of the session and the peak heap (bytes) of loading it and running the physics
+/// search (as `mtcal identify --search` does: every candidate scored, the significant ones
+/// refitted and cross-validated, prediction bands, the information account).
+fn search_peak_heap(samples: usize) -> (usize, usize) {
+    let dir = session(samples, true);
+    GLOBAL.reset_peak_memory();
+    let study = Study::load(&dir.path().join("s")).unwrap();
+    let n: usize = study.runs.iter().map(|r| r.len()).sum();
+    let mut result = mtcal_identify::search::search(study, &SearchOptions::default()).unwrap();
+    result
+        .identification
+        .add_prediction_bands(&result.study, &result.solution);
+    let account = mtcal_identify::information::account(&result.study, &result.solution).unwrap();
+    let report = result.identification.search.as_ref().unwrap();
+    assert!(report.candidates > 100, "{}", report.stopped);
+    drop((account, result));
     (n, GLOBAL.get_peak_memory())
 }
 
@@ -114,10 +154,11 @@ fn bytes_per_sample(record: bool) -> f64 {
     per_sample
 }
 
-// One test for both: the peak counter is global to the process, so the two must not run at
-// the same time.
+// One test for both file kinds; the peak counter is global to the process, so no other
+// measurement runs at the same time.
 #[test]
 fn memory_grows_by_a_bounded_number_of_bytes_per_sample() {
+    let _one = MEASURING.lock().unwrap_or_else(|e| e.into_inner());
     let recorded = bytes_per_sample(true);
     assert!(
         recorded < BYTES_PER_SAMPLE_RECORDED,
@@ -129,5 +170,30 @@ fn memory_grows_by_a_bounded_number_of_bytes_per_sample() {
         full < BYTES_PER_SAMPLE_FULL,
         "full-precision files: the identification holds {full:.1} bytes per sample (bound \
          {BYTES_PER_SAMPLE_FULL})"
+    );
+}
+
+#[test]
+fn the_physics_search_grows_by_a_bounded_number_of_bytes_per_sample() {
+    let _one = MEASURING.lock().unwrap_or_else(|e| e.into_inner());
+    search_peak_heap(6_000);
+    // Both sessions large enough for what is bounded by a fixed amount to be at its bound:
+    // the study computes its axis Jacobians when needed instead of keeping them (six rows of
+    // five axes per sample), and the noise estimate takes every second sample of the larger
+    // one, 200,000 lagged differences per channel of each ([`mtcal_identify::noise`]).
+    let (n_small, small) = search_peak_heap(200_000);
+    assert!(n_small * 6 * 5 * 8 > AXIS_JACOBIAN_CACHE_BYTES);
+    let (n_large, large) = search_peak_heap(400_000);
+    let per_sample = (large as f64 - small as f64) / (n_large - n_small) as f64;
+    println!(
+        "search: peak heap {:.1} MiB at {n_small} samples, {:.1} MiB at {n_large}: \
+         {per_sample:.1} bytes per sample",
+        small as f64 / 1048576.0,
+        large as f64 / 1048576.0
+    );
+    assert!(
+        per_sample < BYTES_PER_SAMPLE_SEARCH,
+        "the physics search holds {per_sample:.1} bytes per sample (bound \
+         {BYTES_PER_SAMPLE_SEARCH})"
     );
 }

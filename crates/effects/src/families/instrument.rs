@@ -34,7 +34,7 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             .runs
             .iter()
             .filter(|r| r.setup == s && r.fit)
-            .flat_map(|r| [r.t.first().copied(), r.t.last().copied()])
+            .flat_map(|r| [r.first_time(), r.last_time()])
             .flatten()
             .collect();
         let span = times.iter().copied().fold(f64::NEG_INFINITY, f64::max)

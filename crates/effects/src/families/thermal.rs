@@ -290,9 +290,9 @@ fn model_taus(view: &SessionView) -> Vec<f64> {
     let floor = 5.0 * view.median_interval();
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for run in view.runs.iter().filter(|r| r.fit) {
-        if let (Some(a), Some(b)) = (run.t.first(), run.t.last()) {
-            lo = lo.min(*a);
-            hi = hi.max(*b);
+        if let (Some(a), Some(b)) = (run.first_time(), run.last_time()) {
+            lo = lo.min(a);
+            hi = hi.max(b);
         }
     }
     let cap = (hi - lo) / 6.0;
