@@ -1748,7 +1748,7 @@ fn solve_psd(a: &[f64], g: &[f64], n: usize) -> Vec<f64> {
     let gs: Vec<f64> = (0..n).map(|i| g[i] / d[i]).collect();
     let mut out = vec![0.0; n];
     for (k, &l) in eig.eigenvalues.iter().enumerate() {
-        if !(l > 1e-12 * top) {
+        if l.is_nan() || l <= 1e-12 * top {
             continue;
         }
         let v = eig.eigenvectors.column(k);

@@ -572,7 +572,10 @@ fn planted_effects_are_named_and_the_validation_runs_predicted() {
         .flat_map(|&seed| {
             cases()
                 .into_iter()
-                .filter(|c| only.as_deref().is_none_or(|o| o.split(',').any(|w| c.name.contains(w))))
+                .filter(|c| {
+                    only.as_deref()
+                        .is_none_or(|o| o.split(',').any(|w| c.name.contains(w)))
+                })
                 .map(move |c| Case { seed, ..c })
         })
         .collect();
@@ -622,7 +625,10 @@ fn planted_effects_are_named_and_the_validation_runs_predicted() {
     assert!(share(named, effects) >= 0.9, "{named}/{effects} named");
     assert!(share(right, n) >= 0.9, "{right}/{n} cases right");
     assert!(share(predicted, n) >= 0.9, "{predicted}/{n} predicted");
-    assert!(share(within, corrected) >= 0.9, "{within}/{corrected} corrected");
+    assert!(
+        share(within, corrected) >= 0.9,
+        "{within}/{corrected} corrected"
+    );
 }
 
 /// Fifty clean sessions (the truth inside the full model, nothing planted; AR(1) noise, the σ in
@@ -663,6 +669,9 @@ fn clean_sessions_from_the_independent_simulator_rarely_raise_a_claim() {
         .zip(&claims)
         .filter(|(_, c)| !c.is_empty())
         .collect();
-    eprintln!("{} of 50 clean sessions claimed an effect: {claimed:?}", claimed.len());
+    eprintln!(
+        "{} of 50 clean sessions claimed an effect: {claimed:?}",
+        claimed.len()
+    );
     assert!(claimed.len() <= 2, "{} of 50: {claimed:?}", claimed.len());
 }
