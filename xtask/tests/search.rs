@@ -231,3 +231,54 @@ fn bundled_sessions_are_their_plans() {
         }
     }
 }
+
+/// `identify --search` on every bundled example: the default screen (no `--verbose`) leads with
+/// how the search ended and what it found, and fits in 120 lines; the per-test p-values and
+/// every trial stay behind `--verbose` (and in the JSON).
+#[test]
+fn the_search_summary_fits_on_two_screens() {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    for example in ["five-axis", "five-axis-warm", "three-axis"] {
+        let run = |verbose: bool| {
+            let session = format!("examples/{example}/session");
+            let mut args = vec!["identify", "--quiet", "--search", session.as_str()];
+            if verbose {
+                args.push("--verbose");
+            }
+            let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+                .args(&args)
+                .current_dir(repo)
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            String::from_utf8(out.stdout).unwrap()
+        };
+        let text = run(false);
+        let lines = text.lines().count();
+        assert!(lines <= 120, "{example}: {lines} lines\n{text}");
+        // The verdict or the fit before the search, then the search's outcome, come first.
+        let head: Vec<&str> = text.lines().take(4).collect();
+        assert!(
+            head.iter().any(|l| l.starts_with("physics search: ")),
+            "{example}: {head:?}"
+        );
+        assert!(
+            !text.contains("adjusted p = "),
+            "{example}: p-values on the screen"
+        );
+        assert!(
+            !text.contains("] not kept"),
+            "{example}: trials on the screen"
+        );
+        let verbose = run(true);
+        assert!(verbose.lines().count() > lines, "{example}");
+        assert!(
+            verbose.contains("adjusted p = "),
+            "{example}: no p-values with --verbose"
+        );
+    }
+}

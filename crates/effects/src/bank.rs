@@ -170,7 +170,7 @@ impl Bank {
             .iter()
             .zip(&self.spread)
             .map(|(c, s)| ParamDef {
-                name: format!("{}_{u}{}", c.name(), c.per_unit().replace('/', "per_")),
+                name: format!("{}_{u}{}", c.name(), c.per_unit().replace('/', "_per_")),
                 unit: format!("{u}{}", c.per_unit()),
                 per_si: k,
                 kind: ParamKind::Amplitude,

@@ -156,6 +156,9 @@ pub struct ModelParamView {
     pub name: ParamName,
     /// Whether the current fit estimates it.
     pub estimated: bool,
+    /// Whether some coefficient of it is held near its start (the runs cannot determine it:
+    /// `mtcal_identify::base`).
+    pub held: bool,
     pub order: BasisOrder,
 }
 

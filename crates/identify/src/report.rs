@@ -440,6 +440,15 @@ impl Identification {
             );
         }
         for (component, list) in &components {
+            if list.len() > SCREEN_TERMS {
+                // A joint model's gains: dozens, each meaningful only with the others.
+                let _ = writeln!(
+                    s,
+                    "  {component:<6} {} coefficients (in the JSON, or --verbose)",
+                    list.len()
+                );
+                continue;
+            }
             let terms: Vec<String> = list
                 .iter()
                 .map(|p| {
@@ -592,6 +601,10 @@ fn chi2_spread(dof: usize) -> f64 {
 
 /// Parameters and combinations beyond this make the screen summary concise.
 const SCREEN_PARAMETERS: usize = 30;
+
+/// Coefficients of one component or effect shown on one line of the concise table; more are
+/// counted.
+const SCREEN_TERMS: usize = 8;
 
 /// At most this many lines of where the residuals are not noise on the screen.
 const SCREEN_MISMATCH: usize = 6;

@@ -2,37 +2,52 @@
 //! physics the model left out, add it, and show the fit improve on data it did not train on.
 //!
 //! # The loop
+//! 0. **Noise.** Every decision below is a χ² statistic, and real recordings are neither white
+//!    nor of the σ their manifest states: the fit's residuals give each instrument channel's
+//!    real σ and AR(1) coefficient ([`crate::noise`]), and every fit of the search is then the
+//!    generalised least-squares fit for that noise (rows prewhitened). Estimated again after
+//!    every accepted step (a large effect left out reads partly as noise); within a step every
+//!    candidate is judged on one metric.
 //! 1. **Rank.** Every registered effect family ([`mtcal_effects::families`]) proposes its
 //!    candidates for the session (thermal drifts at a grid of time constants, reversal of each
-//!    axis that reverses, cyclic errors at screw pitches, the model's held-out parameters…).
-//!    Each is scored against the current fit without refitting ([`mtcal_solve::score_candidates`],
-//!    a Lagrange-multiplier test): the predicted drop in χ², Holm's correction over all
-//!    candidates, the share of it the fitted parameters absorb, the fitted parameters it would
-//!    move.
-//! 2. **Fit and check.** The strongest significant candidates of different effects (at most
-//!    [`SearchOptions::tries`]) are each added to the model and refitted — in two stages, the
-//!    shape parameters (τ, pitch…) held first and then refined with everything else. A
-//!    candidate passes if the information criterion agrees (`Δχ²/max(1, χ²_red) > Δk·ln n`,
-//!    BIC with the noise scale re-estimated when the fit is worse than the stated noise) **and**
-//!    it predicts held-out data better: cross-validation ([`CrossValidation`]: contiguous time
-//!    blocks of every fitted run by default, whole runs, or blocks of the whole timeline for a
-//!    long recording; `[identify] heldout`), its whitened mean square lower by more than
-//!    [`SearchOptions::min_heldout_gain`]. The
-//!    cross-validation is the Gauss–Newton refit of each fold from the full fit, computed from
-//!    every fold's normal equations in one pass ([`heldout`]). Of those that pass, the lowest
-//!    BIC wins: scores at grid starting values cannot tell a drift in time from a lagged
-//!    temperature that follows it, their refits can; and of two that fit alike the one with
-//!    fewer parameters (a reversal error rather than stick-slip with an endless decay).
-//! 3. **Repeat** with the accepted effect in the model, until no candidate is significant or
+//!    axis that reverses, cyclic errors at screw pitches, joint thermal models, the model's
+//!    left-out parameters…). Each is scored against the current fit without refitting
+//!    ([`mtcal_solve::score_candidates`], a Lagrange-multiplier test): the predicted drop in χ²,
+//!    Holm's correction over all candidates, the share of it the fitted parameters absorb, the
+//!    fitted parameters it would move.
+//! 2. **Fit and check.** The strongest significant candidates (at most [`SearchOptions::tries`],
+//!    one per label and three per class, so that every kind of explanation the scores point at
+//!    is refitted) are each added to the model and refitted — in two stages, the shape
+//!    parameters (τ, pitch…) held first and then refined with everything else; a cycle's pitch
+//!    is first scanned on a grid fine enough for every phase ([`Effect::shape_scan`]), a joint
+//!    model's prior width chosen by leaving each fitted run out ([`Effect::prior_ladder`]). A
+//!    candidate passes if its refit is physics (no parameter driven beyond its plausible range,
+//!    no new one whose interval is wider than it), the information criterion agrees
+//!    (`Δχ²/max(1, χ²_red) > Δk·ln n`, a parameter under a prior counting for the share the data
+//!    decide) **and** it predicts held-out data better: cross-validation ([`CrossValidation`]:
+//!    contiguous time blocks of every fitted run by default, whole runs, or blocks of the whole
+//!    timeline for a long recording; `[identify] heldout`), its whitened mean square lower by
+//!    more than [`SearchOptions::min_heldout_gain`]. The cross-validation is the Gauss–Newton
+//!    refit of each fold from the full fit, computed from every fold's normal equations in one
+//!    pass ([`heldout`]). Of those that pass, the lowest BIC wins: scores at grid starting
+//!    values cannot tell a drift in time from a lagged temperature that follows it, their
+//!    refits can; and of two that fit alike the one with fewer parameters.
+//! 3. **Look-alikes.** Others that passed within [`LOOKALIKE_BIC`] of the winner, and that are
+//!    no longer significant once it is in the model (they explained the same thing), are its
+//!    look-alikes: the discovery names them and the measurement that would tell them apart,
+//!    and claims neither as the answer (machine drift or set-up drift, a drift in time or a
+//!    temperature that follows it).
+//! 4. **Repeat** with the accepted effect in the model, until no candidate is significant or
 //!    none that is passes.
 //!
 //! # What it reports
 //! Each accepted step is a [`Discovery`] (FORMATS.md `discoveries`): the effect, its
 //! parameters with 95 % intervals from the final fit, the fit and held-out RMS before and
 //! after, the share of the excess χ² it explains, the machine parameters it had biased (before
-//! and after), where the residuals showed it, and a sentence. Candidates the data cannot tell
-//! from the fitted parameters (almost wholly absorbed) are listed as [`Concealed`], with the
-//! parameters they hide behind and the measurement that would separate them.
+//! and after), where the residuals showed it, its look-alikes, and a sentence. Candidates the
+//! data cannot tell from the fitted parameters (almost wholly absorbed) are listed as
+//! [`Concealed`], with the parameters they hide behind and the measurement that would separate
+//! them.
 //!
 //! # Columns of a candidate
 //! Effects give their columns through [`mtcal_effects::PreparedEffects`] (axis perturbations
@@ -807,7 +822,7 @@ struct Stage {
 /// Information criterion (in units of the noise estimate) within which another candidate is a
 /// look-alike of the one added: below 10, the evidence for the one over the other is not
 /// "very strong" (Kass & Raftery's scale for Bayes factors).
-const LOOKALIKE_BIC: f64 = 10.0;
+pub const LOOKALIKE_BIC: f64 = 10.0;
 
 /// Another explanation the data cannot tell from a discovery.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -1757,7 +1772,7 @@ fn solve_psd(a: &[f64], g: &[f64], n: usize) -> Vec<f64> {
     let gs: Vec<f64> = (0..n).map(|i| g[i] / d[i]).collect();
     let mut out = vec![0.0; n];
     for (k, &l) in eig.eigenvalues.iter().enumerate() {
-        if !(l > 1e-12 * top) {
+        if l.is_nan() || l <= 1e-12 * top {
             continue;
         }
         let v = eig.eigenvectors.column(k);

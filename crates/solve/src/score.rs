@@ -34,6 +34,10 @@
 use crate::{EvalError, ParamSpec, Solution, SolveError};
 use faer::Mat;
 
+/// Smallest eigenvalue, relative to the largest, of the fit's column-scaled Gram matrix that a
+/// score test projects a candidate off (see [`covariance`]).
+const RESOLVED: f64 = 1e-10;
+
 /// Rows staged before they are reduced with matrix products.
 const CHUNK: usize = 256;
 
@@ -457,7 +461,14 @@ fn covariance(
         return Err(SolveError::Score("the Gram matrix is not finite".into()));
     }
     let (v, l) = symmetric_eigen(&scaled);
-    let used = rank.min(f);
+    // The fit's rank rule works on its factor; squared into the Gram matrix, directions it keeps
+    // beyond an eigenvalue ratio of 1e10 are rounding here, and projecting a candidate off them
+    // would take out of it only rounding and leave it no degrees of freedom (a rich model the
+    // runs barely determine). Those directions count as unseen: a candidate is tested on what
+    // is left once the well-determined ones have taken their share.
+    let top = l.first().copied().unwrap_or(0.0);
+    let resolved = l.iter().take_while(|&&x| x >= RESOLVED * top).count();
+    let used = rank.min(f).min(resolved);
     let kappa = match (l.first(), used.checked_sub(1).map(|k| l[k])) {
         (Some(&hi), Some(lo)) if lo > 0.0 => hi / lo,
         _ => 1.0,

@@ -287,3 +287,111 @@ fn malformed_rows_are_errors_not_panics() {
         assert!(err.to_string().contains("block 0"), "{err}");
     }
 }
+
+/// A fit whose columns are given as functions of `t`, with candidate columns: for the
+/// ill-conditioned case.
+struct Columns {
+    t: Vec<f64>,
+    y: Vec<f64>,
+    fitted: Vec<fn(f64) -> f64>,
+    candidates: Vec<fn(f64) -> f64>,
+}
+
+impl Columns {
+    fn row(&self, i: usize, x: &[f64]) -> (f64, Vec<f64>, Vec<f64>) {
+        let t = self.t[i];
+        let jac: Vec<f64> = self.fitted.iter().map(|f| f(t) / SIGMA).collect();
+        let model: f64 = jac.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() * SIGMA;
+        let extra = self.candidates.iter().map(|f| f(t) / SIGMA).collect();
+        ((model - self.y[i]) / SIGMA, jac, extra)
+    }
+}
+
+impl Problem for Columns {
+    fn n_params(&self) -> usize {
+        self.fitted.len()
+    }
+    fn n_blocks(&self) -> usize {
+        1
+    }
+    fn eval_block(&self, _: usize, x: &[f64], sink: &mut RowSink<'_>) -> Result<(), EvalError> {
+        sink.columns(&(0..self.fitted.len()).collect::<Vec<_>>());
+        for i in 0..self.t.len() {
+            let (r, jac, _) = self.row(i, x);
+            sink.row(r, &jac);
+        }
+        Ok(())
+    }
+}
+
+impl ScoredProblem for Columns {
+    fn n_params(&self) -> usize {
+        self.fitted.len()
+    }
+    fn candidate_widths(&self) -> Vec<usize> {
+        vec![1; self.candidates.len()]
+    }
+    fn n_blocks(&self) -> usize {
+        1
+    }
+    fn eval_block(&self, _: usize, x: &[f64], sink: &mut ScoreSink<'_>) -> Result<(), EvalError> {
+        sink.columns(&(0..self.fitted.len()).collect::<Vec<_>>());
+        for i in 0..self.t.len() {
+            let (r, jac, extra) = self.row(i, x);
+            sink.row(r, &jac, &extra);
+        }
+        Ok(())
+    }
+}
+
+/// A rich model the data barely determine (two columns that differ by a ten-millionth: the
+/// fit's factor keeps both, its Gram matrix cannot tell them apart) leaves a candidate outside
+/// its span its degrees of freedom and its statistic (the drop in χ² of the refit), and still
+/// calls a candidate inside the span absorbed. Before, the Gram matrix's rounding left every
+/// candidate of such a fit zero degrees of freedom.
+#[test]
+fn a_candidate_outside_an_ill_conditioned_fit_keeps_its_degrees_of_freedom() {
+    let mut g = rng(5);
+    let t: Vec<f64> = (0..400).map(|i| i as f64 / 400.0).collect();
+    let cycle = |t: f64| (std::f64::consts::TAU * t / 0.2).sin();
+    let y: Vec<f64> = t
+        .iter()
+        .map(|&t| 0.5 + t + 0.3 * cycle(t) + SIGMA * normal(&mut g))
+        .collect();
+    let fitted: Vec<fn(f64) -> f64> = vec![|_| 1.0, |t| t, |t| t + 1e-7 * t * t];
+    let p = Columns {
+        t,
+        y,
+        fitted: fitted.clone(),
+        candidates: vec![cycle, |t| 1.0 - 2.0 * t],
+    };
+    let specs: Vec<ParamSpec> = (0..3)
+        .map(|i| ParamSpec::new(format!("p{i}"), 0.0))
+        .collect();
+    let base = solve(&p, &specs, &options(1), &mut Silent).unwrap();
+    let scores = score_candidates(&p, &specs, &base, 0.05, 1).unwrap();
+    assert_eq!(scores[0].df, 1, "{:?}", scores[0]);
+    assert!(scores[0].significant);
+    // The refit with the cycle: its χ² drop is the statistic.
+    let mut with = fitted;
+    with.push(cycle);
+    let q = Columns {
+        fitted: with,
+        candidates: Vec::new(),
+        ..p
+    };
+    let specs4: Vec<ParamSpec> = (0..4)
+        .map(|i| ParamSpec::new(format!("p{i}"), 0.0))
+        .collect();
+    let refit = solve(&q, &specs4, &options(1), &mut Silent).unwrap();
+    // Equal but for what the refit gains along the direction the Gram matrix cannot resolve.
+    let drop = base.chi2 - refit.chi2;
+    assert!(
+        (scores[0].statistic - drop).abs() < 1e-4 * drop,
+        "score {} vs drop {drop}",
+        scores[0].statistic
+    );
+    // An offset and a slope: inside the span.
+    assert_eq!(scores[1].df, 0);
+    assert!(scores[1].absorbed > 0.99);
+}

@@ -3,7 +3,8 @@
 //! - **`omitted-parameter`**: a parameter of the machine's full error model (its
 //!   `.errors.toml`) that the fit holds at its start value.
 //! - **`component-order`**: an estimated component error whose basis (Legendre polynomials or
-//!   a Fourier series) is two orders short.
+//!   a Fourier series) is two orders short (not one the runs cannot determine, held near its
+//!   start: its higher orders would be free where its lower ones are not).
 //!
 //! Both are planted through the truth parameter file (and, for a higher order than the
 //! session's error model, a richer truth model: `truth_errors` in the test plan); the
@@ -32,7 +33,8 @@ fn omitted(view: &SessionView) -> Vec<Candidate> {
 fn higher_order(view: &SessionView) -> Vec<Candidate> {
     view.model
         .iter()
-        .filter(|p| p.estimated && p.order != BasisOrder::Other)
+        // A component the runs cannot determine (held) gains nothing from more orders.
+        .filter(|p| p.estimated && !p.held && p.order != BasisOrder::Other)
         .map(|p| {
             Candidate::Model(ModelChange {
                 class: "component-order",
