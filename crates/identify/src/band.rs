@@ -12,8 +12,8 @@
 //! more), nor what held parameters ([`crate::base`]) would add: a run that depends on those
 //! is named by [`crate::base`], not covered by a wider band.
 
+use crate::K95;
 use crate::fit::predict_run;
-use crate::report::K95;
 use crate::study::Study;
 use mtcal_solve::Solution;
 use nalgebra::DMatrix;
@@ -40,7 +40,7 @@ pub fn noise_inflation(study: &Study, solution: &Solution) -> f64 {
             let raw: Vec<f64> = (0..run.len())
                 .map(|i| (readings.get(i, c) - pred[i * nch + c]) / sigma)
                 .collect();
-            let white = crate::noise::prewhiten(&raw, study.noise(r, c).phi);
+            let white = crate::whiten::prewhiten(&raw, study.noise(r, c).phi);
             let mut prev = None;
             for &e in &white {
                 lag0 += e * e;

@@ -192,13 +192,13 @@ pub fn select(study: &Study, options: &Options) -> Result<BaseModel, IdentifyErr
         // quick test first; then the joint covariance: a parameter is taken only if every
         // parameter taken so far stays within its share, so that a group of weakly seen
         // higher orders never pushes out the location error they all resemble.
-        if norm <= 1e-9 * c.norm() || crate::report::K95 / norm > share(i) {
+        if norm <= 1e-9 * c.norm() || crate::K95 / norm > share(i) {
             continue;
         }
         taken.push(i);
         let fits = covariance(&taken, &col).is_some_and(|cov| {
             taken.iter().enumerate().all(|(k, &p)| {
-                forced.contains(&p) || crate::report::K95 * cov[(k, k)].max(0.0).sqrt() <= share(p)
+                forced.contains(&p) || crate::K95 * cov[(k, k)].max(0.0).sqrt() <= share(p)
             })
         });
         if fits {
@@ -275,12 +275,12 @@ fn describe(
                     HeldWhy::Aliased
                 } else {
                     HeldWhy::TooWeak {
-                        u95: crate::report::K95 / outside * range[j] * info.per_si,
+                        u95: crate::K95 / outside * range[j] * info.per_si,
                     }
                 }
             }
             _ => HeldWhy::TooWeak {
-                u95: crate::report::K95 / norm * range[j] * info.per_si,
+                u95: crate::K95 / norm * range[j] * info.per_si,
             },
         };
         held.push(Held {
@@ -386,50 +386,6 @@ fn validation_dependence(
     out
 }
 
-/// What [`identify`] returns: the study fitted (the parameters the runs cannot determine
-/// held), its solution, the report with [`BaseModel`] applied, and the model (`None` when the
-/// session names its parameters).
-#[derive(Debug)]
-pub struct Identified {
-    pub study: Study,
-    pub solution: mtcal_solve::Solution,
-    pub identification: crate::report::Identification,
-    pub base: Option<BaseModel>,
-}
-
-/// [`identifiable_study`], then [`crate::identify_with_solution`], then the report with the
-/// model applied: what `mtcal identify` does before its extras.
-pub fn identify(
-    study: Study,
-    options: &Options,
-    observer: &mut dyn mtcal_solve::Observer,
-) -> Result<Identified, IdentifyError> {
-    let (study, base) = identifiable_study(study, options)?;
-    let (mut identification, solution) = crate::identify_with_solution(&study, options, observer)?;
-    if let Some(base) = &base {
-        identification.apply_base(base, &study, &solution);
-    }
-    Ok(Identified {
-        study,
-        solution,
-        identification,
-        base,
-    })
-}
-
-impl crate::search::SearchResult {
-    /// Applies `base` to the reports before and after the search (each with its own study's
-    /// parameter vector).
-    pub fn apply_base(&mut self, base: &BaseModel) -> Result<(), IdentifyError> {
-        let initial_study = self.study.rebuild(self.initial_changes.clone())?;
-        self.initial
-            .apply_base(base, &initial_study, &self.initial_solution);
-        self.identification
-            .apply_base(base, &self.study, &self.solution);
-        Ok(())
-    }
-}
-
 /// The study with the parameters its runs cannot determine held ([`select`]), or `study`
 /// itself (and `None`) when the session names the parameters to estimate (`[identify]
 /// parameters`: the user's choice stands, and what it cannot determine is reported as null
@@ -480,95 +436,6 @@ fn significant(x: f64, digits: i32) -> String {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         s
-    }
-}
-
-impl crate::report::Identification {
-    /// Reports what `base` says: a parameter that stands for a combination moves from
-    /// `parameters` to `combinations` (FORMATS.md: what the data cannot separate never has a
-    /// value of its own), and every held parameter is named in `unidentifiable`.
-    pub fn apply_base(
-        &mut self,
-        base: &BaseModel,
-        study: &Study,
-        solution: &mtcal_solve::Solution,
-    ) {
-        let index: std::collections::HashMap<String, usize> = (0..study.n_x)
-            .map(|i| (study.param_info(i).name, i))
-            .collect();
-        let held: Vec<&str> = base.held.iter().map(|h| h.name.as_str()).collect();
-        let given_held = ConditionalCovariance::new(study, solution, &held, &index);
-        let mut kept = Vec::new();
-        for p in std::mem::take(&mut self.parameters) {
-            if held.contains(&p.name.as_str()) {
-                continue;
-            }
-            let terms = base.aliases_of(&p.name);
-            if terms.is_empty() {
-                let mut p = p;
-                let i = index[&p.name];
-                p.u95_given_held = given_held.u95(&[(i, study.param_info(i).per_si)]);
-                kept.push(p);
-                continue;
-            }
-            // The combination's value and interval from the fit (file units): the held members
-            // are in the fit too, near their start values.
-            let mut weights = vec![(index[&p.name], study.param_info(index[&p.name]).per_si)];
-            for t in terms {
-                if let Some(&j) = index.get(&t.name) {
-                    weights.push((j, t.coefficient * study.param_info(j).per_si));
-                }
-            }
-            let value: f64 = weights.iter().map(|&(i, w)| w * solution.x[i]).sum();
-            let var: f64 = weights
-                .iter()
-                .flat_map(|&(a, wa)| weights.iter().map(move |&(b, wb)| (a, wa, b, wb)))
-                .map(|(a, wa, b, wb)| wa * wb * solution.cov(a, b))
-                .sum();
-            let u95 = crate::report::K95 * var.max(0.0).sqrt();
-            let names: Vec<String> = std::iter::once(p.name.clone())
-                .chain(terms.iter().map(|t| t.name.clone()))
-                .collect();
-            let expr = expression(&p.name, terms);
-            self.unidentifiable.push(crate::report::Unidentifiable {
-                parameters: names,
-                why: format!(
-                    "these runs see only their combination {expr} = {value:.4} ± {u95:.4} {}",
-                    p.unit
-                ),
-            });
-            self.combinations.push(crate::report::CombinationValue {
-                expression: expr,
-                name: p.name,
-                terms: terms.to_vec(),
-                value,
-                unit: p.unit,
-                u95,
-                u95_given_held: given_held.u95(&weights),
-                kind: p.kind,
-            });
-        }
-        self.parameters = kept;
-        for h in &base.held {
-            let why = match &h.why {
-                HeldWhy::NotObserved => "not observed by these runs".to_string(),
-                HeldWhy::Aliased => "seen only within the combinations above".to_string(),
-                HeldWhy::TooWeak { u95 } => format!(
-                    "these runs see it too weakly to determine it (its 95 % interval would be \
-                     ±{u95:.4} {}); kept near its start value",
-                    h.unit
-                ),
-            };
-            if matches!(h.why, HeldWhy::Aliased) {
-                continue;
-            }
-            self.unidentifiable.push(crate::report::Unidentifiable {
-                parameters: vec![h.name.clone()],
-                why,
-            });
-        }
-        self.held = base.held.clone();
-        self.undetermined_validation = base.validation.clone();
     }
 }
 
@@ -652,14 +519,14 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
 /// The covariance of the estimated parameters if the held machine coefficients were known
 /// exactly (at their start values): `C_TT − C_TH·C_HH⁻¹·C_HT` of the fit's covariance — what
 /// the runs alone determine, the interval a reduced model without them would print.
-struct ConditionalCovariance {
+pub(crate) struct ConditionalCovariance {
     /// Parameter index → row of `cov` (the parameters that are not held and have a σ).
     row: std::collections::HashMap<usize, usize>,
     cov: DMatrix<f64>,
 }
 
 impl ConditionalCovariance {
-    fn new(
+    pub(crate) fn new(
         study: &Study,
         solution: &mtcal_solve::Solution,
         held: &[&str],
@@ -695,7 +562,7 @@ impl ConditionalCovariance {
 
     /// 95 % interval of `Σ w·x` (SI weights into file units) given the held ones; `None` when
     /// nothing is held or a member has no row (it is held itself: fixed, no variance).
-    fn u95(&self, weights: &[(usize, f64)]) -> Option<f64> {
+    pub(crate) fn u95(&self, weights: &[(usize, f64)]) -> Option<f64> {
         if self.row.is_empty() {
             return None;
         }
@@ -707,6 +574,6 @@ impl ConditionalCovariance {
             .iter()
             .flat_map(|&(a, wa)| rows.iter().map(move |&(b, wb)| wa * wb * self.cov[(a, b)]))
             .sum();
-        Some(crate::report::K95 * var.max(0.0).sqrt())
+        Some(crate::K95 * var.max(0.0).sqrt())
     }
 }

@@ -9,8 +9,8 @@
 //! run share their columns (all estimated machine coefficients + the run's set-up's free
 //! nuisance parameters), which is the structure the streaming solver exploits.
 
-use crate::noise::ArStep;
 use crate::study::Study;
+use crate::whiten::ArStep;
 use mtcal_effects::prepared::shape_values;
 use mtcal_effects::{PreparedEffects, SampleEffects};
 use mtcal_instrument::At;

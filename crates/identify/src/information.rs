@@ -124,7 +124,7 @@ impl InformationAccount {
 }
 
 /// The 95 % half-width factor of [`crate::report`].
-const K95: f64 = crate::report::K95;
+const K95: f64 = crate::K95;
 
 /// One run's information factor `R_r` (`n × n`, `R_rᵀ R_r = J_rᵀ J_r`) at `x`.
 fn run_factor(study: &Study, x: &[f64], runs: &[usize]) -> Result<DMatrix<f64>, IdentifyError> {

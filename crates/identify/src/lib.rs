@@ -19,15 +19,20 @@
 
 pub mod band;
 pub mod base;
+mod blocks;
 mod checks;
+pub mod findings;
 pub mod fit;
 pub mod information;
 pub mod mismatch;
 pub mod noise;
+pub mod pipeline;
+mod relabel;
 pub mod report;
 pub mod search;
 pub mod simulate;
 pub mod study;
+pub mod whiten;
 
 pub use fit::{FitProblem, predict_run, predict_runs};
 pub use report::Identification;
@@ -37,6 +42,9 @@ use mtcal_instrument::SetupError;
 use mtcal_session::{RunColumns, RunTable, write_run};
 use mtcal_solve::{Observer, Options, ParamSpec, Silent, SolveError};
 use std::path::{Path, PathBuf};
+
+/// Coverage factor of the reported intervals (normal, 95 %).
+pub const K95: f64 = 1.96;
 
 /// Why an identification could not run. Each message names the file (and where possible the
 /// line and column) and what was expected.

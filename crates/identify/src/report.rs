@@ -2,6 +2,7 @@
 //! unidentifiable combinations (never numbers), fit statistics per run and channel, validation
 //! predictions; the FORMATS.md `mtcal.identify/1` JSON and a plain-text summary.
 
+use crate::base::{BaseModel, ConditionalCovariance, HeldWhy, expression};
 use crate::study::Study;
 use mtcal_instrument::Evaluation;
 use mtcal_kinematics::model::Role;
@@ -9,8 +10,7 @@ use mtcal_solve::Solution;
 use serde::Serialize;
 use std::fmt::Write as _;
 
-/// Coverage factor of the reported intervals (normal, 95 %).
-pub const K95: f64 = 1.96;
+pub use crate::K95;
 
 /// Samples per component-error curve in the JSON.
 const CURVE_SAMPLES: usize = 11;
@@ -177,11 +177,11 @@ pub struct Identification {
     pub tests: Vec<mtcal_mismatch::TestRecord>,
     /// What the physics search added, in the order it added them (FORMATS.md `discoveries`);
     /// empty without `--search`.
-    pub discoveries: Vec<crate::search::Discovery>,
+    pub discoveries: Vec<crate::findings::Discovery>,
     /// How the search went: candidates, every trial and why it was kept or not, effects the
     /// data cannot tell from the fitted parameters. Only with `--search`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub search: Option<crate::search::SearchReport>,
+    pub search: Option<crate::findings::SearchReport>,
     pub solver: SolverReport,
     /// Which instrument and run constrain each identified machine parameter, and what
     /// repeating a run would do ([`crate::information`]); in the JSON when computed.
@@ -917,6 +917,95 @@ fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
         });
     }
     out
+}
+
+impl Identification {
+    /// Reports what `base` says: a parameter that stands for a combination moves from
+    /// `parameters` to `combinations` (FORMATS.md: what the data cannot separate never has a
+    /// value of its own), and every held parameter is named in `unidentifiable`.
+    pub fn apply_base(
+        &mut self,
+        base: &BaseModel,
+        study: &Study,
+        solution: &mtcal_solve::Solution,
+    ) {
+        let index: std::collections::HashMap<String, usize> = (0..study.n_x)
+            .map(|i| (study.param_info(i).name, i))
+            .collect();
+        let held: Vec<&str> = base.held.iter().map(|h| h.name.as_str()).collect();
+        let given_held = ConditionalCovariance::new(study, solution, &held, &index);
+        let mut kept = Vec::new();
+        for p in std::mem::take(&mut self.parameters) {
+            if held.contains(&p.name.as_str()) {
+                continue;
+            }
+            let terms = base.aliases_of(&p.name);
+            if terms.is_empty() {
+                let mut p = p;
+                let i = index[&p.name];
+                p.u95_given_held = given_held.u95(&[(i, study.param_info(i).per_si)]);
+                kept.push(p);
+                continue;
+            }
+            // The combination's value and interval from the fit (file units): the held members
+            // are in the fit too, near their start values.
+            let mut weights = vec![(index[&p.name], study.param_info(index[&p.name]).per_si)];
+            for t in terms {
+                if let Some(&j) = index.get(&t.name) {
+                    weights.push((j, t.coefficient * study.param_info(j).per_si));
+                }
+            }
+            let value: f64 = weights.iter().map(|&(i, w)| w * solution.x[i]).sum();
+            let var: f64 = weights
+                .iter()
+                .flat_map(|&(a, wa)| weights.iter().map(move |&(b, wb)| (a, wa, b, wb)))
+                .map(|(a, wa, b, wb)| wa * wb * solution.cov(a, b))
+                .sum();
+            let u95 = crate::K95 * var.max(0.0).sqrt();
+            let names: Vec<String> = std::iter::once(p.name.clone())
+                .chain(terms.iter().map(|t| t.name.clone()))
+                .collect();
+            let expr = expression(&p.name, terms);
+            self.unidentifiable.push(crate::report::Unidentifiable {
+                parameters: names,
+                why: format!(
+                    "these runs see only their combination {expr} = {value:.4} ± {u95:.4} {}",
+                    p.unit
+                ),
+            });
+            self.combinations.push(crate::report::CombinationValue {
+                expression: expr,
+                name: p.name,
+                terms: terms.to_vec(),
+                value,
+                unit: p.unit,
+                u95,
+                u95_given_held: given_held.u95(&weights),
+                kind: p.kind,
+            });
+        }
+        self.parameters = kept;
+        for h in &base.held {
+            let why = match &h.why {
+                HeldWhy::NotObserved => "not observed by these runs".to_string(),
+                HeldWhy::Aliased => "seen only within the combinations above".to_string(),
+                HeldWhy::TooWeak { u95 } => format!(
+                    "these runs see it too weakly to determine it (its 95 % interval would be \
+                     ±{u95:.4} {}); kept near its start value",
+                    h.unit
+                ),
+            };
+            if matches!(h.why, HeldWhy::Aliased) {
+                continue;
+            }
+            self.unidentifiable.push(crate::report::Unidentifiable {
+                parameters: vec![h.name.clone()],
+                why,
+            });
+        }
+        self.held = base.held.clone();
+        self.undetermined_validation = base.validation.clone();
+    }
 }
 
 #[cfg(test)]

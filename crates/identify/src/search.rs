@@ -56,17 +56,18 @@
 //! machine model with the candidate parameters added (held-out parameters are zero at the
 //! solution, so the pose is the fit's).
 
+use crate::K95;
+pub use crate::findings::{
+    Concealed, Correction, Discovery, DiscoveryParameter, Heldout, LookAlike, SearchReport, Trial,
+};
 use crate::fit::{FitProblem, FoldOf, Row, RowTarget, SampleEval};
-use crate::report::{Identification, K95};
+use crate::relabel::unique;
+use crate::report::Identification;
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs, param_specs_from};
-use mtcal_effects::{
-    Candidate, Effect, EffectInfo, Entry, Features, ParamDef, PreparedEffects, SampleEffects,
-    SessionView, Term,
-};
+use mtcal_effects::{Candidate, Effect, EffectInfo, Entry, PreparedEffects, SampleEffects};
 use mtcal_kinematics::{MachineModel, Workspace};
 use mtcal_solve::{EvalError, Options, Problem, Score, ScoreSink, ScoredProblem, Silent, Solution};
-use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -676,118 +677,6 @@ struct Fitted {
     heldout: Heldout,
 }
 
-/// Blocked cross-validation of a model on its fitted runs.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Heldout {
-    /// Mean square of the whitened held-out residuals (1 for a model as good as the noise).
-    pub mean_square: f64,
-    /// RMS of the held-out residuals in the channels' units (µm).
-    pub rms_um: f64,
-    pub samples: usize,
-}
-
-/// A parameter of a discovery.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DiscoveryParameter {
-    pub name: String,
-    pub value: f64,
-    pub unit: String,
-    /// 95 % half-width; `null` when the data cannot separate it.
-    pub u95: Option<f64>,
-}
-
-/// A machine parameter an omitted effect had biased.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Correction {
-    pub name: String,
-    pub unit: String,
-    /// Before the effect was added.
-    pub before: f64,
-    /// With the effect (the final fit).
-    pub after: f64,
-    pub u95: f64,
-}
-
-/// One effect the search added (FORMATS.md `discoveries`, with mtcal's additions).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Discovery {
-    pub effect: String,
-    pub axis: Option<String>,
-    pub component: Option<String>,
-    pub driver: Option<String>,
-    /// Its label (the prefix of its parameters' names).
-    pub label: String,
-    pub parameters: Vec<DiscoveryParameter>,
-    pub rms_before_um: f64,
-    pub rms_after_um: f64,
-    pub heldout_rms_before_um: f64,
-    pub heldout_rms_after_um: f64,
-    /// RMS over the validation runs (`use = "validate"`) with readings, before and after.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub validation_rms_before_um: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub validation_rms_after_um: Option<f64>,
-    /// Share of the excess χ² (beyond the noise) it removed.
-    pub share_of_excess: f64,
-    /// The score test that proposed it.
-    pub statistic: f64,
-    pub adjusted_p: f64,
-    /// Share of it the fitted parameters could imitate.
-    pub absorbed: f64,
-    /// Machine parameters that moved by more than two of their standard deviations when it
-    /// was added.
-    pub corrected: Vec<Correction>,
-    /// Where the residuals showed it before it was added, if the structure tests saw it.
-    #[serde(rename = "where", skip_serializing_if = "Option::is_none")]
-    pub location: Option<mtcal_mismatch::Location>,
-    /// Explanations the data cannot tell from this one (then the discovery names a class of
-    /// explanations, not one: the model keeps the best for its predictions). In the JSON only
-    /// when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub alternatives: Vec<LookAlike>,
-    /// The effect with its fitted values, in words.
-    pub sentence: String,
-    pub explanation: String,
-}
-
-/// A trial of one candidate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Trial {
-    pub candidate: String,
-    pub effect: String,
-    pub statistic: f64,
-    pub adjusted_p: f64,
-    pub absorbed: f64,
-    pub accepted: bool,
-    /// Why it was kept or not.
-    pub why: String,
-}
-
-/// A candidate the data cannot tell from the fitted parameters.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Concealed {
-    pub candidate: String,
-    pub effect: String,
-    pub absorbed: f64,
-    /// The fitted parameters that imitate it.
-    pub hides_behind: Vec<String>,
-    /// A measurement that would separate it from them.
-    pub measurement: String,
-}
-
-/// How the search went.
-#[derive(Debug, Clone, PartialEq, Serialize, Default)]
-pub struct SearchReport {
-    /// Candidates scored at the first step.
-    pub candidates: usize,
-    /// Per step, every candidate refitted.
-    pub steps: Vec<Vec<Trial>>,
-    pub stopped: String,
-    pub concealed: Vec<Concealed>,
-    /// The final ranking's strongest candidates, one sentence each.
-    pub ranking: Vec<String>,
-}
-
 /// What [`search`] returns: the final study (the session with the discoveries added), its
 /// fit, and the report (with `discoveries` and `search` filled).
 #[derive(Debug)]
@@ -823,20 +712,6 @@ struct Stage {
 /// look-alike of the one added: below 10, the evidence for the one over the other is not
 /// "very strong" (Kass & Raftery's scale for Bayes factors).
 pub const LOOKALIKE_BIC: f64 = 10.0;
-
-/// Another explanation the data cannot tell from a discovery.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LookAlike {
-    pub candidate: String,
-    pub effect: String,
-    pub label: String,
-    /// Its χ² over the discovery's (noise units): what the data say for the one over the other.
-    pub delta_chi2: f64,
-    /// The same in the information criterion (its parameters counted).
-    pub delta_bic: f64,
-    /// A measurement that would tell them apart.
-    pub measurement: String,
-}
 
 impl Stage {
     /// Keeps the look-alikes that `ranking` (with this stage's effect in the model) no longer
@@ -1838,62 +1713,6 @@ fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
         .collect()
 }
 
-/// `effect`, relabelled `… #2` if an effect of that label is in `existing` already.
-pub(crate) fn unique(effect: &Arc<dyn Effect>, existing: &[Arc<dyn Effect>]) -> Arc<dyn Effect> {
-    let label = &effect.info().label;
-    let same = existing
-        .iter()
-        .filter(|e| e.info().label == *label || e.info().label.starts_with(&format!("{label} #")))
-        .count();
-    if same == 0 {
-        return Arc::clone(effect);
-    }
-    let mut info = effect.info().clone();
-    info.label = format!("{label} #{}", same + 1);
-    Arc::new(Relabelled {
-        inner: Arc::clone(effect),
-        info,
-    })
-}
-
-/// An effect under another label (a second time constant of the same drift).
-#[derive(Debug)]
-struct Relabelled {
-    inner: Arc<dyn Effect>,
-    info: EffectInfo,
-}
-
-impl Effect for Relabelled {
-    fn info(&self) -> &EffectInfo {
-        &self.info
-    }
-    fn params(&self) -> &[ParamDef] {
-        self.inner.params()
-    }
-    fn terms(&self) -> &[Term] {
-        self.inner.terms()
-    }
-    fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
-        self.inner.prepare(view, shape)
-    }
-    fn describe(&self, values: &[f64], u95: &[Option<f64>]) -> String {
-        self.inner.describe(values, u95)
-    }
-    fn cached_series(&self) -> Vec<String> {
-        self.inner.cached_series()
-    }
-    fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {
-        self.inner.shape_scan(view)
-    }
-    fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
-        let inner = self.inner.with_shape(shape)?;
-        Some(Arc::new(Relabelled {
-            inner,
-            info: self.info.clone(),
-        }))
-    }
-}
-
 /// The machine parameters of a fit: name, value and unit (reported units).
 fn machine_values(study: &Study, solution: &Solution) -> Vec<(String, f64, String)> {
     (0..study.estimated.len())
@@ -2388,73 +2207,15 @@ impl Identification {
     }
 }
 
-impl Discovery {
-    /// The discovery in a few lines: what it is with its values; where it showed and what it
-    /// changed; the parameters it had biased; what the data cannot tell it from.
-    pub fn in_brief(&self) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        let _ = writeln!(s, "  + {}: {}", self.label, self.sentence);
-        let mut evidence = Vec::new();
-        if let Some(loc) = &self.location {
-            evidence.push(match &loc.along {
-                Some(along) => format!("seen in run {}'s {} along {along}", loc.run, loc.channel),
-                None => format!("seen in run {}'s {}", loc.run, loc.channel),
-            });
-        }
-        evidence.push(format!(
-            "explains {:.0} % of the excess χ²",
-            100.0 * self.share_of_excess
-        ));
-        evidence.push(format!(
-            "held-out RMS {:.3} → {:.3} um",
-            self.heldout_rms_before_um, self.heldout_rms_after_um
-        ));
-        if let (Some(a), Some(b)) = (self.validation_rms_before_um, self.validation_rms_after_um) {
-            evidence.push(format!("validation RMS {a:.3} → {b:.3} um"));
-        }
-        let _ = writeln!(s, "      {}", evidence.join("; "));
-        if !self.corrected.is_empty() {
-            let list: Vec<String> = self
-                .corrected
-                .iter()
-                .take(3)
-                .map(|c| {
-                    format!(
-                        "{} by {:+.3} {} (now {:.3} ± {:.3})",
-                        c.name,
-                        c.before - c.after,
-                        c.unit,
-                        c.after,
-                        c.u95
-                    )
-                })
-                .collect();
-            let more = self.corrected.len().saturating_sub(3);
-            let _ = writeln!(
-                s,
-                "      it had biased {}{}",
-                list.join(", "),
-                if more > 0 {
-                    format!(" and {more} more")
-                } else {
-                    String::new()
-                }
-            );
-        }
-        if let Some(first) = self.alternatives.first() {
-            let names: Vec<&str> = self
-                .alternatives
-                .iter()
-                .map(|a| a.candidate.as_str())
-                .collect();
-            let _ = writeln!(
-                s,
-                "      THESE DATA CANNOT TELL IT FROM {} — neither is the answer; to tell them apart: {}",
-                names.join(" or "),
-                first.measurement
-            );
-        }
-        s
+impl SearchResult {
+    /// Applies `base` to the reports before and after the search (each with its own study's
+    /// parameter vector).
+    pub fn apply_base(&mut self, base: &crate::base::BaseModel) -> Result<(), IdentifyError> {
+        let initial_study = self.study.rebuild(self.initial_changes.clone())?;
+        self.initial
+            .apply_base(base, &initial_study, &self.initial_solution);
+        self.identification
+            .apply_base(base, &self.study, &self.solution);
+        Ok(())
     }
 }

@@ -77,7 +77,7 @@ pub struct RunSlot {
     pub labels: Vec<u32>,
     /// Block means and directions of the commanded positions, file units (for the mismatch
     /// analysis).
-    pub(crate) position_blocks: crate::mismatch::PositionBlocks,
+    pub(crate) position_blocks: crate::blocks::PositionBlocks,
 }
 
 /// A run as loaded, for [`Study::rebuild`] (which reads no file again; the columns are shared,
@@ -90,7 +90,7 @@ struct LoadedRun {
     readings: Option<Columns>,
     context: Vec<(String, Column)>,
     labels: Vec<u32>,
-    position_blocks: crate::mismatch::PositionBlocks,
+    position_blocks: crate::blocks::PositionBlocks,
 }
 
 impl RunSlot {
@@ -235,7 +235,7 @@ pub struct Changes {
     pub hold: Vec<String>,
     /// The noise the recordings carry, when it is not the stated white noise
     /// ([`crate::noise`]): every channel's σ scaled and its rows prewhitened.
-    pub noise: Option<Arc<crate::noise::NoiseModel>>,
+    pub noise: Option<Arc<crate::whiten::NoiseModel>>,
 }
 
 impl Study {
@@ -272,7 +272,7 @@ impl Study {
                 .ok_or_else(|| bad(format!("effect {} is not a table", k + 1)))?;
             let (e, _) = mtcal_effects::configure(table, self.view())
                 .map_err(|m| bad(format!("effect {}: {m}", k + 1)))?;
-            effects.push(crate::search::unique(&e, &effects));
+            effects.push(crate::relabel::unique(&e, &effects));
         }
         Ok(effects)
     }
@@ -793,11 +793,11 @@ impl Study {
 
     /// The noise of channel `c` of run `r` the fit assumes: the stated σ and white, unless
     /// [`Changes::noise`] says otherwise.
-    pub fn noise(&self, r: usize, c: usize) -> crate::noise::ChannelNoise {
+    pub fn noise(&self, r: usize, c: usize) -> crate::whiten::ChannelNoise {
         self.changes
             .noise
             .as_ref()
-            .map_or(crate::noise::ChannelNoise::STATED, |n| {
+            .map_or(crate::whiten::ChannelNoise::STATED, |n| {
                 n.of(self.runs[r].setup, c)
             })
     }
@@ -967,7 +967,7 @@ fn load_run(
 ) -> Result<LoadedRun, IdentifyError> {
     crate::checks::check_run(model, setup, &table)?;
     let labels = run_labels(setup, &table)?;
-    let position_blocks = crate::mismatch::PositionBlocks::of(&table);
+    let position_blocks = crate::blocks::PositionBlocks::of(&table);
     let scales: Vec<Scale> = model
         .machine()
         .axes()

@@ -5,7 +5,7 @@
 //! 20 µm off what the manifest says), identified as a user would: a bare URDF (no
 //! `.errors.toml`: the full ISO 230-1 model) and no `[identify] parameters`.
 
-use mtcal_identify::{Study, band, base};
+use mtcal_identify::{Study, band, pipeline};
 use mtcal_indsim::{Campaign, JointKind, Machine, Realism, Truth, Written, shipped_machine};
 use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
@@ -64,7 +64,7 @@ fn run_seed(seed: u64, realism: &Realism) -> Outcome {
     let written = Campaign::trunnion_rtest_ballbar_with(&dir, &truth, realism).unwrap();
     bare_urdf_session(&dir, &written);
     let fitted =
-        base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent).unwrap();
+        pipeline::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent).unwrap();
     assert!(
         fitted.base.is_some(),
         "no [identify] parameters: the model is chosen"
@@ -224,7 +224,8 @@ fn three_axis_ball_bar_from_a_bare_urdf_gives_squareness_scales_and_iso_230_4() 
         let written = Campaign::three_axis_ballbar(&dir, seed, &Realism::realistic(seed)).unwrap();
         bare_urdf_session(&dir, &written);
         let fitted =
-            base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent).unwrap();
+            pipeline::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent)
+                .unwrap();
         let (solution, id) = (fitted.solution, fitted.identification);
         assert!(
             solution.converged && solution.iterations < 30,
@@ -323,7 +324,7 @@ fn the_other_mounting_declared_is_reported_as_a_model_that_does_not_explain_the_
     )
     .unwrap();
     let identify = || {
-        base::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent)
+        pipeline::identify(Study::load(&dir).unwrap(), &Options::default(), &mut Silent)
             .unwrap()
             .identification
     };

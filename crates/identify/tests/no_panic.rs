@@ -28,12 +28,16 @@ fn repo() -> PathBuf {
 /// to be finite. Returns the first clean error; panics (the test fails) on a non-finite number.
 fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(), IdentifyError> {
     // As the command line: without `[identify] parameters`, the model the runs determine.
-    let mtcal_identify::base::Identified {
+    let mtcal_identify::pipeline::Identified {
         study,
         solution,
         identification: mut id,
         base,
-    } = mtcal_identify::base::identify(Study::load(session)?, &Default::default(), &mut Silent)?;
+    } = mtcal_identify::pipeline::identify(
+        Study::load(session)?,
+        &Default::default(),
+        &mut Silent,
+    )?;
     id.add_prediction_bands(&study, &solution);
     let acc = account(&study, &solution)?;
     for p in &acc.parameters {

@@ -41,9 +41,9 @@ use std::fmt::Write as _;
 
 use nalgebra::{Matrix4, Vector3};
 
-use crate::instruments::Instrument;
+use crate::error::SimError;
+use crate::instruments::{ActualPoses, Instrument, SetupPlan};
 use crate::machine::{JointKind, Machine, Side, rigid_inverse, translation};
-use crate::session::{SetupPlan, SimError};
 use crate::truth::Truth;
 
 /// A piecewise-constant function of the session time.
@@ -744,6 +744,18 @@ pub(crate) fn actual_pose(
     match state {
         Some(s) => s.tool_in_workpiece(machine, truth, q),
         None => machine.tool_in_workpiece(q, Some(truth)),
+    }
+}
+
+impl ActualPoses for [SampleState<'_>] {
+    fn actual_pose(&self, machine: &Machine, truth: &Truth, k: usize, q: &[f64]) -> Matrix4<f64> {
+        actual_pose(machine, truth, q, self.get(k))
+    }
+}
+
+impl ActualPoses for Vec<SampleState<'_>> {
+    fn actual_pose(&self, machine: &Machine, truth: &Truth, k: usize, q: &[f64]) -> Matrix4<f64> {
+        self.as_slice().actual_pose(machine, truth, k, q)
     }
 }
 

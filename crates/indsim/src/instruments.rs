@@ -7,9 +7,32 @@
 
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
-use crate::effects::{SampleState, actual_pose};
 use crate::machine::{Machine, log_rotation, rotation_of, translation_of};
 use crate::truth::Truth;
+
+/// The actual tool pose at sample `k` of a run commanded to `q`: what an instrument reads. The
+/// physical effects' state at each sample gives it (`crate::effects`); without effects it is
+/// the machine with its truth's geometric errors ([`GeometricOnly`]).
+pub trait ActualPoses {
+    fn actual_pose(&self, machine: &Machine, truth: &Truth, k: usize, q: &[f64]) -> Matrix4<f64>;
+}
+
+/// No physical effects: the truth's geometric errors only.
+#[derive(Clone, Copy, Debug)]
+pub struct GeometricOnly;
+
+impl ActualPoses for GeometricOnly {
+    fn actual_pose(&self, machine: &Machine, truth: &Truth, _k: usize, q: &[f64]) -> Matrix4<f64> {
+        machine.tool_in_workpiece(q, Some(truth))
+    }
+}
+
+/// A shared set-up of the manifest (`[setup.<name>]`).
+#[derive(Clone, Debug)]
+pub struct SetupPlan {
+    pub name: String,
+    pub instrument: Instrument,
+}
 
 /// How an R-test is mounted (FORMATS.md `setup.mount`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -279,18 +302,18 @@ impl Instrument {
         labels: &[String],
         off: &SetupOffsets,
     ) -> Vec<Vec<f64>> {
-        self.recorded_poses_at(machine, truth, poses, labels, off, &[])
+        self.recorded_poses_at(machine, truth, poses, labels, off, &GeometricOnly)
     }
 
     /// [`Self::recorded_poses`] with the effects' state at each sample (`states` empty: none).
-    pub(crate) fn recorded_poses_at(
+    pub(crate) fn recorded_poses_at<P: ActualPoses + ?Sized>(
         &self,
         machine: &Machine,
         truth: &Truth,
         poses: &[Vec<f64>],
         labels: &[String],
         off: &SetupOffsets,
-        states: &[SampleState<'_>],
+        states: &P,
     ) -> Vec<Vec<f64>> {
         match self {
             Instrument::Artefact {
@@ -313,25 +336,25 @@ impl Instrument {
         labels: &[String],
         off: &SetupOffsets,
     ) -> Vec<Vec<f64>> {
-        self.readings_at(machine, truth, poses, labels, off, &[])
+        self.readings_at(machine, truth, poses, labels, off, &GeometricOnly)
     }
 
     /// [`Self::readings`] with the effects' state at each sample (`states` empty: none): the
     /// actual pose of every sample is the effects' ([`crate::effects`]), which every
     /// instrument reads alike.
-    pub(crate) fn readings_at(
+    pub(crate) fn readings_at<P: ActualPoses + ?Sized>(
         &self,
         machine: &Machine,
         truth: &Truth,
         poses: &[Vec<f64>],
         labels: &[String],
         off: &SetupOffsets,
-        states: &[SampleState<'_>],
+        states: &P,
     ) -> Vec<Vec<f64>> {
         let actual: Vec<Matrix4<f64>> = poses
             .iter()
             .enumerate()
-            .map(|(k, q)| actual_pose(machine, truth, q, states.get(k)))
+            .map(|(k, q)| states.actual_pose(machine, truth, k, q))
             .collect();
         let nominal = || poses.iter().map(|q| machine.tool_in_workpiece(q, None));
         // The tool-side ball (spindle ball, nest centre) for a tool longer by δℓ.
@@ -474,14 +497,14 @@ impl Instrument {
     /// coordinates (X, Y on a 2-D plate, Z kept; X, Y, Z on a 3-D one). Newton on the actual
     /// chain with the nominal chain's Jacobian; with effects, the actual chain of the sample's
     /// state (lost motion as the approach to the commanded position left it).
-    fn probe_centres(
+    fn probe_centres<P: ActualPoses + ?Sized>(
         &self,
         machine: &Machine,
         truth: &Truth,
         poses: &[Vec<f64>],
         labels: &[String],
         off: &SetupOffsets,
-        states: &[SampleState<'_>],
+        states: &P,
     ) -> Vec<Vec<f64>> {
         let Instrument::Artefact {
             features,
@@ -496,7 +519,7 @@ impl Instrument {
         let xyz = xyz_indices(machine);
         let n = machine.n_axes();
         let tool_point = |q: &[f64], k: usize| {
-            let m = actual_pose(machine, truth, q, states.get(k));
+            let m = states.actual_pose(machine, truth, k, q);
             translation_of(&m) - rotation_of(&m) * Vector3::z() * off.tool_length
         };
         // The nominal tool point's motion per metre of X, Y, Z (other axes at 0).

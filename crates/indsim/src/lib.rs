@@ -120,6 +120,7 @@
 
 pub mod campaign;
 pub mod effects;
+pub mod error;
 pub mod instruments;
 pub mod machine;
 pub mod paths;

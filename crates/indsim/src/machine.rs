@@ -11,8 +11,6 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
-use crate::truth::Truth;
-
 /// Why a URDF could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
@@ -89,6 +87,18 @@ pub struct Machine {
 
 /// Canonical order of axis letters in `q`.
 pub const LETTER_ORDER: &str = "XYZUVWABC";
+
+/// The errors an actual machine has beyond its nominal chain (a [`crate::truth::Truth`]): what
+/// [`Machine::tool_in_workpiece`] inserts.
+pub trait ActualErrors {
+    /// Component and location errors of joint `i` at position `q` (machine directions at the
+    /// zero pose: δx δy δz εx εy εz each).
+    fn axis_errors(&self, machine: &Machine, i: usize, q: f64) -> ([f64; 6], [f64; 6]);
+    /// Where the workpiece frame really sits on its link (x y z m, a b c rad).
+    fn workpiece(&self) -> [f64; 6];
+    /// The tool point's offset in the tool frame (m).
+    fn tool(&self) -> [f64; 3];
+}
 
 impl Machine {
     pub fn from_urdf_file(path: &Path) -> Result<Self, MachineError> {
@@ -219,7 +229,12 @@ impl Machine {
     }
 
     /// `frame_T_end` of one branch at `q` (SI), with the truth's errors when given.
-    pub fn branch_pose(&self, side: Side, q: &[f64], truth: Option<&Truth>) -> Matrix4<f64> {
+    pub fn branch_pose(
+        &self,
+        side: Side,
+        q: &[f64],
+        truth: Option<&dyn ActualErrors>,
+    ) -> Matrix4<f64> {
         let links = match side {
             Side::Workpiece => &self.workpiece,
             Side::Tool => &self.tool,
@@ -235,19 +250,19 @@ impl Machine {
             // Set-up errors: where the workpiece frame really sits on its link, and the tool
             // point's offset in the tool frame.
             (Side::Workpiece, Some(tr)) => {
-                let [x, y, z, a, b, c] = tr.workpiece;
+                let [x, y, z, a, b, c] = tr.workpiece();
                 t * rigid(
                     &exp_rotation(&Vector3::new(a, b, c)),
                     &Vector3::new(x, y, z),
                 )
             }
-            (Side::Tool, Some(tr)) => t * translation(&Vector3::from(tr.tool)),
+            (Side::Tool, Some(tr)) => t * translation(&Vector3::from(tr.tool())),
             (_, None) => t,
         }
     }
 
     /// The tool pose in the workpiece frame, `w_T_t(q)`: nominal (`truth = None`) or actual.
-    pub fn tool_in_workpiece(&self, q: &[f64], truth: Option<&Truth>) -> Matrix4<f64> {
+    pub fn tool_in_workpiece(&self, q: &[f64], truth: Option<&dyn ActualErrors>) -> Matrix4<f64> {
         let w = self.branch_pose(Side::Workpiece, q, truth);
         let t = self.branch_pose(Side::Tool, q, truth);
         rigid_inverse(&w) * t
@@ -262,7 +277,7 @@ impl Machine {
     /// `E = (exp([ε]×), δ)`; a workpiece-side body moves by `E⁻¹` because the errors are the
     /// tool's motion relative to the workpiece. Every error vector is given in machine
     /// directions at the zero pose and turned into the joint frame by `zero_rotationᵀ`.
-    fn joint_transform(&self, i: usize, q: f64, truth: Option<&Truth>) -> Matrix4<f64> {
+    fn joint_transform(&self, i: usize, q: f64, truth: Option<&dyn ActualErrors>) -> Matrix4<f64> {
         let j = &self.joints[i];
         let Some(truth) = truth else {
             return j.origin * motion(j, q, &j.axis);

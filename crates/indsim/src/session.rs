@@ -10,27 +10,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
 use crate::effects::{ContextValues, Effect, Resolved, SampleState, Timeline, effects_toml};
+pub use crate::error::SimError;
+pub use crate::instruments::SetupPlan;
 use crate::instruments::{Instrument, SetupOffsets};
 use crate::machine::{JointKind, Machine};
 use crate::truth::Truth;
-
-/// Why a session could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum SimError {
-    #[error("{0}")]
-    Io(#[from] std::io::Error),
-    #[error(transparent)]
-    Machine(#[from] crate::machine::MachineError),
-    #[error("{0}")]
-    Plan(String),
-}
-
-/// A shared set-up of the manifest (`[setup.<name>]`).
-#[derive(Clone, Debug)]
-pub struct SetupPlan {
-    pub name: String,
-    pub instrument: Instrument,
-}
 
 /// One run: its commanded poses (SI, machine order).
 #[derive(Clone, Debug)]

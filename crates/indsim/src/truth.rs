@@ -15,7 +15,7 @@ use rand::Rng;
 use rand::RngExt;
 use rand_distr::{Distribution, Normal};
 
-use crate::machine::{JointKind, Machine};
+use crate::machine::{ActualErrors, JointKind, Machine};
 
 /// Direction letters of the ISO names, index 0..6: translations X Y Z, rotations A B C.
 pub const DIRECTIONS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
@@ -369,4 +369,16 @@ fn quoted(names: &[String]) -> String {
         .map(|n| format!("\"{n}\""))
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+impl ActualErrors for Truth {
+    fn axis_errors(&self, machine: &Machine, i: usize, q: f64) -> ([f64; 6], [f64; 6]) {
+        Truth::axis_errors(self, machine, i, q)
+    }
+    fn workpiece(&self) -> [f64; 6] {
+        self.workpiece
+    }
+    fn tool(&self) -> [f64; 3] {
+        self.tool
+    }
 }

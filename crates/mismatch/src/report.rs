@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::Options;
+use crate::options::Options;
 
 /// The `mismatch` object of the `identify` JSON (FORMATS.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! Environmental compensation of length readings: the refractive index of air (revised Edlén
 //! equation of Birch & Downs) and the normalisation to a 20 °C material temperature.
 
-use crate::setup::Mode;
+use crate::mode::Mode;
 use mtcal_instrument::{ReadingError, RunData, SetupError, read};
 
 /// Vacuum wavelength of a stabilised He-Ne laser, nm (the default of `wavelength_nm`).

@@ -171,6 +171,7 @@
 mod env;
 mod fixture;
 mod iso230_2;
+mod mode;
 mod path;
 mod setup;
 

@@ -1,6 +1,7 @@
 //! The laser set-up: loading, the measurement model and its analytic derivatives.
 
 use crate::env::{Environment, compensate, uncompensate};
+pub use crate::mode::Mode;
 use mtcal_instrument::{
     At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
     read,
@@ -42,47 +43,6 @@ pub const SETUP_KEYS: &[&str] = &[
     "material_temperature_c",
     "expansion_ppm_per_k",
 ];
-
-/// What the optics measure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// Displacement along the beam (ISO 230-2 positioning).
-    Linear,
-    /// Lateral displacement along `sense`, perpendicular to the beam.
-    Straightness,
-    /// Rotation about `about` (pitch or yaw).
-    Angular,
-    /// Displacement along a beam on a face or body diagonal, the axes moving together.
-    Diagonal,
-    /// The same along a body diagonal, the axes moving one at a time (ISO 230-6).
-    StepDiagonal,
-}
-
-impl Mode {
-    pub fn parse(s: &str) -> Option<Self> {
-        Some(match s {
-            "linear" => Self::Linear,
-            "straightness" => Self::Straightness,
-            "angular" => Self::Angular,
-            "diagonal" => Self::Diagonal,
-            "step-diagonal" => Self::StepDiagonal,
-            _ => return None,
-        })
-    }
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Linear => "linear",
-            Self::Straightness => "straightness",
-            Self::Angular => "angular",
-            Self::Diagonal => "diagonal",
-            Self::StepDiagonal => "step-diagonal",
-        }
-    }
-    /// Whether the reading is a length along the beam (linear, diagonal, step-diagonal).
-    pub fn is_length(self) -> bool {
-        matches!(self, Self::Linear | Self::Diagonal | Self::StepDiagonal)
-    }
-}
 
 /// Where the moving optic sits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

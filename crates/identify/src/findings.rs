@@ -1,0 +1,201 @@
+//! What the physics search found and how it went (FORMATS.md `discoveries` and `search`):
+//! data the report holds; [`crate::search`] fills them.
+
+use serde::Serialize;
+
+/// Blocked cross-validation of a model on its fitted runs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Heldout {
+    /// Mean square of the whitened held-out residuals (1 for a model as good as the noise).
+    pub mean_square: f64,
+    /// RMS of the held-out residuals in the channels' units (µm).
+    pub rms_um: f64,
+    pub samples: usize,
+}
+
+/// A parameter of a discovery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiscoveryParameter {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    /// 95 % half-width; `null` when the data cannot separate it.
+    pub u95: Option<f64>,
+}
+
+/// A machine parameter an omitted effect had biased.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Correction {
+    pub name: String,
+    pub unit: String,
+    /// Before the effect was added.
+    pub before: f64,
+    /// With the effect (the final fit).
+    pub after: f64,
+    pub u95: f64,
+}
+
+/// One effect the search added (FORMATS.md `discoveries`, with mtcal's additions).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Discovery {
+    pub effect: String,
+    pub axis: Option<String>,
+    pub component: Option<String>,
+    pub driver: Option<String>,
+    /// Its label (the prefix of its parameters' names).
+    pub label: String,
+    pub parameters: Vec<DiscoveryParameter>,
+    pub rms_before_um: f64,
+    pub rms_after_um: f64,
+    pub heldout_rms_before_um: f64,
+    pub heldout_rms_after_um: f64,
+    /// RMS over the validation runs (`use = "validate"`) with readings, before and after.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_rms_before_um: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation_rms_after_um: Option<f64>,
+    /// Share of the excess χ² (beyond the noise) it removed.
+    pub share_of_excess: f64,
+    /// The score test that proposed it.
+    pub statistic: f64,
+    pub adjusted_p: f64,
+    /// Share of it the fitted parameters could imitate.
+    pub absorbed: f64,
+    /// Machine parameters that moved by more than two of their standard deviations when it
+    /// was added.
+    pub corrected: Vec<Correction>,
+    /// Where the residuals showed it before it was added, if the structure tests saw it.
+    #[serde(rename = "where", skip_serializing_if = "Option::is_none")]
+    pub location: Option<mtcal_mismatch::Location>,
+    /// Explanations the data cannot tell from this one (then the discovery names a class of
+    /// explanations, not one: the model keeps the best for its predictions). In the JSON only
+    /// when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<LookAlike>,
+    /// The effect with its fitted values, in words.
+    pub sentence: String,
+    pub explanation: String,
+}
+
+/// A trial of one candidate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Trial {
+    pub candidate: String,
+    pub effect: String,
+    pub statistic: f64,
+    pub adjusted_p: f64,
+    pub absorbed: f64,
+    pub accepted: bool,
+    /// Why it was kept or not.
+    pub why: String,
+}
+
+/// A candidate the data cannot tell from the fitted parameters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Concealed {
+    pub candidate: String,
+    pub effect: String,
+    pub absorbed: f64,
+    /// The fitted parameters that imitate it.
+    pub hides_behind: Vec<String>,
+    /// A measurement that would separate it from them.
+    pub measurement: String,
+}
+
+/// How the search went.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct SearchReport {
+    /// Candidates scored at the first step.
+    pub candidates: usize,
+    /// Per step, every candidate refitted.
+    pub steps: Vec<Vec<Trial>>,
+    pub stopped: String,
+    pub concealed: Vec<Concealed>,
+    /// The final ranking's strongest candidates, one sentence each.
+    pub ranking: Vec<String>,
+}
+
+/// Another explanation the data cannot tell from a discovery.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LookAlike {
+    pub candidate: String,
+    pub effect: String,
+    pub label: String,
+    /// Its χ² over the discovery's (noise units): what the data say for the one over the other.
+    pub delta_chi2: f64,
+    /// The same in the information criterion (its parameters counted).
+    pub delta_bic: f64,
+    /// A measurement that would tell them apart.
+    pub measurement: String,
+}
+
+impl Discovery {
+    /// The discovery in a few lines: what it is with its values; where it showed and what it
+    /// changed; the parameters it had biased; what the data cannot tell it from.
+    pub fn in_brief(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(s, "  + {}: {}", self.label, self.sentence);
+        let mut evidence = Vec::new();
+        if let Some(loc) = &self.location {
+            evidence.push(match &loc.along {
+                Some(along) => format!("seen in run {}'s {} along {along}", loc.run, loc.channel),
+                None => format!("seen in run {}'s {}", loc.run, loc.channel),
+            });
+        }
+        evidence.push(format!(
+            "explains {:.0} % of the excess χ²",
+            100.0 * self.share_of_excess
+        ));
+        evidence.push(format!(
+            "held-out RMS {:.3} → {:.3} um",
+            self.heldout_rms_before_um, self.heldout_rms_after_um
+        ));
+        if let (Some(a), Some(b)) = (self.validation_rms_before_um, self.validation_rms_after_um) {
+            evidence.push(format!("validation RMS {a:.3} → {b:.3} um"));
+        }
+        let _ = writeln!(s, "      {}", evidence.join("; "));
+        if !self.corrected.is_empty() {
+            let list: Vec<String> = self
+                .corrected
+                .iter()
+                .take(3)
+                .map(|c| {
+                    format!(
+                        "{} by {:+.3} {} (now {:.3} ± {:.3})",
+                        c.name,
+                        c.before - c.after,
+                        c.unit,
+                        c.after,
+                        c.u95
+                    )
+                })
+                .collect();
+            let more = self.corrected.len().saturating_sub(3);
+            let _ = writeln!(
+                s,
+                "      it had biased {}{}",
+                list.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            );
+        }
+        if let Some(first) = self.alternatives.first() {
+            let names: Vec<&str> = self
+                .alternatives
+                .iter()
+                .map(|a| a.candidate.as_str())
+                .collect();
+            let _ = writeln!(
+                s,
+                "      THESE DATA CANNOT TELL IT FROM {} — neither is the answer; to tell them apart: {}",
+                names.join(" or "),
+                first.measurement
+            );
+        }
+        s
+    }
+}

@@ -1,0 +1,12 @@
+//! Why a session could not be written.
+
+/// Why a session could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Machine(#[from] crate::machine::MachineError),
+    #[error("{0}")]
+    Plan(String),
+}

@@ -1,0 +1,548 @@
+//! The architecture's two rules (ARCHITECTURE.md, "Layers"), checked on the sources:
+//!
+//! - **Crates depend downwards.** Every workspace crate sits in one layer; a normal dependency
+//!   on another workspace crate must point to a lower layer (tests and benches may use anything
+//!   through dev-dependencies). The independent simulator depends on no mtcal crate at all: it
+//!   checks them and must share no code with them.
+//! - **No import cycle between the modules of a crate.** A module is a file or folder directly
+//!   under `src/`; it may use modules below it and items of the crate root (`lib.rs`/`main.rs`
+//!   holds shared types and the entry points), never a module that uses it back. References are
+//!   found as `crate::m`, `crate::{m, …}` and (from a top-level module) `super::m`, outside
+//!   comments, strings and `#[cfg(test)]` modules; an item the root re-exports
+//!   (`pub use m::Item`) counts as a use of `m`.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The layers, lowest first. A crate may depend on crates of lower layers only.
+const LAYERS: &[&[&str]] = &[
+    // Numerics and the serial chain: no mtcal dependency.
+    &["mtcal-kinematics", "mtcal-solve", "mtcal-mismatch"],
+    // The machine and the instrument contract.
+    &["mtcal-machine", "mtcal-instrument"],
+    // Session files and the instrument plugins (one crate each), their conformance kit.
+    &[
+        "mtcal-session",
+        "mtcal-conformance",
+        "mtcal-rtest",
+        "mtcal-ballbar",
+        "mtcal-laser",
+        "mtcal-tracer",
+        "mtcal-displacement",
+        "mtcal-artefact",
+    ],
+    // What works on a session or an identified machine, each on its own.
+    &[
+        "mtcal-plugins",
+        "mtcal-effects",
+        "mtcal-compensate",
+        "mtcal-ncprog",
+        "mtcal-tolerance",
+        "mtcal-report",
+    ],
+    &["mtcal-identify"],
+    &["mtcal-plan"],
+    // The command line and the facade.
+    &["mtcal-xtask", "mtcal"],
+];
+
+/// Crates that must depend on no workspace crate (dev-dependencies aside).
+const INDEPENDENT: &[&str] = &["mtcal-indsim"];
+
+/// A crate and its workspace dependencies, each with its kind (`None` normal, `"dev"`, `"build"`).
+type CrateDeps = (String, Vec<(String, Option<String>)>);
+
+fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `(crate, [(dependency, kind)])` for every workspace member, from `cargo metadata`.
+fn dependencies() -> Vec<CrateDeps> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(workspace())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let packages = meta["packages"].as_array().unwrap();
+    let members: BTreeSet<&str> = packages
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    packages
+        .iter()
+        .map(|p| {
+            let deps = p["dependencies"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|d| members.contains(d["name"].as_str().unwrap()))
+                .map(|d| {
+                    (
+                        d["name"].as_str().unwrap().to_string(),
+                        d["kind"].as_str().map(str::to_string),
+                    )
+                })
+                .collect();
+            (p["name"].as_str().unwrap().to_string(), deps)
+        })
+        .collect()
+}
+
+fn layer_of(name: &str) -> Option<usize> {
+    LAYERS.iter().position(|l| l.contains(&name))
+}
+
+/// The faults of the layering rule in `deps`.
+fn layering_faults(deps: &[CrateDeps]) -> Vec<String> {
+    let mut faults = Vec::new();
+    for (name, uses) in deps {
+        let normal = uses
+            .iter()
+            .filter(|(_, kind)| kind.as_deref() != Some("dev"));
+        if INDEPENDENT.contains(&name.as_str()) {
+            faults.extend(normal.map(|(d, _)| {
+                format!("{name} must depend on no mtcal crate (it checks them), but uses {d}")
+            }));
+            continue;
+        }
+        let Some(own) = layer_of(name) else {
+            faults.push(format!(
+                "{name} is in no layer: add it to LAYERS here and ARCHITECTURE.md"
+            ));
+            continue;
+        };
+        for (d, _) in normal {
+            match layer_of(d) {
+                Some(l) if l < own => {}
+                Some(l) => faults.push(format!(
+                    "{name} (layer {own}) depends on {d} (layer {l}): only lower layers"
+                )),
+                None => faults.push(format!("{name} depends on {d}, which is in no layer")),
+            }
+        }
+    }
+    faults
+}
+
+#[test]
+fn crates_depend_only_on_lower_layers() {
+    let faults = layering_faults(&dependencies());
+    assert!(faults.is_empty(), "{}", faults.join("\n"));
+}
+
+#[test]
+fn the_layering_check_finds_an_upward_dependency() {
+    let deps = vec![
+        (
+            "mtcal-kinematics".to_string(),
+            vec![("mtcal-identify".to_string(), None)],
+        ),
+        (
+            "mtcal-indsim".to_string(),
+            vec![("mtcal-identify".to_string(), Some("dev".into()))],
+        ),
+    ];
+    assert_eq!(layering_faults(&deps).len(), 1);
+    let deps = vec![(
+        "mtcal-indsim".to_string(),
+        vec![("mtcal-kinematics".to_string(), None)],
+    )];
+    assert_eq!(layering_faults(&deps).len(), 1);
+}
+
+/// Rust source without comments, string and character literals (their text could name a
+/// module) and `#[cfg(test)]` modules.
+fn code_of(source: &str) -> String {
+    let b = source.as_bytes();
+    let mut out = String::with_capacity(source.len());
+    let mut i = 0;
+    while i < b.len() {
+        let rest = &source[i..];
+        if rest.starts_with("//") {
+            i += rest.find('\n').unwrap_or(rest.len());
+        } else if rest.starts_with("/*") {
+            // Block comments nest.
+            let mut depth = 0;
+            while i < b.len() {
+                if source[i..].starts_with("/*") {
+                    depth += 1;
+                    i += 2;
+                } else if source[i..].starts_with("*/") {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    i += 1;
+                }
+            }
+        } else if let Some(len) = raw_string_len(rest) {
+            out.push_str("\"\"");
+            i += len;
+        } else if b[i] == b'"' {
+            i += 1;
+            while i < b.len() && b[i] != b'"' {
+                i += if b[i] == b'\\' { 2 } else { 1 };
+            }
+            i += 1;
+            out.push_str("\"\"");
+        } else if b[i] == b'\'' && char_literal_len(rest).is_some() {
+            i += char_literal_len(rest).unwrap();
+            out.push_str("' '");
+        } else {
+            let c = rest.chars().next().unwrap();
+            out.push(c);
+            i += c.len_utf8();
+        }
+    }
+    without_test_modules(&out)
+}
+
+/// The length of a raw string literal (`r"…"`, `r#"…"#`, `br"…"`) at the start of `s`.
+fn raw_string_len(s: &str) -> Option<usize> {
+    let body = s.strip_prefix("br").or_else(|| s.strip_prefix('r'))?;
+    let hashes = body.len() - body.trim_start_matches('#').len();
+    let open = &body[hashes..];
+    if !open.starts_with('"') {
+        return None;
+    }
+    let close = format!("\"{}", "#".repeat(hashes));
+    let end = open[1..].find(&close)?;
+    Some(s.len() - open.len() + 1 + end + close.len())
+}
+
+/// The length of a character literal (`'a'`, `'\n'`, `'\''`, `'\u{..}'`) at the start of `s`,
+/// `None` for a lifetime.
+fn char_literal_len(s: &str) -> Option<usize> {
+    let mut chars = s[1..].char_indices();
+    let (_, c) = chars.next()?;
+    if c == '\\' {
+        let close = s[2..].find('\'')?;
+        return Some(2 + close + 1);
+    }
+    let (j, next) = chars.next()?;
+    (next == '\'').then_some(1 + j + 1)
+}
+
+/// `code` without the `#[cfg(test)] mod … { … }` blocks.
+fn without_test_modules(code: &str) -> String {
+    let mut out = String::new();
+    let mut rest = code;
+    while let Some(at) = rest.find("#[cfg(test)]") {
+        out.push_str(&rest[..at]);
+        let after = rest[at + "#[cfg(test)]".len()..].trim_start();
+        let is_module = after.starts_with("mod ") || after.starts_with("pub mod ");
+        match (is_module, after.find(['{', ';'])) {
+            (true, Some(open)) if after.as_bytes()[open] == b'{' => {
+                let mut depth = 0;
+                let mut end = after.len();
+                for (k, ch) in after[open..].char_indices() {
+                    match ch {
+                        '{' => depth += 1,
+                        '}' => {
+                            depth -= 1;
+                            if depth == 0 {
+                                end = open + k + 1;
+                                break;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                rest = &after[end..];
+            }
+            _ => rest = after,
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+fn identifier_at(s: &str) -> &str {
+    let end = s
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(s.len());
+    &s[..end]
+}
+
+/// The first path segments `code` reaches through `prefix` (`crate::` or `super::`): `m` in
+/// `crate::m::x` and every name at the top of `crate::{m::x, n, o::{p, q}}`.
+fn names_after(code: &str, prefix: &str) -> BTreeSet<String> {
+    let mut names = BTreeSet::new();
+    for (at, _) in code.match_indices(prefix) {
+        // `crate::` inside a longer path (`$crate::`, `my_crate::`) is not this crate.
+        let before = code[..at].chars().next_back();
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '$') {
+            continue;
+        }
+        let rest = &code[at + prefix.len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 0;
+            let mut start = true;
+            for (k, ch) in group.char_indices() {
+                match ch {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => start = true,
+                    c if start && !c.is_whitespace() => {
+                        start = false;
+                        let name = identifier_at(&group[k..]);
+                        if !name.is_empty() {
+                            names.insert(name.to_string());
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        } else {
+            let name = identifier_at(rest);
+            if !name.is_empty() {
+                names.insert(name.to_string());
+            }
+        }
+    }
+    names
+}
+
+/// A crate's top-level modules (name → the code of its files) and its root's code.
+fn modules(src: &Path) -> (BTreeMap<String, String>, String) {
+    let mut modules = BTreeMap::new();
+    let mut root = String::new();
+    let mut files = Vec::new();
+    let mut stack = vec![src.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    let tests_only = test_module_files(&files);
+    for path in files
+        .iter()
+        .filter(|p| !tests_only.iter().any(|t| p.starts_with(t)))
+    {
+        let rel = path.strip_prefix(src).unwrap();
+        let top = rel
+            .components()
+            .next()
+            .unwrap()
+            .as_os_str()
+            .to_string_lossy();
+        let name = top.trim_end_matches(".rs").to_string();
+        let code = code_of(&std::fs::read_to_string(path).unwrap());
+        if rel.components().count() == 1 && (name == "lib" || name == "main") {
+            root.push_str(&code);
+        } else {
+            let entry: &mut String = modules.entry(name).or_default();
+            // `super::` from a file in a module's folder is that module, not the root.
+            let own = if rel.components().count() == 1 || rel.ends_with("mod.rs") {
+                code
+            } else {
+                code.replace("super::", "self::")
+            };
+            entry.push_str(&own);
+        }
+    }
+    (modules, root)
+}
+
+/// The files (or folders) of modules declared for tests only (`#[cfg(test)] mod tests;`): not
+/// part of the crate.
+fn test_module_files(files: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for file in files {
+        let text = std::fs::read_to_string(file).unwrap();
+        let stem = file.file_stem().unwrap().to_string_lossy();
+        // A module's children live beside `lib.rs`, `main.rs` and `mod.rs`, else in the
+        // folder named after the file.
+        let dir = match stem.as_ref() {
+            "lib" | "main" | "mod" => file.parent().unwrap().to_path_buf(),
+            _ => file.with_extension(""),
+        };
+        for (at, _) in text.match_indices("#[cfg(test)]") {
+            let after = text[at + "#[cfg(test)]".len()..].trim_start();
+            let Some(decl) = after.strip_prefix("mod ") else {
+                continue;
+            };
+            let name = identifier_at(decl);
+            if decl[name.len()..].trim_start().starts_with(';') {
+                out.push(dir.join(format!("{name}.rs")));
+                out.push(dir.join(name));
+            }
+        }
+    }
+    out
+}
+
+/// Module → the modules it uses.
+fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let (modules, root) = modules(src);
+    // Items the root re-exports from a module: `pub use m::{A, b::C};` → A, C → m.
+    let mut reexports: BTreeMap<String, String> = BTreeMap::new();
+    for (at, _) in root.match_indices("pub use ") {
+        let stmt = &root[at + 8..];
+        let stmt = &stmt[..stmt.find(';').unwrap_or(stmt.len())];
+        let stmt = stmt
+            .trim_start_matches("crate::")
+            .trim_start_matches("self::");
+        let m = identifier_at(stmt);
+        if modules.contains_key(m) {
+            for item in stmt[m.len()..]
+                .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .filter(|w| !w.is_empty() && *w != "as" && *w != "self")
+            {
+                reexports.insert(item.to_string(), m.to_string());
+            }
+        }
+    }
+    modules
+        .iter()
+        .map(|(name, code)| {
+            let mut names = names_after(code, "crate::");
+            names.extend(names_after(code, "super::"));
+            let uses = names
+                .into_iter()
+                .filter_map(|n| {
+                    if modules.contains_key(&n) {
+                        Some(n)
+                    } else {
+                        reexports.get(&n).cloned()
+                    }
+                })
+                .filter(|n| n != name)
+                .collect();
+            (name.clone(), uses)
+        })
+        .collect()
+}
+
+/// Every cycle's modules (strongly connected components of more than one module), each as
+/// `a → b → … → a` along one closed path.
+fn cycles(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let reach = |from: &str| -> BTreeSet<String> {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from.to_string()];
+        while let Some(m) = stack.pop() {
+            for n in graph.get(&m).into_iter().flatten() {
+                if seen.insert(n.clone()) {
+                    stack.push(n.clone());
+                }
+            }
+        }
+        seen
+    };
+    let reached: BTreeMap<&String, BTreeSet<String>> =
+        graph.keys().map(|m| (m, reach(m))).collect();
+    let mut done = BTreeSet::new();
+    let mut out = Vec::new();
+    for m in graph.keys() {
+        if done.contains(m) || !reached[m].contains(m) {
+            continue;
+        }
+        let component: BTreeSet<String> = reached[m]
+            .iter()
+            .filter(|n| reached[*n].contains(m))
+            .cloned()
+            .collect();
+        done.extend(component.iter().cloned());
+        out.push(
+            component
+                .iter()
+                .map(|n| {
+                    let inside: Vec<&String> =
+                        graph[n].iter().filter(|d| component.contains(*d)).collect();
+                    format!("{n} → {inside:?}")
+                })
+                .collect::<Vec<_>>()
+                .join("; "),
+        );
+    }
+    out
+}
+
+fn crate_sources() -> Vec<PathBuf> {
+    let ws = workspace();
+    let mut dirs = vec![
+        ws.join("src"),
+        ws.join("kinematics/src"),
+        ws.join("xtask/src"),
+    ];
+    for group in ["crates", "plugins"] {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(ws.join(group))
+            .unwrap()
+            .map(|e| e.unwrap().path().join("src"))
+            .filter(|p| p.is_dir())
+            .collect();
+        found.sort();
+        dirs.extend(found);
+    }
+    dirs
+}
+
+#[test]
+fn no_crate_has_an_import_cycle_between_its_modules() {
+    let mut faults = Vec::new();
+    for src in crate_sources() {
+        for cycle in cycles(&module_graph(&src)) {
+            let at = src.parent().unwrap().strip_prefix(workspace()).unwrap();
+            faults.push(format!("{}: {cycle}", at.display()));
+        }
+    }
+    assert!(
+        faults.is_empty(),
+        "modules that use each other:\n{}",
+        faults.join("\n")
+    );
+}
+
+#[test]
+fn the_cycle_check_reads_paths_groups_and_reexports() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    let write = |f: &str, s: &str| std::fs::write(src.join(f), s).unwrap();
+    write(
+        "lib.rs",
+        "mod a; mod b; mod c; pub use c::Thing;\n#[cfg(test)]\nmod tests;\n",
+    );
+    // `a` uses `b` through a group, `b` uses `c` through the root's re-export; comments,
+    // strings and test modules do not count.
+    write(
+        "a.rs",
+        "use crate::{x, b::{One, Two}};\n// crate::c\nfn f() { let s = \"crate::c\"; }",
+    );
+    write(
+        "b.rs",
+        "use crate::Thing;\n#[cfg(test)]\nmod tests { use crate::a; }",
+    );
+    write("c.rs", "fn g() -> char { '\"' }\nfn h<'a>(x: &'a str) {}");
+    write("tests.rs", "use crate::a;");
+    let graph = module_graph(src);
+    assert_eq!(graph["a"], ["b".to_string()].into());
+    assert_eq!(graph["b"], ["c".to_string()].into());
+    assert!(graph["c"].is_empty() && !graph.contains_key("tests"));
+    assert!(cycles(&graph).is_empty());
+    // `c` using `a` back closes the cycle; `super::` from a top-level module is the root.
+    write("c.rs", "fn g() { super::a::f(); }");
+    let found = cycles(&module_graph(src));
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert!(found[0].starts_with("a → [\"b\"]"), "{found:?}");
+}
