@@ -7,8 +7,6 @@ use mtcal_instrument::{At, SetupContext};
 use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
 use std::hint::black_box;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 #[global_allocator]
 static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
@@ -16,7 +14,7 @@ static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
 #[test]
 fn predict_and_derivatives_allocate_nothing() {
     let mut checked = Vec::new();
-    for plugin in mtcal_instrument::plugins() {
+    for plugin in mtcal_plugins::plugins() {
         for (machine_name, machine) in mtcal_conformance::shipped_machines() {
             for seed in 0..3 {
                 let Some(fixture) = (plugin.fixture)(&machine, seed) else {

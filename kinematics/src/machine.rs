@@ -21,6 +21,33 @@ pub enum AxisKind {
     Rotary,
 }
 
+impl AxisKind {
+    /// The unit positions of this kind of axis have in files and programs (FORMATS.md).
+    pub fn file_unit(self) -> &'static str {
+        match self {
+            AxisKind::Linear => "mm",
+            AxisKind::Rotary => "deg",
+        }
+    }
+
+    /// A position from SI (m, rad) to file units (mm, °). Every writer converts with this one
+    /// expression, so a value read back with [`Self::from_file`] is the same everywhere.
+    pub fn to_file(self, si: f64) -> f64 {
+        match self {
+            AxisKind::Linear => si * 1e3,
+            AxisKind::Rotary => si.to_degrees(),
+        }
+    }
+
+    /// A position from file units (mm, °) to SI (m, rad), as every reader converts it.
+    pub fn from_file(self, value: f64) -> f64 {
+        match self {
+            AxisKind::Linear => value * 1e-3,
+            AxisKind::Rotary => value.to_radians(),
+        }
+    }
+}
+
 /// Which branch of the machine an axis sits in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Side {
@@ -395,6 +422,33 @@ fn check_finite_iso(iso: &Isometry3<f64>, what: &str) -> Result<(), MachineError
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn file_units_convert_with_the_arithmetic_every_reader_and_writer_used() {
+        // The session's compact columns promise the same bits as a conversion in place: one
+        // expression per direction, `* 1e3` / `* 1e-3` and `to_degrees` / `to_radians`.
+        for v in [0.1234, -512.0005, 1e-9, 359.9999, 0.0] {
+            assert_eq!(
+                AxisKind::Linear.from_file(v).to_bits(),
+                (v * 1e-3).to_bits()
+            );
+            assert_eq!(
+                AxisKind::Rotary.from_file(v).to_bits(),
+                v.to_radians().to_bits()
+            );
+            assert_eq!(AxisKind::Linear.to_file(v).to_bits(), (v * 1e3).to_bits());
+            assert_eq!(
+                AxisKind::Rotary.to_file(v).to_bits(),
+                v.to_degrees().to_bits()
+            );
+        }
+        assert_eq!(AxisKind::Rotary.to_file(std::f64::consts::FRAC_PI_2), 90.0);
+        assert_eq!(AxisKind::Linear.from_file(250.0), 0.25);
+        assert_eq!(
+            (AxisKind::Linear.file_unit(), AxisKind::Rotary.file_unit()),
+            ("mm", "deg")
+        );
+    }
 
     fn lin(letter: char, axis: [f64; 3]) -> JointSpec {
         JointSpec {

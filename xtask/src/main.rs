@@ -908,10 +908,7 @@ fn cl_error(
         for ((p, ap), e) in cl.points.iter().zip(&points).zip(&errors) {
             let _ = write!(csv, "{},{},{}", p.tip_mm.x, p.tip_mm.y, p.tip_mm.z);
             for (a, &q) in axes.iter().zip(&ap.q) {
-                let v = match a.kind() {
-                    AxisKind::Linear => q * 1e3,
-                    AxisKind::Rotary => q.to_degrees(),
-                };
+                let v = a.kind().to_file(q);
                 let _ = write!(csv, ",{v:.6}");
             }
             let t = e.translation_um;
@@ -1048,10 +1045,7 @@ fn hold_positions(machine: &Machine, hold: Option<&str>) -> Result<Vec<f64>> {
         let k = machine
             .axis_index(letter)
             .with_context(|| format!("--hold `{item}`: the machine has no axis {letter}"))?;
-        q[k] = match machine.axes()[k].kind() {
-            AxisKind::Linear => v * 1e-3,
-            AxisKind::Rotary => v.to_radians(),
-        };
+        q[k] = machine.axes()[k].kind().from_file(v);
     }
     Ok(q)
 }

@@ -348,10 +348,7 @@ fn components(study: &Study, id: &Identification) -> Vec<rep::ComponentCurve> {
 
 /// Position of axis `k` in file units (mm, degrees).
 fn file_units(machine: &Machine, k: usize, v: f64) -> f64 {
-    match machine.axes()[k].kind() {
-        AxisKind::Linear => v * 1e3,
-        AxisKind::Rotary => v.to_degrees(),
-    }
+    machine.axes()[k].kind().to_file(v)
 }
 
 /// Slices of the first-order volumetric map through the middle of the stroke, one per pair of

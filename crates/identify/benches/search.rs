@@ -15,8 +15,6 @@ use mtcal_identify::{FitProblem, Study, param_specs};
 use mtcal_solve::{Options, Silent};
 use std::hint::black_box;
 use std::path::Path;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 /// An R-test session of about `samples` samples over 1000 s, with context columns.
 fn session(samples: usize) -> (tempfile::TempDir, Study) {

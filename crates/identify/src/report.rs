@@ -126,7 +126,7 @@ pub struct SolverReport {
     /// Passes that built a factor; the others only checked a point (gradient-only).
     pub factorizations: usize,
     pub converged: bool,
-    pub termination: String,
+    pub termination: mtcal_solve::Termination,
     pub rank: usize,
     pub parameters: usize,
     pub condition_number: f64,
@@ -296,7 +296,7 @@ impl Identification {
                 passes: solution.evaluations,
                 factorizations: solution.factorizations,
                 converged: solution.converged,
-                termination: format!("{:?}", solution.termination),
+                termination: solution.termination,
                 rank: solution.rank,
                 parameters: solution.x.len(),
                 condition_number: solution.condition_number,
@@ -318,7 +318,7 @@ impl Identification {
     pub fn verdict(&self) -> Option<String> {
         if !self.solver.converged {
             return Some(format!(
-                "NOT CONVERGED ({}) after {} iterations: the numbers below are the last iterate, \
+                "NOT CONVERGED ({:?}) after {} iterations: the numbers below are the last iterate, \
                  not a calibration",
                 self.solver.termination, self.solver.iterations
             ));

@@ -326,10 +326,10 @@ pub fn simulate_with(
             .get("instrument")
             .and_then(|v| v.as_str())
             .ok_or_else(|| run_err("missing `instrument`".into()))?;
-        let plugin = mtcal_instrument::find(instrument).ok_or_else(|| {
+        let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
             run_err(format!(
                 "unknown instrument `{instrument}`; known: {}",
-                mtcal_instrument::plugins()
+                mtcal_plugins::plugins()
                     .iter()
                     .map(|p| p.name)
                     .collect::<Vec<_>>()
@@ -624,10 +624,7 @@ pub fn simulate_with(
                 values.push(p + e);
             }
             for (v, ax) in q.iter().zip(model.machine().axes()) {
-                let file = match ax.kind() {
-                    AxisKind::Linear => v * 1e3,
-                    AxisKind::Rotary => v.to_degrees(),
-                };
+                let file = ax.kind().to_file(*v);
                 // The pose was rounded in file units already: this gives the same digits.
                 positions.push(Record::round(file, record.positions));
             }

@@ -376,12 +376,12 @@ impl Study {
         let mut n_x = estimated.len();
         let mut loaded = loaded.map(Vec::into_iter);
         for spec in &session.runs {
-            let plugin = mtcal_instrument::find(&spec.instrument).ok_or_else(|| {
+            let plugin = mtcal_plugins::find(&spec.instrument).ok_or_else(|| {
                 IdentifyError::UnknownInstrument {
                     at: spec.location.to_string(),
                     run: spec.name.clone(),
                     name: spec.instrument.clone(),
-                    known: mtcal_instrument::plugins()
+                    known: mtcal_plugins::plugins()
                         .iter()
                         .map(|p| p.name)
                         .collect::<Vec<_>>()
@@ -1021,10 +1021,7 @@ fn positions_si(model: &MachineModel, mut positions: Vec<f64>) -> Vec<f64> {
     let kinds: Vec<AxisKind> = model.machine().axes().iter().map(|a| a.kind()).collect();
     for row in positions.chunks_exact_mut(kinds.len()) {
         for (v, k) in row.iter_mut().zip(&kinds) {
-            *v = match k {
-                AxisKind::Linear => *v * 1e-3,
-                AxisKind::Rotary => v.to_radians(),
-            };
+            *v = k.from_file(*v);
         }
     }
     positions

@@ -20,7 +20,6 @@
 //! plugin's `record_readings`); the first test checks that a run file holds measured centres.
 
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -23,9 +23,6 @@
 //! The tool-length offset of the spindle ball is held: with the rotary axes at rest it moves
 //! the ball along Z exactly as the pivot's Z offset does, so the two cannot be told apart.
 
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
-
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
 use mtcal_kinematics::model::Role;
 use std::path::{Path, PathBuf};

@@ -13,8 +13,6 @@ use mtcal_identify::Study;
 use mtcal_session::{RunColumns, Storage, read_run};
 use mtcal_solve::{Options, Silent};
 use std::path::{Path, PathBuf};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 const RECORD: &str = "[record]\npositions = 4\nreadings = 4\ntime = 3\ncontext = 3\n";
 

@@ -6,8 +6,6 @@ use mtcal_identify::{identify_session, simulate::simulate};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::path::Path;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 const OFFSETS: [&str; 4] = ["EY0A", "EZ0A", "EX0C", "EY0C"];
 const ANGLES: [&str; 7] = ["EC0Y", "EB0Z", "EA0Z", "EB0A", "EC0A", "EA0C", "EB0C"];

@@ -5,8 +5,6 @@
 //! `xtask/tests/edge_cases.rs`.)
 
 use mtcal_identify::{Identification, identify_session};
-// Links the instrument plugins (their registrations).
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -8,7 +8,6 @@
 use mtcal_effects::Candidate;
 use mtcal_identify::study::Changes;
 use mtcal_identify::{FitProblem, Study, param_specs_from, predict_run, simulate::simulate};
-use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -232,7 +231,7 @@ fn planted_effects_are_fitted_back_without_noise() {
     // over the stroke.)
     let plain = mtcal_identify::identify(&loaded, &Options::default(), &mut Silent).unwrap();
     eprintln!(
-        "plain: chi2 {} it {} {} x {:?}",
+        "plain: chi2 {} it {} {:?} x {:?}",
         plain.fit.chi2, plain.solver.iterations, plain.solver.termination, &plain.x
     );
     let mut x0 = study.initial_x();

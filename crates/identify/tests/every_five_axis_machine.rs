@@ -10,8 +10,6 @@ use mtcal_kinematics::{AxisKind, MachineModel};
 use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, SetupRef, write_run, write_session};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 const NOISE_UM: f64 = 0.5;
 
@@ -93,10 +91,7 @@ fn check_every_machine(noise_um: f64) {
                     values.push((p + e) * 1e6);
                 }
                 for (v, ax) in q.iter().zip(machine.axes()) {
-                    positions.push(match ax.kind() {
-                        AxisKind::Linear => v * 1e3,
-                        AxisKind::Rotary => v.to_degrees(),
-                    });
+                    positions.push(ax.kind().to_file(*v));
                 }
                 t.push(seed as f64 * 1000.0 + i as f64);
             }

@@ -4,8 +4,6 @@
 //! written again (`cargo xtask simulate examples/<name>/plan.toml --out examples/<name>/session`).
 
 use mtcal_identify::simulate::simulate;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::Path;
 
 #[test]

@@ -9,7 +9,6 @@ use mtcal_identify::fit::Folds;
 use mtcal_identify::search::{SearchOptions, heldout};
 use mtcal_identify::study::Changes;
 use mtcal_identify::{FitProblem, Study, param_specs_from, predict_runs, solve_from};
-use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
 use std::path::Path;
 

@@ -7,7 +7,6 @@
 
 use mtcal_identify::{Study, band, pipeline};
 use mtcal_indsim::{Campaign, JointKind, Machine, Realism, Truth, Written, shipped_machine};
-use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
 use rand::SeedableRng;
 use std::path::Path;

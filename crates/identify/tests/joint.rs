@@ -14,8 +14,6 @@ use mtcal_identify::information::{account, what_if};
 use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 const ELEVEN: &str =
     r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;

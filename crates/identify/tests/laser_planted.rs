@@ -21,8 +21,6 @@
 //!   truth 90–99 % of the time (the binomial spread of ~300 intervals around 95 %).
 
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,6 @@
 
 use mtcal_identify::simulate::{Plant, PlantSample, simulate_with};
 use mtcal_identify::{Identification, identify_session};
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -24,8 +24,6 @@ use mtcal_identify::information::account;
 use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 const ERRORS: &str = r#"schema = "mtcal.errors/1"
 components = ["EXX", "EYY", "EZZ"]

@@ -5,7 +5,6 @@
 mod common;
 
 use common::planted::{Variant, searched};
-use mtcal_plugins as _;
 
 #[test]
 fn fifty_clean_sessions_rarely_raise_a_claim() {

@@ -13,8 +13,6 @@ use mtcal_identify::information::{account, what_if};
 use mtcal_identify::search::{SearchOptions, search};
 use mtcal_identify::simulate::simulate;
 use mtcal_identify::{IdentifyError, Study, identify_with_solution};
-// Links the instrument plugins (their registrations).
-use mtcal_plugins as _;
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
 

@@ -16,7 +16,6 @@ mod common;
 
 use common::planted::{NOISE_UM, TRUTH, Variant, searched};
 use mtcal_identify::search::{Discovery, SearchResult};
-use mtcal_plugins as _;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
 /// 99 % over 95 % half-width of a normal interval.

@@ -5,8 +5,6 @@ mod common;
 
 use common::planted::TRUTH;
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
@@ -346,10 +344,7 @@ fn simulate_writes_nc_programs_that_keep_the_tool_point_on_the_ball() {
             if let Some(i) = letters.iter().position(|l| l.to_string() == c) {
                 let v: f64 = v.parse().unwrap();
                 let ax = &machine.axes()[i];
-                q[i] = match ax.kind() {
-                    mtcal_kinematics::AxisKind::Linear => v * 1e-3,
-                    mtcal_kinematics::AxisKind::Rotary => v.to_radians(),
-                };
+                q[i] = ax.kind().from_file(v);
             }
         }
         let p = machine.tool_in_workpiece(&q).t * 1e3;

@@ -24,7 +24,6 @@
 //!    the F test says whether these and the second-order terms are significant.
 
 use mtcal_artefact::plate::{self, Hole, Term};
-use mtcal_plugins as _;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

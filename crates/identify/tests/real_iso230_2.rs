@@ -25,7 +25,6 @@
 //! `../shared` (or `MTCAL_SHARED_DATA`) the test says it was skipped.
 
 use mtcal_identify::identify_session;
-use mtcal_plugins as _;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

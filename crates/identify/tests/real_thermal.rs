@@ -17,7 +17,6 @@
 use mtcal_identify::search::{SearchOptions, search};
 use mtcal_identify::study::Changes;
 use mtcal_identify::{Study, base, predict_run};
-use mtcal_plugins as _;
 use mtcal_solve::{Options, Silent};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,6 @@
 //! with a nonzero starting value). It must give exactly the poses of the full model.
 
 use mtcal_identify::Study;
-use mtcal_plugins as _;
 use std::path::Path;
 
 fn lcg(seed: &mut u64) -> f64 {

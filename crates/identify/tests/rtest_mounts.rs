@@ -3,8 +3,6 @@
 
 use mtcal_identify::{identify_session, simulate::simulate};
 use mtcal_session::{RunColumns, read_run};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::Path;
 
 const PLAN: &str = r#"

@@ -29,8 +29,6 @@ use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
 use std::path::Path;
 use std::sync::Mutex;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 
 #[global_allocator]
 static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;

@@ -5,8 +5,6 @@
 use mtcal_identify::search::{omitted_parameters, rank};
 use mtcal_identify::{Study, identify, simulate::simulate};
 use mtcal_solve::{Options, Silent};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -21,7 +21,6 @@ use mtcal_identify::search::{SearchOptions, SearchResult, search};
 use mtcal_identify::{Study, base, predict_run};
 use mtcal_indsim::effects::{Effect, HeatSource, Programme, TemperatureProgramme};
 use mtcal_indsim::{Campaign, JointKind, Machine, Realism, Truth, Written, shipped_machine};
-use mtcal_plugins as _;
 use mtcal_solve::Options;
 use rand::SeedableRng;
 use std::path::Path;

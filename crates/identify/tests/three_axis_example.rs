@@ -5,8 +5,6 @@
 //! physics search claims nothing in it and finds a backlash planted in the same campaign.
 
 use mtcal_identify::{identify_session, simulate::simulate};
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn example() -> PathBuf {

@@ -16,8 +16,6 @@
 
 use mtcal_identify::{Identification, Study, identify_session, simulate::simulate};
 use mtcal_kinematics::model::Role;
-// Links every instrument plugin (inventory drops crates nobody names).
-use mtcal_plugins as _;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

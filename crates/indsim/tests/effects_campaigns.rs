@@ -13,7 +13,6 @@ use mtcal_indsim::{
 };
 use mtcal_instrument::{At, RunData, Setup, SetupContext};
 use mtcal_kinematics::MachineModel;
-use mtcal_plugins as _;
 use mtcal_session::{RunColumns, load_session, read_run};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

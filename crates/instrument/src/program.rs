@@ -19,7 +19,7 @@
 //! point control, usually a feed along the combined axis motion); choose it for the instrument's
 //! sampling rate.
 
-use mtcal_kinematics::{AxisKind, Machine};
+use mtcal_kinematics::Machine;
 use std::fmt::Write;
 
 /// The G-code program of `poses` (SI axis positions in the machine's canonical order, one
@@ -64,10 +64,7 @@ pub fn nc_program(machine: &Machine, poses: &[Vec<f64>], feed_mm_min: f64, title
         );
         let _ = write!(s, "N{} G01", 10 * (k + 1));
         for (axis, &v) in machine.axes().iter().zip(q) {
-            let value = match axis.kind() {
-                AxisKind::Linear => v * 1e3,
-                AxisKind::Rotary => v.to_degrees(),
-            };
+            let value = axis.kind().to_file(v);
             let _ = write!(s, " {}{}", axis.letter().as_char(), fixed4(value));
         }
         let _ = writeln!(s, " F{feed_mm_min:.1}");
@@ -85,7 +82,7 @@ fn fixed4(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mtcal_kinematics::{BranchSpec, JointSpec, MachineSpec};
+    use mtcal_kinematics::{AxisKind, BranchSpec, JointSpec, MachineSpec};
     use nalgebra::{Isometry3, Vector3};
 
     fn machine() -> Machine {
@@ -158,10 +155,7 @@ mod tests {
                 assert!(!number.starts_with("-0.0000"), "{line}");
                 assert_eq!(number.split('.').nth(1).map(str::len), Some(4), "{line}");
                 let read: f64 = number.parse().expect("a number");
-                let expect = match axis.kind() {
-                    AxisKind::Linear => v * 1e3,
-                    AxisKind::Rotary => v.to_degrees(),
-                };
+                let expect = axis.kind().to_file(v);
                 assert!((read - expect).abs() <= 0.5e-4 + 1e-9, "{word} vs {expect}");
             }
         }

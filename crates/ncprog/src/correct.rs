@@ -406,10 +406,7 @@ fn commanded(
                 line: n,
                 letter: AXIS_LETTERS[a],
             })?;
-            Ok(match ax.kind() {
-                AxisKind::Linear => v * 1e-3,
-                AxisKind::Rotary => v.to_radians(),
-            })
+            Ok(ax.kind().from_file(v))
         })
         .collect()
 }

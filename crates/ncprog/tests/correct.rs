@@ -100,10 +100,7 @@ fn check(model: &MachineModel, c: &[f64], text: &str, opts: &CorrectOptions) {
                     .position(|&l| l == ax.letter().as_char())
                     .unwrap();
                 let v = m.axes[a].unwrap();
-                match ax.kind() {
-                    AxisKind::Linear => v * 1e-3,
-                    AxisKind::Rotary => v.to_radians(),
-                }
+                ax.kind().from_file(v)
             })
             .collect();
         let (dp, dv) = miss(&q, &p.q_cmd, &mut ws);

@@ -91,9 +91,6 @@ pub mod spec;
 
 mod planner;
 
-// Every instrument plugin is registered with the planner (an unnamed crate's plugins vanish).
-use mtcal_plugins as _;
-
 pub use planner::{
     CandidateReport, Criteria, FixedReport, IntervalRow, Planned, PlannedRun, Report, RunCheck,
     plan, plan_source,

@@ -459,7 +459,7 @@ impl Ctx<'_> {
         let ctx = SetupContext {
             machine: &self.tooled,
         };
-        let loaded = mtcal_instrument::find(instrument)
+        let loaded = mtcal_plugins::find(instrument)
             .and_then(|p| (p.load_setup)(setup, &ctx).ok())
             .map(|s| s.to_toml());
         if let Some(mount) = loaded.as_ref().and_then(|t| t.get("mount")) {
@@ -480,10 +480,10 @@ impl Ctx<'_> {
         use_: &str,
         feed: f64,
     ) -> Result<PlannedRun, String> {
-        let plugin = mtcal_instrument::find(instrument).ok_or_else(|| {
+        let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
             format!(
                 "unknown instrument `{instrument}`; known: {}",
-                mtcal_instrument::plugins()
+                mtcal_plugins::plugins()
                     .iter()
                     .map(|p| p.name)
                     .collect::<Vec<_>>()
@@ -617,12 +617,12 @@ impl Ctx<'_> {
     fn group_candidates(&self, group: &toml::Spanned<Group>) -> Result<Vec<Cand>, PlanError> {
         let g = group.get_ref();
         let instrument = g.instrument.get_ref();
-        if mtcal_instrument::find(instrument).is_none() {
+        if mtcal_plugins::find(instrument).is_none() {
             return Err(self.src.at(
                 &g.instrument,
                 format!(
                     "unknown instrument `{instrument}`; known: {}",
-                    mtcal_instrument::plugins()
+                    mtcal_plugins::plugins()
                         .iter()
                         .map(|p| p.name)
                         .collect::<Vec<_>>()

@@ -1,10 +1,11 @@
 //! Every instrument plugin of mtcal, linked.
 //!
 //! A plugin registers its descriptor with `inventory`; the registration lives in the plugin's
-//! crate and vanishes from a binary that never names that crate. This crate names them all, so
-//! depending on it (the identification core, the command line) is enough to see every plugin
-//! through [`plugins`] and [`find`]. A new plugin crate gets a `use … as _;` line here and its
-//! name in the test below.
+//! crate and vanishes from a binary that never names that crate. This crate names them all, and
+//! whoever looks plugins up does so through its [`plugins`] and [`find`] (the identification
+//! core, the planner, the command line), so anything that links them sees every plugin without
+//! naming a plugin crate itself. A new plugin crate gets a `use … as _;` line here and its name
+//! in the test below.
 
 use mtcal_artefact as _;
 use mtcal_ballbar as _;

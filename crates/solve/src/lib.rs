@@ -305,8 +305,8 @@ pub struct Silent;
 
 impl Observer for Silent {}
 
-/// Why the iteration stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Why the iteration stopped. Reports write the variant's name (`"MaxIterations"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum Termination {
     /// The Gauss–Newton step from the final point is negligible.
     Converged,

@@ -73,10 +73,7 @@ pub fn held_position(machine: &Machine, path: &toml::Table) -> Result<Vec<f64>, 
                 ));
             }
         };
-        q[axis] = match machine.axes()[axis].kind() {
-            AxisKind::Linear => x * 1e-3,
-            AxisKind::Rotary => x.to_radians(),
-        };
+        q[axis] = machine.axes()[axis].kind().from_file(x);
         named[axis] = true;
     }
     for (i, axis) in machine.axes().iter().enumerate() {

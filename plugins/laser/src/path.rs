@@ -30,10 +30,7 @@ pub const ALIGN_TOL: f64 = 1e-6;
 const LIMIT_TOL: f64 = 1e-9;
 
 fn to_si(machine: &Machine, axis: usize, v: f64) -> f64 {
-    match machine.axes()[axis].kind() {
-        AxisKind::Linear => v * 1e-3,
-        AxisKind::Rotary => v.to_radians(),
-    }
+    machine.axes()[axis].kind().from_file(v)
 }
 
 fn number_value(v: &toml::Value) -> Option<f64> {

@@ -95,10 +95,7 @@ fn held(machine: &Machine, path: &toml::Table, xyz: &[usize; 3]) -> Result<Vec<f
                         ));
                     }
                 };
-                q[i] = match machine.axes()[i].kind() {
-                    AxisKind::Linear => x * 1e-3,
-                    AxisKind::Rotary => x.to_radians(),
-                };
+                q[i] = machine.axes()[i].kind().from_file(x);
             }
         }
         Some(v) => {
