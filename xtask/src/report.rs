@@ -533,7 +533,7 @@ fn search(id: &Identification) -> Option<rep::SearchOutcome> {
         .collect();
     Some(rep::SearchOutcome {
         candidates: s.candidates,
-        stopped: s.stopped.clone(),
+        stopped: s.stopped.to_string(),
         discoveries,
         not_kept,
     })

@@ -103,16 +103,55 @@ pub struct Concealed {
 }
 
 /// How the search went.
-#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SearchReport {
     /// Candidates scored at the first step.
     pub candidates: usize,
     /// Per step, every candidate refitted.
     pub steps: Vec<Vec<Trial>>,
-    pub stopped: String,
+    /// Why it stopped (in the JSON, the sentence).
+    pub stopped: SearchStop,
     pub concealed: Vec<Concealed>,
     /// The final ranking's strongest candidates, one sentence each.
     pub ranking: Vec<String>,
+}
+
+/// Why the search stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SearchStop {
+    /// Nothing significant at the first step: the model explains the recordings.
+    NothingSignificant,
+    /// Nothing significant once the discoveries were in the model.
+    NothingFurther,
+    /// Significant candidates, but none improved both the held-out prediction and the
+    /// information criterion.
+    NoneImproved,
+    /// As many effects added as allowed (`SearchOptions::max_steps`).
+    MostAllowed { steps: usize },
+}
+
+impl std::fmt::Display for SearchStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SearchStop::NothingSignificant => {
+                f.write_str("no candidate is significant: the model explains the recordings")
+            }
+            SearchStop::NothingFurther => f.write_str("no further candidate is significant"),
+            SearchStop::NoneImproved => f.write_str(
+                "no significant candidate improved the held-out prediction and the information \
+                 criterion",
+            ),
+            SearchStop::MostAllowed { steps } => {
+                write!(f, "{steps} effects added (the most allowed)")
+            }
+        }
+    }
+}
+
+impl Serialize for SearchStop {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
 }
 
 /// Another explanation the data cannot tell from a discovery.

@@ -58,7 +58,8 @@
 
 use crate::K95;
 pub use crate::findings::{
-    Concealed, Correction, Discovery, DiscoveryParameter, Heldout, LookAlike, SearchReport, Trial,
+    Concealed, Correction, Discovery, DiscoveryParameter, Heldout, LookAlike, SearchReport,
+    SearchStop, Trial,
 };
 use crate::fit::{FitProblem, FoldOf, Row, RowTarget, SampleEval};
 use crate::relabel::unique;
@@ -842,10 +843,17 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     let initial = current.id.clone();
     let initial_solution = current.solution.clone();
     let initial_changes = current.study.changes().clone();
-    let mut report = SearchReport::default();
+    let mut report = SearchReport {
+        candidates: 0,
+        steps: Vec::new(),
+        stopped: SearchStop::MostAllowed {
+            steps: options.max_steps,
+        },
+        concealed: Vec::new(),
+        ranking: Vec::new(),
+    };
     let mut stages: Vec<Stage> = Vec::new();
     let mut last_ranking: Option<Vec<Ranked>> = None;
-    report.stopped = format!("{} effects added (the most allowed)", options.max_steps);
     for step in 0..options.max_steps {
         let cands = candidates(&current.study, options.families.as_deref());
         if step == 0 {
@@ -866,9 +874,9 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         let tries = choose_tries(&ranked, options.tries);
         if tries.is_empty() {
             report.stopped = if step == 0 {
-                "no candidate is significant: the model explains the recordings".into()
+                SearchStop::NothingSignificant
             } else {
-                "no further candidate is significant".into()
+                SearchStop::NothingFurther
             };
             last_ranking = Some(ranked);
             break;
@@ -940,9 +948,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             None => None,
         };
         let Some((ranked_ok, fitted)) = accepted else {
-            report.stopped =
-                "no significant candidate improved the held-out prediction and the information criterion"
-                    .into();
+            report.stopped = SearchStop::NoneImproved;
             last_ranking = Some(ranked);
             break;
         };
