@@ -2,6 +2,8 @@
 //! 95 % intervals contain the truth 93–97 % of the time for each parameter class, and the
 //! typical errors stay within ~1 µm (location offsets) and ~5 µrad (orientations, squareness).
 
+mod common;
+
 use mtcal_identify::{identify_session, simulate::simulate};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -10,42 +12,6 @@ use std::path::Path;
 const OFFSETS: [&str; 4] = ["EY0A", "EZ0A", "EX0C", "EY0C"];
 const ANGLES: [&str; 7] = ["EC0Y", "EB0Z", "EA0Z", "EB0A", "EC0A", "EA0C", "EB0C"];
 const TRIALS: u64 = 200;
-
-const RUNS: &str = r#"
-[setup.low]
-ball = [100.0, 0.0, 200.0]
-ball_free = false
-tool_length_free = false
-[setup.high]
-ball = [100.0, 0.0, 300.0]
-ball_free = false
-tool_length_free = false
-[[run]]
-name = "xyc-a0"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 25 }
-[[run]]
-name = "xyc-a+30"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 25, hold = { A = 30.0 } }
-[[run]]
-name = "xyc-a-30"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 25, hold = { A = -30.0 } }
-[[run]]
-name = "yza"
-instrument = "rtest"
-setup = "low"
-path = { kind = "yza", samples = 21 }
-[[run]]
-name = "xyc-high"
-instrument = "rtest"
-setup = "high"
-path = { kind = "xyc", samples = 25 }
-"#;
 
 #[test]
 fn intervals_cover_the_truth_95_percent_of_the_time() {
@@ -60,6 +26,7 @@ fn intervals_cover_the_truth_95_percent_of_the_time() {
     let dist = Normal::new(0.0, 15.0).unwrap();
     let (mut hits_off, mut n_off, mut ss_off) = (0, 0, 0.0);
     let (mut hits_ang, mut n_ang, mut ss_ang) = (0, 0, 0.0);
+    let runs = common::plans::rtest_low_high(25, 21, None);
     for trial in 0..TRIALS {
         let dir = tempfile::tempdir().unwrap();
         let truth: Vec<(&str, f64)> = all.iter().map(|n| (*n, dist.sample(&mut rng))).collect();
@@ -71,7 +38,7 @@ fn intervals_cover_the_truth_95_percent_of_the_time() {
         .unwrap();
         let plan = format!(
             "machine = {machine:?}\ntruth = \"truth.params.toml\"\nseed = {trial}\n\
-             [identify]\nparameters = [{list}]\n{RUNS}"
+             [identify]\nparameters = [{list}]\n{runs}"
         );
         std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
         simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();

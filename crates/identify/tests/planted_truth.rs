@@ -29,53 +29,13 @@ fn session(dir: &Path, setups_and_runs: &str, noise: f64) -> PathBuf {
     out
 }
 
-const RTEST_PLAN: &str = r#"
-[setup.low]
-ball = [100.0, 0.0, 200.0]
-ball_free = false
-tool_length_free = false
-[setup.high]
-ball = [100.0, 0.0, 300.0]
-ball_free = false
-tool_length_free = false
-[[run]]
-name = "xyc-a0"
-instrument = "rtest"
-setup = "low"
-noise = NOISE
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "xyc-a+30"
-instrument = "rtest"
-setup = "low"
-noise = NOISE
-path = { kind = "xyc", samples = 37, hold = { A = 30.0 } }
-[[run]]
-name = "xyc-a-30"
-instrument = "rtest"
-setup = "low"
-noise = NOISE
-path = { kind = "xyc", samples = 37, hold = { A = -30.0 } }
-[[run]]
-name = "yza"
-instrument = "rtest"
-setup = "low"
-noise = NOISE
-path = { kind = "yza", samples = 31 }
-[[run]]
-name = "xyc-high"
-instrument = "rtest"
-setup = "high"
-noise = NOISE
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "xyzac"
-instrument = "rtest"
-setup = "low"
-use = "validate"
-noise = NOISE
-path = { kind = "xyzac", samples = 49 }
-"#;
+/// The R-test runs (`common::plans::rtest_low_high`) and a validation path through all five
+/// axes; `NOISE` stands for each run's noise.
+fn rtest_plan() -> String {
+    common::plans::rtest_low_high(37, 31, Some("NOISE"))
+        + "[[run]]\nname = \"xyzac\"\ninstrument = \"rtest\"\nsetup = \"low\"\n\
+           use = \"validate\"\nnoise = NOISE\npath = { kind = \"xyzac\", samples = 49 }\n"
+}
 
 fn value(id: &Identification, name: &str) -> Option<f64> {
     id.parameters
@@ -87,7 +47,7 @@ fn value(id: &Identification, name: &str) -> Option<f64> {
 #[test]
 fn noise_free_rtest_recovers_the_eleven_errors_and_predicts_the_validation_path() {
     let dir = tempfile::tempdir().unwrap();
-    let s = session(dir.path(), RTEST_PLAN, 0.0);
+    let s = session(dir.path(), &rtest_plan(), 0.0);
     let (_, id) = identify_session(&s).unwrap();
     // With the set-up calibrated (ball and tool length held), this plan separates all eleven.
     for (name, truth) in TRUTH {
@@ -108,7 +68,7 @@ fn noise_free_rtest_recovers_the_eleven_errors_and_predicts_the_validation_path(
 #[test]
 fn noisy_rtest_predicts_validation_within_the_noise() {
     let dir = tempfile::tempdir().unwrap();
-    let s = session(dir.path(), RTEST_PLAN, 0.5);
+    let s = session(dir.path(), &rtest_plan(), 0.5);
     let (_, id) = identify_session(&s).unwrap();
     assert!(id.solver.converged, "{:?}", id.solver);
     let v = id.validation[0].rms_um;
@@ -327,7 +287,7 @@ fn the_bundled_mixed_session_identifies_and_predicts_its_validation_run() {
 #[test]
 fn simulate_writes_nc_programs_that_keep_the_tool_point_on_the_ball() {
     let dir = tempfile::tempdir().unwrap();
-    let s = session(dir.path(), RTEST_PLAN, 0.0);
+    let s = session(dir.path(), &rtest_plan(), 0.0);
     let text = std::fs::read_to_string(s.join("programs/xyc-a+30.nc")).unwrap();
     let machine =
         mtcal_machine::urdf::load_urdf_file(&repo().join("machines/mcu630-cafyxz.urdf")).unwrap();

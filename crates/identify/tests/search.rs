@@ -2,6 +2,8 @@
 //! left out is named first and significant, with the fitted parameters it biased; a session
 //! whose truth is inside the fitted model raises no claim.
 
+mod common;
+
 use mtcal_identify::search::{omitted_parameters, rank};
 use mtcal_identify::{Study, identify, simulate::simulate};
 use mtcal_solve::{Options, Silent};
@@ -14,47 +16,6 @@ fn repo() -> PathBuf {
 const ELEVEN: &str =
     r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 
-const RUNS: &str = r#"
-[setup.low]
-ball = [100.0, 0.0, 200.0]
-ball_free = false
-tool_length_free = false
-[setup.high]
-ball = [100.0, 0.0, 300.0]
-ball_free = false
-tool_length_free = false
-[[run]]
-name = "xyc-a0"
-instrument = "rtest"
-setup = "low"
-noise = 0.5
-path = { kind = "xyc", samples = 73 }
-[[run]]
-name = "xyc-a+30"
-instrument = "rtest"
-setup = "low"
-noise = 0.5
-path = { kind = "xyc", samples = 73, hold = { A = 30.0 } }
-[[run]]
-name = "xyc-a-30"
-instrument = "rtest"
-setup = "low"
-noise = 0.5
-path = { kind = "xyc", samples = 73, hold = { A = -30.0 } }
-[[run]]
-name = "yza"
-instrument = "rtest"
-setup = "low"
-noise = 0.5
-path = { kind = "yza", samples = 61 }
-[[run]]
-name = "xyc-high"
-instrument = "rtest"
-setup = "high"
-noise = 0.5
-path = { kind = "xyc", samples = 73 }
-"#;
-
 /// Simulates the plan with `extra` added to the example's truth (the 11-error set) into
 /// `dir/session`.
 fn simulated(dir: &Path, extra: &str, seed: u64) -> PathBuf {
@@ -64,8 +25,9 @@ fn simulated(dir: &Path, extra: &str, seed: u64) -> PathBuf {
     let truth_path = dir.join("truth.params.toml");
     std::fs::write(&truth_path, truth).unwrap();
     let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let runs = common::plans::rtest_low_high(73, 61, Some("0.5"));
     let plan = format!(
-        "machine = {machine:?}\ntruth = {truth_path:?}\nseed = {seed}\n[identify]\nparameters = {ELEVEN}\n{RUNS}"
+        "machine = {machine:?}\ntruth = {truth_path:?}\nseed = {seed}\n[identify]\nparameters = {ELEVEN}\n{runs}"
     );
     let plan_path = dir.join("plan.toml");
     std::fs::write(&plan_path, plan).unwrap();

@@ -108,3 +108,43 @@ pub fn with_noise(plan: &str, rtest_um: f64, ballbar_um: f64) -> String {
     plan.replace("NOISE_RTEST", &format!("{rtest_um:?}"))
         .replace("NOISE_BALLBAR", &format!("{ballbar_um:?}"))
 }
+
+/// The R-test runs of the trunnion's eleven-error tests (`coverage.rs`, `planted_truth.rs`,
+/// `search.rs`): XYC at A = 0 and ±30° and YZA with the ball low, XYC with it high, each ball
+/// calibrated; `xyc` and `yza` samples per run, and a `noise = …` line in every run when `noise`
+/// is given (a number or a placeholder the caller replaces).
+pub fn rtest_low_high(xyc: usize, yza: usize, noise: Option<&str>) -> String {
+    let noise = noise.map_or(String::new(), |n| format!("noise = {n}\n"));
+    let run = |name: &str, setup: &str, path: String| {
+        format!(
+            "[[run]]\nname = \"{name}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\n{noise}path = {path}\n"
+        )
+    };
+    let mut plan = String::from(
+        "[setup.low]\nball = [100.0, 0.0, 200.0]\nball_free = false\ntool_length_free = false\n\
+         [setup.high]\nball = [100.0, 0.0, 300.0]\nball_free = false\ntool_length_free = false\n",
+    );
+    plan += &run(
+        "xyc-a0",
+        "low",
+        format!("{{ kind = \"xyc\", samples = {xyc} }}"),
+    );
+    for (name, a) in [("xyc-a+30", "30.0"), ("xyc-a-30", "-30.0")] {
+        plan += &run(
+            name,
+            "low",
+            format!("{{ kind = \"xyc\", samples = {xyc}, hold = {{ A = {a} }} }}"),
+        );
+    }
+    plan += &run(
+        "yza",
+        "low",
+        format!("{{ kind = \"yza\", samples = {yza} }}"),
+    );
+    plan += &run(
+        "xyc-high",
+        "high",
+        format!("{{ kind = \"xyc\", samples = {xyc} }}"),
+    );
+    plan
+}
