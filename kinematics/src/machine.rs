@@ -22,14 +22,6 @@ pub enum AxisKind {
 }
 
 impl AxisKind {
-    /// The unit positions of this kind of axis have in files and programs (FORMATS.md).
-    pub fn file_unit(self) -> &'static str {
-        match self {
-            AxisKind::Linear => "mm",
-            AxisKind::Rotary => "deg",
-        }
-    }
-
     /// A position from SI (m, rad) to file units (mm, °). Every writer converts with this one
     /// expression, so a value read back with [`Self::from_file`] is the same everywhere.
     pub fn to_file(self, si: f64) -> f64 {
@@ -444,10 +436,6 @@ mod tests {
         }
         assert_eq!(AxisKind::Rotary.to_file(std::f64::consts::FRAC_PI_2), 90.0);
         assert_eq!(AxisKind::Linear.from_file(250.0), 0.25);
-        assert_eq!(
-            (AxisKind::Linear.file_unit(), AxisKind::Rotary.file_unit()),
-            ("mm", "deg")
-        );
     }
 
     fn lin(letter: char, axis: [f64; 3]) -> JointSpec {

@@ -346,11 +346,6 @@ fn components(study: &Study, id: &Identification) -> Vec<rep::ComponentCurve> {
         .collect()
 }
 
-/// Position of axis `k` in file units (mm, degrees).
-fn file_units(machine: &Machine, k: usize, v: f64) -> f64 {
-    machine.axes()[k].kind().to_file(v)
-}
-
 /// Slices of the first-order volumetric map through the middle of the stroke, one per pair of
 /// linear axes (at most three), rotary axes at 0.
 fn volumetric(study: &Study, solution: &Solution) -> Result<rep::Volumetric> {
@@ -400,7 +395,7 @@ fn slice(machine: &Machine, grid: &Grid, mags: &[f64], a: usize, b: usize) -> re
     let lin = grid.linear();
     let values = |r: &mtcal_kinematics::volmap::AxisRange| -> Vec<f64> {
         (0..r.n)
-            .map(|i| file_units(machine, r.axis, r.value(i)))
+            .map(|i| machine.axes()[r.axis].kind().to_file(r.value(i)))
             .collect()
     };
     let (xs, ys) = (values(&lin[a]), values(&lin[b]));
@@ -416,7 +411,7 @@ fn slice(machine: &Machine, grid: &Grid, mags: &[f64], a: usize, b: usize) -> re
         .enumerate()
         .filter(|(k, _)| *k != a && *k != b)
         .map(|(_, r)| {
-            let mm = file_units(machine, r.axis, r.value(0));
+            let mm = machine.axes()[r.axis].kind().to_file(r.value(0));
             format!("{} = {:.0} mm", r.letter, mm).replace('-', "−")
         })
         .collect();

@@ -1,21 +1,15 @@
 //! `mtcal identify --search` on the bundled example (its truth is the fitted 11-error set): every
 //! family's candidates are scored, and no effect is added.
 
+use std::ffi::OsStr;
 use std::path::Path;
 use std::process::Command;
 
-#[test]
-fn the_bundled_example_has_nothing_left_out() {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+/// Runs `mtcal args…` in `dir`; its standard output (the run must succeed).
+fn mtcal<S: AsRef<OsStr>>(dir: &Path, args: impl IntoIterator<Item = S>) -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args([
-            "identify",
-            "--quiet",
-            "--search",
-            "--verbose",
-            "examples/five-axis/session",
-        ])
-        .current_dir(repo)
+        .args(args)
+        .current_dir(dir)
         .output()
         .unwrap();
     assert!(
@@ -23,7 +17,22 @@ fn the_bundled_example_has_nothing_left_out() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let text = String::from_utf8(out.stdout).unwrap();
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn the_bundled_example_has_nothing_left_out() {
+    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    let text = mtcal(
+        repo,
+        [
+            "identify",
+            "--quiet",
+            "--search",
+            "--verbose",
+            "examples/five-axis/session",
+        ],
+    );
     let search = text
         .split("physics search: ")
         .nth(1)
@@ -60,19 +69,7 @@ fn a_planted_backlash_is_a_discovery_in_the_json() {
         )
         + "\n[[effect]]\neffect = \"reversal\"\naxis = \"X\"\nbacklash_um = 4.0\n";
     std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-    let run = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-            .args(args)
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let run = |args: &[&str]| mtcal(dir.path(), args);
     run(&["simulate", "plan.toml", "--out", "session"]);
     let text = run(&[
         "identify", "--quiet", "--search", "session", "--json", "out.json",
@@ -121,22 +118,17 @@ fn a_planted_backlash_is_a_discovery_in_the_json() {
 fn the_warm_example_finds_the_drift_and_the_backlash() {
     let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args([
-            "identify",
-            "--quiet",
-            "--search",
-            "examples/five-axis-warm/session",
-        ])
-        .arg("--json")
-        .arg(dir.path().join("out.json"))
-        .current_dir(repo)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let json_path = dir.path().join("out.json");
+    mtcal(
+        repo,
+        [
+            OsStr::new("identify"),
+            OsStr::new("--quiet"),
+            OsStr::new("--search"),
+            OsStr::new("examples/five-axis-warm/session"),
+            OsStr::new("--json"),
+            json_path.as_os_str(),
+        ],
     );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("out.json")).unwrap())
@@ -176,20 +168,15 @@ fn bundled_sessions_are_their_plans() {
     let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
     for example in ["five-axis", "five-axis-warm"] {
         let dir = tempfile::tempdir().unwrap();
-        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-            .args([
-                "simulate",
-                &format!("examples/{example}/plan.toml"),
-                "--out",
-            ])
-            .arg(dir.path())
-            .current_dir(repo)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let plan = format!("examples/{example}/plan.toml");
+        mtcal(
+            repo,
+            [
+                OsStr::new("simulate"),
+                OsStr::new(&plan),
+                OsStr::new("--out"),
+                dir.path().as_os_str(),
+            ],
         );
         let committed = repo.join("examples").join(example).join("session");
         let mut files = Vec::new();
@@ -245,17 +232,7 @@ fn the_search_summary_fits_on_two_screens() {
             if verbose {
                 args.push("--verbose");
             }
-            let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
-                .args(&args)
-                .current_dir(repo)
-                .output()
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            String::from_utf8(out.stdout).unwrap()
+            mtcal(repo, args)
         };
         let text = run(false);
         let lines = text.lines().count();

@@ -753,12 +753,6 @@ impl ActualPoses for [SampleState<'_>] {
     }
 }
 
-impl ActualPoses for Vec<SampleState<'_>> {
-    fn actual_pose(&self, machine: &Machine, truth: &Truth, k: usize, q: &[f64]) -> Matrix4<f64> {
-        self.as_slice().actual_pose(machine, truth, k, q)
-    }
-}
-
 /// The session's timeline: the effects' state carried from sample to sample and run to run.
 #[derive(Debug)]
 pub(crate) struct Timeline<'a> {

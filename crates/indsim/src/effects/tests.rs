@@ -42,7 +42,7 @@ fn read(
         poses,
         &[],
         &SetupOffsets::default(),
-        &states,
+        states.as_slice(),
     )
 }
 
@@ -484,7 +484,7 @@ fn every_instrument_sees_the_same_tool_displacement() {
         &q,
         &labels,
         &SetupOffsets::default(),
-        &states,
+        states.as_slice(),
     );
     assert_close(r[0][2], -0.2, 1e-15, "plate z before (m)");
     assert_close((r[1][2] + 0.2) / UM, -5.0, 1e-6, "plate z after (µm)");
@@ -529,7 +529,7 @@ fn zero_sized_effects_read_exactly_what_no_effects_read() {
     let states = Timeline::new(&resolved).run(&q, &times);
     let off = SetupOffsets::default();
     for i in &instruments {
-        let with = i.readings_at(&m, &truth, &q, &[], &off, &states);
+        let with = i.readings_at(&m, &truth, &q, &[], &off, states.as_slice());
         let without = i.readings(&m, &truth, &q, &[], &off);
         assert_eq!(with, without, "{}", i.plugin_name());
     }
