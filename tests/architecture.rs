@@ -16,8 +16,13 @@ use std::path::{Path, PathBuf};
 
 /// The layers, lowest first. A crate may depend on crates of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    // Numerics and the serial chain: no mtcal dependency.
-    &["mtcal-kinematics", "mtcal-solve", "mtcal-mismatch"],
+    // Numerics, the serial chain, located file reading: no mtcal dependency.
+    &[
+        "mtcal-kinematics",
+        "mtcal-solve",
+        "mtcal-mismatch",
+        "mtcal-located",
+    ],
     // The machine and the instrument contract.
     &["mtcal-machine", "mtcal-instrument"],
     // Session files and the instrument plugins (one crate each), their conformance kit.

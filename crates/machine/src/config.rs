@@ -92,7 +92,6 @@
 //! says what was expected.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::io;
 use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
@@ -104,6 +103,7 @@ use mtcal_kinematics::{
 };
 use toml::de::{DeTable, DeValue};
 
+use mtcal_located::Location;
 use read::{At, Item, Parsed, Problem, Span, problem};
 
 /// The `schema` value of version 1 of this format.
@@ -120,37 +120,6 @@ pub const MAX_HARMONICS: usize = 50;
 /// Most knots or control points a table or B-spline may have.
 pub const MAX_POINTS: usize = 10_000;
 
-/// A place in a file: 1-based line and column (the column counts characters, not bytes).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FilePosition {
-    pub file: PathBuf,
-    pub line: usize,
-    pub column: usize,
-}
-
-impl FilePosition {
-    /// The position of byte `offset` of `text`, the contents of `file`.
-    pub fn locate(file: &Path, text: &str, offset: usize) -> Self {
-        let mut end = offset.min(text.len());
-        while !text.is_char_boundary(end) {
-            end -= 1;
-        }
-        let before = &text[..end];
-        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-        FilePosition {
-            file: file.to_path_buf(),
-            line: before.matches('\n').count() + 1,
-            column: before[line_start..].chars().count() + 1,
-        }
-    }
-}
-
-impl fmt::Display for FilePosition {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}:{}", self.file.display(), self.line, self.column)
-    }
-}
-
 /// Why an error-model configuration was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
@@ -162,12 +131,12 @@ pub enum ConfigError {
     },
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
-    Invalid { at: FilePosition, message: String },
+    Invalid { at: Location, message: String },
 }
 
 impl ConfigError {
     /// Where in the file the problem is (None for read failures).
-    pub fn position(&self) -> Option<&FilePosition> {
+    pub fn position(&self) -> Option<&Location> {
         match self {
             ConfigError::Read { .. } => None,
             ConfigError::Invalid { at, .. } => Some(at),
@@ -176,7 +145,7 @@ impl ConfigError {
 
     fn invalid(file: &Path, text: &str, p: Problem) -> Self {
         ConfigError::Invalid {
-            at: FilePosition::locate(file, text, p.span.start),
+            at: Location::of_offset(file, text, p.span.start),
             message: p.message,
         }
     }
@@ -1164,187 +1133,17 @@ fn basis_problem(name: &ParamName, e: &BasisError, spec: &Spec, rule: &Rule) -> 
 
 /// Typed access to a parsed TOML document that keeps every key's and value's position, so that
 /// errors can point at them.
+/// The located TOML reader (`mtcal-located`) and what this crate adds to it: parameter names
+/// written as keys or strings.
 pub(crate) mod read {
-    use std::ops::{Range, RangeInclusive};
-
     use mtcal_kinematics::ParamName;
-    use toml::Spanned;
-    use toml::de::{DeTable, DeValue};
-
-    /// Byte range in the file.
-    pub(crate) type Span = Range<usize>;
-    pub(crate) type Item<'i> = Spanned<DeValue<'i>>;
-    pub(crate) type Parsed<T> = Result<T, Problem>;
+    pub(crate) use mtcal_located::toml::*;
 
     /// A value and where the file says it.
     #[derive(Clone, Debug, PartialEq)]
     pub(crate) struct At<T> {
         pub(crate) value: T,
         pub(crate) span: Span,
-    }
-
-    /// Something wrong at a span; the caller adds the file and turns the span into line:column.
-    #[derive(Clone, Debug, PartialEq)]
-    pub(crate) struct Problem {
-        pub(crate) span: Span,
-        pub(crate) message: String,
-    }
-
-    pub(crate) fn problem(span: Span, message: impl Into<String>) -> Problem {
-        Problem {
-            span,
-            message: message.into(),
-        }
-    }
-
-    pub(crate) fn document(text: &str) -> Parsed<DeTable<'_>> {
-        DeTable::parse(text).map(Spanned::into_inner).map_err(|e| {
-            let msg = format!("this is not valid TOML: {}", e.message());
-            problem(e.span().unwrap_or(0..0), msg)
-        })
-    }
-
-    /// The entries of a table in file order: key, key span, value.
-    pub(crate) fn entries<'a, 'i>(table: &'a DeTable<'i>) -> Vec<(&'a str, Span, &'a Item<'i>)> {
-        let mut out: Vec<_> = table
-            .iter()
-            .map(|(k, v)| (k.get_ref().as_ref(), k.span(), v))
-            .collect();
-        out.sort_by_key(|(_, span, _)| span.start);
-        out
-    }
-
-    /// Rejects the first key (in file order) that is not in `allowed`.
-    pub(crate) fn check_keys(table: &DeTable, allowed: &[&str], place: &str) -> Parsed<()> {
-        match entries(table)
-            .into_iter()
-            .find(|(k, _, _)| !allowed.contains(k))
-        {
-            Some((key, span, _)) => Err(problem(
-                span,
-                format!(
-                    "unknown key `{key}` {place}; expected one of: {}",
-                    allowed.join(", ")
-                ),
-            )),
-            None => Ok(()),
-        }
-    }
-
-    /// An optional `schema` key must name this format's version.
-    pub(crate) fn check_schema(top: &DeTable, expected: &str) -> Parsed<()> {
-        let Some(item) = top.get("schema") else {
-            return Ok(());
-        };
-        let found = string(item, "`schema`", &format!("\"{expected}\""))?;
-        if found == expected {
-            Ok(())
-        } else {
-            let msg = format!(
-                "schema \"{found}\" is not supported: this version of mtcal reads \"{expected}\""
-            );
-            Err(problem(item.span(), msg))
-        }
-    }
-
-    fn a_type(value: &DeValue) -> &'static str {
-        match value {
-            DeValue::String(_) => "a string",
-            DeValue::Integer(_) => "an integer",
-            DeValue::Float(_) => "a float",
-            DeValue::Boolean(_) => "a boolean",
-            DeValue::Datetime(_) => "a date-time",
-            DeValue::Array(_) => "an array",
-            DeValue::Table(_) => "a table",
-        }
-    }
-
-    /// "`what` must be `expected`, found a string".
-    pub(crate) fn wrong_type(item: &Item, what: &str, expected: &str) -> Problem {
-        let found = a_type(item.get_ref());
-        problem(
-            item.span(),
-            format!("{what} must be {expected}, found {found}"),
-        )
-    }
-
-    pub(crate) fn table<'a, 'i>(item: &'a Item<'i>, what: &str) -> Parsed<&'a DeTable<'i>> {
-        match item.get_ref() {
-            DeValue::Table(t) => Ok(t),
-            _ => Err(wrong_type(item, what, "a table")),
-        }
-    }
-
-    pub(crate) fn array<'a, 'i>(
-        item: &'a Item<'i>,
-        what: &str,
-        expected: &str,
-    ) -> Parsed<&'a [Item<'i>]> {
-        match item.get_ref() {
-            DeValue::Array(a) => Ok(a),
-            _ => Err(wrong_type(item, what, expected)),
-        }
-    }
-
-    pub(crate) fn string<'a>(item: &'a Item, what: &str, expected: &str) -> Parsed<&'a str> {
-        match item.get_ref() {
-            DeValue::String(s) => Ok(s),
-            _ => Err(wrong_type(item, what, expected)),
-        }
-    }
-
-    pub(crate) fn boolean(item: &Item, what: &str) -> Parsed<bool> {
-        match item.get_ref() {
-            DeValue::Boolean(b) => Ok(*b),
-            _ => Err(wrong_type(item, what, "true or false")),
-        }
-    }
-
-    /// A finite number; integers are accepted for floats.
-    pub(crate) fn number(item: &Item, what: &str) -> Parsed<f64> {
-        let value = match item.get_ref() {
-            DeValue::Float(f) => f.as_str().parse::<f64>().ok(),
-            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
-                .ok()
-                .map(|i| i as f64),
-            _ => return Err(wrong_type(item, what, "a number")),
-        };
-        match value {
-            Some(v) if v.is_finite() => Ok(v),
-            _ => Err(problem(
-                item.span(),
-                format!("{what} must be a finite number"),
-            )),
-        }
-    }
-
-    pub(crate) fn positive(item: &Item, what: &str) -> Parsed<f64> {
-        let v = number(item, what)?;
-        if v > 0.0 {
-            Ok(v)
-        } else {
-            Err(problem(
-                item.span(),
-                format!("{what} must be positive, got {v}"),
-            ))
-        }
-    }
-
-    /// An integer within `range`.
-    pub(crate) fn count(item: &Item, what: &str, range: RangeInclusive<usize>) -> Parsed<usize> {
-        let (lo, hi) = (*range.start(), *range.end());
-        let expected = format!("an integer from {lo} to {hi}");
-        let DeValue::Integer(i) = item.get_ref() else {
-            return Err(wrong_type(item, what, &expected));
-        };
-        let value = i64::from_str_radix(i.as_str(), i.radix()).ok();
-        match value.and_then(|v| usize::try_from(v).ok()) {
-            Some(v) if range.contains(&v) => Ok(v),
-            _ => Err(problem(
-                item.span(),
-                format!("{what} must be {expected}, got {i}"),
-            )),
-        }
     }
 
     /// A parameter name written as a key.
@@ -1855,10 +1654,10 @@ degree = 4
 
     #[test]
     fn columns_count_characters() {
-        let p = FilePosition::locate(Path::new("f"), "a = \"µµ\"\nbé = 1", 14);
+        let p = Location::of_offset(Path::new("f"), "a = \"µµ\"\nbé = 1", 14);
         assert_eq!((p.line, p.column), (2, 3));
         assert_eq!(p.to_string(), "f:2:3");
-        let end = FilePosition::locate(Path::new("f"), "ab", 99);
+        let end = Location::of_offset(Path::new("f"), "ab", 99);
         assert_eq!((end.line, end.column), (1, 3));
     }
 

@@ -65,7 +65,8 @@ use nalgebra::{DMatrix, DVector};
 use toml::de::{DeTable, DeValue};
 
 use crate::config::read::{self, Item, Parsed, Problem, Span, problem};
-use crate::config::{FilePosition, MAX_HARMONICS, Unit};
+use crate::config::{MAX_HARMONICS, Unit};
+use mtcal_located::Location;
 
 /// The `schema` value of version 1 of this format.
 pub const SCHEMA: &str = "mtcal.params/1";
@@ -88,12 +89,12 @@ pub enum ParamsError {
     },
     /// The file's contents are wrong at `at`; `message` says what to fix.
     #[error("{at}: {message}")]
-    Invalid { at: FilePosition, message: String },
+    Invalid { at: Location, message: String },
 }
 
 impl ParamsError {
     /// Where in the file the problem is (None for read failures).
-    pub fn position(&self) -> Option<&FilePosition> {
+    pub fn position(&self) -> Option<&Location> {
         match self {
             ParamsError::Read { .. } => None,
             ParamsError::Invalid { at, .. } => Some(at),
@@ -102,7 +103,7 @@ impl ParamsError {
 
     fn invalid(file: &Path, text: &str, p: Problem) -> Self {
         ParamsError::Invalid {
-            at: FilePosition::locate(file, text, p.span.start),
+            at: Location::of_offset(file, text, p.span.start),
             message: p.message,
         }
     }

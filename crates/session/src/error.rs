@@ -3,7 +3,7 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
-pub use mtcal_machine::Location;
+pub use mtcal_located::Location;
 
 /// Why a session or run could not be loaded or written.
 ///
@@ -57,27 +57,12 @@ impl SessionError {
     }
 }
 
-/// The location of byte `offset` of `text`, the contents of `file`; the column counts
-/// characters, not bytes.
+/// The location of byte `offset` of `text`, the contents of `file`.
 pub(crate) fn locate(file: &Path, text: &str, offset: usize) -> Location {
-    let mut end = offset.min(text.len());
-    while !text.is_char_boundary(end) {
-        end -= 1;
-    }
-    let before = &text[..end];
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    Location {
-        file: file.to_path_buf(),
-        line: before.matches('\n').count() + 1,
-        column: before[line_start..].chars().count() + 1,
-    }
+    Location::of_offset(file, text, offset)
 }
 
 /// A location given directly by line and column.
 pub(crate) fn at(file: &Path, line: usize, column: usize) -> Location {
-    Location {
-        file: file.to_path_buf(),
-        line,
-        column,
-    }
+    Location::at(file, line, column)
 }

@@ -94,21 +94,11 @@ use std::path::Path;
 
 /// The UTF-8 text of a file, without a leading byte-order mark.
 fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, SessionError> {
-    match String::from_utf8(bytes) {
-        Ok(mut text) => {
-            if text.starts_with('\u{feff}') {
-                text.drain(..'\u{feff}'.len_utf8());
-            }
-            Ok(text)
-        }
-        Err(e) => {
-            let valid = e.utf8_error().valid_up_to();
-            let bytes = e.into_bytes();
-            let prefix = String::from_utf8_lossy(&bytes[..valid]);
-            let at = error::locate(path, &prefix, valid);
-            let msg =
-                "expected UTF-8 text, found a byte that is not UTF-8 (save the file as UTF-8)";
-            Err(SessionError::invalid(at, msg))
+    match mtcal_located::Source::from_bytes(path, bytes) {
+        Ok(source) => Ok(source.text),
+        Err(mtcal_located::ReadError::NotText(e)) => Err(SessionError::invalid(e.at, e.message)),
+        Err(mtcal_located::ReadError::Io { path, source }) => {
+            Err(SessionError::read(&path, source))
         }
     }
 }

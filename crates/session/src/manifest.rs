@@ -8,6 +8,8 @@ use serde::Serialize;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+use mtcal_located::toml::{Parsed, Problem, entries, problem, wrong_type};
+
 use crate::error::{Location, SessionError, locate};
 
 /// The manifest's file name inside a session folder.
@@ -271,22 +273,6 @@ fn resolve_run_file(
     Ok(path)
 }
 
-/// Something wrong at a byte span of the manifest.
-struct Problem {
-    span: Range<usize>,
-    message: String,
-}
-
-fn problem(span: Range<usize>, message: impl Into<String>) -> Problem {
-    Problem {
-        span,
-        message: message.into(),
-    }
-}
-
-type Parsed<T> = Result<T, Problem>;
-type Item<'i> = Spanned<DeValue<'i>>;
-
 /// A run as parsed, with the spans that later messages point at.
 struct ParsedRun {
     run: ManifestRun,
@@ -359,16 +345,6 @@ fn syntax_problem(text: &str, e: &toml::de::Error) -> Problem {
     problem(span, message)
 }
 
-/// The entries of a table in file order: key, key span, value.
-fn entries<'a, 'i>(table: &'a DeTable<'i>) -> Vec<(&'a str, Range<usize>, &'a Item<'i>)> {
-    let mut out: Vec<_> = table
-        .iter()
-        .map(|(k, v)| (k.get_ref().as_ref(), k.span(), v))
-        .collect();
-    out.sort_by_key(|(_, span, _)| span.start);
-    out
-}
-
 fn check_top_keys(de: &DeTable) -> Parsed<()> {
     match entries(de)
         .into_iter()
@@ -383,22 +359,6 @@ fn check_top_keys(de: &DeTable) -> Parsed<()> {
         )),
         None => Ok(()),
     }
-}
-
-fn wrong_type(item: &Item, what: &str, expected: &str) -> Problem {
-    let found = match item.get_ref() {
-        DeValue::String(_) => "a string",
-        DeValue::Integer(_) => "an integer",
-        DeValue::Float(_) => "a float",
-        DeValue::Boolean(_) => "a boolean",
-        DeValue::Datetime(_) => "a date-time",
-        DeValue::Array(_) => "an array",
-        DeValue::Table(_) => "a table",
-    };
-    problem(
-        item.span(),
-        format!("{what} must be {expected}, found {found}"),
-    )
 }
 
 fn read_machine(de: &DeTable) -> Parsed<String> {

@@ -8,7 +8,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use mtcal_kinematics::{AxisKind, Direction, Machine, ParamName};
-use mtcal_machine::config::FilePosition;
+use mtcal_located::Location;
+use mtcal_located::toml::{Problem, SerdeMessages, problem};
 use nalgebra::Vector3;
 use serde::Deserialize;
 use toml::Spanned;
@@ -30,12 +31,12 @@ pub enum SpecError {
     },
     /// The contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
-    Invalid { at: FilePosition, message: String },
+    Invalid { at: Location, message: String },
 }
 
 impl SpecError {
     /// Where in the file the problem is (None for read failures).
-    pub fn position(&self) -> Option<&FilePosition> {
+    pub fn position(&self) -> Option<&Location> {
         match self {
             SpecError::Read { .. } => None,
             SpecError::Invalid { at, .. } => Some(at),
@@ -169,15 +170,11 @@ pub fn load_spec(path: &Path, machine: &Machine) -> Result<Spec, SpecError> {
 /// Parses a specification (`file` names it in errors) and checks it against `machine`.
 pub fn parse_spec(text: &str, file: &Path, machine: &Machine) -> Result<Spec, SpecError> {
     let invalid = |span: Range<usize>, message: String| SpecError::Invalid {
-        at: FilePosition::locate(file, text, span.start),
+        at: Location::of_offset(file, text, span.start),
         message,
     };
-    let raw: RawSpec = toml::from_str(text).map_err(|e| {
-        invalid(
-            e.span().unwrap_or(0..0),
-            e.message().trim_end().replace('\n', "; "),
-        )
-    })?;
+    let raw: RawSpec = mtcal_located::toml::from_str(text, &SerdeMessages)
+        .map_err(|p| invalid(p.span, p.message))?;
     check(raw, machine).map_err(|p| invalid(p.span, p.message))
 }
 
@@ -258,18 +255,6 @@ pub const DEFAULT_DECAY: f64 = 1.0;
 
 // ---------------------------------------------------------------------------------------------
 // Checks
-
-struct Problem {
-    span: Range<usize>,
-    message: String,
-}
-
-fn problem(span: Range<usize>, message: impl Into<String>) -> Problem {
-    Problem {
-        span,
-        message: message.into(),
-    }
-}
 
 type Checked<T> = Result<T, Problem>;
 
