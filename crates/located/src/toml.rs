@@ -57,12 +57,21 @@ pub trait Messages {
         None
     }
 
-    /// The value at `path` (dotted key path) is `found` (a noun with its article: "a string",
-    /// "an integer"…) where the type wants `expected` (serde's wording of what it expects).
-    fn wrong_type(&self, path: &str, found: &str, expected: &str) -> Option<String> {
+    /// The value at `path` (dotted key path) is `found` where the type wants `expected`
+    /// (serde's wording of what it expects).
+    fn wrong_type(&self, path: &str, found: &Found, expected: &str) -> Option<String> {
         let _ = (path, found, expected);
         None
     }
+}
+
+/// The value a type did not accept.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Found {
+    /// Its kind as a noun with its article: "a string", "an integer"…
+    pub noun: &'static str,
+    /// The value as TOML writes it (`"x"`, `[1, 2]`), where the reader has it ([`from_table`]).
+    pub value: Option<String>,
 }
 
 /// serde's messages, as `toml` prints them.
@@ -104,9 +113,58 @@ where
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = join(prefix, &key_path(e.path()));
         let inner = e.inner();
-        let message = reword(inner.message(), &path, messages);
+        let message = reword(inner.message(), &path, messages, None);
         problem(inner.span().unwrap_or(0..0), message)
     })
+}
+
+/// A problem in a table that has no spans (a set-up table the session hands on): the dotted
+/// key path it is at (empty for the table itself) and the message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct KeyProblem {
+    pub key: String,
+    pub message: String,
+}
+
+/// Reads a table of plain values into `T`; [`Found::value`] is given to
+/// [`Messages::wrong_type`].
+pub fn from_table<T: DeserializeOwned>(
+    table: &toml::Table,
+    messages: &dyn Messages,
+) -> Result<T, KeyProblem> {
+    serde_path_to_error::deserialize(table.clone()).map_err(|e| {
+        let key = key_path(e.path());
+        let value_at = |path: &str| value_at(table, path).map(|v| v.to_string());
+        let message = reword(e.inner().message(), &key, messages, Some(&value_at));
+        KeyProblem { key, message }
+    })
+}
+
+/// The value at a dotted key path of `table` (array indices as `[i]`).
+fn value_at<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
+    let mut parts = path.split('.');
+    let first = parts.next()?;
+    let (key, index) = split_index(first);
+    let mut value = table.get(key)?;
+    if let Some(i) = index {
+        value = value.get(i)?;
+    }
+    for part in parts {
+        let (key, index) = split_index(part);
+        value = value.get(key)?;
+        if let Some(i) = index {
+            value = value.get(i)?;
+        }
+    }
+    Some(value)
+}
+
+/// `key[3]` → (`key`, Some(3)).
+fn split_index(part: &str) -> (&str, Option<usize>) {
+    match part.split_once('[') {
+        Some((key, rest)) => (key, rest.trim_end_matches(']').parse().ok()),
+        None => (part, None),
+    }
 }
 
 fn join(prefix: &str, path: &str) -> String {
@@ -186,7 +244,12 @@ fn found_noun(found: &str) -> &'static str {
     }
 }
 
-fn reword(message: &str, path: &str, messages: &dyn Messages) -> String {
+fn reword(
+    message: &str,
+    path: &str,
+    messages: &dyn Messages,
+    value_at: Option<&dyn Fn(&str) -> Option<String>>,
+) -> String {
     let reworded = match complaint(message) {
         Complaint::UnknownKey { key, expected } => {
             // The path ends at the unknown key itself; its table is what comes before.
@@ -197,7 +260,11 @@ fn reword(message: &str, path: &str, messages: &dyn Messages) -> String {
             messages.unknown_key(table, key, &expected)
         }
         Complaint::WrongType { found, expected } => {
-            messages.wrong_type(path, found_noun(found), expected)
+            let found = Found {
+                noun: found_noun(found),
+                value: value_at.and_then(|v| v(path)),
+            };
+            messages.wrong_type(path, &found, expected)
         }
         Complaint::Other => None,
     };

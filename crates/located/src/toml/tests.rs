@@ -36,8 +36,9 @@ impl Messages for House {
             expected.join(", ")
         ))
     }
-    fn wrong_type(&self, path: &str, found: &str, expected: &str) -> Option<String> {
-        Some(format!("`{path}` must be {expected}, found {found}"))
+    fn wrong_type(&self, path: &str, found: &Found, expected: &str) -> Option<String> {
+        let what = found.value.as_deref().unwrap_or(found.noun);
+        Some(format!("`{path}` must be {expected}, found {what}"))
     }
 }
 
@@ -180,4 +181,20 @@ fn every_length_of_serde_key_list_is_read() {
             expected: vec!["a", "b", "c"]
         }
     );
+}
+
+#[test]
+fn a_table_without_spans_names_the_key_and_shows_the_value() {
+    let t: toml::Table = toml::from_str("[[run]]\nspeed = 1\n[[run]]\nspeed = [1, 2]\n").unwrap();
+    let p = from_table::<Top>(&t, &House).unwrap_err();
+    assert_eq!(p.key, "run[1].speed");
+    assert_eq!(p.message, "`run[1].speed` must be f64, found [1, 2]");
+    let t: toml::Table = toml::from_str("nome = 1").unwrap();
+    let p = from_table::<Top>(&t, &House).unwrap_err();
+    assert_eq!(
+        (p.key.as_str(), p.message.as_str()),
+        ("nome", "unknown key `nome` in []; known: name, run, inner")
+    );
+    let t: toml::Table = toml::from_str("[inner]\ndepth = 2").unwrap();
+    assert_eq!(from_table::<Top>(&t, &SerdeMessages).unwrap().run.len(), 0);
 }
