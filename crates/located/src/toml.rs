@@ -244,11 +244,14 @@ fn found_noun(found: &str) -> &'static str {
     }
 }
 
+/// The value at a key path as TOML writes it, where the reader has the values.
+type ValueAt<'a> = dyn Fn(&str) -> Option<String> + 'a;
+
 fn reword(
     message: &str,
     path: &str,
     messages: &dyn Messages,
-    value_at: Option<&dyn Fn(&str) -> Option<String>>,
+    value_at: Option<&ValueAt<'_>>,
 ) -> String {
     let reworded = match complaint(message) {
         Complaint::UnknownKey { key, expected } => {
