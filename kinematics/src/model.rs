@@ -90,8 +90,8 @@ pub enum ModelError {
     MissingBasis { name: String },
     #[error("{name}: {why}")]
     Impossible { name: String, why: String },
-    #[error("{name}: {source}")]
-    Basis { name: String, source: BasisError },
+    #[error("{name}: {cause}")]
+    Basis { name: String, cause: BasisError },
 }
 
 /// What a parameter does in the chain.
@@ -261,7 +261,7 @@ fn resolve(machine: &Machine, entry: &ParamConfig) -> Result<(Role, usize), Mode
                 .ok_or_else(|| ModelError::MissingBasis { name: text.clone() })?;
             basis.validate().map_err(|source| ModelError::Basis {
                 name: text.clone(),
-                source,
+                cause: source,
             })?;
             if matches!(basis, Basis::Fourier { .. })
                 && machine.axes()[a].kind() == AxisKind::Linear
@@ -365,7 +365,7 @@ pub fn iso_full_config(
                 .build(ax.kind(), ax.own_cartesian(), d, default_stroke(machine, i))
                 .map_err(|source| ModelError::Basis {
                     name: name.to_string(),
-                    source,
+                    cause: source,
                 })?;
             out.push(ParamConfig {
                 name,

@@ -188,11 +188,10 @@ pub enum CompensateError {
     },
     #[error("a 3-D error grid needs linear axes X, Y and Z; the machine has {letters}")]
     NotXyz { letters: String },
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
@@ -323,14 +322,14 @@ fn lerp(v: &[f64], (i, t): (usize, f64)) -> f64 {
 fn write_file(path: &std::path::Path, text: &str) -> Result<(), CompensateError> {
     mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| CompensateError::Io {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })
 }
 
 fn read_file(path: &std::path::Path) -> Result<String, CompensateError> {
     std::fs::read_to_string(path).map_err(|source| CompensateError::Io {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })
 }
 

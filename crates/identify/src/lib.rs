@@ -258,7 +258,7 @@ pub fn write_predictions(
     std::fs::create_dir_all(dir).map_err(|e| {
         IdentifyError::Session(mtcal_session::SessionError::Write {
             path: dir.to_path_buf(),
-            source: e,
+            cause: e,
         })
     })?;
     let mut out = Vec::new();

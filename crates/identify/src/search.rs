@@ -1132,9 +1132,13 @@ pub fn heldout(
             cols: std::mem::take(cols),
             assign: &assign,
         };
-        let res = problem
-            .walk_rows(b, x, &mut target)
-            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source });
+        let res =
+            problem
+                .walk_rows(b, x, &mut target)
+                .map_err(|source| mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
+                });
         *cols = target.cols;
         res
     })?;
@@ -1687,9 +1691,13 @@ fn fold_sums(
             cols: std::mem::take(cols),
             assign,
         };
-        let res = problem
-            .walk_rows(b, x, &mut target)
-            .map_err(|source| mtcal_solve::SolveError::Eval { block: b, source });
+        let res =
+            problem
+                .walk_rows(b, x, &mut target)
+                .map_err(|source| mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
+                });
         *cols = target.cols;
         res
     })?;

@@ -3,7 +3,7 @@
 /// Why a session could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] std::io::Error),
     #[error(transparent)]
     Machine(#[from] crate::machine::MachineError),

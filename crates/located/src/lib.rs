@@ -69,11 +69,10 @@ pub struct Located {
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
     /// Missing or unreadable.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read: {cause}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// Not UTF-8 text; located at the first byte that is not.
     #[error(transparent)]
@@ -98,7 +97,7 @@ impl Source {
     pub fn read(path: &Path) -> Result<Source, ReadError> {
         let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
             path: path.to_path_buf(),
-            source,
+            cause: source,
         })?;
         Source::from_bytes(path, bytes)
     }

@@ -123,12 +123,8 @@ pub const MAX_POINTS: usize = 10_000;
 /// Why an error-model configuration was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("{}: cannot read the error-model configuration: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
+    #[error("{}: cannot read the error-model configuration: {cause}", path.display())]
+    Read { path: PathBuf, cause: io::Error },
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
     Invalid { at: Location, message: String },
@@ -176,7 +172,7 @@ pub fn default_config(machine: &Machine) -> Vec<ParamConfig> {
 pub fn load_config(path: &Path, machine: &Machine) -> Result<Vec<ParamConfig>, ConfigError> {
     let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     parse_config(&text, path, machine)
 }

@@ -81,12 +81,8 @@ const RANK_RELATIVE_TOLERANCE: f64 = 1e-10;
 /// Why a parameter file was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum ParamsError {
-    #[error("{}: cannot read the parameter file: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
+    #[error("{}: cannot read the parameter file: {cause}", path.display())]
+    Read { path: PathBuf, cause: io::Error },
     /// The file's contents are wrong at `at`; `message` says what to fix.
     #[error("{at}: {message}")]
     Invalid { at: Location, message: String },
@@ -113,7 +109,7 @@ impl ParamsError {
 pub fn load_params(path: &Path, model: &ErrorModel) -> Result<Vec<f64>, ParamsError> {
     let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Read {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     parse_params(&text, path, model)
 }

@@ -128,12 +128,8 @@ pub enum TopologyError {
     /// The nominal machine failed validation. [`parse_code`] rules out every known cause; this
     /// variant exists so that a future rule in `Machine::try_new` surfaces as an error, not a
     /// panic.
-    #[error("topology code `{code}`: {source}")]
-    Machine {
-        code: String,
-        #[source]
-        source: MachineError,
-    },
+    #[error("topology code `{code}`: {cause}")]
+    Machine { code: String, cause: MachineError },
 }
 
 /// Parses a topology code. `reading` applies to bare codes only; `w`/`t` markers decide for
@@ -287,7 +283,7 @@ pub fn nominal_limits(letter: AxisLetter) -> Option<(f64, f64)> {
 pub fn nominal_machine(code: &TopologyCode, name: &str) -> Result<Machine, TopologyError> {
     Machine::try_new(&nominal_spec(code, name)).map_err(|source| TopologyError::Machine {
         code: code.to_string(),
-        source,
+        cause: source,
     })
 }
 

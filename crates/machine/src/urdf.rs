@@ -196,12 +196,8 @@ pub enum UrdfError {
         /// The limits, what they look like and how to write them.
         limits: String,
     },
-    #[error("{at}: {source}")]
-    Machine {
-        at: Location,
-        #[source]
-        source: MachineError,
-    },
+    #[error("{at}: {cause}")]
+    Machine { at: Location, cause: MachineError },
 }
 
 impl UrdfError {
@@ -921,7 +917,7 @@ fn locate_machine_error(ctx: &Ctx, model: &XmlModel, e: MachineError) -> UrdfErr
         .unwrap_or(model.robot);
     UrdfError::Machine {
         at: ctx.at(node),
-        source: e,
+        cause: e,
     }
 }
 

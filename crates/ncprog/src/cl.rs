@@ -298,12 +298,8 @@ pub struct AxisPoint {
 /// Why a CL point has no axis positions.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum PointFailure {
-    #[error("line {line}: {source}")]
-    Ik {
-        line: usize,
-        #[source]
-        source: IkError,
-    },
+    #[error("line {line}: {cause}")]
+    Ik { line: usize, cause: IkError },
     #[error(
         "line {line}: the tool axis is {angle_rad:.3e} rad from +Z, but the machine has no \
          rotary axis (tolerance {tol_rad:.1e} rad)"
@@ -369,7 +365,10 @@ enum Why {
 impl Why {
     fn at(self, line: usize) -> PointFailure {
         match self {
-            Why::Ik(source) => PointFailure::Ik { line, source },
+            Why::Ik(source) => PointFailure::Ik {
+                line,
+                cause: source,
+            },
             Why::NotVertical(angle_rad, tol_rad) => PointFailure::NotVertical {
                 line,
                 angle_rad,

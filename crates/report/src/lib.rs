@@ -54,15 +54,12 @@ pub enum ReportError {
     /// The plotting backend failed.
     #[error("report: plot `{plot}`: {message}")]
     Plot { plot: String, message: String },
-    #[error("{}: cannot create the report folder: {source}", dir.display())]
-    CreateDir {
-        dir: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{}: cannot write the report: {source}", path.display())]
+    #[error("{}: cannot create the report folder: {cause}", dir.display())]
+    CreateDir { dir: PathBuf, cause: std::io::Error },
+    #[error("{}: cannot write the report: {cause}", path.display())]
     Write {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 }
 
@@ -294,13 +291,13 @@ pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, ReportError> {
     let html = render(report)?;
     std::fs::create_dir_all(dir).map_err(|source| ReportError::CreateDir {
         dir: dir.to_path_buf(),
-        source,
+        cause: source,
     })?;
     let path = dir.join("index.html");
     mtcal_machine::write_atomically(&path, html.as_bytes()).map_err(|source| {
         ReportError::Write {
             path: path.clone(),
-            source,
+            cause: source,
         }
     })?;
     Ok(path)

@@ -12,19 +12,11 @@ pub use mtcal_located::Location;
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     /// The file could not be read at all (missing, unreadable).
-    #[error("{}: cannot read: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
+    #[error("{}: cannot read: {cause}", path.display())]
+    Read { path: PathBuf, cause: io::Error },
     /// The file could not be written.
-    #[error("{}: cannot write: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
+    #[error("{}: cannot write: {cause}", path.display())]
+    Write { path: PathBuf, cause: io::Error },
     /// The contents are wrong at `at`; `message` says what was expected and what was found.
     #[error("{at}: {message}")]
     Invalid { at: Location, message: String },
@@ -52,7 +44,7 @@ impl SessionError {
     pub(crate) fn read(path: &Path, source: io::Error) -> Self {
         SessionError::Read {
             path: path.to_path_buf(),
-            source,
+            cause: source,
         }
     }
 }

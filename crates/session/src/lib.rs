@@ -97,8 +97,9 @@ fn text_of(path: &Path, bytes: Vec<u8>) -> Result<String, SessionError> {
     match mtcal_located::Source::from_bytes(path, bytes) {
         Ok(source) => Ok(source.text),
         Err(mtcal_located::ReadError::NotText(e)) => Err(SessionError::invalid(e.at, e.message)),
-        Err(mtcal_located::ReadError::Io { path, source }) => {
-            Err(SessionError::read(&path, source))
-        }
+        Err(mtcal_located::ReadError::Io {
+            path,
+            cause: source,
+        }) => Err(SessionError::read(&path, source)),
     }
 }

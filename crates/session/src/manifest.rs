@@ -673,7 +673,7 @@ pub fn write_session(dir: &Path, manifest: &Manifest) -> Result<PathBuf, Session
     mtcal_machine::write_atomically(&path, text.as_bytes()).map_err(|source| {
         SessionError::Write {
             path: path.clone(),
-            source,
+            cause: source,
         }
     })?;
     Ok(path)

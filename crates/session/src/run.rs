@@ -605,7 +605,7 @@ pub fn write_run(path: &Path, table: &RunTable) -> Result<(), SessionError> {
     let text = render(table, &columns);
     mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| SessionError::Write {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })
 }
 

@@ -501,12 +501,12 @@ pub enum SolveError {
     #[error("candidate scores: {0}")]
     Score(String),
     /// `eval_block` failed at the starting point.
-    #[error("block {block}: evaluation failed: {source}")]
+    #[error("block {block}: evaluation failed: {cause}")]
     Eval {
         /// Block index.
         block: usize,
         /// The problem's error.
-        source: EvalError,
+        cause: EvalError,
     },
     /// A block passed an invalid column set to [`RowSink::columns`].
     #[error("block {block}: invalid columns: {reason}")]

@@ -502,7 +502,10 @@ fn accumulate<P: ScoredProblem>(
     crate::run_lanes(problem.n_blocks(), &mut pool, threads, |b, acc| {
         problem
             .eval_block(b, x, &mut ScoreSink { acc })
-            .map_err(|source| SolveError::Eval { block: b, source })?;
+            .map_err(|source| SolveError::Eval {
+                block: b,
+                cause: source,
+            })?;
         acc.rows_finite();
         if let Some(fault) = acc.fault.take() {
             return Err(SolveError::Score(format!("block {b}: {fault}")));

@@ -210,7 +210,10 @@ impl Setup {
 
     fn error(&self, failure: Failure) -> SolveError {
         match failure {
-            Failure::Eval { block, source } => SolveError::Eval { block, source },
+            Failure::Eval { block, source } => SolveError::Eval {
+                block,
+                cause: source,
+            },
             Failure::Overflow => SolveError::Numerical(
                 "the sum of squared residuals overflows (residuals near 1e154 or larger)".into(),
             ),

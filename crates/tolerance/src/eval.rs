@@ -50,13 +50,20 @@ pub enum EvalError {
     GridTooSmall { counts: Vec<usize> },
     #[error(transparent)]
     Grid(#[from] GridError),
+    /// The cause is in the message, so it is not also the source.
     #[error("the analysis model: {0}")]
-    Model(#[from] ModelError),
+    Model(ModelError),
     #[error(
         "internal check failed: the separable grid evaluation differs from the model by \
          {diff_um:.3e} µm at grid point {point}"
     )]
     Check { point: usize, diff_um: f64 },
+}
+
+impl From<ModelError> for EvalError {
+    fn from(e: ModelError) -> Self {
+        EvalError::Model(e)
+    }
 }
 
 /// Linear axes of the analysis, X Y Z.
@@ -119,7 +126,7 @@ impl Layout {
                     .build(ax.kind(), ax.own_cartesian(), d, default_stroke(machine, i))
                     .map_err(|source| ModelError::Basis {
                         name: ParamName::component(d, ax.letter()).to_string(),
-                        source,
+                        cause: source,
                     })?;
                 config.push(ParamConfig {
                     name: ParamName::component(d, ax.letter()),

@@ -24,12 +24,8 @@ use crate::stats::{Summary, percentile_in};
 pub enum AnalysisError {
     #[error(transparent)]
     Eval(#[from] EvalError),
-    #[error("the guide of axis {axis}: {source}")]
-    Rail {
-        axis: char,
-        #[source]
-        source: RailError,
-    },
+    #[error("the guide of axis {axis}: {cause}")]
+    Rail { axis: char, cause: RailError },
     #[error("the machine has no linear axis {axis} for the guide given in the specification")]
     NoAxis { axis: char },
     #[error("{what} must be at least 1")]
@@ -126,7 +122,7 @@ impl Analysis {
             })
             .map_err(|source| AnalysisError::Rail {
                 axis: letter,
-                source,
+                cause: source,
             })?;
             let knots = layout.knots(l);
             let stroke = ax.limits().ok_or(AnalysisError::NoAxis { axis: letter })?;

@@ -23,11 +23,10 @@ pub const DEFAULT_LEVELS: [f64; 4] = [0.0, 0.5, 1.5, 2.0];
 /// Why a specification was rejected.
 #[derive(Debug, thiserror::Error)]
 pub enum SpecError {
-    #[error("{}: cannot read the tolerance specification: {source}", path.display())]
+    #[error("{}: cannot read the tolerance specification: {cause}", path.display())]
     Read {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
@@ -162,7 +161,7 @@ pub struct Spec {
 pub fn load_spec(path: &Path, machine: &Machine) -> Result<Spec, SpecError> {
     let text = std::fs::read_to_string(path).map_err(|source| SpecError::Read {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     parse_spec(&text, path, machine)
 }
