@@ -10,6 +10,9 @@
 //!   found as `crate::m`, `crate::{m, …}` and (from a top-level module) `super::m`, outside
 //!   comments, strings and `#[cfg(test)]` modules; an item the root re-exports
 //!   (`pub use m::Item`) counts as a use of `m`.
+//! - **An error tells its cause once.** A `thiserror` message that shows a field (`{cause}`,
+//!   `{0}`) must not also make it the error's `source` (`#[source]`, `#[from]` or a field named
+//!   `source`): a reader walking the chain would see the cause twice.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -550,4 +553,204 @@ fn the_cycle_check_reads_paths_groups_and_reexports() {
     let found = cycles(&module_graph(src));
     assert_eq!(found.len(), 1, "{found:?}");
     assert!(found[0].starts_with("a → [\"b\"]"), "{found:?}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Errors tell their cause once
+
+/// The names a `#[error(...)]` attribute's text shows: `{name}`, `{0}`, `{name:?}`, and bare
+/// arguments after the format string.
+fn shown_fields(attr: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut rest = attr;
+    while let Some(i) = rest.find('{') {
+        rest = &rest[i + 1..];
+        if rest.starts_with('{') {
+            rest = &rest[1..];
+            continue;
+        }
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if !name.is_empty() {
+            out.insert(name);
+        }
+    }
+    if let Some(args) = attr.rsplit_once('"').map(|(_, a)| a) {
+        for arg in args.split(',') {
+            let arg = arg.trim();
+            let name = arg.split('.').next().unwrap_or("");
+            if !name.is_empty() && name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                out.insert(name.to_string());
+            }
+        }
+    }
+    out
+}
+
+/// The text between the bracket at the start of `s` and its match.
+fn bracketed(s: &str) -> &str {
+    let mut depth = 0;
+    for (i, c) in s.char_indices() {
+        match c {
+            '(' | '{' | '[' | '<' => depth += 1,
+            ')' | '}' | ']' | '>' => {
+                depth -= 1;
+                if depth == 0 {
+                    return &s[1..i];
+                }
+            }
+            _ => {}
+        }
+    }
+    s
+}
+
+/// Splits at the commas outside brackets.
+fn top_level_fields(body: &str) -> Vec<&str> {
+    let (mut out, mut depth, mut start) = (Vec::new(), 0i32, 0);
+    for (i, c) in body.char_indices() {
+        match c {
+            '(' | '{' | '[' | '<' => depth += 1,
+            ')' | '}' | ']' | '>' => depth -= 1,
+            ',' if depth == 0 => {
+                out.push(&body[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    out.push(&body[start..]);
+    out.into_iter().filter(|f| !f.trim().is_empty()).collect()
+}
+
+/// A field's declaration without its attributes and comments.
+fn without_attributes(field: &str) -> String {
+    let mut out = String::new();
+    for line in field
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.starts_with("//"))
+    {
+        let mut rest = line;
+        while let Some(i) = rest.find("#[") {
+            out.push_str(&rest[..i]);
+            let end = rest[i..].find(']').map_or(rest.len(), |e| i + e + 1);
+            rest = &rest[end..];
+        }
+        out.push_str(rest);
+        out.push(' ');
+    }
+    out.trim().to_string()
+}
+
+/// The fields of the variant or struct an `#[error]` attribute stands on that it both shows
+/// and makes its source.
+fn causes_told_twice(code: &str) -> Vec<String> {
+    let mut faults = Vec::new();
+    let mut rest = code;
+    while let Some(i) = rest.find("#[error(") {
+        rest = &rest[i + "#[error(".len()..];
+        let Some(end) = rest.find(")]") else { break };
+        let attr = &rest[..end];
+        if attr.trim_start().starts_with("transparent") {
+            continue;
+        }
+        let shown = shown_fields(attr);
+        let after = &rest[end + 2..];
+        // The item's fields: the first bracket after the name, unless the item ends first.
+        let open = after.find(['{', '(']);
+        let close = after.find([',', ';']);
+        let Some(open) = open.filter(|o| close.is_none_or(|c| *o < c)) else {
+            continue;
+        };
+        let name = after[..open].split_whitespace().last().unwrap_or("?");
+        for (index, field) in top_level_fields(bracketed(&after[open..]))
+            .into_iter()
+            .enumerate()
+        {
+            let field = field.trim();
+            let declared = without_attributes(field);
+            // `name: Type` (not a path's `::`) is a named field; anything else a tuple field.
+            let named = declared
+                .split_once(':')
+                .filter(|(_, ty)| !ty.starts_with(':'))
+                .map(|(n, _)| n.trim().trim_start_matches("pub ").trim())
+                .filter(|n| n.chars().all(|c| c.is_alphanumeric() || c == '_'));
+            let field_name = named.map_or_else(|| index.to_string(), str::to_string);
+            let is_source =
+                field.contains("#[source]") || field.contains("#[from]") || field_name == "source";
+            if is_source && shown.contains(&field_name) {
+                faults.push(format!(
+                    "{name}: `{field_name}` is in the message and the source"
+                ));
+            }
+        }
+    }
+    faults
+}
+
+#[test]
+fn errors_tell_their_cause_once() {
+    let mut faults = Vec::new();
+    for src in crate_sources() {
+        let mut files = Vec::new();
+        let mut stack = vec![src.clone()];
+        while let Some(dir) = stack.pop() {
+            for e in std::fs::read_dir(&dir).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    files.push(p);
+                }
+            }
+        }
+        files.sort();
+        for f in files {
+            let code = std::fs::read_to_string(&f).unwrap();
+            let at = f.strip_prefix(workspace()).unwrap().display().to_string();
+            faults.extend(
+                causes_told_twice(&code)
+                    .into_iter()
+                    .map(|x| format!("{at}: {x}")),
+            );
+        }
+    }
+    assert!(
+        faults.is_empty(),
+        "errors that tell their cause twice:\n{}",
+        faults.join("\n")
+    );
+}
+
+#[test]
+fn the_cause_check_finds_a_cause_told_twice() {
+    let code = r#"
+        enum E {
+            #[error("{}: cannot read: {source}", path.display())]
+            Read { path: PathBuf, #[source] source: io::Error },
+            #[error("{}: cannot write: {cause}", path.display())]
+            Write { path: PathBuf, cause: io::Error },
+            #[error("model: {0}")]
+            Model(#[from] ModelError),
+            #[error(transparent)]
+            Other(#[from] OtherError),
+            #[error("at {at}")]
+            Unit,
+            #[error("{at}: {message}")]
+            Invalid { at: Location, message: String },
+            #[error("mismatch: {0}")]
+            Mismatch(#[from] mtcal_mismatch::MismatchError),
+        }
+    "#;
+    assert_eq!(
+        causes_told_twice(code),
+        [
+            "Read: `source` is in the message and the source",
+            "Model: `0` is in the message and the source",
+            "Mismatch: `0` is in the message and the source"
+        ]
+    );
 }

@@ -69,11 +69,11 @@ pub enum IdentifyError {
         name: String,
         known: String,
     },
-    #[error("{at}: set-up `{setup}`: {source}")]
+    #[error("{at}: set-up `{setup}`: {cause}")]
     Setup {
         at: String,
         setup: String,
-        source: SetupError,
+        cause: SetupError,
     },
     #[error("{at}: set-up `{setup}` is used by a `{second}` run but was first used by `{first}`")]
     SetupShared {
@@ -99,14 +99,27 @@ pub enum IdentifyError {
     )]
     NothingToFit { manifest: PathBuf },
     #[error("identification failed: {0}")]
-    Solve(#[from] SolveError),
+    Solve(SolveError),
     #[error(transparent)]
     Simulate(#[from] simulate::SimulateError),
     #[error("mismatch analysis: {0}")]
-    Mismatch(#[from] mtcal_mismatch::MismatchError),
+    Mismatch(mtcal_mismatch::MismatchError),
     /// The information account ([`information`]) met numbers it cannot use.
     #[error("information account: {0}")]
     Information(String),
+}
+
+// Written out, not `#[from]`: the message shows the cause, so it is not also the source.
+impl From<SolveError> for IdentifyError {
+    fn from(e: SolveError) -> Self {
+        IdentifyError::Solve(e)
+    }
+}
+
+impl From<mtcal_mismatch::MismatchError> for IdentifyError {
+    fn from(e: mtcal_mismatch::MismatchError) -> Self {
+        IdentifyError::Mismatch(e)
+    }
 }
 
 /// Fits `study`: every estimated machine coefficient and free nuisance parameter, priors from

@@ -413,7 +413,7 @@ impl Study {
                         (plugin.load_setup)(&table, &ctx).map_err(|e| IdentifyError::Setup {
                             at: spec.location.to_string(),
                             setup: setup_name.clone(),
-                            source: e,
+                            cause: e,
                         })?;
                     let free: Vec<usize> = setup
                         .nuisance()
