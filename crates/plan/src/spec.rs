@@ -2,6 +2,7 @@
 
 use crate::PlanError;
 use crate::scene::GeometryConfig;
+use mtcal_located::toml::SerdeMessages;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -83,10 +84,8 @@ pub struct PlanningFile {
 
 /// 1-based line and column of a byte offset.
 pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
+    let at = mtcal_located::Location::of_offset(Path::new(""), text, offset);
+    (at.line, at.column)
 }
 
 /// The read planning file and where it is.
@@ -107,15 +106,16 @@ impl Source {
     }
 
     pub fn parse(path: &Path, text: String) -> Result<Source, PlanError> {
-        let file: PlanningFile = toml::from_str(&text).map_err(|e| {
-            let (line, column) = e.span().map(|s| line_col(&text, s.start)).unwrap_or((1, 1));
-            PlanError::Spec {
-                file: path.to_path_buf(),
-                line,
-                column,
-                message: e.message().trim().to_string(),
-            }
-        })?;
+        let file: PlanningFile =
+            mtcal_located::toml::from_str(&text, &SerdeMessages).map_err(|p| {
+                let (line, column) = line_col(&text, p.span.start);
+                PlanError::Spec {
+                    file: path.to_path_buf(),
+                    line,
+                    column,
+                    message: p.message,
+                }
+            })?;
         let source = Source {
             path: path.to_path_buf(),
             text,
