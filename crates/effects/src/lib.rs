@@ -199,13 +199,45 @@ impl Candidate {
     }
 }
 
+/// Why an `[[effect]]` table does not make an effect: the key at fault, where one is, and what
+/// was expected.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct PlantError {
+    pub key: Option<String>,
+    pub message: String,
+}
+
+impl PlantError {
+    /// A problem with the value of `key`.
+    pub(crate) fn at(key: &str, message: impl Into<String>) -> Self {
+        PlantError {
+            key: Some(key.to_string()),
+            message: message.into(),
+        }
+    }
+}
+
+/// A problem of the table as a whole (a missing target, a combination of keys).
+impl From<String> for PlantError {
+    fn from(message: String) -> Self {
+        PlantError { key: None, message }
+    }
+}
+
+impl From<&str> for PlantError {
+    fn from(message: &str) -> Self {
+        message.to_string().into()
+    }
+}
+
 /// An effect built from a table, with the parameter values the table gives (SI; `None` where
 /// it gives none).
 pub type Planted = (Arc<dyn Effect>, Vec<Option<f64>>);
 
 /// A family's builder of effects from an `[[effect]]` table (a test plan's planted effect, or
 /// an effect a session's `[identify]` starts from).
-pub type PlantFn = fn(&toml::Table, &SessionView) -> Result<Planted, String>;
+pub type PlantFn = fn(&toml::Table, &SessionView) -> Result<Planted, PlantError>;
 
 /// A registered family of effects.
 #[derive(Debug)]
@@ -251,13 +283,15 @@ pub fn candidates(view: &SessionView) -> Vec<Candidate> {
 pub fn plant(
     table: &toml::Table,
     view: &SessionView,
-) -> Result<(Arc<dyn Effect>, Vec<f64>), String> {
+) -> Result<(Arc<dyn Effect>, Vec<f64>), PlantError> {
     let (effect, values) = build(table, view)?;
     let values = values
         .iter()
         .zip(effect.params())
-        .map(|(v, p)| v.ok_or_else(|| format!("missing `{}` ({})", p.name, p.unit)))
-        .collect::<Result<Vec<f64>, String>>()?;
+        .map(|(v, p)| {
+            v.ok_or_else(|| PlantError::at(&p.name, format!("missing `{}` ({})", p.name, p.unit)))
+        })
+        .collect::<Result<Vec<f64>, PlantError>>()?;
     Ok((effect, values))
 }
 
@@ -267,7 +301,7 @@ pub fn plant(
 pub fn configure(
     table: &toml::Table,
     view: &SessionView,
-) -> Result<(Arc<dyn Effect>, Vec<f64>), String> {
+) -> Result<(Arc<dyn Effect>, Vec<f64>), PlantError> {
     let (effect, values) = build(table, view)?;
     let values = values
         .iter()
@@ -277,24 +311,37 @@ pub fn configure(
     Ok((effect, values))
 }
 
-fn build(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn build(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let name = match table.get("effect") {
         Some(toml::Value::String(s)) => s.as_str(),
-        Some(v) => return Err(format!("`effect` must be a family name, found {v}")),
-        None => return Err("missing `effect = \"<family>\"`".into()),
+        Some(v) => {
+            return Err(PlantError::at(
+                "effect",
+                format!("`effect` must be a family name, found {v}"),
+            ));
+        }
+        None => return Err(PlantError::at("effect", "missing `effect = \"<family>\"`")),
     };
     let family = find(name).ok_or_else(|| {
-        format!(
-            "unknown effect `{name}`; known: {}",
-            families()
-                .iter()
-                .map(|f| f.name)
-                .collect::<Vec<_>>()
-                .join(", ")
+        PlantError::at(
+            "effect",
+            format!(
+                "unknown effect `{name}`; known: {}",
+                families()
+                    .iter()
+                    .map(|f| f.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         )
     })?;
     let plant = family.plant.ok_or_else(|| {
-        format!("`{name}` is planted through the truth parameter file, not an [[effect]] table")
+        PlantError::at(
+            "effect",
+            format!(
+                "`{name}` is planted through the truth parameter file, not an [[effect]] table"
+            ),
+        )
     })?;
     plant(table, view)
 }

@@ -172,8 +172,27 @@ fn plant_tables_are_read_and_bad_ones_named() {
     ];
     for (text, expected) in cases {
         let err = plant(&table(text), &v).map(|_| ()).unwrap_err();
-        assert!(err.contains(expected), "{text}: {err}");
+        assert!(err.message.contains(expected), "{text}: {err}");
     }
+}
+
+#[test]
+fn plant_errors_name_the_key_at_fault() {
+    let v = view();
+    let key = |text: &str| plant(&table(text), &v).map(|_| ()).unwrap_err().key;
+    let drift = "effect = \"thermal-drift\"\naxis = \"X\"\ndriver = \"t\"";
+    assert_eq!(
+        key(&format!("{drift}\nrate_um_per_h = \"x\"")),
+        Some("rate_um_per_h".into())
+    );
+    assert_eq!(key(&format!("{drift}\nbogus = 1")), Some("bogus".into()));
+    assert_eq!(key("effect = \"no-such-family\""), Some("effect".into()));
+    assert_eq!(
+        key("effect = \"reversal\"\naxis = \"Z\""),
+        Some("axis".into())
+    );
+    // No target at all is the table's problem, not one key's.
+    assert_eq!(key("effect = \"reversal\"\nbacklash_um = 1.0"), None);
 }
 
 #[test]

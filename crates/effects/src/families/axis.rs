@@ -22,7 +22,7 @@
 use super::{axis_aim, moves, number, plant_aim, plant_values, reverses, single_letter, string};
 use crate::basic::{Basic, Feature};
 use crate::view::SessionView;
-use crate::{Candidate, EffectFamily, Planted, Target};
+use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
 use std::sync::Arc;
 
 /// Screw pitches tried (mm).
@@ -67,7 +67,7 @@ fn pose_axes(view: &SessionView) -> Vec<usize> {
     }
 }
 
-fn plant_axis(table: &toml::Table, view: &SessionView) -> Result<usize, String> {
+fn plant_axis(table: &toml::Table, view: &SessionView) -> Result<usize, PlantError> {
     let aim = plant_aim(table, view)?;
     match aim.target {
         Target::Axis(a) => Ok(a),
@@ -85,7 +85,7 @@ fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
     )
 }
 
-fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let a = plant_axis(table, view)?;
     let e = on_axis(view, a, "reversal", Feature::Reversal(a), None);
     let v = plant_values(&e, table, &[])?;
@@ -144,7 +144,7 @@ fn cyclic_candidates(view: &SessionView) -> Vec<Candidate> {
     wrap(out)
 }
 
-fn cyclic_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn cyclic_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let a = plant_axis(table, view)?;
     let shape = if view.axes[a].rotary {
         number(table, "period_deg", 180.0 / std::f64::consts::PI)?
@@ -166,7 +166,7 @@ fn servo_candidates(view: &SessionView) -> Vec<Candidate> {
     )
 }
 
-fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let a = plant_axis(table, view)?;
     let e = on_axis(view, a, "servo-lag", Feature::Velocity(a), None);
     let v = plant_values(&e, table, &[])?;
@@ -201,7 +201,7 @@ fn stick_candidates(view: &SessionView) -> Vec<Candidate> {
     wrap(out)
 }
 
-fn stick_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn stick_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let a = plant_axis(table, view)?;
     let key = if view.axes[a].rotary {
         "decay_deg"
@@ -248,21 +248,28 @@ fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
     wrap(out)
 }
 
-fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let l = plant_axis(table, view)?;
     let driver = string(table, "driver")?
         .ok_or_else(|| "a cross-coupling needs `driver = \"K*M\"` (two axes)".to_string())?;
-    let (k, m) = driver
-        .split_once('*')
-        .ok_or_else(|| format!("`driver = \"{driver}\"`: expected two axes as \"K*M\""))?;
-    let index = |s: &str| -> Result<usize, String> {
+    let (k, m) = driver.split_once('*').ok_or_else(|| {
+        PlantError::at(
+            "driver",
+            format!("`driver = \"{driver}\"`: expected two axes as \"K*M\""),
+        )
+    })?;
+    let index = |s: &str| -> Result<usize, PlantError> {
         let c = single_letter(s.trim())?;
-        view.axis_index(c)
-            .ok_or_else(|| format!("`driver`: the machine has no axis {c}"))
+        view.axis_index(c).ok_or_else(|| {
+            PlantError::at("driver", format!("`driver`: the machine has no axis {c}"))
+        })
     };
     let (k, m) = (index(k)?, index(m)?);
     if k == m {
-        return Err("`driver`: a cross-coupling needs two different axes".into());
+        return Err(PlantError::at(
+            "driver",
+            "`driver`: a cross-coupling needs two different axes",
+        ));
     }
     let e = coupling_effect(view, l, k.min(m), k.max(m));
     let v = plant_values(&e, table, &["driver"])?;

@@ -11,7 +11,7 @@
 use super::{channel_aim, nuisance_aim, plant_aim, plant_values};
 use crate::basic::{AmplitudeUnit, Basic, Feature};
 use crate::view::SessionView;
-use crate::{Candidate, EffectFamily, Planted, Target};
+use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
 use std::sync::Arc;
 
 fn drift(view: &SessionView, s: usize, index: usize) -> Basic {
@@ -51,7 +51,7 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     out
 }
 
-fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let aim = plant_aim(table, view)?;
     let Target::Nuisance { setup, index } = aim.target else {
         return Err(
@@ -97,7 +97,7 @@ fn scale_candidates(view: &SessionView) -> Vec<Candidate> {
         .collect()
 }
 
-fn scale_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn scale_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let aim = plant_aim(table, view)?;
     let Some(component) = aim
         .component

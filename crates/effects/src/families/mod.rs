@@ -17,7 +17,7 @@ mod thermal;
 
 use crate::basic::AmplitudeUnit;
 use crate::view::SessionView;
-use crate::{Effect, EffectInfo, Target};
+use crate::{Effect, EffectInfo, PlantError, Target};
 use mtcal_kinematics::{AxisLetter, Direction};
 
 /// A target with how it is named and measured.
@@ -174,23 +174,29 @@ pub(crate) fn moves(view: &SessionView, a: usize) -> bool {
 // Plant tables
 
 /// A string key.
-pub(crate) fn string<'a>(table: &'a toml::Table, key: &str) -> Result<Option<&'a str>, String> {
+pub(crate) fn string<'a>(table: &'a toml::Table, key: &str) -> Result<Option<&'a str>, PlantError> {
     match table.get(key) {
         None => Ok(None),
         Some(toml::Value::String(s)) => Ok(Some(s)),
-        Some(v) => Err(format!("`{key}` must be a string, found {v}")),
+        Some(v) => Err(PlantError::at(
+            key,
+            format!("`{key}` must be a string, found {v}"),
+        )),
     }
 }
 
 /// The target a plant table names (`axis`, `channel` [+ `instrument`], or `setup` +
 /// `nuisance`).
-pub(crate) fn plant_aim(table: &toml::Table, view: &SessionView) -> Result<Aim, String> {
+pub(crate) fn plant_aim(table: &toml::Table, view: &SessionView) -> Result<Aim, PlantError> {
     if let Some(letter) = string(table, "axis")? {
         let c = single_letter(letter)?;
         let a = view.axis_index(c).ok_or_else(|| {
-            format!(
-                "`axis = \"{letter}\"`: the machine has axes {}",
-                view.axes.iter().map(|a| a.letter).collect::<String>()
+            PlantError::at(
+                "axis",
+                format!(
+                    "`axis = \"{letter}\"`: the machine has axes {}",
+                    view.axes.iter().map(|a| a.letter).collect::<String>()
+                ),
             )
         })?;
         return Ok(axis_aim(view, a));
@@ -207,28 +213,36 @@ pub(crate) fn plant_aim(table: &toml::Table, view: &SessionView) -> Result<Aim, 
                     .collect();
                 match owners.first() {
                     None => {
-                        return Err(format!(
-                            "no instrument of the plan has a channel `{channel}`"
+                        return Err(PlantError::at(
+                            "channel",
+                            format!("no instrument of the plan has a channel `{channel}`"),
                         ));
                     }
                     Some(first) if owners.iter().any(|o| o != first) => {
-                        return Err(format!(
-                            "several instruments have a channel `{channel}`: say which with `instrument = \"…\"`"
+                        return Err(PlantError::at(
+                            "channel",
+                            format!(
+                                "several instruments have a channel `{channel}`: say which with `instrument = \"…\"`"
+                            ),
                         ));
                     }
                     Some(first) => first.to_string(),
                 }
             }
         };
-        return channel_aim(view, &instrument, channel)
-            .ok_or_else(|| format!("instrument `{instrument}` has no channel `{channel}`"));
+        return channel_aim(view, &instrument, channel).ok_or_else(|| {
+            PlantError::at(
+                "channel",
+                format!("instrument `{instrument}` has no channel `{channel}`"),
+            )
+        });
     }
     if let Some(setup) = string(table, "setup")? {
         let s = view
             .setups
             .iter()
             .position(|x| x.name == setup)
-            .ok_or_else(|| format!("no set-up `{setup}` in the plan"))?;
+            .ok_or_else(|| PlantError::at("setup", format!("no set-up `{setup}` in the plan")))?;
         let name = string(table, "nuisance")?
             .ok_or_else(|| "a set-up target needs `nuisance = \"<parameter>\"`".to_string())?;
         let index = view.setups[s]
@@ -236,14 +250,17 @@ pub(crate) fn plant_aim(table: &toml::Table, view: &SessionView) -> Result<Aim, 
             .iter()
             .position(|n| n.name == name)
             .ok_or_else(|| {
-                format!(
-                    "set-up `{setup}` has no parameter `{name}`; it has {}",
-                    view.setups[s]
-                        .nuisance
-                        .iter()
-                        .map(|n| n.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                PlantError::at(
+                    "nuisance",
+                    format!(
+                        "set-up `{setup}` has no parameter `{name}`; it has {}",
+                        view.setups[s]
+                            .nuisance
+                            .iter()
+                            .map(|n| n.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
                 )
             })?;
         return Ok(nuisance_aim(view, s, index));
@@ -268,11 +285,11 @@ pub(crate) fn nuisance_aim(view: &SessionView, s: usize, index: usize) -> Aim {
     }
 }
 
-pub(crate) fn single_letter(s: &str) -> Result<char, String> {
+pub(crate) fn single_letter(s: &str) -> Result<char, PlantError> {
     let mut chars = s.chars();
     match (chars.next(), chars.next()) {
         (Some(c), None) => Ok(c.to_ascii_uppercase()),
-        _ => Err(format!("expected one axis letter, found `{s}`")),
+        _ => Err(format!("expected one axis letter, found `{s}`").into()),
     }
 }
 
@@ -283,7 +300,7 @@ pub(crate) fn plant_values(
     effect: &dyn Effect,
     table: &toml::Table,
     structural: &[&str],
-) -> Result<Vec<Option<f64>>, String> {
+) -> Result<Vec<Option<f64>>, PlantError> {
     let names: Vec<&str> = effect.params().iter().map(|p| p.name.as_str()).collect();
     for key in table.keys() {
         let known = key == "effect"
@@ -291,10 +308,13 @@ pub(crate) fn plant_values(
             || structural.contains(&key.as_str())
             || names.contains(&key.as_str());
         if !known {
-            return Err(format!(
-                "unknown key `{key}`; this {} effect takes {}",
-                effect.info().class,
-                names.join(", ")
+            return Err(PlantError::at(
+                key,
+                format!(
+                    "unknown key `{key}`; this {} effect takes {}",
+                    effect.info().class,
+                    names.join(", ")
+                ),
             ));
         }
     }
@@ -309,17 +329,25 @@ pub(crate) fn plant_values(
                 .as_float()
                 .or_else(|| v.as_integer().map(|i| i as f64))
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("`{}` must be a finite number, found {v}", p.name))?;
+                .ok_or_else(|| {
+                    PlantError::at(
+                        &p.name,
+                        format!("`{}` must be a finite number, found {v}", p.name),
+                    )
+                })?;
             let si = x / p.per_si;
             if let Some((lo, hi)) = p.bounds
                 && !(lo..=hi).contains(&si)
             {
-                return Err(format!(
-                    "`{}` = {x} is outside {} … {} {}",
-                    p.name,
-                    lo * p.per_si,
-                    hi * p.per_si,
-                    p.unit
+                return Err(PlantError::at(
+                    &p.name,
+                    format!(
+                        "`{}` = {x} is outside {} … {} {}",
+                        p.name,
+                        lo * p.per_si,
+                        hi * p.per_si,
+                        p.unit
+                    ),
                 ));
             }
             Ok(Some(si))
@@ -329,7 +357,11 @@ pub(crate) fn plant_values(
 
 /// The shape parameter's value among `values` (for building the planted effect with it as its
 /// starting value).
-pub(crate) fn number(table: &toml::Table, key: &str, per_si: f64) -> Result<Option<f64>, String> {
+pub(crate) fn number(
+    table: &toml::Table,
+    key: &str,
+    per_si: f64,
+) -> Result<Option<f64>, PlantError> {
     match table.get(key) {
         None => Ok(None),
         Some(v) => v
@@ -337,6 +369,8 @@ pub(crate) fn number(table: &toml::Table, key: &str, per_si: f64) -> Result<Opti
             .or_else(|| v.as_integer().map(|i| i as f64))
             .filter(|x| x.is_finite() && *x > 0.0)
             .map(|x| Some(x / per_si))
-            .ok_or_else(|| format!("`{key}` must be a positive number, found {v}")),
+            .ok_or_else(|| {
+                PlantError::at(key, format!("`{key}` must be a positive number, found {v}"))
+            }),
     }
 }

@@ -42,7 +42,7 @@ use crate::Target;
 use crate::bank::{Bank, BankColumn};
 use crate::basic::{Basic, Feature};
 use crate::view::{Input, SessionView};
-use crate::{Candidate, Effect, EffectFamily, Planted};
+use crate::{Candidate, Effect, EffectFamily, PlantError, Planted};
 use std::sync::Arc;
 
 fn drift(aim: &Aim, feature: Feature, driver: &str, shape: Option<f64>) -> Basic {
@@ -114,7 +114,7 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     out
 }
 
-fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let aim = plant_aim(table, view)?;
     let driver = string(table, "driver")?.unwrap_or("t");
     let tau = number(table, "tau_s", 1.0)?;
@@ -125,9 +125,12 @@ fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Strin
         ("S^2", Some(tau)) => drift(&aim, Feature::Lag(Input::SpeedSquared), "S^2", Some(tau)),
         ("S" | "S^2", None) => return Err("a drift driven by spindle speed needs `tau_s`".into()),
         (other, _) => {
-            return Err(format!(
-                "`driver = \"{other}\"`: a thermal drift follows \"t\", \"S\" or \"S^2\" \
+            return Err(PlantError::at(
+                "driver",
+                format!(
+                    "`driver = \"{other}\"`: a thermal drift follows \"t\", \"S\" or \"S^2\" \
                  (a temperature column is a temperature-coupling)"
+                ),
             ));
         }
     };
@@ -196,7 +199,7 @@ fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
         .collect()
 }
 
-fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let aim = plant_aim(table, view)?;
     let column = string(table, "driver")?
         .filter(|d| d.starts_with("T_"))
@@ -249,15 +252,18 @@ fn expansion_candidates(view: &SessionView) -> Vec<Candidate> {
         .collect()
 }
 
-fn expansion_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, String> {
+fn expansion_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
     let aim = plant_aim(table, view)?;
     let Target::Axis(a) = aim.target else {
         return Err("a thermal expansion acts on a linear axis: give `axis = \"X\"`".into());
     };
     if view.axes[a].rotary {
-        return Err(format!(
-            "`axis = \"{}\"`: a thermal expansion acts on a linear axis",
-            view.axes[a].letter
+        return Err(PlantError::at(
+            "axis",
+            format!(
+                "`axis = \"{}\"`: a thermal expansion acts on a linear axis",
+                view.axes[a].letter
+            ),
         ));
     }
     let aim = axis_aim(view, a);
@@ -273,8 +279,11 @@ fn expansion_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, S
             }
         }
         (other, _) => {
-            return Err(format!(
-                "`driver = \"{other}\"`: a thermal expansion follows a temperature \"T_<name>\""
+            return Err(PlantError::at(
+                "driver",
+                format!(
+                    "`driver = \"{other}\"`: a thermal expansion follows a temperature \"T_<name>\""
+                ),
             ));
         }
     };
