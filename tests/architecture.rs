@@ -48,7 +48,9 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-tolerance",
         "mtcal-report",
     ],
-    &["mtcal-identify"],
+    // The identification and the simulator, each on its own (the simulator needs the
+    // plugins and the effects, so it cannot sit with them).
+    &["mtcal-identify", "mtcal-simulate"],
     &["mtcal-plan"],
     // The command line and the facade.
     &["mtcal-xtask", "mtcal"],

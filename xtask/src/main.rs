@@ -320,7 +320,7 @@ fn run(cli: Cli) -> Result<()> {
             threads,
         ),
         Command::Simulate { plan, out } => {
-            let sim = mtcal_identify::simulate::simulate(&plan, &out)?;
+            let sim = mtcal_simulate::simulate(&plan, &out)?;
             writeln!(
                 stdout,
                 "wrote {} ({} runs, {} samples)",

@@ -82,7 +82,7 @@ fn generate_and_measure(args: &ScaleArgs, dir: &Path, out: &mut impl Write) -> R
     let plan = write_plan(&args.layout, args.samples, &plan_dir)?;
     let session = dir.join("session");
     let start = Instant::now();
-    let sim = mtcal_identify::simulate::simulate(&plan, &session)?;
+    let sim = mtcal_simulate::simulate(&plan, &session)?;
     writeln!(
         out,
         "simulated {} samples in {} runs ({:.1} s) into {}",

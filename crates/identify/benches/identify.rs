@@ -101,8 +101,7 @@ ball = [200.0, 0.0, 200.0]
         );
     }
     std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s"))
-        .unwrap();
+    mtcal_simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
     let study = Study::load(&dir.path().join("s")).unwrap();
     (dir, study)
 }
@@ -153,8 +152,7 @@ path = {{ kind = "xyc", samples = {per_run} }}
         truth = repo.join("examples/five-axis/truth.params.toml"),
     );
     std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s"))
-        .unwrap();
+    mtcal_simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
     let study = Study::load(&dir.path().join("s")).unwrap();
     (dir, study)
 }

@@ -52,8 +52,7 @@ ball = [100.0, 0.0, 300.0]
         );
     }
     std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s"))
-        .unwrap();
+    mtcal_simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
     let study = Study::load(&dir.path().join("s")).unwrap();
     (dir, study)
 }

@@ -38,6 +38,84 @@ pub(crate) fn cell(table: &RunTable, i: usize, name: &str) -> String {
     format!("{}:{line}{column}", table.path.display())
 }
 
+/// Checks a run table given in memory ([`crate::Study::from_parts`]) for what reading a run
+/// file guarantees: the machine's axes and the set-up's reading and label columns, readings
+/// unless the run is only validated, at least one row, every column as long as `t`, finite
+/// numbers and `t` strictly increasing.
+pub(crate) fn check_table(
+    model: &MachineModel,
+    setup: &dyn Setup,
+    table: &RunTable,
+    fit: bool,
+) -> Result<(), IdentifyError> {
+    check_table_columns(model, setup, table, fit).map_err(|message| IdentifyError::RunData {
+        at: table.path.display().to_string(),
+        message,
+    })
+}
+
+fn check_table_columns(
+    model: &MachineModel,
+    setup: &dyn Setup,
+    table: &RunTable,
+    fit: bool,
+) -> Result<(), String> {
+    let axes: Vec<char> = model.machine().letters().chars().collect();
+    let channels: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
+    let labels: Vec<&str> = table.labels.iter().map(|(n, _)| n.as_str()).collect();
+    if table.axes != axes {
+        return Err(format!(
+            "the table's axes are {:?}, the machine's {axes:?}",
+            table.axes
+        ));
+    }
+    if table.readings != channels {
+        return Err(format!(
+            "the table's reading columns are {:?}, the instrument's {channels:?}",
+            table.readings
+        ));
+    }
+    if labels != setup.label_columns() {
+        return Err(format!(
+            "the table's label columns are {labels:?}, the instrument's {:?}",
+            setup.label_columns()
+        ));
+    }
+    if fit && table.values.is_none() {
+        return Err("a fitted run needs its readings".into());
+    }
+    let n = table.len();
+    if n == 0 {
+        return Err("the table has no rows".into());
+    }
+    let mut columns: Vec<(&str, &[f64], usize)> = vec![
+        ("t", &table.t, n),
+        ("positions", &table.positions, n * axes.len()),
+    ];
+    if let Some(values) = &table.values {
+        columns.push(("readings", values, n * channels.len()));
+    }
+    columns.extend(table.context.iter().map(|(c, v)| (c.as_str(), &v[..], n)));
+    for (name, values, len) in columns {
+        if values.len() != len {
+            return Err(format!(
+                "`{name}` has {} values, expected {len}",
+                values.len()
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(format!("`{name}` holds {} at index {i}", values[i]));
+        }
+    }
+    if let Some((name, _)) = table.labels.iter().find(|(_, v)| v.len() != n) {
+        return Err(format!("label column \"{name}\" is not {n} rows long"));
+    }
+    if let Some(i) = table.t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(format!("t must increase strictly: row {} does not", i + 2));
+    }
+    Ok(())
+}
+
 /// Checks one run's commanded positions and readings (file units) against the machine's axis
 /// limits and the instrument's range.
 pub(crate) fn check_run(

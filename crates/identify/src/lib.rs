@@ -4,8 +4,9 @@
 //! instrument plugins, every run in SI units) → [`FitProblem`] (whitened residuals of every
 //! fitted sample, streamed to [`mtcal_solve`]) → [`Identification`] (parameters with 95 %
 //! intervals, unidentifiable combinations by name, fit per run and channel, validation runs
-//! predicted, [`mismatch`]: where the residuals are not noise) → JSON / summary / predicted CSVs. [`simulate`] writes session folders from a
-//! machine, a truth parameter file and a test plan.
+//! predicted, [`mismatch`]: where the residuals are not noise) → JSON / summary / predicted CSVs.
+//! A session held in memory (simulated: `mtcal-simulate`) becomes a study through
+//! [`Study::from_parts`], the same code [`Study::load`] runs on a folder.
 //!
 //! # `[identify]` options in `session.toml` (mtcal's addition to the contract)
 //! - `parameters = ["EC0Y", "EB0Z", …]`: the machine parameters to estimate (ISO 230-1 names;
@@ -30,7 +31,6 @@ pub mod pipeline;
 mod relabel;
 pub mod report;
 pub mod search;
-pub mod simulate;
 pub mod study;
 pub mod whiten;
 
@@ -100,8 +100,6 @@ pub enum IdentifyError {
     NothingToFit { manifest: PathBuf },
     #[error("identification failed: {0}")]
     Solve(SolveError),
-    #[error(transparent)]
-    Simulate(#[from] simulate::SimulateError),
     #[error("mismatch analysis: {0}")]
     Mismatch(mtcal_mismatch::MismatchError),
     /// The information account ([`information`]) met numbers it cannot use.

@@ -11,7 +11,8 @@ use mtcal_kinematics::Basis;
 use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
 use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
 use mtcal_session::{
-    Column, Columns, RunColumns, RunTable, RunUse, Scale, Session, SetupRef, load_session, read_run,
+    Column, Columns, RunColumns, RunSpec, RunTable, RunUse, Scale, Session, SetupRef, load_session,
+    read_run,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -91,6 +92,47 @@ struct LoadedRun {
     context: Vec<(String, Column)>,
     labels: Vec<u32>,
     position_blocks: crate::blocks::PositionBlocks,
+}
+
+/// Where [`Study::assemble`] gets each run's samples, in the manifest's run order.
+enum RunSource {
+    /// The run files the manifest names ([`Study::load`]).
+    Files,
+    /// Tables held in memory, as reading the run files would give them
+    /// ([`Study::from_parts`]).
+    Tables(std::vec::IntoIter<RunTable>),
+    /// The runs of a study already loaded ([`Study::rebuild`]).
+    Loaded(std::vec::IntoIter<LoadedRun>),
+}
+
+impl RunSource {
+    /// Run `spec`'s samples, loaded for the study: `setup` is its set-up, `fit` whether it is
+    /// fitted.
+    fn next_run(
+        &mut self,
+        spec: &RunSpec,
+        model: &MachineModel,
+        setup: &dyn Setup,
+        fit: bool,
+    ) -> Result<LoadedRun, IdentifyError> {
+        match self {
+            RunSource::Loaded(runs) => Ok(runs
+                .next()
+                .expect("a rebuilt study has the runs of the study it rebuilds")),
+            RunSource::Files => {
+                let table = read_run_file(spec, model, setup, fit)?;
+                load_run(model, setup, table, fit)
+            }
+            RunSource::Tables(tables) => {
+                let table = tables
+                    .next()
+                    .expect("Study::from_parts checked: one table per run");
+                // A file's table was checked by the reader; one from memory is checked here.
+                crate::checks::check_table(model, setup, &table, fit)?;
+                load_run(model, setup, table, fit)
+            }
+        }
+    }
 }
 
 impl RunSlot {
@@ -243,12 +285,41 @@ impl Study {
     pub fn load(dir: &Path) -> Result<Study, IdentifyError> {
         let session = load_session(dir)?;
         let machine = load_session_machine(&session)?;
-        let study = Self::assemble(session, machine, None, Changes::default())?;
-        let effects = study.configured_effects()?;
-        if effects.is_empty() {
-            return Ok(study);
+        Self::assemble(session, machine, RunSource::Files, Changes::default())?
+            .with_configured_effects()
+    }
+
+    /// A study of a session held in memory: `session` (its manifest as parsed), its machine
+    /// and one table per run in the manifest's order, in file units as [`read_run`] gives a
+    /// run file (simulated sessions: `mtcal_simulate::SimulatedSession::into_parts`). Reads no
+    /// file, except the parameter file an `[identify] start` names. [`Study::load`] is the
+    /// same with the tables read from the run files: the same tables give the same study.
+    pub fn from_parts(
+        session: Session,
+        machine: LoadedMachine,
+        tables: Vec<RunTable>,
+    ) -> Result<Study, IdentifyError> {
+        if tables.len() != session.runs.len() {
+            return Err(IdentifyError::RunData {
+                at: session.manifest.display().to_string(),
+                message: format!(
+                    "{} run tables for the manifest's {} runs: one per run, in its order",
+                    tables.len(),
+                    session.runs.len()
+                ),
+            });
         }
-        study.rebuild(Changes {
+        let runs = RunSource::Tables(tables.into_iter());
+        Self::assemble(session, machine, runs, Changes::default())?.with_configured_effects()
+    }
+
+    /// This study with the effects `[[identify.effect]]` configures, if any.
+    fn with_configured_effects(self) -> Result<Study, IdentifyError> {
+        let effects = self.configured_effects()?;
+        if effects.is_empty() {
+            return Ok(self);
+        }
+        self.rebuild(Changes {
             effects,
             ..Changes::default()
         })
@@ -283,7 +354,7 @@ impl Study {
         // The SI positions, prepared readings and label numbers depend on the session's
         // set-ups and the machine's axes, which changes leave alone; the runs were checked
         // when they were loaded.
-        let runs = self
+        let runs: Vec<LoadedRun> = self
             .runs
             .iter()
             .map(|r| LoadedRun {
@@ -303,7 +374,7 @@ impl Study {
         let mut study = Self::assemble(
             self.session.clone(),
             self.machine.clone(),
-            Some(runs),
+            RunSource::Loaded(runs.into_iter()),
             changes,
         )?;
         if same_model {
@@ -320,7 +391,7 @@ impl Study {
     fn assemble(
         session: Session,
         machine: LoadedMachine,
-        loaded: Option<Vec<LoadedRun>>,
+        mut source: RunSource,
         changes: Changes,
     ) -> Result<Study, IdentifyError> {
         let model_error =
@@ -374,7 +445,6 @@ impl Study {
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
         let mut n_x = estimated.len();
-        let mut loaded = loaded.map(Vec::into_iter);
         for spec in &session.runs {
             let plugin = mtcal_plugins::find(&spec.instrument).ok_or_else(|| {
                 IdentifyError::UnknownInstrument {
@@ -439,33 +509,7 @@ impl Study {
                 }
             };
             let fit = spec.use_ == RunUse::Fit;
-            let run = match loaded.as_mut().and_then(Iterator::next) {
-                Some(run) => run,
-                None => {
-                    let channels: Vec<&str> = setups[setup_index]
-                        .setup
-                        .channels()
-                        .iter()
-                        .map(|c| c.name.as_str())
-                        .collect();
-                    let letters: Vec<char> = model
-                        .machine()
-                        .axes()
-                        .iter()
-                        .map(|a| a.letter().as_char())
-                        .collect();
-                    let table = read_run(
-                        &spec.file,
-                        &RunColumns {
-                            axes: &letters,
-                            readings: &channels,
-                            readings_optional: !fit,
-                            labels: setups[setup_index].setup.label_columns(),
-                        },
-                    )?;
-                    load_run(&model, &*setups[setup_index].setup, table, fit)?
-                }
-            };
+            let run = source.next_run(spec, &model, &*setups[setup_index].setup, fit)?;
             runs.push(RunSlot {
                 name: spec.name.clone(),
                 fit,
@@ -952,6 +996,29 @@ fn estimated_coefficients(
     out.sort_unstable();
     out.dedup();
     Ok(out)
+}
+
+/// Run `spec`'s file, read with the columns its set-up and the machine give.
+fn read_run_file(
+    spec: &RunSpec,
+    model: &MachineModel,
+    setup: &dyn Setup,
+    fit: bool,
+) -> Result<RunTable, IdentifyError> {
+    let channels: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
+    let letters: Vec<char> = model
+        .machine()
+        .axes()
+        .iter()
+        .map(|a| a.letter().as_char())
+        .collect();
+    let columns = RunColumns {
+        axes: &letters,
+        readings: &channels,
+        readings_optional: !fit,
+        labels: setup.label_columns(),
+    };
+    Ok(read_run(&spec.file, &columns)?)
 }
 
 /// A run file's table → the run as the study keeps it (checked first): times, positions,

@@ -19,7 +19,8 @@
 //! `simulate` writes the readings as a machine records them (the measured centres, through the
 //! plugin's `record_readings`); the first test checks that a run file holds measured centres.
 
-use mtcal_identify::{Identification, identify_session, simulate::simulate};
+use mtcal_identify::{Identification, identify_session};
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

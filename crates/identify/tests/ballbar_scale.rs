@@ -23,8 +23,9 @@
 //! The tool-length offset of the spindle ball is held: with the rotary axes at rest it moves
 //! the ball along Z exactly as the pivot's Z offset does, so the two cannot be told apart.
 
-use mtcal_identify::{Identification, identify_session, simulate::simulate};
+use mtcal_identify::{Identification, identify_session};
 use mtcal_kinematics::model::Role;
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

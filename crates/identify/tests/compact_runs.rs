@@ -111,7 +111,7 @@ path = {{ axis = "Y", from = -200.0, to = 200.0, points = 41, cycles = 5, hold =
 fn simulate(dir: &Path, plan: &str) -> PathBuf {
     std::fs::write(dir.join("plan.toml"), plan).unwrap();
     let session = dir.join("session");
-    mtcal_identify::simulate::simulate(&dir.join("plan.toml"), &session).unwrap();
+    mtcal_simulate::simulate(&dir.join("plan.toml"), &session).unwrap();
     session
 }
 
@@ -351,12 +351,9 @@ fn a_record_table_is_checked() {
     ] {
         let plan = rtest_plan(false, 0.5).replace("[identify]", &format!("{record}\n[identify]"));
         std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-        let err = mtcal_identify::simulate::simulate(
-            &dir.path().join("plan.toml"),
-            &dir.path().join("out"),
-        )
-        .unwrap_err()
-        .to_string();
+        let err = mtcal_simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("out"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains(expected), "{err}\nexpected: {expected}");
     }
 }

@@ -4,7 +4,8 @@
 
 mod common;
 
-use mtcal_identify::{identify_session, simulate::simulate};
+use mtcal_identify::identify_session;
+use mtcal_simulate::simulate;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::path::Path;

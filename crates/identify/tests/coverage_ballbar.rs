@@ -8,7 +8,8 @@
 //! separate the eight rotary location errors, and ISO 230-4 circles in the XY, YZ and ZX planes
 //! about a free pivot for the three squareness errors.
 
-use mtcal_identify::{identify_session, report::K95, simulate::simulate};
+use mtcal_identify::{identify_session, report::K95};
+use mtcal_simulate::simulate;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::path::Path;

@@ -34,7 +34,7 @@ fn simulate_with(dir: &Path, parameters: &str, runs: &str, keep: &[(&str, usize)
     )
     .unwrap();
     let session = dir.join("session");
-    mtcal_identify::simulate::simulate(&plan, &session).unwrap();
+    mtcal_simulate::simulate(&plan, &session).unwrap();
     for (run, n) in keep {
         let p = session.join(format!("{run}.csv"));
         let text = std::fs::read_to_string(&p).unwrap();

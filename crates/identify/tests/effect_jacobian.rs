@@ -7,7 +7,8 @@
 
 use mtcal_effects::Candidate;
 use mtcal_identify::study::Changes;
-use mtcal_identify::{FitProblem, Study, param_specs_from, predict_run, simulate::simulate};
+use mtcal_identify::{FitProblem, Study, param_specs_from, predict_run};
+use mtcal_simulate::simulate;
 use mtcal_solve::{Options, Silent};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -3,7 +3,7 @@
 //! simulation or a machine that changes a shipped session fails here until the session is
 //! written again (`cargo xtask simulate examples/<name>/plan.toml --out examples/<name>/session`).
 
-use mtcal_identify::simulate::simulate;
+use mtcal_simulate::simulate;
 use std::path::Path;
 
 #[test]

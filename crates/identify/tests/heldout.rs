@@ -37,7 +37,7 @@ fn session(dir: &Path) -> std::path::PathBuf {
     }
     plan += &format!("[[effect]]\n{DRIFT}");
     std::fs::write(dir.join("plan.toml"), plan).unwrap();
-    mtcal_identify::simulate::simulate(&dir.join("plan.toml"), &dir.join("s")).unwrap();
+    mtcal_simulate::simulate(&dir.join("plan.toml"), &dir.join("s")).unwrap();
     dir.join("s")
 }
 

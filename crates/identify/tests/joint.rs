@@ -11,7 +11,8 @@ mod common;
 
 use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::{account, what_if};
-use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
+use mtcal_identify::{Identification, Study, identify_with_solution};
+use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
 

@@ -20,7 +20,8 @@
 //! - noisy (0.5 µm, 1 µrad): over a handful of noise seeds the 95 % intervals contain the
 //!   truth 90–99 % of the time (the binomial spread of ~300 intervals around 95 %).
 
-use mtcal_identify::{Identification, identify_session, simulate::simulate};
+use mtcal_identify::{Identification, identify_session};
+use mtcal_simulate::simulate;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

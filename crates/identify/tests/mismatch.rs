@@ -1,8 +1,8 @@
 //! `identify` reports where the identified model and the recordings disagree (FORMATS.md
 //! `mismatch`): nothing on white noise, the run, channel and variable of a planted drift.
 
-use mtcal_identify::simulate::{Plant, PlantSample, simulate_with};
 use mtcal_identify::{Identification, identify_session};
+use mtcal_simulate::{Plant, PlantSample, simulate_with};
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -21,7 +21,8 @@ mod common;
 
 use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::account;
-use mtcal_identify::{Identification, Study, identify_with_solution, simulate::simulate};
+use mtcal_identify::{Identification, Study, identify_with_solution};
+use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
 

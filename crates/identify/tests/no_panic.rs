@@ -11,8 +11,8 @@ mod common;
 use common::finite::non_finite;
 use mtcal_identify::information::{account, what_if};
 use mtcal_identify::search::{SearchOptions, search};
-use mtcal_identify::simulate::simulate;
 use mtcal_identify::{IdentifyError, Study, identify_with_solution};
+use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
 use std::path::{Path, PathBuf};
 

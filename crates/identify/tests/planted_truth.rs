@@ -4,7 +4,8 @@
 mod common;
 
 use common::planted::TRUTH;
-use mtcal_identify::{Identification, identify_session, simulate::simulate};
+use mtcal_identify::{Identification, identify_session};
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -1,8 +1,9 @@
 //! Test plans write either R-test mount: `simulate` passes `mount` through to the session, the
 //! readings are the plugin's for that mount, and the identification reads them back.
 
-use mtcal_identify::{identify_session, simulate::simulate};
+use mtcal_identify::identify_session;
 use mtcal_session::{RunColumns, read_run};
+use mtcal_simulate::simulate;
 use std::path::Path;
 
 const PLAN: &str = r#"

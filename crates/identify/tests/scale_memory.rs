@@ -93,7 +93,7 @@ fn session(samples: usize, record: bool) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("plan.toml"), plan(samples, record)).unwrap();
     let session = dir.path().join("s");
-    mtcal_identify::simulate::simulate(&dir.path().join("plan.toml"), &session).unwrap();
+    mtcal_simulate::simulate(&dir.path().join("plan.toml"), &session).unwrap();
     dir
 }
 

@@ -5,7 +5,8 @@
 mod common;
 
 use mtcal_identify::search::{omitted_parameters, rank};
-use mtcal_identify::{Study, identify, simulate::simulate};
+use mtcal_identify::{Study, identify};
+use mtcal_simulate::simulate;
 use mtcal_solve::{Options, Silent};
 use std::path::{Path, PathBuf};
 

@@ -4,7 +4,8 @@
 //! evaluates the laser runs by ISO 230-2, and predicts the validation run to the noise; the
 //! physics search claims nothing in it and finds a backlash planted in the same campaign.
 
-use mtcal_identify::{identify_session, simulate::simulate};
+use mtcal_identify::identify_session;
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 fn example() -> PathBuf {

@@ -14,8 +14,9 @@
 //! good layout recovers; without reflector offsets the angular errors of the tool-side axis Z
 //! are lost (they read exactly like Z's straightness and positioning).
 
-use mtcal_identify::{Identification, Study, identify_session, simulate::simulate};
+use mtcal_identify::{Identification, Study, identify_session};
 use mtcal_kinematics::model::Role;
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {

@@ -197,7 +197,7 @@ impl MachineGeometry {
     pub fn from_urdf_file(path: &Path, machine: &Machine) -> Result<Self, PlanError> {
         let text = std::fs::read_to_string(path).map_err(|e| PlanError::Io {
             path: path.to_path_buf(),
-            source: e,
+            cause: e,
         })?;
         Self::from_urdf_str(&text, path, machine)
     }

@@ -102,17 +102,15 @@ use std::path::PathBuf;
 /// planning file is at fault) and what was expected.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
-    #[error("{}:{line}:{column}: {message}", file.display())]
+    #[error("{at}: {message}")]
     Spec {
-        file: PathBuf,
-        line: usize,
-        column: usize,
+        at: mtcal_located::Location,
         message: String,
     },
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("{}: collision geometry: {message}", file.display())]
     Geometry { file: PathBuf, message: String },

@@ -9,7 +9,9 @@ use crate::spec::{Group, Source, Wanted};
 use mtcal_identify::Study;
 use mtcal_instrument::{PathSpec, SetupContext};
 use mtcal_kinematics::{AxisKind, Machine};
+use mtcal_located::Location;
 use mtcal_machine::{LoadedMachine, load_machine, topology::Reading};
+use mtcal_simulate::{Plan, PlanMachine};
 use nalgebra::{DMatrix, Isometry3, Translation3};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -249,9 +251,7 @@ impl Ctx<'_> {
         {
             if !seen.insert(r.name.clone()) {
                 return Err(PlanError::Spec {
-                    file: self.src.path.clone(),
-                    line: 1,
-                    column: 1,
+                    at: Location::at(&self.src.path, 1, 1),
                     message: format!("two runs would be named `{}`; rename one", r.name),
                 });
             }
@@ -768,18 +768,12 @@ impl Ctx<'_> {
         }
         if runs.iter().all(|r| r.use_ != "fit") {
             return Err(PlanError::Spec {
-                file: self.src.path.clone(),
-                line: 1,
-                column: 1,
+                at: Location::at(&self.src.path, 1, 1),
                 message: "nothing to plan: no fixed run and no reachable candidate is fitted"
                     .into(),
             });
         }
         let infos_err = |e: String| PlanError::Information(e);
-        let dir = tempfile::tempdir().map_err(|e| PlanError::Io {
-            path: std::env::temp_dir(),
-            source: e,
-        })?;
         let table = self.plan_table(
             &runs,
             &setups,
@@ -789,7 +783,7 @@ impl Ctx<'_> {
                 units_info: Vec::new(),
             },
         );
-        let study = self.simulate_table(table, dir.path())?;
+        let study = self.simulated_study(table)?;
         let index = |name: &str| study.runs.iter().position(|r| r.name == name && r.fit);
         let mut units: Vec<Vec<usize>> = Vec::new();
         units.push(
@@ -837,28 +831,14 @@ impl Ctx<'_> {
         Ok((computed, kept, lost_info, cand_info))
     }
 
-    /// Writes the machine and `table` into `dir`, simulates it and loads the session.
-    fn simulate_table(&self, mut table: toml::Table, dir: &Path) -> Result<Study, PlanError> {
+    /// The study of the plan `table` on the plan's machine, simulated noise-free in memory.
+    fn simulated_study(&self, mut table: toml::Table) -> Result<Study, PlanError> {
+        let info = |e: String| PlanError::Information(e);
         let (urdf, errors) = self.machine_files()?;
-        let io = |path: PathBuf| move |e| PlanError::Io { path, source: e };
-        std::fs::write(dir.join("machine.urdf"), &urdf).map_err(io(dir.join("machine.urdf")))?;
-        if let Some(e) = &errors {
-            let p = dir.join("machine.errors.toml");
-            std::fs::write(&p, e).map_err(io(p.clone()))?;
-        }
-        table.insert("machine".into(), "machine.urdf".into());
-        if let Some(toml::Value::Array(runs)) = table.get_mut("run") {
-            for r in runs.iter_mut().filter_map(|r| r.as_table_mut()) {
-                r.insert("noise".into(), toml::Value::Float(0.0));
-            }
-        }
-        let plan = dir.join("plan.toml");
-        let text = toml::to_string(&table).map_err(|e| PlanError::Information(e.to_string()))?;
-        std::fs::write(&plan, text).map_err(io(plan.clone()))?;
-        let session = dir.join("session");
-        mtcal_identify::simulate::simulate(&plan, &session)
-            .map_err(|e| PlanError::Information(e.to_string()))?;
-        Study::load(&session).map_err(|e| PlanError::Information(e.to_string()))
+        let machine = PlanMachine::from_urdf(urdf, errors).map_err(|e| info(e.to_string()))?;
+        noise_free(&mut table);
+        let plan = Plan::from_table(table, &self.src.path).map_err(|e| info(e.to_string()))?;
+        simulated_study(&plan, machine, self.src.base()).map_err(info)
     }
 
     /// The wanted parameters as indices into the machine parameters.
@@ -913,14 +893,6 @@ impl Ctx<'_> {
         for k in ["truth", "truth_errors", "effect", "context", "nuisance"] {
             table.remove(k);
         }
-        let base = path.parent().unwrap_or(Path::new("."));
-        if let Some(m) = table.get("machine").and_then(|v| v.as_str()) {
-            let f = base.join(m);
-            if f.is_file() {
-                let abs = f.canonicalize().unwrap_or(f);
-                table.insert("machine".into(), abs.to_string_lossy().into_owned().into());
-            }
-        }
         let mut identify = table
             .get("identify")
             .and_then(|v| v.as_table())
@@ -928,25 +900,13 @@ impl Ctx<'_> {
             .unwrap_or_default();
         identify.insert("parameters".into(), self.estimated_names(infos).into());
         table.insert("identify".into(), identify.into());
-        if let Some(toml::Value::Array(runs)) = table.get_mut("run") {
-            for r in runs.iter_mut().filter_map(|r| r.as_table_mut()) {
-                r.insert("noise".into(), toml::Value::Float(0.0));
-            }
-        }
-        let dir = tempfile::tempdir().map_err(|e| PlanError::Io {
-            path: std::env::temp_dir(),
-            source: e,
-        })?;
-        let plan = dir.path().join("plan.toml");
-        let body = toml::to_string(&table).map_err(|e| PlanError::Information(e.to_string()))?;
-        std::fs::write(&plan, body).map_err(|e| PlanError::Io {
-            path: plan.clone(),
-            source: e,
-        })?;
-        let session = dir.path().join("session");
-        mtcal_identify::simulate::simulate(&plan, &session)
-            .map_err(|e| self.src.at(c, format!("compare: {e}")))?;
-        let study = Study::load(&session).map_err(|e| self.src.at(c, format!("compare: {e}")))?;
+        noise_free(&mut table);
+        let compare = |e: String| self.src.at(c, format!("compare: {e}"));
+        // Read as the file it came from: its machine and paths relative to its folder.
+        let plan = Plan::from_table(table, &path).map_err(|e| compare(e.to_string()))?;
+        let machine = plan.machine().map_err(|e| compare(e.to_string()))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let study = simulated_study(&plan, machine, base).map_err(compare)?;
         let fit: Vec<usize> = (0..study.runs.len())
             .filter(|&r| study.runs[r].fit)
             .collect();
@@ -1070,7 +1030,7 @@ impl Ctx<'_> {
         let urdf = if self.tool_length == 0.0 && src.is_file() {
             std::fs::read_to_string(src).map_err(|e| PlanError::Io {
                 path: src.to_path_buf(),
-                source: e,
+                cause: e,
             })?
         } else {
             let comment = format!(
@@ -1085,13 +1045,31 @@ impl Ctx<'_> {
         let errors = if cfg.is_file() {
             Some(std::fs::read_to_string(cfg).map_err(|e| PlanError::Io {
                 path: cfg.to_path_buf(),
-                source: e,
+                cause: e,
             })?)
         } else {
             None
         };
         Ok((urdf, errors))
     }
+}
+
+/// Every run of a test plan noise-free: the information of the runs, not of one noise draw.
+fn noise_free(plan: &mut toml::Table) {
+    if let Some(toml::Value::Array(runs)) = plan.get_mut("run") {
+        for r in runs.iter_mut().filter_map(|r| r.as_table_mut()) {
+            r.insert("noise".into(), toml::Value::Float(0.0));
+        }
+    }
+}
+
+/// `plan` simulated on `machine` in memory and made a study, as if its session were the
+/// folder `dir`; or why not.
+fn simulated_study(plan: &Plan, machine: PlanMachine, dir: &Path) -> Result<Study, String> {
+    let session =
+        mtcal_simulate::simulate_session(plan, machine, &[], dir).map_err(|e| e.to_string())?;
+    let (session, machine, tables) = session.into_parts();
+    Study::from_parts(session, machine, tables).map_err(|e| e.to_string())
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -1176,7 +1154,7 @@ impl Planned {
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, PlanError> {
         let io = |path: &Path| {
             let path = path.to_path_buf();
-            move |e| PlanError::Io { path, source: e }
+            move |e| PlanError::Io { path, cause: e }
         };
         let programs = dir.join("programs");
         std::fs::create_dir_all(&programs).map_err(io(&programs))?;

@@ -2,6 +2,7 @@
 
 use crate::PlanError;
 use crate::scene::GeometryConfig;
+use mtcal_located::Location;
 use mtcal_located::toml::SerdeMessages;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -82,12 +83,6 @@ pub struct PlanningFile {
     pub candidates: Vec<Spanned<Group>>,
 }
 
-/// 1-based line and column of a byte offset.
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let at = mtcal_located::Location::of_offset(Path::new(""), text, offset);
-    (at.line, at.column)
-}
-
 /// The read planning file and where it is.
 #[derive(Debug)]
 pub struct Source {
@@ -100,21 +95,16 @@ impl Source {
     pub fn read(path: &Path) -> Result<Source, PlanError> {
         let text = std::fs::read_to_string(path).map_err(|e| PlanError::Io {
             path: path.to_path_buf(),
-            source: e,
+            cause: e,
         })?;
         Self::parse(path, text)
     }
 
     pub fn parse(path: &Path, text: String) -> Result<Source, PlanError> {
         let file: PlanningFile =
-            mtcal_located::toml::from_str(&text, &SerdeMessages).map_err(|p| {
-                let (line, column) = line_col(&text, p.span.start);
-                PlanError::Spec {
-                    file: path.to_path_buf(),
-                    line,
-                    column,
-                    message: p.message,
-                }
+            mtcal_located::toml::from_str(&text, &SerdeMessages).map_err(|p| PlanError::Spec {
+                at: Location::of_offset(path, &text, p.span.start),
+                message: p.message,
             })?;
         let source = Source {
             path: path.to_path_buf(),
@@ -127,11 +117,8 @@ impl Source {
 
     /// An error at a value's position.
     pub fn at<T>(&self, value: &Spanned<T>, message: impl Into<String>) -> PlanError {
-        let (line, column) = line_col(&self.text, value.span().start);
         PlanError::Spec {
-            file: self.path.clone(),
-            line,
-            column,
+            at: Location::of_offset(&self.path, &self.text, value.span().start),
             message: message.into(),
         }
     }

@@ -439,11 +439,8 @@ fn the_example_plan_avoids_collisions_reports_them_and_writes_programs_that_pars
             }
         }
     }
-    let sim = mtcal_identify::simulate::simulate(
-        &dir.path().join("plan.toml"),
-        &dir.path().join("session"),
-    )
-    .unwrap();
+    let sim = mtcal_simulate::simulate(&dir.path().join("plan.toml"), &dir.path().join("session"))
+        .unwrap();
     assert_eq!(sim.runs, planned.runs.len());
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())

@@ -9,8 +9,9 @@
 
 #![allow(dead_code)]
 
+use mtcal_identify::Study;
 use mtcal_identify::search::{SearchOptions, SearchResult, search};
-use mtcal_identify::{Study, simulate::simulate};
+use mtcal_simulate::simulate;
 use std::path::{Path, PathBuf};
 
 /// Noise of every reading (µm): R-test and ball-bar.

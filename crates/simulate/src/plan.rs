@@ -1,0 +1,402 @@
+//! The test plan: read with located errors, its keys checked; the machine it names, the truth
+//! and the session-wide settings.
+
+use crate::SimulateError;
+use crate::context::{Schedule, context_schedules};
+use crate::record::Record;
+use mtcal_kinematics::MachineModel;
+use mtcal_machine::{LoadError, LoadedMachine, load_machine, params, topology::Reading};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Keys of a plan's top level.
+const PLAN_KEYS: &[&str] = &[
+    "machine",
+    "truth",
+    "truth_errors",
+    "pause_s",
+    "record",
+    "context",
+    "effect",
+    "seed",
+    "interval_s",
+    "identify",
+    "setup",
+    "nuisance",
+    "run",
+];
+
+/// A test plan: its table, and the file that names it in messages. Relative paths in it
+/// (machine, truth) start at that file's folder.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    pub table: toml::Table,
+    pub file: PathBuf,
+}
+
+/// The machine of a plan: as loaded, and the files a session folder gets of it.
+#[derive(Debug, Clone)]
+pub struct PlanMachine {
+    pub loaded: LoadedMachine,
+    pub files: MachineFiles,
+}
+
+/// What a session's manifest names as its machine.
+#[derive(Debug, Clone)]
+pub enum MachineFiles {
+    /// A topology code, named as it is; no file.
+    Code(String),
+    /// A URDF and its error configuration (`None`: the full ISO model), written into the
+    /// session as `machine.urdf` and `machine.errors.toml`.
+    Urdf {
+        urdf: Vec<u8>,
+        errors: Option<Vec<u8>>,
+    },
+}
+
+/// The plan's session-wide settings (besides machine, truth and runs).
+#[derive(Debug)]
+pub(crate) struct Settings {
+    /// Noise seed.
+    pub seed: u64,
+    /// Time between samples, s (a run may say its own).
+    pub interval: f64,
+    /// Time between runs, s.
+    pub pause: f64,
+    /// `[context]` columns' programmes over session time.
+    pub schedules: Vec<(String, Schedule)>,
+    pub record: Record,
+    /// `[setup.<name>]` tables.
+    pub setups: BTreeMap<String, toml::Table>,
+    /// `[nuisance.<setup>]` tables: true nuisance values.
+    pub nuisance: toml::Table,
+}
+
+impl Plan {
+    /// Reads and parses the plan file at `path`.
+    pub fn read(path: &Path) -> Result<Plan, SimulateError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SimulateError::Io {
+            path: path.to_path_buf(),
+            cause: e,
+        })?;
+        let table: toml::Table = toml::from_str(&text).map_err(|e| {
+            let (line, col) = e.span().map(|s| line_col(&text, s.start)).unwrap_or((1, 1));
+            plan_error(
+                path,
+                format!("{line}:{col}: not a valid plan: {}", e.message()),
+            )
+        })?;
+        Plan::from_table(table, path)
+    }
+
+    /// A plan held in memory; `file` names it in messages.
+    pub fn from_table(table: toml::Table, file: &Path) -> Result<Plan, SimulateError> {
+        if let Some(k) = table.keys().find(|k| !PLAN_KEYS.contains(&k.as_str())) {
+            return Err(plan_error(
+                file,
+                format!("unknown key `{k}`; a plan has {}", PLAN_KEYS.join(", ")),
+            ));
+        }
+        Ok(Plan {
+            table,
+            file: file.to_path_buf(),
+        })
+    }
+
+    /// Where the plan's relative paths start.
+    fn base(&self) -> &Path {
+        self.file.parent().unwrap_or(Path::new("."))
+    }
+
+    /// An error about the plan.
+    pub(crate) fn error(&self, message: String) -> SimulateError {
+        plan_error(&self.file, message)
+    }
+
+    /// An error about the plan's run `run`.
+    pub(crate) fn run_error(&self, run: &str, message: String) -> SimulateError {
+        SimulateError::Run {
+            file: self.file.clone(),
+            run: run.to_string(),
+            message,
+        }
+    }
+
+    /// The machine the plan names: a URDF relative to the plan (with the `.errors.toml` beside
+    /// it) or a topology code.
+    pub fn machine(&self) -> Result<PlanMachine, SimulateError> {
+        let arg = self
+            .table
+            .get("machine")
+            .and_then(|v| v.as_str())
+            .ok_or_else(|| {
+                self.error("missing `machine = \"<file>.urdf\"` (or a topology code)".into())
+            })?;
+        let file = self.base().join(arg);
+        let is_file = file.is_file();
+        let loaded = load_machine(
+            &if is_file {
+                file.to_string_lossy().into_owned()
+            } else {
+                arg.to_string()
+            },
+            Reading::default(),
+        )
+        .map_err(|e| self.error(format!("machine: {e}")))?;
+        let files = if is_file {
+            machine_files(&file)?
+        } else {
+            MachineFiles::Code(arg.to_string())
+        };
+        Ok(PlanMachine { loaded, files })
+    }
+
+    /// The truth: its model (the session's, or `truth_errors`' richer one: a planted higher
+    /// order) and its coefficients (`truth`, default zero).
+    pub(crate) fn truth(
+        &self,
+        loaded: &LoadedMachine,
+    ) -> Result<(MachineModel, Vec<f64>), SimulateError> {
+        let config = match self.table.get("truth_errors") {
+            None => loaded.config.clone(),
+            Some(v) => {
+                let f = self.file_name("truth_errors", v)?;
+                mtcal_machine::config::load_config(&self.base().join(f), &loaded.machine)
+                    .map_err(|e| self.error(format!("truth_errors: {e}")))?
+            }
+        };
+        let model = MachineModel::new(loaded.machine.clone(), &config)
+            .map_err(|e| self.error(format!("error model: {e}")))?;
+        let truth = match self.table.get("truth") {
+            None => vec![0.0; model.n_coeffs()],
+            Some(v) => {
+                let f = self.file_name("truth", v)?;
+                params::load_params(&self.base().join(f), model.errors())
+                    .map_err(|e| self.error(format!("truth: {e}")))?
+            }
+        };
+        Ok((model, truth))
+    }
+
+    /// Key `key`'s value `v` as a file name.
+    fn file_name<'a>(&self, key: &str, v: &'a toml::Value) -> Result<&'a str, SimulateError> {
+        v.as_str()
+            .ok_or_else(|| self.error(format!("`{key}` must be a file name, found {v}")))
+    }
+
+    /// The session-wide settings, checked in the order the plan format lists them.
+    pub(crate) fn settings(&self) -> Result<Settings, SimulateError> {
+        let t = &self.table;
+        Ok(Settings {
+            seed: int_key(t, "seed", &self.file)?.unwrap_or(0),
+            interval: float_key(t, "interval_s", &self.file)?.unwrap_or(0.5),
+            pause: self.pause()?,
+            schedules: context_schedules(t, &self.file)?,
+            record: Record::from_plan(t, &self.file)?,
+            setups: self.setups()?,
+            nuisance: t
+                .get("nuisance")
+                .and_then(|v| v.as_table())
+                .cloned()
+                .unwrap_or_default(),
+        })
+    }
+
+    /// `pause_s`: time between runs (default 10 s).
+    fn pause(&self) -> Result<f64, SimulateError> {
+        match self.table.get("pause_s") {
+            None => Ok(10.0),
+            Some(v) => v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| self.error(format!("`pause_s` must be a number ≥ 0, found {v}"))),
+        }
+    }
+
+    /// The shared set-ups, `[setup.<name>]`.
+    fn setups(&self) -> Result<BTreeMap<String, toml::Table>, SimulateError> {
+        match self.table.get("setup") {
+            None => Ok(BTreeMap::new()),
+            Some(toml::Value::Table(t)) => t
+                .iter()
+                .map(|(k, v)| match v {
+                    toml::Value::Table(t) => Ok((k.clone(), t.clone())),
+                    _ => Err(self.error(format!("`setup.{k}` must be a table"))),
+                })
+                .collect(),
+            Some(_) => Err(self.error("`setup` must be a table of set-ups".into())),
+        }
+    }
+
+    /// The `[[run]]` tables.
+    pub(crate) fn runs(&self) -> Result<&[toml::Value], SimulateError> {
+        self.table
+            .get("run")
+            .and_then(|v| v.as_array())
+            .map(Vec::as_slice)
+            .ok_or_else(|| self.error("no [[run]]".into()))
+    }
+
+    /// `[identify]`, copied into the session's manifest.
+    pub(crate) fn identify(&self) -> toml::Table {
+        self.table
+            .get("identify")
+            .and_then(|v| v.as_table())
+            .cloned()
+            .unwrap_or_default()
+    }
+}
+
+impl PlanMachine {
+    /// A machine given as URDF text and its error configuration's text (`None`: the full ISO
+    /// model), read as the files `machine.urdf` and `machine.errors.toml` of a session folder
+    /// would be.
+    pub fn from_urdf(urdf: String, errors: Option<String>) -> Result<PlanMachine, LoadError> {
+        let urdf_file = Path::new("machine.urdf");
+        let machine = mtcal_machine::urdf::load_urdf_str(&urdf, urdf_file)?;
+        let config_file = mtcal_machine::config::config_path_for(urdf_file);
+        let config = match &errors {
+            Some(text) => mtcal_machine::config::parse_config(text, &config_file, &machine)?,
+            None => mtcal_machine::config::default_config(&machine),
+        };
+        let loaded = LoadedMachine {
+            machine,
+            config,
+            source: urdf_file.display().to_string(),
+            config_source: config_source(errors.is_some(), &config_file),
+        };
+        Ok(PlanMachine {
+            loaded,
+            files: MachineFiles::Urdf {
+                urdf: urdf.into_bytes(),
+                errors: errors.map(String::into_bytes),
+            },
+        })
+    }
+}
+
+/// What [`load_machine`] says a URDF's error model came from: its `.errors.toml`, or the
+/// default.
+pub(crate) fn config_source(has_file: bool, file: &Path) -> String {
+    if has_file {
+        file.display().to_string()
+    } else {
+        "full ISO model: no .errors.toml beside the URDF".to_string()
+    }
+}
+
+/// The URDF file's bytes and those of the `.errors.toml` beside it, if there is one.
+fn machine_files(urdf: &Path) -> Result<MachineFiles, SimulateError> {
+    let read = |path: &Path| {
+        std::fs::read(path).map_err(|e| SimulateError::Io {
+            path: path.to_path_buf(),
+            cause: e,
+        })
+    };
+    let config = mtcal_machine::config::config_path_for(urdf);
+    Ok(MachineFiles::Urdf {
+        urdf: read(urdf)?,
+        errors: config.is_file().then(|| read(&config)).transpose()?,
+    })
+}
+
+fn plan_error(file: &Path, message: String) -> SimulateError {
+    SimulateError::Plan {
+        file: file.to_path_buf(),
+        message,
+    }
+}
+
+fn int_key(t: &toml::Table, key: &str, file: &Path) -> Result<Option<u64>, SimulateError> {
+    match t.get(key) {
+        None => Ok(None),
+        Some(toml::Value::Integer(i)) if *i >= 0 => Ok(Some(*i as u64)),
+        Some(v) => Err(plan_error(
+            file,
+            format!("`{key}` must be a non-negative integer, found {v}"),
+        )),
+    }
+}
+
+fn float_key(t: &toml::Table, key: &str, file: &Path) -> Result<Option<f64>, SimulateError> {
+    match t.get(key) {
+        None => Ok(None),
+        Some(v) => v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .map(Some)
+            .ok_or_else(|| {
+                plan_error(
+                    file,
+                    format!("`{key}` must be a positive number, found {v}"),
+                )
+            }),
+    }
+}
+
+/// Line and column (1-based, in characters) of byte `offset` of `text`.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn machines() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines")
+    }
+
+    #[test]
+    fn a_plan_that_is_not_toml_is_located_by_line_and_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("plan.toml");
+        std::fs::write(&path, "seed = 1\nmachine = [\n").unwrap();
+        let e = Plan::read(&path).unwrap_err().to_string();
+        let at = format!("{}: 2:12: not a valid plan: unclosed array", path.display());
+        assert!(e.starts_with(&at), "{e}");
+    }
+
+    #[test]
+    fn a_plan_in_memory_is_checked_like_a_file() {
+        let mut table = toml::Table::new();
+        table.insert("machin".into(), "m.urdf".into());
+        let e = Plan::from_table(table, Path::new("p.toml")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "p.toml: unknown key `machin`; a plan has {}",
+                PLAN_KEYS.join(", ")
+            )
+        );
+    }
+
+    #[test]
+    fn a_machine_from_text_is_the_machine_from_its_files() {
+        let urdf = machines().join("mcu630-cafyxz.urdf");
+        let errors = mtcal_machine::config::config_path_for(&urdf);
+        let files = load_machine(&urdf.display().to_string(), Reading::default()).unwrap();
+        let text = |p: &Path| std::fs::read_to_string(p).unwrap();
+        let memory = PlanMachine::from_urdf(text(&urdf), Some(text(&errors))).unwrap();
+        assert_eq!(
+            format!("{:?}", (&files.machine, &files.config)),
+            format!("{:?}", (&memory.loaded.machine, &memory.loaded.config))
+        );
+        assert_eq!(memory.loaded.source, "machine.urdf");
+        assert_eq!(memory.loaded.config_source, "machine.errors.toml");
+        let MachineFiles::Urdf {
+            urdf: bytes,
+            errors,
+        } = memory.files
+        else {
+            panic!("a URDF")
+        };
+        assert_eq!(bytes, std::fs::read(&urdf).unwrap());
+        assert!(errors.is_some());
+    }
+}

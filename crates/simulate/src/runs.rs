@@ -1,0 +1,364 @@
+//! The plan's runs before any reading: each run's set-up, commanded path, labels, times and
+//! context, and the distinct set-ups with their true nuisance values.
+
+use crate::SimulateError;
+use crate::plan::{Plan, Settings};
+use crate::record::Record;
+use mtcal_instrument::{Channel, InstrumentPlugin, PathSpec, Setup, SetupContext};
+use mtcal_kinematics::MachineModel;
+use mtcal_session::{RunUse, SetupRef};
+
+/// Keys of a plan's runs.
+const RUN_KEYS: &[&str] = &[
+    "name",
+    "instrument",
+    "setup",
+    "use",
+    "path",
+    "noise",
+    "readings",
+    "interval_s",
+    "feed_mm_min",
+];
+
+/// One run of a plan, ready to be measured.
+pub(crate) struct PlannedRun {
+    pub name: String,
+    pub instrument: String,
+    pub setup_ref: SetupRef,
+    /// Index into the plan's distinct set-ups.
+    pub setup: usize,
+    pub use_: RunUse,
+    pub poses: Vec<Vec<f64>>,
+    /// Each sample's label values (instruments with label columns), and their numbers.
+    pub labels: Vec<Vec<String>>,
+    pub label_numbers: Vec<u32>,
+    pub t: Vec<f64>,
+    /// Context columns sampled at `t` (file units).
+    pub context: Vec<(String, Vec<f64>)>,
+    /// σ of each channel's noise, SI (0: noise-free).
+    pub noise: Vec<f64>,
+    pub with_readings: bool,
+    pub feed: f64,
+}
+
+/// One distinct set-up of a plan.
+pub(crate) struct PlannedSetup {
+    pub name: String,
+    pub instrument: String,
+    pub setup: Box<dyn Setup>,
+    /// True nuisance values (SI).
+    pub nuis: Vec<f64>,
+}
+
+/// A run's set-up as the plan gives it.
+struct SetupChoice {
+    reference: SetupRef,
+    /// The shared set-up's name, or the run's own name.
+    name: String,
+    table: toml::Table,
+}
+
+/// Every run of the plan in order, and the distinct set-ups they use. The runs follow each
+/// other in session time, the plan's pause between them.
+pub(crate) fn plan_runs(
+    plan: &Plan,
+    settings: &Settings,
+    model: &MachineModel,
+) -> Result<(Vec<PlannedRun>, Vec<PlannedSetup>), SimulateError> {
+    let mut runs = Vec::new();
+    let mut setups: Vec<PlannedSetup> = Vec::new();
+    let mut t0 = 0.0;
+    for (ri, run) in plan.runs()?.iter().enumerate() {
+        let table = run
+            .as_table()
+            .ok_or_else(|| plan.error(format!("run {} is not a table", ri + 1)))?;
+        let name = table
+            .get("name")
+            .and_then(|v| v.as_str())
+            .ok_or_else(|| plan.error(format!("run {} has no `name`", ri + 1)))?;
+        let (mut run, setup, end) = plan_run(table, name, settings, model, t0)
+            .map_err(|message| plan.run_error(name, message))?;
+        t0 = end;
+        run.setup = match setups.iter().position(|d| d.name == setup.name) {
+            Some(i) => i,
+            None => {
+                setups.push(setup);
+                setups.len() - 1
+            }
+        };
+        runs.push(run);
+    }
+    Ok((runs, setups))
+}
+
+/// Run `name` (its plan table `run`) starting at session time `t0`: the run (its set-up
+/// index not yet set), its set-up as loaded and the time the next run starts; or what is
+/// wrong with it.
+fn plan_run(
+    run: &toml::Table,
+    name: &str,
+    settings: &Settings,
+    model: &MachineModel,
+    t0: f64,
+) -> Result<(PlannedRun, PlannedSetup, f64), String> {
+    if let Some(k) = run.keys().find(|k| !RUN_KEYS.contains(&k.as_str())) {
+        return Err(format!(
+            "unknown key `{k}`; a plan run has {}",
+            RUN_KEYS.join(", ")
+        ));
+    }
+    let (instrument, plugin) = plugin_of(run)?;
+    let choice = setup_choice(run, name, settings)?;
+    let use_ = run_use(run)?;
+    let empty = toml::Table::new();
+    let path_table = match run.get("path") {
+        Some(toml::Value::Table(t)) => t,
+        None => &empty,
+        Some(v) => return Err(format!("`path` must be a table, found {v}")),
+    };
+    let ctx = SetupContext {
+        machine: model.machine(),
+    };
+    let setup = (plugin.load_setup)(&choice.table, &ctx).map_err(|e| format!("set-up: {e}"))?;
+    let spec = PathSpec {
+        path: path_table,
+        setup: &choice.table,
+        machine: model.machine(),
+    };
+    let poses = commanded_poses(plugin, &spec, &settings.record, model)?;
+    let (labels, label_numbers) = path_labels(plugin, &spec, &*setup, poses.len())?;
+    let nuis = true_nuisance(&*setup, &choice.name, &settings.nuisance)?;
+    let noise = run_noise(run, setup.channels())?;
+    let with_readings = with_readings(run)?;
+    let dt = interval(run, settings.interval)?;
+    let feed = feed(run)?;
+    let t = sample_times(t0, dt, poses.len(), &settings.record)?;
+    let end = t0 + (poses.len() as f64 * dt + settings.pause);
+    let context = context_columns(&t, settings);
+    let planned = PlannedRun {
+        name: name.to_string(),
+        instrument: instrument.to_string(),
+        setup_ref: choice.reference,
+        setup: 0,
+        use_,
+        poses,
+        labels,
+        label_numbers,
+        t,
+        context,
+        noise,
+        with_readings,
+        feed,
+    };
+    let setup = PlannedSetup {
+        name: choice.name,
+        instrument: instrument.to_string(),
+        setup,
+        nuis,
+    };
+    Ok((planned, setup, end))
+}
+
+/// The run's instrument and its plugin.
+fn plugin_of(run: &toml::Table) -> Result<(&str, &'static InstrumentPlugin), String> {
+    let instrument = run
+        .get("instrument")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| "missing `instrument`".to_string())?;
+    let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
+        format!(
+            "unknown instrument `{instrument}`; known: {}",
+            mtcal_plugins::plugins()
+                .iter()
+                .map(|p| p.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?;
+    Ok((instrument, plugin))
+}
+
+/// `setup = "<name>"` (a shared `[setup.<name>]`), an own table, or none (an empty own one).
+fn setup_choice(run: &toml::Table, name: &str, settings: &Settings) -> Result<SetupChoice, String> {
+    let (reference, name, table) = match run.get("setup") {
+        Some(toml::Value::String(s)) => {
+            let t = settings
+                .setups
+                .get(s)
+                .ok_or_else(|| format!("no [setup.{s}] in the plan"))?;
+            (SetupRef::Shared(s.clone()), s.clone(), t.clone())
+        }
+        Some(toml::Value::Table(t)) => (SetupRef::Own(t.clone()), name.to_string(), t.clone()),
+        None => (
+            SetupRef::Own(toml::Table::new()),
+            name.to_string(),
+            toml::Table::new(),
+        ),
+        Some(v) => return Err(format!("`setup` must be a name or a table, found {v}")),
+    };
+    Ok(SetupChoice {
+        reference,
+        name,
+        table,
+    })
+}
+
+/// `use = "fit"` (the default) or `"validate"`.
+fn run_use(run: &toml::Table) -> Result<RunUse, String> {
+    match run.get("use").and_then(|v| v.as_str()) {
+        None | Some("fit") => Ok(RunUse::Fit),
+        Some("validate") => Ok(RunUse::Validate),
+        Some(other) => Err(format!(
+            "`use` must be \"fit\" or \"validate\", found \"{other}\""
+        )),
+    }
+}
+
+/// The plugin's path for `spec`, as the controller is given it (`[record] positions`).
+fn commanded_poses(
+    plugin: &InstrumentPlugin,
+    spec: &PathSpec<'_>,
+    record: &Record,
+    model: &MachineModel,
+) -> Result<Vec<Vec<f64>>, String> {
+    let poses = (plugin.path)(spec).map_err(|e| format!("path: {e}"))?;
+    if poses.is_empty() {
+        return Err("the path has no samples".into());
+    }
+    Ok(record.positions_of(model.machine(), poses))
+}
+
+/// Each sample's label values and their numbers (empty for an instrument without labels).
+fn path_labels(
+    plugin: &InstrumentPlugin,
+    spec: &PathSpec<'_>,
+    setup: &dyn Setup,
+    samples: usize,
+) -> Result<(Vec<Vec<String>>, Vec<u32>), String> {
+    let labels = match plugin.path_labels {
+        Some(f) => f(spec).map_err(|e| format!("path: {e}"))?,
+        None => Vec::new(),
+    };
+    let numbers = labels
+        .iter()
+        .map(|values| {
+            let refs: Vec<&str> = values.iter().map(String::as_str).collect();
+            setup.resolve_label(&refs)
+        })
+        .collect::<Result<Vec<u32>, String>>()
+        .map_err(|e| format!("path labels: {e}"))?;
+    if !setup.label_columns().is_empty() && labels.len() != samples {
+        return Err(format!(
+            "the path gives {} label sets for {samples} samples",
+            labels.len()
+        ));
+    }
+    Ok((labels, numbers))
+}
+
+/// The set-up's true nuisance values (SI) from `[nuisance.<setup>]` (the parameters' units).
+fn true_nuisance(
+    setup: &dyn Setup,
+    setup_name: &str,
+    nuisance: &toml::Table,
+) -> Result<Vec<f64>, String> {
+    let params = setup.nuisance();
+    let mut nuis = vec![0.0; params.len()];
+    let Some(toml::Value::Table(t)) = nuisance.get(setup_name) else {
+        return Ok(nuis);
+    };
+    for (k, v) in t {
+        let j = params.iter().position(|n| &n.name == k).ok_or_else(|| {
+            format!(
+                "[nuisance.{setup_name}] `{k}`: the set-up has {}",
+                params
+                    .iter()
+                    .map(|n| n.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        let x = v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .ok_or_else(|| format!("[nuisance.{setup_name}] `{k}` must be a number"))?;
+        nuis[j] = x / params[j].unit.per_si();
+    }
+    Ok(nuis)
+}
+
+/// σ of each channel's noise (SI): `noise` in the channels' units, default their own σ.
+fn run_noise(run: &toml::Table, channels: &[Channel]) -> Result<Vec<f64>, String> {
+    let Some(v) = run.get("noise") else {
+        return Ok(channels.iter().map(|c| c.sigma).collect());
+    };
+    let x = v
+        .as_float()
+        .or_else(|| v.as_integer().map(|i| i as f64))
+        .filter(|x| x.is_finite() && *x >= 0.0)
+        .ok_or_else(|| format!("`noise` must be a number ≥ 0, found {v}"))?;
+    Ok(channels.iter().map(|c| x / c.unit.per_si()).collect())
+}
+
+/// `readings = false`: a validation run written without readings.
+fn with_readings(run: &toml::Table) -> Result<bool, String> {
+    match run.get("readings") {
+        None => Ok(true),
+        Some(v) => v
+            .as_bool()
+            .ok_or_else(|| format!("`readings` must be true or false, found {v}")),
+    }
+}
+
+/// `interval_s`: the run's time between samples (default the plan's).
+fn interval(run: &toml::Table, default: f64) -> Result<f64, String> {
+    match run.get("interval_s") {
+        None => Ok(default),
+        Some(v) => v
+            .as_float()
+            .filter(|x| *x > 0.0)
+            .ok_or_else(|| format!("`interval_s` must be > 0, found {v}")),
+    }
+}
+
+/// `feed_mm_min`, the NC program's feed (default 1000 mm/min).
+fn feed(run: &toml::Table) -> Result<f64, String> {
+    match run.get("feed_mm_min") {
+        None => Ok(1000.0),
+        Some(v) => v
+            .as_float()
+            .or_else(|| v.as_integer().map(|i| i as f64))
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .ok_or_else(|| format!("`feed_mm_min` must be > 0, found {v}")),
+    }
+}
+
+/// `n` sample times `dt` apart from `t0`, as the file holds them (`[record] time`).
+fn sample_times(t0: f64, dt: f64, n: usize, record: &Record) -> Result<Vec<f64>, String> {
+    let t: Vec<f64> = (0..n)
+        .map(|i| Record::round(t0 + i as f64 * dt, record.time))
+        .collect();
+    if t.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(format!(
+            "[record] time = {}: samples {dt} s apart need more decimals",
+            record.time.unwrap_or(0)
+        ));
+    }
+    Ok(t)
+}
+
+/// The context columns at times `t`, as the file holds them (`[record] context`).
+fn context_columns(t: &[f64], settings: &Settings) -> Vec<(String, Vec<f64>)> {
+    settings
+        .schedules
+        .iter()
+        .map(|(name, schedule)| {
+            let values = t
+                .iter()
+                .map(|&ti| Record::round(schedule.at(ti), settings.record.context))
+                .collect();
+            (name.clone(), values)
+        })
+        .collect()
+}
