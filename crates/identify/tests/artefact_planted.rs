@@ -20,11 +20,8 @@
 //! plugin's `record_readings`); the first test checks that a run file holds measured centres.
 
 use mtcal_identify::{Identification, identify_session, simulate::simulate};
-use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use mtcal_testkit::machine_file;
+use std::path::Path;
 
 /// The identified values, by name, the truth (µm / µrad).
 const TRUTH: &[(&str, f64)] = &[
@@ -137,7 +134,7 @@ fn run_plate(
 ) -> Identification {
     let dir = tempfile::tempdir().unwrap();
     let urdf = dir.path().join("plate754.urdf");
-    std::fs::copy(repo().join("machines/mcv754-zfyx.urdf"), &urdf).unwrap();
+    std::fs::copy(machine_file("mcv754-zfyx.urdf"), &urdf).unwrap();
     std::fs::write(dir.path().join("plate754.errors.toml"), ERRORS).unwrap();
     std::fs::write(dir.path().join("truth.params.toml"), TRUTH_FILE).unwrap();
     let mut plan = format!(
