@@ -3,7 +3,7 @@
 //! - **Crates depend downwards.** Every workspace crate sits in one layer; a normal dependency
 //!   on another workspace crate must point to a lower layer (tests and benches may use anything
 //!   through dev-dependencies). The independent simulator depends on no mtcal crate at all: it
-//!   checks them and must share no code with them.
+//!   checks them and must share no code with them. The test kit is only ever a dev-dependency.
 //! - **No import cycle between the modules of a crate.** A module is a file or folder directly
 //!   under `src/`; it may use modules below it and items of the crate root (`lib.rs`/`main.rs`
 //!   holds shared types and the entry points), never a module that uses it back. References are
@@ -19,12 +19,15 @@ use std::path::{Path, PathBuf};
 
 /// The layers, lowest first. A crate may depend on crates of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    // Numerics, the serial chain, located file reading: no mtcal dependency.
+    // Numerics, the serial chain, located file reading: no mtcal dependency. The test kit too:
+    // it is lowest so that every crate's tests can use it (a kit above a crate would be a cycle
+    // through its tests), and `DEV_ONLY` keeps it out of every library and binary.
     &[
         "mtcal-kinematics",
         "mtcal-solve",
         "mtcal-mismatch",
         "mtcal-located",
+        "mtcal-testkit",
     ],
     // The machine and the instrument contract.
     &["mtcal-machine", "mtcal-instrument"],
@@ -58,6 +61,9 @@ const LAYERS: &[&[&str]] = &[
 
 /// Crates that must depend on no workspace crate (dev-dependencies aside).
 const INDEPENDENT: &[&str] = &["mtcal-indsim"];
+
+/// Crates that may only be dev-dependencies: fixtures for tests, never in what ships.
+const DEV_ONLY: &[&str] = &["mtcal-testkit"];
 
 /// A crate and its workspace dependencies, each with its kind (`None` normal, `"dev"`, `"build"`).
 type CrateDeps = (String, Vec<(String, Option<String>)>);
@@ -122,6 +128,14 @@ fn layering_faults(deps: &[CrateDeps]) -> Vec<String> {
         let normal = uses
             .iter()
             .filter(|(_, kind)| kind.as_deref() != Some("dev"));
+        faults.extend(
+            normal
+                .clone()
+                .filter(|(d, _)| DEV_ONLY.contains(&d.as_str()))
+                .map(|(d, _)| {
+                    format!("{name} uses {d} outside its tests: only as a dev-dependency")
+                }),
+        );
         if INDEPENDENT.contains(&name.as_str()) {
             faults.extend(normal.map(|(d, _)| {
                 format!("{name} must depend on no mtcal crate (it checks them), but uses {d}")
@@ -171,6 +185,19 @@ fn the_layering_check_finds_an_upward_dependency() {
         vec![("mtcal-kinematics".to_string(), None)],
     )];
     assert_eq!(layering_faults(&deps).len(), 1);
+}
+
+#[test]
+fn the_layering_check_finds_the_test_kit_outside_tests() {
+    let deps = |kind: Option<&str>| {
+        vec![(
+            "mtcal-identify".to_string(),
+            vec![("mtcal-testkit".to_string(), kind.map(str::to_string))],
+        )]
+    };
+    assert!(layering_faults(&deps(Some("dev"))).is_empty());
+    assert_eq!(layering_faults(&deps(None)).len(), 1);
+    assert_eq!(layering_faults(&deps(Some("build"))).len(), 1);
 }
 
 /// Rust source without comments, string and character literals (their text could name a

@@ -1,18 +1,13 @@
 //! `mtcal … | head` must not panic: when the reader closes standard output, every command stops
 //! quietly with success (`println!` would panic with "failed printing to stdout").
 
-use std::path::Path;
 use std::process::{Command, Stdio};
-
-fn repo() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-}
 
 /// Runs `mtcal args` with its standard output a pipe whose reading end is closed at once.
 fn with_closed_stdout(args: &[&str]) -> std::process::Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_mtcal"))
         .args(args)
-        .current_dir(repo())
+        .current_dir(mtcal_testkit::repo())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

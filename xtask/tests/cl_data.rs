@@ -2,22 +2,23 @@
 //! positions and a predicted error per point, summarised and written as CSV; a file that cannot
 //! be read is located by file, line and column and nothing is written.
 
+use mtcal_testkit::cli::{assert_refused, assert_success, on_three_axis_example, run_in_repo};
 use std::path::Path;
-use std::process::Command;
+use std::process::Output;
 
-const MACHINE: &str = "examples/three-axis/machine/zfyx.urdf";
-const PARAMS: &str = "examples/three-axis/truth.params.toml";
 /// Tool tips in the workpiece frame (on this machine Z = z − 640 mm), axis +Z.
 const CL: &str =
     "# three points\nx,y,z,i,j,k\n0,0,300,0,0,1\n\n100,50,280,0,0,1\n-200,-100,350,0,0,2\n";
 
-fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+/// `mtcal cl-error` on the three-axis example's machine and truth, CL data `cl`, then `rest`.
+fn cl_error(cl: &Path, rest: &[&str]) -> Output {
+    let cl = cl.to_str().unwrap();
+    let mut args = vec!["--cl", cl];
+    args.extend_from_slice(rest);
+    run_in_repo(
+        env!("CARGO_BIN_EXE_mtcal"),
+        &on_three_axis_example("cl-error", &args),
+    )
 }
 
 #[test]
@@ -27,23 +28,8 @@ fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
     let svg = dir.path().join("errors.svg");
     std::fs::write(&input, CL).unwrap();
     let p = |x: &Path| x.to_str().unwrap().to_string();
-    let out = run(&[
-        "cl-error",
-        MACHINE,
-        "--params",
-        PARAMS,
-        "--cl",
-        &p(&input),
-        "--out",
-        &p(&csv),
-        "--plot",
-        &p(&svg),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = cl_error(&input, &["--out", &p(&csv), "--plot", &p(&svg)]);
+    assert_success(&out);
     assert_eq!(std::fs::read_to_string(&input).unwrap(), CL);
     let report = String::from_utf8(out.stdout).unwrap();
     assert!(report.contains(": 3 points\n"), "{report}");
@@ -116,41 +102,14 @@ fn cl_data_gives_a_summary_and_a_csv_and_bad_files_are_located() {
         let file = dir.path().join("bad.csv");
         let never = dir.path().join("never.csv");
         std::fs::write(&file, bad).unwrap();
-        let out = run(&[
-            "cl-error",
-            MACHINE,
-            "--params",
-            PARAMS,
-            "--cl",
-            &p(&file),
-            "--out",
-            &p(&never),
-        ]);
-        assert_eq!(out.status.code(), Some(2));
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.contains(&format!("{}{at} expected", file.display())),
-            "{err}"
-        );
-        assert!(!never.exists());
+        let out = cl_error(&file, &["--out", &p(&never)]);
+        assert_refused(&out, &format!("{}{at} expected", file.display()), &never);
     }
 
     // A point outside the axis limits is reported by line, nothing written.
     let file = dir.path().join("far.csv");
     let never = dir.path().join("never.csv");
     std::fs::write(&file, "x,y,z\n0,0,300\n0,0,0\n").unwrap();
-    let out = run(&[
-        "cl-error",
-        MACHINE,
-        "--params",
-        PARAMS,
-        "--cl",
-        &p(&file),
-        "--out",
-        &p(&never),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("line 3: axis Z"), "{err}");
-    assert!(!never.exists());
+    let out = cl_error(&file, &["--out", &p(&never)]);
+    assert_refused(&out, "line 3: axis Z", &never);
 }

@@ -1,16 +1,28 @@
 //! `mtcal compensate` writes compensation files that mtcal-compensate reads back: a
 //! bidirectional LinuxCNC pitch table and a 3-D error grid; a bad format writes nothing.
 
+use mtcal_testkit::cli::{
+    THREE_AXIS_MACHINE, THREE_AXIS_TRUTH, assert_refused, assert_success, on_three_axis_example,
+    run_in_repo,
+};
 use std::path::Path;
-use std::process::Command;
+use std::process::Output;
 
-fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+/// `mtcal compensate MACHINE --params TRUTH OPTIONS --out OUT` on the three-axis example:
+/// `options` as typed on the command line.
+fn compensate(options: &str, out: &Path) -> Output {
+    let mut args: Vec<&str> = options.split_whitespace().collect();
+    args.extend(["--out", out.to_str().unwrap()]);
+    run_in_repo(
+        env!("CARGO_BIN_EXE_mtcal"),
+        &on_three_axis_example("compensate", &args),
+    )
+}
+
+/// `compensate` with `options` must be refused, saying `says`, and write nothing.
+fn assert_compensate_refuses(dir: &Path, options: &str, says: &str) {
+    let bad = dir.join("bad.csv");
+    assert_refused(&compensate(options, &bad), says, &bad);
 }
 
 #[test]
@@ -18,71 +30,23 @@ fn pitch_tables_and_grids_are_written_and_read_back() {
     let dir = tempfile::tempdir().unwrap();
     let comp = dir.path().join("x.comp");
     let grid = dir.path().join("grid.csv");
-    let machine = "examples/three-axis/machine/zfyx.urdf";
-    let params = "examples/three-axis/truth.params.toml";
-    let out = run(&[
-        "compensate",
-        machine,
-        "--params",
-        params,
-        "--axis",
-        "X",
-        "--format",
-        "linuxcnc",
-        "--reversal-um",
-        "-1.5",
-        "--spacing-mm",
-        "50",
-        "--hold",
-        "Y=0,Z=-250",
-        "--out",
-        comp.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = compensate(
+        "--axis X --format linuxcnc --reversal-um -1.5 --spacing-mm 50 --hold Y=0,Z=-250",
+        &comp,
     );
+    assert_success(&out);
     let table = mtcal_compensate::read_linuxcnc_comp(&comp, 'X').unwrap();
     assert_eq!(table.len(), 16);
     let reverse = table.reverse_um.as_ref().unwrap();
     for (f, r) in table.forward_um.iter().zip(reverse) {
         assert!((r - f + 1.5).abs() < 1e-6, "reverse {r} forward {f}");
     }
-    let out = run(&[
-        "compensate",
-        machine,
-        "--params",
-        params,
-        "--spacing-mm",
-        "100",
-        "--out",
-        grid.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = compensate("--spacing-mm 100", &grid);
+    assert_success(&out);
     let g = mtcal_compensate::read_grid_csv(&grid).unwrap();
     assert!(g.len() > 100 && g.error_um.iter().any(|e| e[0].abs() > 0.5));
 
-    let bad = dir.path().join("bad.csv");
-    let out = run(&[
-        "compensate",
-        machine,
-        "--params",
-        params,
-        "--axis",
-        "X",
-        "--format",
-        "fanuc",
-        "--out",
-        bad.to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--format `fanuc`"));
-    assert!(!bad.exists());
+    assert_compensate_refuses(dir.path(), "--axis X --format fanuc", "--format `fanuc`");
 }
 
 /// `--format isg` / `etalon`: the machine's error parameters, which the library reads back into
@@ -91,38 +55,22 @@ fn pitch_tables_and_grids_are_written_and_read_back() {
 fn error_parameter_files_reproduce_the_model() {
     use mtcal_compensate::{ParameterFormat, read_error_parameters};
     let dir = tempfile::tempdir().unwrap();
-    let machine = "examples/three-axis/machine/zfyx.urdf";
-    let params = "examples/three-axis/truth.params.toml";
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
+    let repo = mtcal_testkit::repo();
     let loaded = mtcal_machine::load_machine(
-        repo.join(machine).to_str().unwrap(),
+        repo.join(THREE_AXIS_MACHINE).to_str().unwrap(),
         mtcal_machine::topology::Reading::FromWorkpiece,
     )
     .unwrap();
     let model = mtcal_kinematics::MachineModel::new(loaded.machine, &loaded.config).unwrap();
-    let coeffs = mtcal_machine::params::load_params(&repo.join(params), model.errors()).unwrap();
+    let coeffs =
+        mtcal_machine::params::load_params(&repo.join(THREE_AXIS_TRUTH), model.errors()).unwrap();
     for (format, kind) in [
         ("isg", ParameterFormat::IsgCsv),
         ("etalon", ParameterFormat::Etalon),
     ] {
         let path = dir.path().join(format!("errors.{format}"));
-        let out = run(&[
-            "compensate",
-            machine,
-            "--params",
-            params,
-            "--format",
-            format,
-            "--spacing-mm",
-            "30",
-            "--out",
-            path.to_str().unwrap(),
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let out = compensate(&format!("--format {format} --spacing-mm 30"), &path);
+        assert_success(&out);
         assert!(String::from_utf8_lossy(&out.stdout).contains("component-error tables"));
         let back = read_error_parameters(&path, kind).unwrap();
         let (reloaded, c2) = back.model(model.machine()).unwrap();
@@ -154,22 +102,7 @@ fn error_parameter_files_reproduce_the_model() {
         assert!(checked > 50, "{checked}");
     }
     // --axis with a whole-machine format is refused, and nothing is written.
-    let bad = dir.path().join("bad.csv");
-    let out = run(&[
-        "compensate",
-        machine,
-        "--params",
-        params,
-        "--format",
-        "isg",
-        "--axis",
-        "X",
-        "--out",
-        bad.to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("drop --axis X"));
-    assert!(!bad.exists());
+    assert_compensate_refuses(dir.path(), "--format isg --axis X", "drop --axis X");
 }
 
 /// `--joint-offset-mm` moves a LinuxCNC table's nodes into joint coordinates, compensations
@@ -177,29 +110,11 @@ fn error_parameter_files_reproduce_the_model() {
 #[test]
 fn joint_offset_shifts_the_nodes_only() {
     let dir = tempfile::tempdir().unwrap();
-    let machine = "examples/three-axis/machine/zfyx.urdf";
-    let params = "examples/three-axis/truth.params.toml";
     let write = |name: &str, offset: &str| {
         let path = dir.path().join(name);
-        let out = run(&[
-            "compensate",
-            machine,
-            "--params",
-            params,
-            "--axis",
-            "Y",
-            "--format",
-            "linuxcnc",
-            "--joint-offset-mm",
-            offset,
-            "--out",
-            path.to_str().unwrap(),
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let options = format!("--axis Y --format linuxcnc --joint-offset-mm {offset}");
+        let out = compensate(&options, &path);
+        assert_success(&out);
         mtcal_compensate::read_linuxcnc_comp(&path, 'Y').unwrap()
     };
     let plain = write("y0.comp", "0");

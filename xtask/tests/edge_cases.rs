@@ -5,21 +5,13 @@
 //! anything it writes or prints — unidentifiable parameters named, never given a number — or
 //! fails with exit code 2 and a message that says why.
 
+use mtcal_testkit::cli::run_in_repo;
+use mtcal_testkit::repo;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn repo() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-        .canonicalize()
-        .unwrap()
-}
+use std::process::Output;
 
 fn mtcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo())
-        .output()
-        .expect("mtcal runs")
+    run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 fn text(out: &Output) -> String {

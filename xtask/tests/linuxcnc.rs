@@ -13,16 +13,12 @@
 //!
 //! Skipped, with a message, where LinuxCNC is not installed (CI installs it: `.ci/run`).
 
+use mtcal_testkit::cli::{assert_success, on_three_axis_example, run_in_repo};
 use std::path::Path;
 use std::process::Command;
 
 fn mtcal(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+    run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 fn has(program: &str) -> bool {
@@ -150,27 +146,12 @@ fn linuxcnc_applies_the_compensation_mtcal_writes() {
     let root = dir.path();
 
     let comp = root.join("x.comp");
-    let out = mtcal(&[
-        "compensate",
-        "examples/three-axis/machine/zfyx.urdf",
-        "--params",
-        "examples/three-axis/truth.params.toml",
-        "--axis",
-        "X",
-        "--format",
-        "linuxcnc",
-        "--spacing-mm",
-        "30",
-        "--reversal-um",
-        "-2.5",
-        "--out",
-        comp.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut args: Vec<&str> = "--axis X --format linuxcnc --spacing-mm 30 --reversal-um -2.5 --out"
+        .split_whitespace()
+        .collect();
+    args.push(comp.to_str().unwrap());
+    let out = mtcal(&on_three_axis_example("compensate", &args));
+    assert_success(&out);
     let table = mtcal_compensate::read_linuxcnc_comp(&comp, 'X').unwrap();
     let largest = table.forward_um.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     assert!(largest > 1.0, "compensation {largest} µm too small to test");
@@ -313,11 +294,7 @@ fn linuxcnc_trt_kinematics_with_mtcal_pivots_put_the_tool_where_the_model_says()
         "--out",
         root.join("pivots.hal").to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     // Workpiece poses (mm, LinuxCNC degrees: mtcal's angles negated).
     let poses = [
         [10.0, 20.0, -100.0, 30.0, 45.0],
@@ -341,9 +318,8 @@ fn linuxcnc_trt_kinematics_with_mtcal_pivots_put_the_tool_where_the_model_says()
     let result = run_linuxcnc(root, &ini, &probe(TRT_MOVES));
 
     // mtcal's model of the machine at the joints LinuxCNC chose.
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
     let loaded = mtcal_machine::load_machine(
-        repo.join(machine).to_str().unwrap(),
+        mtcal_testkit::repo().join(machine).to_str().unwrap(),
         mtcal_machine::topology::Reading::FromWorkpiece,
     )
     .unwrap();

@@ -3,16 +3,8 @@
 //! those of the separate maps put together: the largest error is the largest of the maps at
 //! each orientation, the point count their sum.
 
-use std::path::Path;
-use std::process::Command;
-
 fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+    mtcal_testkit::cli::run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 /// The number after `label` on its line of the summary.

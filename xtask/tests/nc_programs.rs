@@ -3,20 +3,20 @@
 //! the input untouched; the zero point lowers the summed error over source 004's grid; a
 //! program that cannot be read is located by line and column and nothing is written.
 
+use mtcal_testkit::cli::{assert_refused, assert_success, on_three_axis_example, run_in_repo};
 use std::path::Path;
-use std::process::Command;
+use std::process::Output;
 
-const MACHINE: &str = "examples/three-axis/machine/zfyx.urdf";
-const PARAMS: &str = "examples/three-axis/truth.params.toml";
 const PROGRAM: &str = "G21 G90\nN10 G0 X-100 Y-50 Z-100 (start)\nN20 G1 X100 F500\nY50\nM30\n";
 
-fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+/// `mtcal command` (`correct`, `zero-point`) on the three-axis example's machine and truth:
+/// `program` in, `out` out.
+fn on_program(command: &str, program: &Path, out: &Path) -> Output {
+    let (program, out) = (program.to_str().unwrap(), out.to_str().unwrap());
+    run_in_repo(
+        env!("CARGO_BIN_EXE_mtcal"),
+        &on_three_axis_example(command, &["--program", program, "--out", out]),
+    )
 }
 
 #[test]
@@ -28,22 +28,8 @@ fn a_program_is_corrected_and_offset_to_the_zero_point() {
         dir.path().join("z.nc"),
     );
     std::fs::write(&input, PROGRAM).unwrap();
-    let p = |x: &Path| x.to_str().unwrap().to_string();
-    let out = run(&[
-        "correct",
-        MACHINE,
-        "--params",
-        PARAMS,
-        "--program",
-        &p(&input),
-        "--out",
-        &p(&corrected),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = on_program("correct", &input, &corrected);
+    assert_success(&out);
     assert_eq!(std::fs::read_to_string(&input).unwrap(), PROGRAM);
     let text = std::fs::read_to_string(&corrected).unwrap();
     let lines: Vec<&str> = text.lines().collect();
@@ -61,21 +47,8 @@ fn a_program_is_corrected_and_offset_to_the_zero_point() {
         "{text}"
     );
 
-    let out = run(&[
-        "zero-point",
-        MACHINE,
-        "--params",
-        PARAMS,
-        "--program",
-        &p(&input),
-        "--out",
-        &p(&offset),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = on_program("zero-point", &input, &offset);
+    assert_success(&out);
     let report = String::from_utf8(out.stdout).unwrap();
     let sums: Vec<f64> = report
         .lines()
@@ -95,18 +68,6 @@ fn a_program_is_corrected_and_offset_to_the_zero_point() {
     let bad = dir.path().join("bad.nc");
     let never = dir.path().join("never.nc");
     std::fs::write(&bad, "G0 X1..2\n").unwrap();
-    let out = run(&[
-        "correct",
-        MACHINE,
-        "--params",
-        PARAMS,
-        "--program",
-        &p(&bad),
-        "--out",
-        &p(&never),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains(&format!("{}:1:7:", bad.display())), "{err}");
-    assert!(!never.exists());
+    let out = on_program("correct", &bad, &never);
+    assert_refused(&out, &format!("{}:1:7:", bad.display()), &never);
 }

@@ -1,16 +1,8 @@
 //! `mtcal plan`: the shipped planning file gives a plan, programs and a report; a bad
 //! planning file is located by line and column, exits with 2 and writes nothing.
 
-use std::path::Path;
-use std::process::Command;
-
 fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+    mtcal_testkit::cli::run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 #[test]

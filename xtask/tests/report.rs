@@ -5,6 +5,7 @@
 //! Without `/usr/bin/chromium` (Debian package `chromium`; `.ci/run` installs it) the tests
 //! say so on standard error and pass.
 
+use mtcal_testkit::repo;
 use std::collections::BTreeSet;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -12,10 +13,6 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
-
-fn repo() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).to_path_buf()
-}
 
 fn have_chromium() -> bool {
     if Path::new(CHROMIUM).exists() {

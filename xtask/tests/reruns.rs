@@ -4,23 +4,15 @@
 //! not modified. A run killed (SIGKILL) at any moment leaves every output either as it was or
 //! complete — never half a file.
 
+use mtcal_testkit::cli::run_in_repo;
+use mtcal_testkit::repo;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn repo() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-        .canonicalize()
-        .unwrap()
-}
-
 fn mtcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo())
-        .output()
-        .expect("mtcal runs")
+    run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 fn ok(args: &[&str]) -> Output {

@@ -2,15 +2,9 @@
 //! file, overrides from the command line, and errors that name the file and line.
 
 use std::path::Path;
-use std::process::Command;
 
 fn run(args: &[&str]) -> std::process::Output {
-    let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
-    Command::new(env!("CARGO_BIN_EXE_mtcal"))
-        .args(args)
-        .current_dir(repo)
-        .output()
-        .unwrap()
+    mtcal_testkit::cli::run_in_repo(env!("CARGO_BIN_EXE_mtcal"), args)
 }
 
 const MACHINE: &str = "examples/three-axis/machine/zfyx.urdf";

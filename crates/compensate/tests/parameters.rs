@@ -3,16 +3,17 @@
 
 mod common;
 
-use common::{Rng, TOL_UM, load};
+use common::{TOL_UM, load};
 use mtcal_compensate::*;
 use mtcal_kinematics::model::Role;
 use mtcal_kinematics::{AxisKind, MachineModel};
+use mtcal_testkit::random::SplitMix64;
 
 /// Machine errors uniform in ±5 µm / µrad per coefficient; set-up offsets zero (the files
 /// leave them out, they belong to the set-up).
 fn random_machine_coeffs(model: &MachineModel, seed: u64) -> Vec<f64> {
-    let mut rng = Rng(seed);
-    let mut c: Vec<f64> = (0..model.n_coeffs()).map(|_| 5e-6 * rng.next()).collect();
+    let mut rng = SplitMix64(seed);
+    let mut c: Vec<f64> = (0..model.n_coeffs()).map(|_| 5e-6 * rng.signed()).collect();
     for p in model.errors().params() {
         if matches!(p.role, Role::ToolOffset(_) | Role::WorkpieceOffset(_)) {
             c[p.offset] = 0.0;
@@ -84,14 +85,14 @@ fn check_round_trip(name: &str, seed: u64, format: ParameterFormat) {
     // 3000 random grid points whose coordinates are table nodes.
     let (reloaded, reloaded_coeffs) = back.model(model.machine()).unwrap();
     let nodes = axis_nodes(&back, &model);
-    let mut rng = Rng(seed ^ 0xABCD);
+    let mut rng = SplitMix64(seed ^ 0xABCD);
     let mut ws = model.workspace();
     let mut ws2 = reloaded.workspace();
     let (mut worst_um, mut worst_urad, mut largest_um) = (0.0f64, 0.0f64, 0.0f64);
     for _ in 0..3000 {
         let q: Vec<f64> = nodes
             .iter()
-            .map(|n| n[((rng.next() + 1.0) * 0.5 * n.len() as f64) as usize % n.len()])
+            .map(|n| n[((rng.signed() + 1.0) * 0.5 * n.len() as f64) as usize % n.len()])
             .collect();
         let e = model.pose_error(&q, &coeffs, &mut ws);
         let r = reloaded.pose_error(&q, &reloaded_coeffs, &mut ws2);

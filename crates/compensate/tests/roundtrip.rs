@@ -2,15 +2,16 @@
 
 mod common;
 
-use common::{Rng, TOL_UM, load};
+use common::{TOL_UM, load};
 use mtcal_compensate::*;
 use mtcal_kinematics::{AxisLetter, Direction, MachineModel, ParamName};
+use mtcal_testkit::random::SplitMix64;
 use std::path::Path;
 
 /// Every coefficient uniform in ±5 µm / µrad.
 fn random_coeffs(model: &MachineModel, seed: u64) -> Vec<f64> {
-    let mut rng = Rng(seed);
-    (0..model.n_coeffs()).map(|_| 5e-6 * rng.next()).collect()
+    let mut rng = SplitMix64(seed);
+    (0..model.n_coeffs()).map(|_| 5e-6 * rng.signed()).collect()
 }
 
 /// Model error along the axis' travel direction (µm) at `position_mm`, others at `hold`.
@@ -228,7 +229,7 @@ fn trilinear_interpolation_error_within_the_second_derivative_bound() {
                 }
             }
         }
-        let mut rng = Rng(seed + 100);
+        let mut rng = SplitMix64(seed + 100);
         let mut ws = model.workspace();
         let mut q = spec.hold_q.clone();
         let idx = ['X', 'Y', 'Z'].map(|a| model.machine().axis_index(a).unwrap());
@@ -239,7 +240,7 @@ fn trilinear_interpolation_error_within_the_second_derivative_bound() {
             for d in 0..3 {
                 let a = axes[d];
                 let (lo, hi) = (a[0], a[a.len() - 1]);
-                p[d] = lo + (hi - lo) * 0.5 * (rng.next() + 1.0);
+                p[d] = lo + (hi - lo) * 0.5 * (rng.signed() + 1.0);
                 let c = a.partition_point(|&v| v <= p[d]).clamp(1, a.len() - 1);
                 h[d] = a[c] - a[c - 1];
                 q[idx[d]] = p[d] * 1e-3;

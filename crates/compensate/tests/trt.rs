@@ -55,20 +55,14 @@ fn worst_against_model(
     let origin = m.tool_in_workpiece(&vec![0.0; m.n_axes()]).t;
     let mut ws = model.workspace();
     let (mut worst, mut nominal_worst) = (0.0f64, 0.0f64);
-    let mut state = seed;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut lcg = mtcal_testkit::random::Lcg64(seed);
     for _ in 0..500 {
         let mut q = vec![0.0; m.n_axes()];
         for &i in &idx {
             let (lo, hi) = m.axes()[i]
                 .limits()
                 .unwrap_or((-std::f64::consts::PI, std::f64::consts::PI));
-            q[i] = lo + (hi - lo) * next();
+            q[i] = lo + (hi - lo) * lcg.unit();
         }
         let actual = (model.tool_pose(&q, coeffs, &mut ws).t - origin) * 1e3;
         let j = [

@@ -19,15 +19,14 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use mtcal_identify::{Study, base, identify};
 use mtcal_solve::{Options, Silent};
+use mtcal_testkit::params::toml_list;
+use mtcal_testkit::{ELEVEN, repo};
 use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
 use std::hint::black_box;
-use std::path::Path;
 
 #[global_allocator]
 static GLOBAL: &PeakMemAlloc<System> = &INSTRUMENTED_SYSTEM;
-
-const ELEVEN: &str = r#"parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 
 /// Error model of the C-axis case: location and squareness errors plus C's error motions
 /// (harmonic 1 of each is left to the location and set-up parameters).
@@ -62,7 +61,7 @@ min_harmonic = 2
 /// a degenerate start).
 fn c_axis_session(samples: usize) -> (tempfile::TempDir, Study) {
     let dir = tempfile::tempdir().unwrap();
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let repo = repo();
     std::fs::copy(
         repo.join("machines/mcu630-cafyxz.urdf"),
         dir.path().join("m.urdf"),
@@ -109,9 +108,13 @@ ball = [200.0, 0.0, 200.0]
 /// A simulated session with about `samples` samples in a temporary folder.
 fn session(samples: usize, eleven: bool) -> (tempfile::TempDir, Study) {
     let dir = tempfile::tempdir().unwrap();
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let repo = repo();
     let per_run = (samples / 5).max(2);
-    let identify = if eleven { ELEVEN } else { "" };
+    let identify = if eleven {
+        format!("parameters = {}", toml_list(&ELEVEN))
+    } else {
+        String::new()
+    };
     let plan = format!(
         r#"machine = {machine:?}
 truth = {truth:?}

@@ -14,12 +14,11 @@ use mtcal_identify::search::{candidates, rank};
 use mtcal_identify::{FitProblem, Study, param_specs};
 use mtcal_solve::{Options, Silent};
 use std::hint::black_box;
-use std::path::Path;
 
 /// An R-test session of about `samples` samples over 1000 s, with context columns.
 fn session(samples: usize) -> (tempfile::TempDir, Study) {
     let dir = tempfile::tempdir().unwrap();
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let repo = mtcal_testkit::repo();
     let per_run = (samples / 5).max(2);
     let interval = 1000.0 / samples as f64;
     let mut plan = format!(
@@ -27,7 +26,7 @@ fn session(samples: usize) -> (tempfile::TempDir, Study) {
 truth = {truth:?}
 interval_s = {interval}
 [identify]
-parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
+parameters = {eleven}
 [context]
 S = [[0.0, 0.0], [150.0, 4000.0], [500.0, 8000.0], [700.0, 2000.0]]
 T_bed = [[0.0, 20.5], [250.0, 21.5], [500.0, 20.5], [750.0, 19.5], [1000.0, 20.5]]
@@ -38,6 +37,7 @@ ball = [100.0, 0.0, 300.0]
 "#,
         machine = repo.join("machines/mcu630-cafyxz.urdf"),
         truth = repo.join("examples/five-axis/truth.params.toml"),
+        eleven = mtcal_testkit::params::toml_list(&mtcal_testkit::ELEVEN),
     );
     for (name, setup, path) in [
         ("a0", "low", "kind = \"xyc\""),

@@ -21,11 +21,8 @@
 
 use mtcal_identify::{Identification, identify_session};
 use mtcal_simulate::simulate;
-use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use mtcal_testkit::machine_file;
+use std::path::Path;
 
 /// The identified values, by name, the truth (µm / µrad).
 const TRUTH: &[(&str, f64)] = &[
@@ -138,7 +135,7 @@ fn run_plate(
 ) -> Identification {
     let dir = tempfile::tempdir().unwrap();
     let urdf = dir.path().join("plate754.urdf");
-    std::fs::copy(repo().join("machines/mcv754-zfyx.urdf"), &urdf).unwrap();
+    std::fs::copy(machine_file("mcv754-zfyx.urdf"), &urdf).unwrap();
     std::fs::write(dir.path().join("plate754.errors.toml"), ERRORS).unwrap();
     std::fs::write(dir.path().join("truth.params.toml"), TRUTH_FILE).unwrap();
     let mut plan = format!(

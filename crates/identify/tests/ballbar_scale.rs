@@ -26,11 +26,8 @@
 use mtcal_identify::{Identification, identify_session};
 use mtcal_kinematics::model::Role;
 use mtcal_simulate::simulate;
-use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use mtcal_testkit::{FIVE_AXIS_TRUTH, TRUNNION, machine_file};
+use std::path::Path;
 
 /// The error model: ISO location and squareness errors, and positioning errors that are pure
 /// scale (Legendre degree 1).
@@ -62,57 +59,23 @@ fn p1_of_scale(name: &str, ppm: f64) -> f64 {
     ppm * (hi - lo) * 1e-3 / 2.0
 }
 
-/// Rotary location errors of the truth too (µm / µrad): at A = C = 0 the circles see them only
-/// as a displaced pivot, which is fitted.
-const TRUTH_TEXT: &str = r#"schema = "mtcal.params/1"
-[values]
-EC0Y = 12.0
-EB0Z = -8.0
-EA0Z = 15.0
-EY0A = 18.0
-EZ0A = -25.0
-EB0A = 20.0
-EC0A = -10.0
-EX0C = 12.0
-EY0C = -6.0
-EA0C = 30.0
-EB0C = -15.0
-"#;
-
-/// Circles of radius 100 mm about one pivot: a full circle in XY; in the vertical planes the
-/// half above the pivot (the bar cannot swing through the pivot's stand).
-const RUNS: &str = r#"
-[setup.bar]
-pivot = [0.0, 0.0, 250.0]
-length = 100.0
-length_free = LENGTH_FREE
-tool_length_free = false
-[[run]]
-name = "xy"
-instrument = "ballbar"
-setup = "bar"
-noise = NOISE
-path = { kind = "circle", plane = "XY", samples = 91 }
-[[run]]
-name = "yz"
-instrument = "ballbar"
-setup = "bar"
-noise = NOISE
-path = { kind = "circle", plane = "YZ", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }
-[[run]]
-name = "zx"
-instrument = "ballbar"
-setup = "bar"
-noise = NOISE
-path = { kind = "circle", plane = "ZX", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }
-"#;
+/// Circles of radius 100 mm about one pivot (`ballbar_circle_runs`), its bar length free or
+/// calibrated (`LENGTH_FREE`), the tool length held.
+fn runs() -> String {
+    "\n[setup.bar]\npivot = [0.0, 0.0, 250.0]\nlength = 100.0\nlength_free = LENGTH_FREE\n\
+     tool_length_free = false\n"
+        .to_string()
+        + &mtcal_testkit::plans::ballbar_circle_runs("", "bar", "NOISE")
+}
 
 /// Simulates the three circles on the scale-error machine into `dir/s` and identifies them.
 fn identify_circles(dir: &Path, noise: f64, length_free: bool) -> Identification {
     let urdf = dir.join("mcu630.urdf");
-    std::fs::copy(repo().join("machines/mcu630-cafyxz.urdf"), &urdf).unwrap();
+    std::fs::copy(machine_file(TRUNNION), &urdf).unwrap();
     std::fs::write(dir.join("mcu630.errors.toml"), ERRORS).unwrap();
-    let mut truth = TRUTH_TEXT.to_string();
+    // Rotary location errors of the truth too: at A = C = 0 the circles see them only as a
+    // displaced pivot, which is fitted.
+    let mut truth = mtcal_testkit::params::values_file(&FIVE_AXIS_TRUTH);
     for (name, ppm) in SCALE {
         truth += &format!(
             "[component.{name}]\ncoefficients = [{}]\n",
@@ -120,7 +83,7 @@ fn identify_circles(dir: &Path, noise: f64, length_free: bool) -> Identification
         );
     }
     std::fs::write(dir.join("truth.params.toml"), truth).unwrap();
-    let runs = RUNS
+    let runs = runs()
         .replace("NOISE", &format!("{noise:?}"))
         .replace("LENGTH_FREE", &length_free.to_string());
     let plan = format!(

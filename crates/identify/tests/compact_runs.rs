@@ -17,9 +17,7 @@ use std::path::{Path, PathBuf};
 const RECORD: &str = "[record]\npositions = 4\nreadings = 4\ntime = 3\ncontext = 3\n";
 
 fn machine(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../machines")
-        .join(name)
+    mtcal_testkit::machine_file(name)
         .display()
         .to_string()
         .replace('\\', "/")
@@ -32,7 +30,7 @@ seed = 3
 interval_s = 0.001
 {}
 [identify]
-parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
+parameters = {}
 
 [setup.ball]
 ball = [100.0, 0.0, 200.0]
@@ -61,7 +59,8 @@ noise = {noise}
 path = {{ kind = "yza", samples = 300 }}
 "#,
         machine("mcu630-cafyxz.urdf"),
-        if record { RECORD } else { "" }
+        if record { RECORD } else { "" },
+        mtcal_testkit::params::toml_list(&mtcal_testkit::ELEVEN)
     )
 }
 
@@ -302,13 +301,9 @@ fn a_recorded_session_identifies_the_truth() {
         "interval_s = 0.001\n",
         "interval_s = 0.001\ntruth = \"truth.params.toml\"\n",
     );
-    let values: String = TRUTH
-        .iter()
-        .map(|(n, v)| format!("{n} = {v:?}\n"))
-        .collect();
     std::fs::write(
         dir.path().join("truth.params.toml"),
-        format!("schema = \"mtcal.params/1\"\n[values]\n{values}"),
+        mtcal_testkit::params::values_file(&TRUTH),
     )
     .unwrap();
     let session = simulate(dir.path(), &plan);

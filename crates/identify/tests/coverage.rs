@@ -7,8 +7,7 @@ mod common;
 use mtcal_identify::identify_session;
 use mtcal_simulate::simulate;
 use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
-use std::path::Path;
+use rand_distr::Normal;
 
 const OFFSETS: [&str; 4] = ["EY0A", "EZ0A", "EX0C", "EY0C"];
 const ANGLES: [&str; 7] = ["EC0Y", "EB0Z", "EA0Z", "EB0A", "EC0A", "EA0C", "EB0C"];
@@ -16,33 +15,17 @@ const TRIALS: u64 = 200;
 
 #[test]
 fn intervals_cover_the_truth_95_percent_of_the_time() {
-    let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines/mcu630-cafyxz.urdf");
     let all: Vec<&str> = OFFSETS.iter().chain(&ANGLES).copied().collect();
-    let list = all
-        .iter()
-        .map(|n| format!("\"{n}\""))
-        .collect::<Vec<_>>()
-        .join(", ");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2026);
     let dist = Normal::new(0.0, 15.0).unwrap();
     let (mut hits_off, mut n_off, mut ss_off) = (0, 0, 0.0);
     let (mut hits_ang, mut n_ang, mut ss_ang) = (0, 0, 0.0);
-    let runs = common::plans::rtest_low_high(25, 21, None);
+    let runs = mtcal_testkit::plans::rtest_low_high(25, 21, None);
     for trial in 0..TRIALS {
         let dir = tempfile::tempdir().unwrap();
-        let truth: Vec<(&str, f64)> = all.iter().map(|n| (*n, dist.sample(&mut rng))).collect();
-        let values: String = truth.iter().map(|(n, v)| format!("{n} = {v}\n")).collect();
-        std::fs::write(
-            dir.path().join("truth.params.toml"),
-            format!("[values]\n{values}"),
-        )
-        .unwrap();
-        let plan = format!(
-            "machine = {machine:?}\ntruth = \"truth.params.toml\"\nseed = {trial}\n\
-             [identify]\nparameters = [{list}]\n{runs}"
-        );
-        std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-        simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
+        let (truth, plan) =
+            common::coverage::random_truth_plan(dir.path(), &all, &mut rng, &dist, trial, &runs);
+        simulate(&plan, &dir.path().join("s")).unwrap();
         let (_, id) = identify_session(&dir.path().join("s")).unwrap();
         assert!(id.unidentifiable.is_empty(), "{:?}", id.unidentifiable);
         for (name, t) in &truth {

@@ -3,16 +3,18 @@
 //! class, and the typical errors stay within 1 µm (location offsets) and 5 µrad (orientations,
 //! squareness).
 //!
-//! The plan: the five-axis rotary tests of `planted_truth.rs` (`FIVE_AXIS_BALLBAR`: C and A
-//! swept with the bar radial, tangential and axial, pivots and tool length calibrated), which
+//! The plan: the five-axis rotary tests of `planted_truth.rs` (`ballbar_rotary_runs` of the test
+//! kit: C and A swept with the bar radial, tangential and axial, pivots and tool length
+//! calibrated), which
 //! separate the eight rotary location errors, and ISO 230-4 circles in the XY, YZ and ZX planes
 //! about a free pivot for the three squareness errors.
+
+mod common;
 
 use mtcal_identify::{identify_session, report::K95};
 use mtcal_simulate::simulate;
 use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
-use std::path::Path;
+use rand_distr::Normal;
 
 const OFFSETS: [&str; 4] = ["EY0A", "EZ0A", "EX0C", "EY0C"];
 const ANGLES: [&str; 7] = ["EC0Y", "EB0Z", "EA0Z", "EB0A", "EC0A", "EA0C", "EB0C"];
@@ -20,82 +22,17 @@ const TRIALS: u64 = 200;
 /// σ of one ball-bar reading, µm.
 const NOISE_UM: f64 = 1.0;
 
-const RUNS: &str = r#"
-[setup.p1]
-pivot = [100.0, 0.0, 250.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.p2]
-pivot = [0.0, 100.0, 300.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.circles]
-pivot = [0.0, 0.0, 250.0]
-length = 100.0
-tool_length_free = false
-[[run]]
-name = "c-radial"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "radial", samples = 73 }
-[[run]]
-name = "c-tangential"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "tangential", samples = 73 }
-[[run]]
-name = "c-axial"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "axial", samples = 73 }
-[[run]]
-name = "a-radial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "radial", samples = 61 }
-[[run]]
-name = "a-tangential"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "tangential", samples = 61 }
-[[run]]
-name = "a-axial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "axial", samples = 61 }
-[[run]]
-name = "c-radial-a30"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, hold = { A = 30.0 }, bar = "radial", samples = 73 }
-[[run]]
-name = "xy"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE
-path = { kind = "circle", plane = "XY", samples = 91 }
-[[run]]
-name = "yz"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE
-path = { kind = "circle", plane = "YZ", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }
-[[run]]
-name = "zx"
-instrument = "ballbar"
-setup = "circles"
-noise = NOISE
-path = { kind = "circle", plane = "ZX", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }
-"#;
+/// The rotary tests about calibrated pivots, then the circles about a free one.
+fn runs() -> String {
+    use mtcal_testkit::plans::{
+        BALLBAR_CIRCLES, BALLBAR_PIVOTS, ballbar_circle_runs, ballbar_rotary_runs,
+    };
+    format!(
+        "\n{BALLBAR_PIVOTS}{BALLBAR_CIRCLES}{}{}",
+        ballbar_rotary_runs("", "NOISE", true),
+        ballbar_circle_runs("", "circles", "NOISE")
+    )
+}
 
 /// Coverage and errors of one parameter (or class) over the trials.
 #[derive(Debug, Default, Clone, Copy)]
@@ -136,32 +73,16 @@ impl Tally {
 #[test]
 fn ballbar_intervals_cover_the_truth_95_percent_of_the_time() {
     let started = std::time::Instant::now();
-    let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines/mcu630-cafyxz.urdf");
     let all: Vec<&str> = OFFSETS.iter().chain(&ANGLES).copied().collect();
-    let list = all
-        .iter()
-        .map(|n| format!("\"{n}\""))
-        .collect::<Vec<_>>()
-        .join(", ");
-    let runs = RUNS.replace("NOISE", &format!("{NOISE_UM:?}"));
+    let runs = runs().replace("NOISE", &format!("{NOISE_UM:?}"));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2027);
     let dist = Normal::new(0.0, 15.0).unwrap();
     let mut per = vec![Tally::default(); all.len()];
     for trial in 0..TRIALS {
         let dir = tempfile::tempdir().unwrap();
-        let truth: Vec<(&str, f64)> = all.iter().map(|n| (*n, dist.sample(&mut rng))).collect();
-        let values: String = truth.iter().map(|(n, v)| format!("{n} = {v}\n")).collect();
-        std::fs::write(
-            dir.path().join("truth.params.toml"),
-            format!("[values]\n{values}"),
-        )
-        .unwrap();
-        let plan = format!(
-            "machine = {machine:?}\ntruth = \"truth.params.toml\"\nseed = {trial}\n\
-             [identify]\nparameters = [{list}]\n{runs}"
-        );
-        std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
-        simulate(&dir.path().join("plan.toml"), &dir.path().join("s")).unwrap();
+        let (truth, plan) =
+            common::coverage::random_truth_plan(dir.path(), &all, &mut rng, &dist, trial, &runs);
+        simulate(&plan, &dir.path().join("s")).unwrap();
         let (_, id) = identify_session(&dir.path().join("s")).unwrap();
         assert!(id.solver.converged, "trial {trial}: {:?}", id.solver);
         assert!(

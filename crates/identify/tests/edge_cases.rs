@@ -5,13 +5,8 @@
 //! `xtask/tests/edge_cases.rs`.)
 
 use mtcal_identify::{Identification, identify_session};
+use mtcal_testkit::repo;
 use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-        .canonicalize()
-        .unwrap()
-}
 
 /// A plan on the five-axis trunnion with the example's truth and these runs.
 fn simulate(dir: &Path, parameters: &str, runs: &str) -> PathBuf {

@@ -10,19 +10,13 @@ use mtcal_identify::study::Changes;
 use mtcal_identify::{FitProblem, Study, param_specs_from, predict_run};
 use mtcal_simulate::simulate;
 use mtcal_solve::{Options, Silent};
+use mtcal_testkit::plans::Run;
+use mtcal_testkit::{TRUNNION, five_axis_truth_file, machine_file};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-const PLAN: &str = r#"
-seed = 3
-interval_s = 1.0
-[identify]
-parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
-[context]
+/// The context programmes and set-ups of the plan.
+const SETUPS: &str = r#"[context]
 S = [[0.0, 0.0], [200.0, 3000.0], [900.0, 6000.0], [1500.0, 0.0]]
 T_bed = [[0.0, 20.0], [800.0, 22.5], [2000.0, 21.0]]
 [setup.low]
@@ -32,37 +26,52 @@ ball = [100.0, 0.0, 300.0]
 [setup.bar]
 pivot = [0.0, 0.0, 250.0]
 length = 100.0
-[[run]]
-name = "xyc"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 145 }
-[[run]]
-name = "xyc-a30"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 145, hold = { A = 30.0 } }
-[[run]]
-name = "yza"
-instrument = "rtest"
-setup = "low"
-path = { kind = "yza", samples = 121 }
-[[run]]
-name = "xyc-high"
-instrument = "rtest"
-setup = "high"
-path = { kind = "xyc", samples = 145 }
-[[run]]
-name = "bb-ccw"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "XY", direction = "ccw", samples = 181 }
-[[run]]
-name = "bb-cw"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "XY", direction = "cw", samples = 181 }
 "#;
+
+/// The runs: name, instrument, set-up, path.
+const RUNS: [(&str, &str, &str, &str); 6] = [
+    ("xyc", "rtest", "low", "{ kind = \"xyc\", samples = 145 }"),
+    (
+        "xyc-a30",
+        "rtest",
+        "low",
+        "{ kind = \"xyc\", samples = 145, hold = { A = 30.0 } }",
+    ),
+    ("yza", "rtest", "low", "{ kind = \"yza\", samples = 121 }"),
+    (
+        "xyc-high",
+        "rtest",
+        "high",
+        "{ kind = \"xyc\", samples = 145 }",
+    ),
+    (
+        "bb-ccw",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"XY\", direction = \"ccw\", samples = 181 }",
+    ),
+    (
+        "bb-cw",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"XY\", direction = \"cw\", samples = 181 }",
+    ),
+];
+
+/// The plan without machine and truth: the eleven errors estimated, each run noise-free or
+/// with its instrument's noise.
+fn plan(noise_free: bool) -> String {
+    let mut plan = format!(
+        "\nseed = 3\ninterval_s = 1.0\n[identify]\nparameters = {}\n{SETUPS}",
+        mtcal_testkit::params::toml_list(&mtcal_testkit::ELEVEN)
+    );
+    for (name, instrument, setup, path) in RUNS {
+        plan += &Run::new(name, instrument, setup)
+            .noise_if(noise_free.then_some("0.0"))
+            .path(path);
+    }
+    plan
+}
 
 /// The effects below, planted with these values (their units) and fitted back.
 const EFFECTS: &str = r#"
@@ -119,12 +128,12 @@ gain_ppm = 30000.0
 "#;
 
 fn session(dir: &Path, noise: f64, effects: &str) -> PathBuf {
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let truth = repo().join("examples/five-axis/truth.params.toml");
-    let mut plan = format!("machine = {machine:?}\ntruth = {truth:?}\n{PLAN}{effects}");
-    if noise == 0.0 {
-        plan = plan.replace("path = {", "noise = 0.0\npath = {");
-    }
+    let machine = machine_file(TRUNNION);
+    let truth = five_axis_truth_file();
+    let plan = format!(
+        "machine = {machine:?}\ntruth = {truth:?}\n{}{effects}",
+        plan(noise == 0.0)
+    );
     std::fs::create_dir_all(dir).unwrap();
     let file = dir.join("plan.toml");
     std::fs::write(&file, plan).unwrap();

@@ -15,14 +15,14 @@ use std::path::Path;
 const DRIFT: &str = "effect = \"thermal-drift\"\naxis = \"Z\"\namplitude_um = 3.0\ntau_s = 300.0\n";
 
 fn session(dir: &Path) -> std::path::PathBuf {
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut plan = format!(
         "machine = {:?}\ntruth = {:?}\nseed = 11\ninterval_s = 0.5\n[identify]\n\
-         parameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\", \"EY0A\", \"EZ0A\", \"EB0A\", \"EC0A\", \"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n\
+         parameters = {}\n\
          [setup.low]\nball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"\nball_free = false\ntool_length_free = false\n\
          [setup.high]\nball = [100.0, 0.0, 300.0]\nmount = \"ball-in-spindle\"\nball_free = false\ntool_length_free = false\n",
-        repo.join("machines/mcu630-cafyxz.urdf"),
-        repo.join("examples/five-axis/truth.params.toml"),
+        mtcal_testkit::machine_file(mtcal_testkit::TRUNNION),
+        mtcal_testkit::five_axis_truth_file(),
+        mtcal_testkit::params::toml_list(&mtcal_testkit::ELEVEN),
     );
     for (name, setup, path) in [
         ("a0", "low", "kind = \"xyc\""),

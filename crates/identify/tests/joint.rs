@@ -7,17 +7,14 @@
 //!   sum to one), and predicts what repeating a run, or adding a run somewhere else, does to
 //!   every interval: checked against actually fitting the larger session.
 
-mod common;
-
-use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::{account, what_if};
 use mtcal_identify::{Identification, Study, identify_with_solution};
 use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
+use mtcal_testkit::plans::{RTEST, ballbar, with_noise};
+use mtcal_testkit::{ELEVEN, TRUNNION, five_axis_truth_file, machine_file};
 use std::path::{Path, PathBuf};
 
-const ELEVEN: &str =
-    r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 /// Rotary-axis location errors: both instruments see them.
 const LOCATIONS: [&str; 8] = [
     "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
@@ -47,17 +44,14 @@ noise = 0.5
 path = { kind = "xyc", samples = 37 }
 "#;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 /// Simulates the runs into `dir/<name>` (same truth, same seed) and returns the session.
 fn session(dir: &Path, name: &str, runs: &str) -> PathBuf {
     let runs = with_noise(runs, 0.5, 1.0);
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let machine = machine_file(TRUNNION);
+    let truth = five_axis_truth_file();
+    let eleven = mtcal_testkit::params::toml_list(&ELEVEN);
     let plan = format!(
-        "machine = {machine:?}\ntruth = {truth:?}\nseed = 5\n[identify]\nparameters = {ELEVEN}\n{runs}"
+        "machine = {machine:?}\ntruth = {truth:?}\nseed = 5\n[identify]\nparameters = {eleven}\n{runs}"
     );
     let plan_path = dir.join(format!("{name}.toml"));
     std::fs::write(&plan_path, plan).unwrap();
@@ -81,8 +75,8 @@ fn u95(id: &Identification, name: &str) -> Option<f64> {
 fn joint_intervals_are_no_wider_than_the_best_instrument_and_narrower_where_both_see() {
     let dir = tempfile::tempdir().unwrap();
     let (_, r, _) = fit(&session(dir.path(), "r", RTEST));
-    let (_, b, _) = fit(&session(dir.path(), "b", BALLBAR));
-    let joint_runs = format!("{RTEST}{BALLBAR}");
+    let (_, b, _) = fit(&session(dir.path(), "b", &ballbar()));
+    let joint_runs = format!("{RTEST}{}", ballbar());
     let (_, j, _) = fit(&session(dir.path(), "j", &joint_runs));
     let mut narrower = Vec::new();
     for p in &j.parameters {
@@ -122,7 +116,7 @@ fn joint_intervals_are_no_wider_than_the_best_instrument_and_narrower_where_both
 #[test]
 fn shares_sum_to_one_and_predict_a_repeat_and_a_moved_run() {
     let dir = tempfile::tempdir().unwrap();
-    let joint_runs = format!("{RTEST}{BALLBAR}");
+    let joint_runs = format!("{RTEST}{}", ballbar());
     let (study, id, sol) = fit(&session(dir.path(), "j", &joint_runs));
     let acc = account(&study, &sol).unwrap();
     assert!(!acc.parameters.is_empty());
@@ -162,7 +156,7 @@ fn shares_sum_to_one_and_predict_a_repeat_and_a_moved_run() {
     let (_, again, _) = fit(&session(
         dir.path(),
         "again",
-        &format!("{RTEST}{REPEAT}{BALLBAR}"),
+        &format!("{RTEST}{REPEAT}{}", ballbar()),
     ));
     let mut checked = 0;
     for p in &acc.parameters {
@@ -189,7 +183,7 @@ fn shares_sum_to_one_and_predict_a_repeat_and_a_moved_run() {
     let (_, bigger, _) = fit(&session(
         dir.path(),
         "bigger",
-        &format!("{RTEST}{BALLBAR}{MOVED}"),
+        &format!("{RTEST}{}{MOVED}", ballbar()),
     ));
     let mut gained = 0;
     for (name, after) in &predicted {
@@ -213,7 +207,7 @@ fn shares_sum_to_one_and_predict_a_repeat_and_a_moved_run() {
 /// account must still add up, and a repeat can at best halve a variance.
 #[test]
 fn the_account_adds_up_with_free_set_ups_and_null_directions() {
-    let s = repo().join("examples/five-axis/session");
+    let s = mtcal_testkit::repo().join("examples/five-axis/session");
     let (study, id, sol) = fit(&s);
     assert!(
         !id.unidentifiable.is_empty(),

@@ -22,8 +22,9 @@
 
 use mtcal_identify::{Identification, identify_session};
 use mtcal_simulate::simulate;
+use mtcal_testkit::machine_file;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Per axis: its letter, the two perpendicular senses (straightness), the pitch and yaw axes
 /// (angular), the range of the runs (mm) and where the other axes are held.
@@ -101,14 +102,10 @@ fn truth() -> Vec<(String, Vec<f64>)> {
     out
 }
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 /// Writes the machine copy, its error model, the truth and the plan into `dir`, simulates and
 /// identifies.
 fn run(dir: &Path, noise: bool, seed: u64) -> Identification {
-    std::fs::copy(repo().join("machines/mcv754-zfyx.urdf"), dir.join("m.urdf")).unwrap();
+    std::fs::copy(machine_file("mcv754-zfyx.urdf"), dir.join("m.urdf")).unwrap();
     let mut errors = String::from("components = [");
     let mut list = Vec::new();
     for a in &AXES {

@@ -3,42 +3,23 @@
 
 use mtcal_identify::{Identification, identify_session};
 use mtcal_simulate::{Plant, PlantSample, simulate_with};
+use mtcal_testkit::params::toml_list;
+use mtcal_testkit::plans::rtest_low_high_runs;
+use mtcal_testkit::{ELEVEN, TRUNNION, five_axis_truth_file, machine_file};
 use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// Source 000's R-test plan on the trunnion, 0.5 µm noise, 11-error set.
 fn plan(dir: &Path, seed: u64) -> PathBuf {
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let truth = repo().join("examples/five-axis/truth.params.toml");
-    let mut plan = format!(
+    let machine = machine_file(TRUNNION);
+    let truth = five_axis_truth_file();
+    let plan = format!(
         "machine = {machine:?}\ntruth = {truth:?}\nseed = {seed}\ninterval_s = 1.0\n[identify]\n\
-         parameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\", \"EY0A\", \"EZ0A\", \"EB0A\", \"EC0A\", \
-         \"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n\
+         parameters = {}\n\
          [setup.low]\nball = [100.0, 0.0, 200.0]\nmount = \"ball-in-spindle\"\n\
-         [setup.high]\nball = [100.0, 0.0, 300.0]\nmount = \"ball-in-spindle\"\n"
+         [setup.high]\nball = [100.0, 0.0, 300.0]\nmount = \"ball-in-spindle\"\n{}",
+        toml_list(&ELEVEN),
+        rtest_low_high_runs(181, 151, None)
     );
-    for (name, setup, path) in [
-        ("xyc-a0", "low", "{ kind = \"xyc\", samples = 181 }"),
-        (
-            "xyc-a+30",
-            "low",
-            "{ kind = \"xyc\", samples = 181, hold = { A = 30.0 } }",
-        ),
-        (
-            "xyc-a-30",
-            "low",
-            "{ kind = \"xyc\", samples = 181, hold = { A = -30.0 } }",
-        ),
-        ("yza", "low", "{ kind = \"yza\", samples = 151 }"),
-        ("xyc-high", "high", "{ kind = \"xyc\", samples = 181 }"),
-    ] {
-        plan += &format!(
-            "[[run]]\nname = \"{name}\"\ninstrument = \"rtest\"\nsetup = \"{setup}\"\npath = {path}\n"
-        );
-    }
     let file = dir.join("plan.toml");
     std::fs::write(&file, plan).unwrap();
     file

@@ -17,13 +17,12 @@
 //!   built for it (laser and tracer for positioning, R-test and ball-bar for the rotary axes'
 //!   locations).
 
-mod common;
-
-use common::plans::{BALLBAR, RTEST, with_noise};
 use mtcal_identify::information::account;
 use mtcal_identify::{Identification, Study, identify_with_solution};
 use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
+use mtcal_testkit::plans::{RTEST, Run, ballbar, with_noise};
+use mtcal_testkit::{FIVE_AXIS_TRUTH, TRUNNION, machine_file};
 use std::path::{Path, PathBuf};
 
 const ERRORS: &str = r#"schema = "mtcal.errors/1"
@@ -34,94 +33,60 @@ kind = "legendre"
 degree = 2
 "#;
 
-const TRUTH: &str = r#"schema = "mtcal.params/1"
-[values]
-EC0Y = 12.0
-EB0Z = -8.0
-EA0Z = 15.0
-EY0A = 18.0
-EZ0A = -25.0
-EB0A = 20.0
-EC0A = -10.0
-EX0C = 12.0
-EY0C = -6.0
-EA0C = 30.0
-EB0C = -15.0
-[component.EXX]
-coefficients = [6.0, -3.0]
-[component.EYY]
-coefficients = [-4.0, 2.5]
-[component.EZZ]
-coefficients = [3.0, 1.5]
-"#;
+/// The example's eleven errors and the positioning errors of X, Y and Z (`P1`, `P2`).
+fn truth() -> String {
+    mtcal_testkit::params::values_file(&FIVE_AXIS_TRUTH)
+        + "[component.EXX]\ncoefficients = [6.0, -3.0]\n\
+           [component.EYY]\ncoefficients = [-4.0, 2.5]\n\
+           [component.EZZ]\ncoefficients = [3.0, 1.5]\n"
+}
 
-const LASER: &str = r#"
-[setup.laser-x]
-mode = "linear"
-direction = "X"
-sigma_um = 0.3
-[setup.laser-y]
-mode = "linear"
-direction = "Y"
-sigma_um = 0.3
-[setup.laser-z]
-mode = "linear"
-direction = "Z"
-sigma_um = 0.3
-[[run]]
-name = "laser-x"
-instrument = "laser"
-setup = "laser-x"
-noise = NOISE_LASER
-path = { axis = "X", from = -300.0, to = 300.0, points = 13, cycles = 2, hold = { Z = -250.0 } }
-[[run]]
-name = "laser-y"
-instrument = "laser"
-setup = "laser-y"
-noise = NOISE_LASER
-path = { axis = "Y", from = -350.0, to = 350.0, points = 13, cycles = 2, hold = { Z = -250.0 } }
-[[run]]
-name = "laser-z"
-instrument = "laser"
-setup = "laser-z"
-noise = NOISE_LASER
-path = { axis = "Z", from = -500.0, to = -50.0, points = 13, cycles = 2 }
-"#;
+/// Laser linear runs along X, Y and Z, one set-up each.
+fn laser() -> String {
+    let mut runs = String::new();
+    for axis in ["x", "y", "z"] {
+        runs += &format!(
+            "[setup.laser-{axis}]\nmode = \"linear\"\ndirection = \"{}\"\nsigma_um = 0.3\n",
+            axis.to_uppercase()
+        );
+    }
+    for (axis, path) in [
+        (
+            "x",
+            "{ axis = \"X\", from = -300.0, to = 300.0, points = 13, cycles = 2, hold = { Z = -250.0 } }",
+        ),
+        (
+            "y",
+            "{ axis = \"Y\", from = -350.0, to = 350.0, points = 13, cycles = 2, hold = { Z = -250.0 } }",
+        ),
+        (
+            "z",
+            "{ axis = \"Z\", from = -500.0, to = -50.0, points = 13, cycles = 2 }",
+        ),
+    ] {
+        let name = format!("laser-{axis}");
+        runs += &Run::new(&name, "laser", &name)
+            .noise("NOISE_LASER")
+            .path(path);
+    }
+    format!("\n{runs}")
+}
 
-const TRACER: &str = r#"
-[setup.st1]
-station = [450.0, 450.0, -600.0]
-[setup.st2]
-station = [-450.0, 450.0, -500.0]
-[setup.st3]
-station = [-450.0, -450.0, -650.0]
-[setup.st4]
-station = [450.0, -450.0, -450.0]
-[[run]]
-name = "tracer-1"
-instrument = "tracer"
-setup = "st1"
-noise = NOISE_TRACER
-path = { kind = "grid", counts = [3, 3, 3] }
-[[run]]
-name = "tracer-2"
-instrument = "tracer"
-setup = "st2"
-noise = NOISE_TRACER
-path = { kind = "grid", counts = [3, 3, 3] }
-[[run]]
-name = "tracer-3"
-instrument = "tracer"
-setup = "st3"
-noise = NOISE_TRACER
-path = { kind = "grid", counts = [3, 3, 3] }
-[[run]]
-name = "tracer-4"
-instrument = "tracer"
-setup = "st4"
-noise = NOISE_TRACER
-path = { kind = "grid", counts = [3, 3, 3] }
-"#;
+/// A laser-tracer campaign: four stations, each measuring a 3 × 3 × 3 grid.
+fn tracer() -> String {
+    let mut runs = String::from(
+        "\n[setup.st1]\nstation = [450.0, 450.0, -600.0]\n\
+         [setup.st2]\nstation = [-450.0, 450.0, -500.0]\n\
+         [setup.st3]\nstation = [-450.0, -450.0, -650.0]\n\
+         [setup.st4]\nstation = [450.0, -450.0, -450.0]\n",
+    );
+    for k in 1..=4 {
+        runs += &Run::new(&format!("tracer-{k}"), "tracer", &format!("st{k}"))
+            .noise("NOISE_TRACER")
+            .path("{ kind = \"grid\", counts = [3, 3, 3] }");
+    }
+    runs
+}
 
 /// A calibrated 5 × 5 hole plate (50 mm pitch, certificate ±0.5 µm) on the table, probed at
 /// one placement; readings in mm (noise 0.5 µm).
@@ -152,17 +117,13 @@ fn seen_by(name: &str) -> &'static [&'static str] {
     }
 }
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 /// Simulates `runs` into `dir/<name>` on the trunnion with this test's error model.
 fn session(dir: &Path, name: &str, runs: &str, noisy: bool) -> PathBuf {
     let machine = dir.join("m.urdf");
     if !machine.exists() {
-        std::fs::copy(repo().join("machines/mcu630-cafyxz.urdf"), &machine).unwrap();
+        std::fs::copy(machine_file(TRUNNION), &machine).unwrap();
         std::fs::write(dir.join("m.errors.toml"), ERRORS).unwrap();
-        std::fs::write(dir.join("truth.params.toml"), TRUTH).unwrap();
+        std::fs::write(dir.join("truth.params.toml"), truth()).unwrap();
     }
     let scale = if noisy { 1.0 } else { 0.0 };
     let runs = with_noise(runs, 0.5 * scale, 1.0 * scale)
@@ -194,16 +155,16 @@ fn u95(id: &Identification, name: &str) -> Option<f64> {
 /// The instruments' runs, by instrument name.
 fn instruments() -> Vec<(&'static str, String)> {
     vec![
-        ("laser", LASER.to_string()),
-        ("tracer", TRACER.to_string()),
+        ("laser", laser()),
+        ("tracer", tracer()),
         ("rtest", RTEST.to_string()),
-        ("ballbar", BALLBAR.to_string()),
+        ("ballbar", ballbar()),
         ("artefact", plate()),
     ]
 }
 
 fn truth_of(name: &str) -> f64 {
-    let t: toml::Table = toml::from_str(TRUTH).unwrap();
+    let t: toml::Table = toml::from_str(&truth()).unwrap();
     if let Some(v) = t["values"].get(name) {
         return v.as_float().unwrap();
     }

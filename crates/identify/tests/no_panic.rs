@@ -14,13 +14,8 @@ use mtcal_identify::search::{SearchOptions, search};
 use mtcal_identify::{IdentifyError, Study, identify_with_solution};
 use mtcal_simulate::simulate;
 use mtcal_solve::Silent;
+use mtcal_testkit::{TRUNNION, five_axis_truth_file, machine_file, repo};
 use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-        .canonicalize()
-        .unwrap()
-}
 
 /// What `cargo xtask identify SESSION --what-if EXTRA --search` computes, each number checked
 /// to be finite. Returns the first clean error; panics (the test fails) on a non-finite number.
@@ -108,9 +103,8 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
     Ok(())
 }
 
-/// The runs of the five-axis example's plan (R-test about A and C, ball-bar circles in three
-/// planes), every one fitted.
-const FIVE_AXIS_RUNS: &str = r#"
+/// The set-ups of the five-axis example's plan, the R-test balls off their nominal places.
+const FIVE_AXIS_SETUPS: &str = r#"
 [setup.ball-low]
 ball = [100.0, 0.0, 200.0]
 [setup.ball-high]
@@ -124,42 +118,63 @@ ball_z = -3.0
 tool_length = 2.0
 [nuisance.ball-high]
 ball_y = -5.0
-[[run]]
-name = "rtest-xyc-a0"
-instrument = "rtest"
-setup = "ball-low"
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "rtest-xyc-a+30"
-instrument = "rtest"
-setup = "ball-low"
-path = { kind = "xyc", samples = 37, hold = { A = 30.0 } }
-[[run]]
-name = "rtest-yza"
-instrument = "rtest"
-setup = "ball-low"
-path = { kind = "yza", samples = 31 }
-[[run]]
-name = "rtest-xyc-high"
-instrument = "rtest"
-setup = "ball-high"
-path = { kind = "xyc", samples = 37 }
-[[run]]
-name = "ballbar-xy"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "XY", samples = 91 }
-[[run]]
-name = "ballbar-yz"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "YZ", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }
-[[run]]
-name = "ballbar-zx"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "ZX", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }
 "#;
+
+/// The runs of the five-axis example's plan (R-test about A and C, ball-bar circles in three
+/// planes), every one fitted: name, instrument, set-up, path.
+const FIVE_AXIS_RUNS: [(&str, &str, &str, &str); 7] = [
+    (
+        "rtest-xyc-a0",
+        "rtest",
+        "ball-low",
+        "{ kind = \"xyc\", samples = 37 }",
+    ),
+    (
+        "rtest-xyc-a+30",
+        "rtest",
+        "ball-low",
+        "{ kind = \"xyc\", samples = 37, hold = { A = 30.0 } }",
+    ),
+    (
+        "rtest-yza",
+        "rtest",
+        "ball-low",
+        "{ kind = \"yza\", samples = 31 }",
+    ),
+    (
+        "rtest-xyc-high",
+        "rtest",
+        "ball-high",
+        "{ kind = \"xyc\", samples = 37 }",
+    ),
+    (
+        "ballbar-xy",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"XY\", samples = 91 }",
+    ),
+    (
+        "ballbar-yz",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"YZ\", samples = 61, start_deg = -90.0, sweep_deg = 180.0 }",
+    ),
+    (
+        "ballbar-zx",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"ZX\", samples = 61, start_deg = 0.0, sweep_deg = 180.0 }",
+    ),
+];
+
+/// [`FIVE_AXIS_SETUPS`] and [`FIVE_AXIS_RUNS`] as plan text.
+fn five_axis_plan() -> String {
+    let mut plan = FIVE_AXIS_SETUPS.to_string();
+    for (name, instrument, setup, path) in FIVE_AXIS_RUNS {
+        plan += &mtcal_testkit::plans::Run::new(name, instrument, setup).path(path);
+    }
+    plan
+}
 
 /// Runs of another session on the same machine: the R-test ball moved, an XYC at A = −30°.
 const EXTRA_RUNS: &str = r#"
@@ -182,7 +197,7 @@ path = { kind = "xyc", samples = 37, hold = { A = -30.0 } }
 /// R-test and ball-bar runs can separate.
 fn full_model_machine(dir: &Path) -> PathBuf {
     let urdf = dir.join("trunnion.urdf");
-    std::fs::copy(repo().join("machines/mcu630-cafyxz.urdf"), &urdf).unwrap();
+    std::fs::copy(machine_file(TRUNNION), &urdf).unwrap();
     assert!(!dir.join("trunnion.errors.toml").exists());
     urdf
 }
@@ -193,7 +208,7 @@ fn simulate_session(dir: &Path, name: &str, seed: u64, runs: &str) -> PathBuf {
         &plan,
         format!(
             "machine = \"trunnion.urdf\"\ntruth = {:?}\nseed = {seed}\ninterval_s = 0.25\n{runs}",
-            repo().join("examples/five-axis/truth.params.toml")
+            five_axis_truth_file()
         ),
     )
     .unwrap();
@@ -210,7 +225,7 @@ fn simulate_session(dir: &Path, name: &str, seed: u64, runs: &str) -> PathBuf {
 fn the_full_default_model_on_a_five_axis_session_gives_a_result() {
     let dir = tempfile::tempdir().unwrap();
     full_model_machine(dir.path());
-    let session = simulate_session(dir.path(), "session", 3, FIVE_AXIS_RUNS);
+    let session = simulate_session(dir.path(), "session", 3, &five_axis_plan());
     let extra = simulate_session(dir.path(), "extra", 4, EXTRA_RUNS);
     let study = Study::load(&session).unwrap();
     assert!(

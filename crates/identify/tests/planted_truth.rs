@@ -6,22 +6,18 @@ mod common;
 use common::planted::TRUTH;
 use mtcal_identify::{Identification, identify_session};
 use mtcal_simulate::simulate;
+use mtcal_testkit::plans::Run;
+use mtcal_testkit::{ELEVEN, TRUNNION, five_axis_truth_file, machine_file, repo};
 use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-const ELEVEN: &str =
-    r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 
 /// Writes a plan into `dir` and simulates it into `dir/session`.
 fn session(dir: &Path, setups_and_runs: &str, noise: f64) -> PathBuf {
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let machine = machine_file(TRUNNION);
+    let truth = five_axis_truth_file();
     let runs = setups_and_runs.replace("NOISE", &format!("{noise}"));
+    let eleven = mtcal_testkit::params::toml_list(&ELEVEN);
     let plan = format!(
-        "machine = {machine:?}\ntruth = {truth:?}\nseed = 11\n[identify]\nparameters = {ELEVEN}\n{runs}"
+        "machine = {machine:?}\ntruth = {truth:?}\nseed = 11\n[identify]\nparameters = {eleven}\n{runs}"
     );
     let plan_path = dir.join("plan.toml");
     std::fs::write(&plan_path, plan).unwrap();
@@ -30,12 +26,14 @@ fn session(dir: &Path, setups_and_runs: &str, noise: f64) -> PathBuf {
     out
 }
 
-/// The R-test runs (`common::plans::rtest_low_high`) and a validation path through all five
+/// The R-test runs (`mtcal_testkit::plans::rtest_low_high`) and a validation path through all five
 /// axes; `NOISE` stands for each run's noise.
 fn rtest_plan() -> String {
-    common::plans::rtest_low_high(37, 31, Some("NOISE"))
-        + "[[run]]\nname = \"xyzac\"\ninstrument = \"rtest\"\nsetup = \"low\"\n\
-           use = \"validate\"\nnoise = NOISE\npath = { kind = \"xyzac\", samples = 49 }\n"
+    mtcal_testkit::plans::rtest_low_high(37, 31, Some("NOISE"))
+        + &Run::new("xyzac", "rtest", "low")
+            .validation()
+            .noise("NOISE")
+            .path("{ kind = \"xyzac\", samples = 49 }")
 }
 
 fn value(id: &Identification, name: &str) -> Option<f64> {
@@ -162,8 +160,8 @@ path = { kind = "circle", plane = "ZX", samples = 90, start_deg = 0.0, sweep_deg
     .replace("[identify]\n", "");
     let dir = tempfile::tempdir().unwrap();
     // Only the squareness errors are estimated.
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let truth = repo().join("examples/five-axis/truth.params.toml");
+    let machine = machine_file(TRUNNION);
+    let truth = five_axis_truth_file();
     let text = format!(
         "machine = {machine:?}\ntruth = {truth:?}\n[identify]\nparameters = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n{}",
         plan.replace("NOISE", "0.0")
@@ -180,65 +178,19 @@ path = { kind = "circle", plane = "ZX", samples = 90, start_deg = 0.0, sweep_deg
     }
 }
 
-const FIVE_AXIS_BALLBAR: &str = r#"
-[setup.p1]
-pivot = [100.0, 0.0, 250.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[setup.p2]
-pivot = [0.0, 100.0, 300.0]
-length = 100.0
-pivot_free = false
-tool_length_free = false
-[[run]]
-name = "c-radial"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "radial", samples = 73 }
-[[run]]
-name = "c-tangential"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "tangential", samples = 73 }
-[[run]]
-name = "c-axial"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, bar = "axial", samples = 73 }
-[[run]]
-name = "a-radial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "radial", samples = 61 }
-[[run]]
-name = "a-tangential"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "tangential", samples = 61 }
-[[run]]
-name = "a-axial"
-instrument = "ballbar"
-setup = "p2"
-noise = NOISE
-path = { kind = "rotary", sweep = { A = [-30.0, 60.0] }, bar = "axial", samples = 61 }
-[[run]]
-name = "c-radial-a30"
-instrument = "ballbar"
-setup = "p1"
-noise = NOISE
-path = { kind = "rotary", sweep = { C = [0.0, 360.0] }, hold = { A = 30.0 }, bar = "radial", samples = 73 }
-"#;
+/// The five-axis ball-bar tests about calibrated pivots (`ballbar_rotary_runs`).
+fn five_axis_ballbar() -> String {
+    format!(
+        "\n{}{}",
+        mtcal_testkit::plans::BALLBAR_PIVOTS,
+        mtcal_testkit::plans::ballbar_rotary_runs("", "NOISE", true)
+    )
+}
 
 #[test]
 fn five_axis_ballbar_tests_recover_the_rotary_location_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let s = session(dir.path(), FIVE_AXIS_BALLBAR, 0.0);
+    let s = session(dir.path(), &five_axis_ballbar(), 0.0);
     let (_, id) = identify_session(&s).unwrap();
     assert!(id.unidentifiable.is_empty(), "{:?}", id.unidentifiable);
     for (name, truth) in TRUTH {
@@ -290,8 +242,7 @@ fn simulate_writes_nc_programs_that_keep_the_tool_point_on_the_ball() {
     let dir = tempfile::tempdir().unwrap();
     let s = session(dir.path(), &rtest_plan(), 0.0);
     let text = std::fs::read_to_string(s.join("programs/xyc-a+30.nc")).unwrap();
-    let machine =
-        mtcal_machine::urdf::load_urdf_file(&repo().join("machines/mcu630-cafyxz.urdf")).unwrap();
+    let machine = mtcal_machine::urdf::load_urdf_file(&machine_file(TRUNNION)).unwrap();
     let letters: Vec<char> = machine
         .axes()
         .iter()

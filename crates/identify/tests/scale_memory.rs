@@ -27,7 +27,6 @@ use mtcal_identify::study::AXIS_JACOBIAN_CACHE_BYTES;
 use mtcal_solve::{Options, Silent};
 use peakmem_alloc::{INSTRUMENTED_SYSTEM, PeakMemAlloc, PeakMemAllocTrait};
 use std::alloc::System;
-use std::path::Path;
 use std::sync::Mutex;
 
 #[global_allocator]
@@ -44,7 +43,7 @@ const BYTES_PER_SAMPLE_SEARCH: f64 = 60.0;
 static MEASURING: Mutex<()> = Mutex::new(());
 
 fn plan(samples: usize, record: bool) -> String {
-    let machine = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines/mcu630-cafyxz.urdf");
+    let machine = mtcal_testkit::machine_file(mtcal_testkit::TRUNNION);
     let n = samples / 6;
     let mut plan = format!(
         r#"machine = "{}"
@@ -53,7 +52,7 @@ interval_s = 0.001
 {}
 
 [identify]
-parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]
+parameters = {}
 
 [setup.low]
 ball = [100.0, 0.0, 200.0]
@@ -70,7 +69,8 @@ tool_length = 2.0
             "[record]\npositions = 4\nreadings = 4\ntime = 3\n"
         } else {
             ""
-        }
+        },
+        mtcal_testkit::params::toml_list(&mtcal_testkit::ELEVEN)
     );
     for (name, setup, kind, extra) in [
         ("xyc", "low", "xyc", ""),

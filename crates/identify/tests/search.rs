@@ -2,33 +2,25 @@
 //! left out is named first and significant, with the fitted parameters it biased; a session
 //! whose truth is inside the fitted model raises no claim.
 
-mod common;
-
 use mtcal_identify::search::{omitted_parameters, rank};
 use mtcal_identify::{Study, identify};
 use mtcal_simulate::simulate;
 use mtcal_solve::{Options, Silent};
+use mtcal_testkit::params::toml_list;
+use mtcal_testkit::{ELEVEN, TRUNNION, five_axis_truth_file, machine_file};
 use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-const ELEVEN: &str =
-    r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#;
 
 /// Simulates the plan with `extra` added to the example's truth (the 11-error set) into
 /// `dir/session`.
 fn simulated(dir: &Path, extra: &str, seed: u64) -> PathBuf {
-    let truth = std::fs::read_to_string(repo().join("examples/five-axis/truth.params.toml"))
-        .unwrap()
-        + extra;
+    let truth = std::fs::read_to_string(five_axis_truth_file()).unwrap() + extra;
     let truth_path = dir.join("truth.params.toml");
     std::fs::write(&truth_path, truth).unwrap();
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
-    let runs = common::plans::rtest_low_high(73, 61, Some("0.5"));
+    let machine = machine_file(TRUNNION);
+    let runs = mtcal_testkit::plans::rtest_low_high(73, 61, Some("0.5"));
+    let eleven = toml_list(&ELEVEN);
     let plan = format!(
-        "machine = {machine:?}\ntruth = {truth_path:?}\nseed = {seed}\n[identify]\nparameters = {ELEVEN}\n{runs}"
+        "machine = {machine:?}\ntruth = {truth_path:?}\nseed = {seed}\n[identify]\nparameters = {eleven}\n{runs}"
     );
     let plan_path = dir.join("plan.toml");
     std::fs::write(&plan_path, plan).unwrap();
@@ -42,13 +34,8 @@ fn simulated(dir: &Path, extra: &str, seed: u64) -> PathBuf {
 fn ranked(session: &Path, also: &[&str]) -> Vec<mtcal_identify::search::Ranked> {
     let manifest = session.join("session.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
-    let mut names: Vec<String> = ELEVEN
-        .trim_matches(|c| c == '[' || c == ']')
-        .split(", ")
-        .map(str::to_string)
-        .collect();
-    names.extend(also.iter().map(|n| format!("\"{n}\"")));
-    let wanted = format!("parameters = [{}]", names.join(", "));
+    let names: Vec<&str> = ELEVEN.iter().chain(also).copied().collect();
+    let wanted = format!("parameters = {}", toml_list(&names));
     let text: String = text
         .lines()
         .map(|l| {

@@ -17,11 +17,8 @@
 use mtcal_identify::{Identification, Study, identify_session};
 use mtcal_kinematics::model::Role;
 use mtcal_simulate::simulate;
-use std::path::{Path, PathBuf};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use mtcal_testkit::machine_file;
+use std::path::Path;
 
 /// The shipped machine's error model at degree 2, angular errors from P1 (see the file docs).
 const ERRORS: &str = r#"
@@ -157,7 +154,7 @@ fn campaign_with(
 ) -> (Study, Identification) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::copy(repo().join("machines/mcv754-zfyx.urdf"), d.join("m.urdf")).unwrap();
+    std::fs::copy(machine_file("mcv754-zfyx.urdf"), d.join("m.urdf")).unwrap();
     std::fs::write(d.join("m.errors.toml"), errors).unwrap();
     std::fs::write(d.join("truth.params.toml"), truth).unwrap();
     std::fs::write(d.join("plan.toml"), plan(stations, reflectors, noise, seed)).unwrap();

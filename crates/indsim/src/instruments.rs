@@ -293,20 +293,9 @@ impl Instrument {
     }
 
     /// The axis positions (SI) the run file gives: the commanded `poses`, except for an
-    /// artefact whose probing cycle reports the measured centre ([`Probed::Reported`]).
-    pub fn recorded_poses(
-        &self,
-        machine: &Machine,
-        truth: &Truth,
-        poses: &[Vec<f64>],
-        labels: &[String],
-        off: &SetupOffsets,
-    ) -> Vec<Vec<f64>> {
-        self.recorded_poses_at(machine, truth, poses, labels, off, &GeometricOnly)
-    }
-
-    /// [`Self::recorded_poses`] with the effects' state at each sample (`states` empty: none).
-    pub(crate) fn recorded_poses_at<P: ActualPoses + ?Sized>(
+    /// artefact whose probing cycle reports the measured centre ([`Probed::Reported`]) on the
+    /// actual machine `states` gives ([`GeometricOnly`] without effects).
+    pub fn recorded_poses<P: ActualPoses + ?Sized>(
         &self,
         machine: &Machine,
         truth: &Truth,
@@ -324,25 +313,13 @@ impl Instrument {
         }
     }
 
-    /// The noise-free readings (SI) of one run over `poses` (SI, machine order).
+    /// The noise-free readings (SI) of one run over `poses` (SI, machine order), the actual
+    /// pose of every sample the one `states` gives: the effects' ([`crate::effects`]), which
+    /// every instrument reads alike, or [`GeometricOnly`] without effects.
     ///
     /// Laser and tracer are relative instruments: they are zeroed at the run's first sample,
     /// so their readings are the change since then minus the nominal change.
-    pub fn readings(
-        &self,
-        machine: &Machine,
-        truth: &Truth,
-        poses: &[Vec<f64>],
-        labels: &[String],
-        off: &SetupOffsets,
-    ) -> Vec<Vec<f64>> {
-        self.readings_at(machine, truth, poses, labels, off, &GeometricOnly)
-    }
-
-    /// [`Self::readings`] with the effects' state at each sample (`states` empty: none): the
-    /// actual pose of every sample is the effects' ([`crate::effects`]), which every
-    /// instrument reads alike.
-    pub(crate) fn readings_at<P: ActualPoses + ?Sized>(
+    pub fn readings<P: ActualPoses + ?Sized>(
         &self,
         machine: &Machine,
         truth: &Truth,

@@ -419,12 +419,11 @@ fn measure(
 ) -> Measured {
     // The positions as written are the positions the machine moves to (or, for a probing
     // cycle that reports the measured centre, those).
-    let recorded =
-        instrument.recorded_poses_at(machine, truth, &run.poses, &run.labels, off, states);
+    let recorded = instrument.recorded_poses(machine, truth, &run.poses, &run.labels, off, states);
     // The readings at the positions as written, read back (rounding included).
     let positions = to_file_units(machine, &recorded, realism);
     let si = to_si(machine, &positions);
-    let readings = instrument.readings_at(machine, truth, &si, &run.labels, off, states);
+    let readings = instrument.readings(machine, truth, &si, &run.labels, off, states);
     Measured {
         positions,
         readings,

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::instruments::{Instrument, Mount, SetupOffsets};
+use crate::instruments::{GeometricOnly, Instrument, Mount, SetupOffsets};
 use crate::machine::{Machine, apply, translation_of};
 use crate::truth::Truth;
 use crate::{paths, shipped_machine};
@@ -149,7 +149,14 @@ fn rtest_at(machine: &Machine, truth: &Truth, mount: Mount, c_deg: f64) -> Vecto
                 .unwrap(),
         ]
     });
-    let r = instrument.readings(machine, truth, &q[..1], &[], &SetupOffsets::default());
+    let r = instrument.readings(
+        machine,
+        truth,
+        &q[..1],
+        &[],
+        &SetupOffsets::default(),
+        &GeometricOnly,
+    );
     Vector3::new(r[0][0], r[0][1], r[0][2]) * 1e6
 }
 
@@ -262,7 +269,7 @@ fn displacement_sensors_read_along_their_direction() {
         position: Vector3::new(5e-6, 0.0, 0.0),
         tool_length: 10e-6,
     };
-    let r = instrument.readings(&m, &truth, &[q.clone(), q], &[], &off);
+    let r = instrument.readings(&m, &truth, &[q.clone(), q], &[], &off, &GeometricOnly);
     let want = [-7.0, 7.0, -10.0, -7.0 / 2f64.sqrt(), 0.0];
     for row in &r {
         for (got, want) in row.iter().zip(want) {
@@ -317,18 +324,24 @@ fn artefact_reads_the_axis_positions_on_the_true_centre() {
     assert_eq!(plate.channels(), ["x", "y"]);
     assert_eq!(plate.label_columns(), ["feature"]);
     assert_eq!(plate.file_per_si(), 1e3);
-    let r = plate.readings(&m, &truth, &commanded, &labels, &off);
+    let r = plate.readings(&m, &truth, &commanded, &labels, &off, &GeometricOnly);
     assert!(r[0][0].abs() < 1e-15 && r[0][1].abs() < 1e-15, "{r:?}");
     // First order (m); EC0Y's second order is 5e-12 m.
     assert!((r[1][0] - 0.050_001).abs() < 1e-10, "{r:?}");
     assert!((r[1][1] - 0.1).abs() < 1e-10, "{r:?}");
     assert_eq!(
-        plate.recorded_poses(&m, &truth, &commanded, &labels, &off),
+        plate.recorded_poses(&m, &truth, &commanded, &labels, &off, &GeometricOnly),
         commanded
     );
     // The probing cycle's reported centre as the axis columns: the same X, Y; Z as commanded.
-    let reported =
-        instrument(Probed::Reported).recorded_poses(&m, &truth, &commanded, &labels, &off);
+    let reported = instrument(Probed::Reported).recorded_poses(
+        &m,
+        &truth,
+        &commanded,
+        &labels,
+        &off,
+        &GeometricOnly,
+    );
     assert!((reported[1][0] - 0.050_001).abs() < 1e-10, "{reported:?}");
     assert_eq!(reported[1][2], -0.25);
     let toml = plate.setup_toml(Some(0.5));

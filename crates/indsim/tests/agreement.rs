@@ -19,11 +19,12 @@
 //! run's first sample (both instruments are zeroed there; mtcal carries the zero as a
 //! nuisance).
 
+mod common;
+
 use std::path::Path;
 
-use mtcal_instrument::{At, RunData, Setup, SetupContext};
-use mtcal_kinematics::MachineModel;
-use mtcal_session::{RunColumns, read_run};
+use common::{positions_si, read_mtcal_run, truth_model};
+use mtcal_instrument::{At, RunData};
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -455,24 +456,6 @@ fn plate_machine(machine: &Machine) -> bool {
     })
 }
 
-fn load_mtcal_setup(
-    instrument: &str,
-    table: &toml::Table,
-    machine: &mtcal_kinematics::Machine,
-) -> Box<dyn Setup> {
-    let ctx = SetupContext { machine };
-    let r = match instrument {
-        "rtest" => mtcal_rtest::load_setup(table, &ctx),
-        "ballbar" => mtcal_ballbar::load_setup(table, &ctx),
-        "laser" => mtcal_laser::load_setup(table, &ctx),
-        "tracer" => mtcal_tracer::load_setup(table, &ctx),
-        "displacement" => mtcal_displacement::load_setup(table, &ctx),
-        "artefact" => mtcal_artefact::load_setup(table, &ctx),
-        other => panic!("no plugin {other}"),
-    };
-    r.unwrap_or_else(|e| panic!("mtcal rejects the {instrument} set-up {table:?}: {e}"))
-}
-
 /// Writes the session for `file`, reads it back with mtcal, and returns the worst differences.
 fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst {
     let urdf = shipped_machine(file);
@@ -489,51 +472,20 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
     let session = mtcal_session::load_session(&dir).unwrap();
     let mpath = session.machine_path.clone().expect("a URDF path");
     let m = mtcal_machine::urdf::load_urdf_file(&mpath).unwrap();
-    let errors_path = dir.join("truth/errors.toml");
-    let config = mtcal_machine::config::parse_config(
-        &std::fs::read_to_string(&errors_path).unwrap(),
-        &errors_path,
-        &m,
-    )
-    .unwrap();
-    let model = MachineModel::new(m.clone(), &config).unwrap();
-    let params_path = dir.join("truth/params.toml");
-    let coeffs = mtcal_machine::params::parse_params(
-        &std::fs::read_to_string(&params_path).unwrap(),
-        &params_path,
-        model.errors(),
-    )
-    .unwrap();
+    let (model, coeffs) = truth_model(&dir, &m);
     let mut ws = model.workspace();
-    let letters: Vec<char> = m.letters().chars().collect();
     let mut worst = Worst::default();
     for run in &session.runs {
-        let setup = load_mtcal_setup(&run.instrument, session.setup_of(run), &m);
+        let common::MtcalRun {
+            setup,
+            recorded: table,
+            clean,
+        } = read_mtcal_run(&dir, &session, run, &m);
         let names: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
-        let cols = RunColumns {
-            axes: &letters,
-            readings: &names,
-            readings_optional: false,
-            labels: setup.label_columns(),
-        };
-        let table = read_run(&run.file, &cols).unwrap();
-        let clean = read_run(&dir.join("truth").join(&run.file_as_written), &cols).unwrap();
         let nuis = vec![0.0; setup.nuisance().len()];
         let mut out = vec![0.0; names.len()];
         let mut first: Option<Vec<f64>> = None;
-        let q_all: Vec<Vec<f64>> = (0..table.len())
-            .map(|k| {
-                table
-                    .q_row(k)
-                    .iter()
-                    .zip(m.axes())
-                    .map(|(&v, a)| match a.kind() {
-                        mtcal_kinematics::AxisKind::Linear => v * 1e-3,
-                        mtcal_kinematics::AxisKind::Rotary => v.to_radians(),
-                    })
-                    .collect()
-            })
-            .collect();
+        let q_all = positions_si(&table, &m);
         // A diagonal is the path the plugin plans between the run's end targets (its path
         // checks that the tool point travels along the set-up's beam): same poses.
         let mode = session.setup_of(run).get("mode").and_then(|v| v.as_str());
@@ -752,19 +704,13 @@ fn realistic_files_of_the_newer_instruments_load_with_noise_in_their_units() {
     write_session(&dir, &machine, &truth, &plan, &realism).unwrap();
     let session = mtcal_session::load_session(&dir).unwrap();
     let m = mtcal_machine::urdf::load_urdf_file(session.machine_path.as_ref().unwrap()).unwrap();
-    let letters: Vec<char> = m.letters().chars().collect();
     let mut noise_um = Vec::new();
     for run in &session.runs {
-        let setup = load_mtcal_setup(&run.instrument, session.setup_of(run), &m);
-        let names: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
-        let cols = RunColumns {
-            axes: &letters,
-            readings: &names,
-            readings_optional: false,
-            labels: setup.label_columns(),
-        };
-        let table = read_run(&run.file, &cols).unwrap();
-        let clean = read_run(&dir.join("truth").join(&run.file_as_written), &cols).unwrap();
+        let common::MtcalRun {
+            setup,
+            recorded: table,
+            clean,
+        } = read_mtcal_run(&dir, &session, run, &m);
         for k in 0..table.len() {
             for (c, ch) in setup.channels().iter().enumerate() {
                 let um_per_unit = 1e6 / ch.unit.per_si();

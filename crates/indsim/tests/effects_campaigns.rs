@@ -4,15 +4,17 @@
 //! mtcal's own prediction with the truth reads (the three-axis laser and tracer campaign, as
 //! `agreement.rs` checks the other instruments).
 
+mod common;
+
 use std::path::Path;
 
+use common::{positions_si, read_mtcal_run, truth_model};
 use mtcal_identify::Study;
 use mtcal_indsim::{
     Campaign, Effect, HeatSource, Machine, Programme, Realism, TemperatureProgramme, Truth,
     Written, shipped_machine,
 };
-use mtcal_instrument::{At, RunData, Setup, SetupContext};
-use mtcal_kinematics::MachineModel;
+use mtcal_instrument::{At, RunData};
 use mtcal_session::{RunColumns, load_session, read_run};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -79,22 +81,6 @@ fn three_axis_effects() -> Vec<Effect> {
     ]
 }
 
-fn load_mtcal_setup(
-    instrument: &str,
-    table: &toml::Table,
-    machine: &mtcal_kinematics::Machine,
-) -> Box<dyn Setup> {
-    let ctx = SetupContext { machine };
-    let r = match instrument {
-        "laser" => mtcal_laser::load_setup(table, &ctx),
-        "tracer" => mtcal_tracer::load_setup(table, &ctx),
-        "ballbar" => mtcal_ballbar::load_setup(table, &ctx),
-        "rtest" => mtcal_rtest::load_setup(table, &ctx),
-        other => panic!("no plugin {other} here"),
-    };
-    r.unwrap_or_else(|e| panic!("mtcal rejects the {instrument} set-up {table:?}: {e}"))
-}
-
 /// The largest |indsim − mtcal| (µm) over every run of the session in `dir`, the noise-free
 /// readings against mtcal's prediction with the truth's parameter files, both as changes from
 /// the run's first sample (the laser and the tracer are zeroed there; mtcal carries the zero
@@ -102,47 +88,12 @@ fn load_mtcal_setup(
 fn worst_disagreement_um(dir: &Path) -> f64 {
     let session = load_session(dir).unwrap();
     let m = mtcal_machine::urdf::load_urdf_file(session.machine_path.as_ref().unwrap()).unwrap();
-    let errors = dir.join("truth/errors.toml");
-    let config = mtcal_machine::config::parse_config(
-        &std::fs::read_to_string(&errors).unwrap(),
-        &errors,
-        &m,
-    )
-    .unwrap();
-    let model = MachineModel::new(m.clone(), &config).unwrap();
-    let params = dir.join("truth/params.toml");
-    let coeffs = mtcal_machine::params::parse_params(
-        &std::fs::read_to_string(&params).unwrap(),
-        &params,
-        model.errors(),
-    )
-    .unwrap();
+    let (model, coeffs) = truth_model(dir, &m);
     let mut ws = model.workspace();
-    let letters: Vec<char> = m.letters().chars().collect();
     let mut worst = 0.0f64;
     for run in &session.runs {
-        let setup = load_mtcal_setup(&run.instrument, session.setup_of(run), &m);
-        let names: Vec<&str> = setup.channels().iter().map(|c| c.name.as_str()).collect();
-        let cols = RunColumns {
-            axes: &letters,
-            readings: &names,
-            readings_optional: false,
-            labels: &[],
-        };
-        let clean = read_run(&dir.join("truth").join(&run.file_as_written), &cols).unwrap();
-        let q_all: Vec<Vec<f64>> = (0..clean.len())
-            .map(|k| {
-                clean
-                    .q_row(k)
-                    .iter()
-                    .zip(m.axes())
-                    .map(|(&v, a)| match a.kind() {
-                        mtcal_kinematics::AxisKind::Linear => v * 1e-3,
-                        mtcal_kinematics::AxisKind::Rotary => v.to_radians(),
-                    })
-                    .collect()
-            })
-            .collect();
+        let common::MtcalRun { setup, clean, .. } = read_mtcal_run(dir, &session, run, &m);
+        let q_all = positions_si(&clean, &m);
         let mut ours: Vec<f64> = (0..clean.len())
             .map(|k| clean.reading_row(k).unwrap()[0] * 1e-6)
             .collect();
@@ -158,7 +109,7 @@ fn worst_disagreement_um(dir: &Path) -> f64 {
             )
             .unwrap();
         let nuisance = vec![0.0; setup.nuisance().len()];
-        let mut out = vec![0.0; names.len()];
+        let mut out = vec![0.0; setup.channels().len()];
         let mut first = None;
         for (k, q) in q_all.iter().enumerate() {
             let pose = model.tool_pose(q, &coeffs, &mut ws);

@@ -110,8 +110,9 @@ fn periodic_error_along_an_unevenly_sampled_axis_is_found_by_lomb_scargle() {
     assert!(along(&analysis, "t").is_none(), "{:#?}", analysis.mismatch);
 }
 
-#[test]
-fn step_in_a_sub_span_is_located_with_its_share() {
+/// White noise over t = 0 … 599 with a step of 1.5 σ for 120 ≤ t ≤ 300 (run `rtest-xyc-a0`,
+/// channel `dz`), analysed.
+fn step_in_a_sub_span() -> Analysis {
     let mut rng = common::rng(3);
     let n = 600;
     let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
@@ -126,11 +127,16 @@ fn step_in_a_sub_span_is_located_with_its_share() {
             }
         })
         .collect();
-    let analysis = analyse(
+    analyse(
         RunResiduals::new("rtest-xyc-a0")
             .channel("dz", &r)
             .context("t", &t),
-    );
+    )
+}
+
+#[test]
+fn step_in_a_sub_span_is_located_with_its_share() {
+    let analysis = step_in_a_sub_span();
     let location = along(&analysis, "t").expect("located along t");
     let (from, to) = (location.from.unwrap(), location.to.unwrap());
     assert!(
@@ -252,25 +258,7 @@ fn understated_sigma_shows_in_chi_square_only() {
 
 #[test]
 fn output_has_the_formats_md_shape() {
-    let mut rng = common::rng(3);
-    let n = 600;
-    let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
-    let r: Vec<f64> = common::white(&mut rng, n)
-        .iter()
-        .zip(&t)
-        .map(|(e, &t)| {
-            if (120.0..=300.0).contains(&t) {
-                e + 1.5
-            } else {
-                *e
-            }
-        })
-        .collect();
-    let analysis = analyse(
-        RunResiduals::new("rtest-xyc-a0")
-            .channel("dz", &r)
-            .context("t", &t),
-    );
+    let analysis = step_in_a_sub_span();
     let json = serde_json::to_value(&analysis.mismatch).unwrap();
     assert_eq!(json["detected"], true);
     let first = &json["where"][0];

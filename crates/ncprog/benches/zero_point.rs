@@ -6,27 +6,13 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use mtcal_kinematics::MachineModel;
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
 use mtcal_ncprog::zero_point::{ErrorVectors, zero_point, zero_point_naive};
+use mtcal_testkit::random::uniform;
 use std::hint::black_box;
 
-/// Deterministic uniform numbers in [−1, 1) (64-bit LCG).
-fn uniform(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed;
-    (0..n)
-        .map(|_| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
-}
-
 fn map_vectors() -> ErrorVectors {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../machines/mcv754-zfyx.urdf"
-    );
-    let loaded = mtcal_machine::load_machine(path, Default::default()).expect("machine");
+    let path = mtcal_testkit::machine_file("mcv754-zfyx.urdf");
+    let loaded =
+        mtcal_machine::load_machine(path.to_str().unwrap(), Default::default()).expect("machine");
     let model = MachineModel::new(loaded.machine, &loaded.config).expect("model");
     let coeffs: Vec<f64> = uniform(7, model.n_coeffs())
         .iter()

@@ -2,31 +2,16 @@
 //! axis positions come back through `axis_positions`; the predicted errors are the model's pose
 //! errors there; the reader locates every error by line and column.
 
+mod common;
+
+use common::model;
+use mtcal_kinematics::Machine;
 use mtcal_kinematics::ik::forward_kinematics;
-use mtcal_kinematics::{Machine, MachineModel};
 use mtcal_ncprog::{
     ClData, ClOptions, PointFailure, all_axis_positions, axis_positions, predicted_errors,
     summarize,
 };
-
-fn model(name: &str) -> MachineModel {
-    let path = format!("{}/../../machines/{name}", env!("CARGO_MANIFEST_DIR"));
-    let loaded = mtcal_machine::load_machine(&path, Default::default()).expect("machine");
-    MachineModel::new(loaded.machine, &loaded.config).expect("model")
-}
-
-/// Deterministic uniform numbers in [−1, 1).
-fn uniform(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed;
-    (0..n)
-        .map(|_| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
-}
+use mtcal_testkit::random::uniform;
 
 /// The CL text of the nominal tool tip (mm, 12 decimals) and axis at every `q`.
 fn cl_text(machine: &Machine, qs: &[Vec<f64>], with_axis: bool) -> String {

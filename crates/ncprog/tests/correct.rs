@@ -1,28 +1,13 @@
 //! Pose correction on shipped machines with random identified errors of a few µm/µrad.
 
+mod common;
+
+use common::model;
 use mtcal_kinematics::{AxisKind, MachineModel};
 use mtcal_ncprog::{
     CorrectError, CorrectOptions, Decimals, Program, correct_program, gcode::AXIS_LETTERS,
 };
-
-fn model(name: &str) -> MachineModel {
-    let path = format!("{}/../../machines/{name}", env!("CARGO_MANIFEST_DIR"));
-    let loaded = mtcal_machine::load_machine(&path, Default::default()).expect("machine");
-    MachineModel::new(loaded.machine, &loaded.config).expect("model")
-}
-
-/// Deterministic uniform numbers in [−1, 1).
-fn uniform(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed;
-    (0..n)
-        .map(|_| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
-}
+use mtcal_testkit::random::uniform;
 
 fn coeffs(model: &MachineModel, seed: u64) -> Vec<f64> {
     uniform(seed, model.n_coeffs())

@@ -1,29 +1,16 @@
 //! Source 004's zero point on its 10,164-point grid of a shipped machine, and the postprocessor.
 
+mod common;
+
 use mtcal_kinematics::MachineModel;
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
 use mtcal_ncprog::zero_point::{ErrorVectors, zero_point, zero_point_naive};
 use mtcal_ncprog::{Decimals, Program, model_zero_point, offset_program};
+use mtcal_testkit::random::uniform;
 
-fn uniform(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed;
-    (0..n)
-        .map(|_| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        })
-        .collect()
-}
-
+/// The three-axis machine of source 004's grid.
 fn model() -> MachineModel {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../machines/mcv754-zfyx.urdf"
-    );
-    let loaded = mtcal_machine::load_machine(path, Default::default()).expect("machine");
-    MachineModel::new(loaded.machine, &loaded.config).expect("model")
+    common::model("mcv754-zfyx.urdf")
 }
 
 #[test]

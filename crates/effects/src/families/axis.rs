@@ -75,21 +75,43 @@ fn plant_axis(table: &toml::Table, view: &SessionView) -> Result<usize, PlantErr
     }
 }
 
-fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
+/// One candidate of `class` without a shape parameter on every pose axis `shows` it on.
+fn unshaped_candidates(
+    view: &SessionView,
+    class: &'static str,
+    feature: fn(usize) -> Feature,
+    shows: fn(&SessionView, usize) -> bool,
+) -> Vec<Candidate> {
     wrap(
         pose_axes(view)
             .into_iter()
-            .filter(|&a| reverses(view, a))
-            .map(|a| on_axis(view, a, "reversal", Feature::Reversal(a), None))
+            .filter(|&a| shows(view, a))
+            .map(|a| on_axis(view, a, class, feature(a), None))
             .collect(),
     )
 }
 
-fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
+/// The planted effect of `class` on the plant table's axis; `shape` reads its shape parameter
+/// (SI) from the table, given the axis.
+fn plant_on_axis(
+    table: &toml::Table,
+    view: &SessionView,
+    class: &'static str,
+    feature: fn(usize) -> Feature,
+    shape: impl Fn(usize) -> Result<Option<f64>, PlantError>,
+) -> Result<Planted, PlantError> {
     let a = plant_axis(table, view)?;
-    let e = on_axis(view, a, "reversal", Feature::Reversal(a), None);
+    let e = on_axis(view, a, class, feature(a), shape(a)?);
     let v = plant_values(&e, table, &[])?;
     Ok((Arc::new(e), v))
+}
+
+fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
+    unshaped_candidates(view, "reversal", Feature::Reversal, reverses)
+}
+
+fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
+    plant_on_axis(table, view, "reversal", Feature::Reversal, |_| Ok(None))
 }
 
 /// Harmonics of a rotary axis' angular positioning error that the error model already
@@ -145,32 +167,21 @@ fn cyclic_candidates(view: &SessionView) -> Vec<Candidate> {
 }
 
 fn cyclic_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
-    let a = plant_axis(table, view)?;
-    let shape = if view.axes[a].rotary {
-        number(table, "period_deg", 180.0 / std::f64::consts::PI)?
-    } else {
-        number(table, "pitch_mm", 1e3)?
-    };
-    let e = on_axis(view, a, "cyclic", Feature::Cyclic(a), shape);
-    let v = plant_values(&e, table, &[])?;
-    Ok((Arc::new(e), v))
+    plant_on_axis(table, view, "cyclic", Feature::Cyclic, |a| {
+        if view.axes[a].rotary {
+            number(table, "period_deg", 180.0 / std::f64::consts::PI)
+        } else {
+            number(table, "pitch_mm", 1e3)
+        }
+    })
 }
 
 fn servo_candidates(view: &SessionView) -> Vec<Candidate> {
-    wrap(
-        pose_axes(view)
-            .into_iter()
-            .filter(|&a| moves(view, a))
-            .map(|a| on_axis(view, a, "servo-lag", Feature::Velocity(a), None))
-            .collect(),
-    )
+    unshaped_candidates(view, "servo-lag", Feature::Velocity, moves)
 }
 
 fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
-    let a = plant_axis(table, view)?;
-    let e = on_axis(view, a, "servo-lag", Feature::Velocity(a), None);
-    let v = plant_values(&e, table, &[])?;
-    Ok((Arc::new(e), v))
+    plant_on_axis(table, view, "servo-lag", Feature::Velocity, |_| Ok(None))
 }
 
 fn decay_per_si(view: &SessionView, a: usize) -> f64 {
@@ -202,16 +213,14 @@ fn stick_candidates(view: &SessionView) -> Vec<Candidate> {
 }
 
 fn stick_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
-    let a = plant_axis(table, view)?;
-    let key = if view.axes[a].rotary {
-        "decay_deg"
-    } else {
-        "decay_mm"
-    };
-    let lambda = number(table, key, decay_per_si(view, a))?;
-    let e = on_axis(view, a, "stick-slip", Feature::StickSlip(a), lambda);
-    let v = plant_values(&e, table, &[])?;
-    Ok((Arc::new(e), v))
+    plant_on_axis(table, view, "stick-slip", Feature::StickSlip, |a| {
+        let key = if view.axes[a].rotary {
+            "decay_deg"
+        } else {
+            "decay_mm"
+        };
+        number(table, key, decay_per_si(view, a))
+    })
 }
 
 fn coupling_effect(view: &SessionView, l: usize, k: usize, m: usize) -> Basic {

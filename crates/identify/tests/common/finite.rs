@@ -196,53 +196,32 @@ impl ser::Serializer for &mut Walker {
     }
 }
 
-impl ser::SerializeSeq for &mut Walker {
-    type Ok = ();
-    type Error = Never;
-    fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Never> {
-        self.element(value)
-    }
-    fn end(self) -> Result<(), Never> {
-        self.index.pop();
-        Ok(())
-    }
+/// The serializers of sequences and tuples, alike but for the method's name: each element goes
+/// under its index; at the end the index is dropped, and a variant's name too (`variant`).
+macro_rules! elements {
+    ($($serializer:ident::$method:ident, variant = $variant:literal;)*) => {$(
+        impl ser::$serializer for &mut Walker {
+            type Ok = ();
+            type Error = Never;
+            fn $method<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Never> {
+                self.element(value)
+            }
+            fn end(self) -> Result<(), Never> {
+                self.index.pop();
+                if $variant {
+                    self.path.pop();
+                }
+                Ok(())
+            }
+        }
+    )*};
 }
 
-impl ser::SerializeTuple for &mut Walker {
-    type Ok = ();
-    type Error = Never;
-    fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Never> {
-        self.element(value)
-    }
-    fn end(self) -> Result<(), Never> {
-        self.index.pop();
-        Ok(())
-    }
-}
-
-impl ser::SerializeTupleStruct for &mut Walker {
-    type Ok = ();
-    type Error = Never;
-    fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Never> {
-        self.element(value)
-    }
-    fn end(self) -> Result<(), Never> {
-        self.index.pop();
-        Ok(())
-    }
-}
-
-impl ser::SerializeTupleVariant for &mut Walker {
-    type Ok = ();
-    type Error = Never;
-    fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Never> {
-        self.element(value)
-    }
-    fn end(self) -> Result<(), Never> {
-        self.index.pop();
-        self.path.pop();
-        Ok(())
-    }
+elements! {
+    SerializeSeq::serialize_element, variant = false;
+    SerializeTuple::serialize_element, variant = false;
+    SerializeTupleStruct::serialize_field, variant = false;
+    SerializeTupleVariant::serialize_field, variant = true;
 }
 
 impl ser::SerializeMap for &mut Walker {

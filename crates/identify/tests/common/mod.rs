@@ -1,3 +1,3 @@
+pub mod coverage;
 pub mod finite;
-pub mod plans;
 pub mod planted;

@@ -12,36 +12,22 @@
 use mtcal_identify::Study;
 use mtcal_identify::search::{SearchOptions, SearchResult, search};
 use mtcal_simulate::simulate;
+use mtcal_testkit::plans::Run;
+use mtcal_testkit::{ELEVEN, TRUNNION, five_axis_truth_file, machine_file};
 use std::path::{Path, PathBuf};
 
 /// Noise of every reading (µm): R-test and ball-bar.
 pub const NOISE_UM: f64 = 0.5;
 
-/// The truth of examples/five-axis (µm, µrad).
-pub const TRUTH: [(&str, f64); 11] = [
-    ("EC0Y", 12.0),
-    ("EB0Z", -8.0),
-    ("EA0Z", 15.0),
-    ("EY0A", 18.0),
-    ("EZ0A", -25.0),
-    ("EB0A", 20.0),
-    ("EC0A", -10.0),
-    ("EX0C", 12.0),
-    ("EY0C", -6.0),
-    ("EA0C", 30.0),
-    ("EB0C", -15.0),
-];
+/// The truth of examples/five-axis (µm, µrad): the planted sessions' machine before the effects.
+pub const TRUTH: [(&str, f64); 11] = mtcal_testkit::FIVE_AXIS_TRUTH;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The plan's set-ups, context and runs (`{dt}` the interval, `{k}` multiplies the samples,
-/// `{also}` adds parameters to estimate).
-pub const RUNS: &str = r#"
+/// The plan's interval, estimated parameters, context and set-ups (`{dt}` the interval, the
+/// eleven errors and `{also}` estimated).
+pub const SETUPS: &str = r#"
 interval_s = {dt}
 [identify]
-parameters = ["EC0Y", "EB0Z", "EA0Z", "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"{also}]
+parameters = [{eleven}{also}]
 [context]
 S = [[0.0, 0.0], [150.0, 4000.0], [500.0, 8000.0], [700.0, 2000.0]]
 T_spindle = [[0.0, 20.0], [264.0, 20.0], [336.0, 23.0], [516.0, 23.0], [588.0, 20.0]]
@@ -60,58 +46,95 @@ sigma_um = 0.5
 ball_x = 4.0
 ball_z = -3.0
 tool_length = 2.0
-[[run]]
-name = "xyc-a0"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = {n145} }
-[[run]]
-name = "bb-ccw"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "XY", direction = "ccw", samples = {n181} }
-[[run]]
-name = "xyc-high"
-instrument = "rtest"
-setup = "high"
-path = { kind = "xyc", samples = {n145} }
-[[run]]
-name = "xyc-a+30"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 145, hold = { A = 30.0 } }
-[[run]]
-name = "bb-cw"
-instrument = "ballbar"
-setup = "bar"
-path = { kind = "circle", plane = "XY", direction = "cw", samples = {n181} }
-[[run]]
-name = "yza"
-instrument = "rtest"
-setup = "low"
-path = { kind = "yza", samples = {n121} }
-[[run]]
-name = "xyc-a-30"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = 145, hold = { A = -30.0 } }
-[[run]]
-name = "xyc-high-again"
-instrument = "rtest"
-setup = "high"
-path = { kind = "xyc", samples = {n145} }
-[[run]]
-name = "xyc-a0-again"
-instrument = "rtest"
-setup = "low"
-path = { kind = "xyc", samples = {n145} }
-[[run]]
-name = "xyzac"
-instrument = "rtest"
-setup = "low"
-use = "validate"
-path = { kind = "xyzac", samples = {n97} }
 "#;
+
+/// The runs in their order: name, instrument, set-up, path (`{nK}`: K samples, more when the
+/// session is dense; the tilted XYC runs keep theirs). The last, `xyzac`, validates.
+pub const RUNS: [(&str, &str, &str, &str); 10] = [
+    (
+        "xyc-a0",
+        "rtest",
+        "low",
+        "{ kind = \"xyc\", samples = {n145} }",
+    ),
+    (
+        "bb-ccw",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"XY\", direction = \"ccw\", samples = {n181} }",
+    ),
+    (
+        "xyc-high",
+        "rtest",
+        "high",
+        "{ kind = \"xyc\", samples = {n145} }",
+    ),
+    (
+        "xyc-a+30",
+        "rtest",
+        "low",
+        "{ kind = \"xyc\", samples = 145, hold = { A = 30.0 } }",
+    ),
+    (
+        "bb-cw",
+        "ballbar",
+        "bar",
+        "{ kind = \"circle\", plane = \"XY\", direction = \"cw\", samples = {n181} }",
+    ),
+    (
+        "yza",
+        "rtest",
+        "low",
+        "{ kind = \"yza\", samples = {n121} }",
+    ),
+    (
+        "xyc-a-30",
+        "rtest",
+        "low",
+        "{ kind = \"xyc\", samples = 145, hold = { A = -30.0 } }",
+    ),
+    (
+        "xyc-high-again",
+        "rtest",
+        "high",
+        "{ kind = \"xyc\", samples = {n145} }",
+    ),
+    (
+        "xyc-a0-again",
+        "rtest",
+        "low",
+        "{ kind = \"xyc\", samples = {n145} }",
+    ),
+    (
+        "xyzac",
+        "rtest",
+        "low",
+        "{ kind = \"xyzac\", samples = {n97} }",
+    ),
+];
+
+/// [`SETUPS`] and [`RUNS`] as plan text for `variant`.
+pub fn setups_and_runs(variant: Variant) -> String {
+    let mut text = SETUPS.to_string();
+    for (name, instrument, setup, path) in RUNS {
+        let run = Run::new(name, instrument, setup);
+        let run = if name == "xyzac" {
+            run.validation()
+        } else {
+            run
+        };
+        text += &run.path(path);
+    }
+    let k = if variant.dense { 2 } else { 1 };
+    text = text
+        .replace("{eleven}", &mtcal_testkit::params::quoted(&ELEVEN))
+        .replace("{dt}", if variant.dense { "0.25" } else { "0.5" })
+        .replace("{also}", variant.also);
+    for n in [145, 181, 121, 97] {
+        text = text.replace(&format!("{{n{n}}}"), &(k * n - (k - 1)).to_string());
+    }
+    text
+}
 
 /// What a case changes in the session besides its `[[effect]]` tables.
 #[derive(Debug, Clone, Copy, Default)]
@@ -130,31 +153,20 @@ pub struct Variant {
 /// Simulates the session with `effects` (`[[effect]]` tables), `variant` and noise seed `seed`
 /// into `dir/session`.
 pub fn session(dir: &Path, effects: &str, seed: u64, variant: Variant) -> PathBuf {
-    let machine = repo().join("machines/mcu630-cafyxz.urdf");
+    let machine = machine_file(TRUNNION);
     let truth_file = dir.join("truth.params.toml");
-    let truth = std::fs::read_to_string(repo().join("examples/five-axis/truth.params.toml"))
-        .unwrap()
-        + "\n"
-        + variant.truth;
+    let truth = std::fs::read_to_string(five_axis_truth_file()).unwrap() + "\n" + variant.truth;
     std::fs::write(&truth_file, truth).unwrap();
     let mut plan = format!("machine = {machine:?}\ntruth = {truth_file:?}\nseed = {seed}\n");
     if !variant.truth_model.is_empty() {
-        let model = std::fs::read_to_string(repo().join("machines/mcu630-cafyxz.errors.toml"))
-            .unwrap()
+        let model = std::fs::read_to_string(machine_file("mcu630-cafyxz.errors.toml")).unwrap()
             + "\n"
             + variant.truth_model;
         let file = dir.join("truth.errors.toml");
         std::fs::write(&file, model).unwrap();
         plan += &format!("truth_errors = {file:?}\n");
     }
-    let k = if variant.dense { 2 } else { 1 };
-    let mut runs = RUNS
-        .replace("{dt}", if variant.dense { "0.25" } else { "0.5" })
-        .replace("{also}", variant.also);
-    for n in [145, 181, 121, 97] {
-        runs = runs.replace(&format!("{{n{n}}}"), &(k * n - (k - 1)).to_string());
-    }
-    plan += &runs;
+    plan += &setups_and_runs(variant);
     plan += effects;
     let file = dir.join("plan.toml");
     std::fs::write(&file, plan).unwrap();

@@ -7,7 +7,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::*;
-use crate::instruments::{Instrument, LaserMode, Mount, SetupOffsets};
+use crate::instruments::{GeometricOnly, Instrument, LaserMode, Mount, SetupOffsets};
 use crate::session::{Plan, Realism, RunPlan, SetupPlan, SimError, Written, write_session};
 use crate::tests::SIMPLE;
 
@@ -36,7 +36,7 @@ fn read(
     let m = simple();
     let resolved = Resolved::new(&m, &[], effects).unwrap();
     let states = Timeline::new(&resolved).run(poses, times);
-    instrument.readings_at(
+    instrument.readings(
         &m,
         &Truth::zero(&m),
         poses,
@@ -478,7 +478,7 @@ fn every_instrument_sees_the_same_tool_displacement() {
     let resolved = Resolved::new(&m, &[], &effects).unwrap();
     let states = Timeline::new(&resolved).run(&q, &times);
     let labels = vec!["f".to_string(); 2];
-    let r = plate.readings_at(
+    let r = plate.readings(
         &m,
         &Truth::zero(&m),
         &q,
@@ -529,8 +529,8 @@ fn zero_sized_effects_read_exactly_what_no_effects_read() {
     let states = Timeline::new(&resolved).run(&q, &times);
     let off = SetupOffsets::default();
     for i in &instruments {
-        let with = i.readings_at(&m, &truth, &q, &[], &off, states.as_slice());
-        let without = i.readings(&m, &truth, &q, &[], &off);
+        let with = i.readings(&m, &truth, &q, &[], &off, states.as_slice());
+        let without = i.readings(&m, &truth, &q, &[], &off, &GeometricOnly);
         assert_eq!(with, without, "{}", i.plugin_name());
     }
 }
