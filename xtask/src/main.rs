@@ -9,11 +9,11 @@ use mtcal_kinematics::volmap::{Grid, MapMethod, MapOptions, volumetric_map};
 use mtcal_kinematics::{AxisKind, Machine, MachineModel, ParamName, Side};
 use mtcal_machine::topology::Reading;
 use mtcal_machine::{LoadedMachine, load_machine};
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod plan;
-mod report;
 mod scale;
 mod tolerance;
 
@@ -150,44 +150,7 @@ enum Command {
         plot: Option<PathBuf>,
     },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
-    Identify {
-        /// The session folder (or its session.toml).
-        session: PathBuf,
-        /// Write the result as JSON (schema mtcal.identify/1) to this file.
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// Write every validation run's predicted readings to DIR/<run>.csv.
-        #[arg(long)]
-        predict: Option<PathBuf>,
-        /// No progress bar.
-        #[arg(long)]
-        quiet: bool,
-        /// Everything on the screen (the whole information account; otherwise its first
-        /// lines, and all of it in the JSON).
-        #[arg(long)]
-        verbose: bool,
-        /// Worker threads (default: all cores).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
-        /// Run the physics search: find the effects the model left out (thermal drift,
-        /// backlash, cyclic errors, omitted parameters…), add those that improve held-out
-        /// prediction, and report them as discoveries.
-        #[arg(long)]
-        search: bool,
-        /// Another session (planned, moved or extra runs, e.g. from `simulate`): print what
-        /// adding its runs would do to every interval, without refitting.
-        #[arg(long, value_name = "SESSION")]
-        what_if: Option<PathBuf>,
-        /// Write an HTML report (DIR/index.html, self-contained, SVG plots): ball-bar polar
-        /// plots, residuals along time and temperatures, component errors, volumetric map,
-        /// parameters, what the data cannot separate, discoveries.
-        #[arg(long, value_name = "DIR")]
-        report: Option<PathBuf>,
-        /// Write the error model these runs identify (an .errors.toml to keep beside the
-        /// URDF): the parameters they determine, without those they cannot.
-        #[arg(long, value_name = "FILE")]
-        suggest_model: Option<PathBuf>,
-    },
+    Identify(IdentifyArgs),
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
         /// The test plan (TOML; see crates/identify/src/simulate.rs).
@@ -288,37 +251,11 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    use std::io::Write as _;
     // Everything goes through one handle so that a closed pipe is an error to return, never a
     // panic (`println!` panics when standard output is gone).
     let mut stdout = std::io::stdout().lock();
     match cli.command {
-        Command::Identify {
-            session,
-            json,
-            predict,
-            quiet,
-            verbose,
-            threads,
-            search,
-            what_if,
-            report,
-            suggest_model,
-        } => identify(
-            &mut stdout,
-            &session,
-            IdentifyOutputs {
-                json,
-                predict,
-                search,
-                what_if,
-                report,
-                suggest_model,
-                verbose,
-            },
-            quiet,
-            threads,
-        ),
+        Command::Identify(args) => identify(args, &mut stdout),
         Command::Simulate { plan, out } => {
             let sim = mtcal_identify::simulate::simulate(&plan, &out)?;
             writeln!(
@@ -543,197 +480,91 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// What `identify` writes besides the summary.
-struct IdentifyOutputs {
+/// The arguments of `identify`.
+#[derive(clap::Args)]
+struct IdentifyArgs {
+    /// The session folder (or its session.toml).
+    session: PathBuf,
+    /// Write the result as JSON (schema mtcal.identify/1) to this file.
+    #[arg(long)]
     json: Option<PathBuf>,
+    /// Write every validation run's predicted readings to DIR/<run>.csv.
+    #[arg(long)]
     predict: Option<PathBuf>,
-    search: bool,
-    what_if: Option<PathBuf>,
-    /// The HTML report's folder.
-    report: Option<PathBuf>,
-    /// Where to write the suggested error model.
-    suggest_model: Option<PathBuf>,
-    /// Everything on the screen.
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Everything on the screen (the whole information account; otherwise its first
+    /// lines, and all of it in the JSON).
+    #[arg(long)]
     verbose: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Run the physics search: find the effects the model left out (thermal drift,
+    /// backlash, cyclic errors, omitted parameters…), add those that improve held-out
+    /// prediction, and report them as discoveries.
+    #[arg(long)]
+    search: bool,
+    /// Another session (planned, moved or extra runs, e.g. from `simulate`): print what
+    /// adding its runs would do to every interval, without refitting.
+    #[arg(long, value_name = "SESSION")]
+    what_if: Option<PathBuf>,
+    /// Write an HTML report (DIR/index.html, self-contained, SVG plots): ball-bar polar
+    /// plots, residuals along time and temperatures, component errors, volumetric map,
+    /// parameters, what the data cannot separate, discoveries.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Write the error model these runs identify (an .errors.toml to keep beside the
+    /// URDF): the parameters they determine, without those they cannot.
+    #[arg(long, value_name = "FILE")]
+    suggest_model: Option<PathBuf>,
 }
 
-fn identify(
-    out: &mut impl std::io::Write,
-    session: &std::path::Path,
-    outputs: IdentifyOutputs,
-    quiet: bool,
-    threads: usize,
-) -> Result<()> {
-    let IdentifyOutputs {
-        json,
-        predict,
-        search,
-        what_if,
-        report,
-        suggest_model,
-        verbose,
-    } = outputs;
-    let options = mtcal_solve::Options {
-        threads,
-        ..Default::default()
-    };
-    // Without `[identify] parameters`, the model the runs can determine: the rest is held
-    // and reported as combinations or not identifiable (mtcal_identify::base).
-    let (study, base) =
-        mtcal_identify::base::identifiable_study(mtcal_identify::Study::load(session)?, &options)?;
-    let samples: usize = study.runs.iter().map(|r| r.len()).sum();
-    writeln!(
-        out,
-        "session {}: {} runs, {} samples; machine {} ({}); {} parameters ({} machine coefficients)",
-        session.display(),
-        study.runs.len(),
-        samples,
-        study.machine.machine.name(),
-        study.machine.source,
-        study.n_x,
-        study.estimated.len()
-    )?;
-    if let Some(base) = &base.as_ref().filter(|b| !b.held.is_empty()) {
-        writeln!(
-            out,
-            "model: {} parameters the runs cannot determine get no values (no [identify] \
-             parameters given; see below)",
-            base.held.len()
-        )?;
-    }
-    let mut progress = Progress::new(quiet);
-    // The fit before the physics search, for the report's before/after.
-    let mut initial = None;
-    let (id, study, solution) = if search {
-        progress.finish();
-        let options = mtcal_identify::search::SearchOptions {
-            solver: options,
+/// `identify`: what was loaded, then (after the fit or the search) the summary and the
+/// information account, what another session would add, and the files asked for.
+fn identify(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
+    let options = mtcal_identify::pipeline::PipelineOptions {
+        solver: mtcal_solve::Options {
+            threads: args.threads,
             ..Default::default()
-        };
-        let mut result = mtcal_identify::search::search(study, &options)?;
-        if let Some(base) = &base {
-            result.apply_base(base)?;
-        }
-        result
-            .identification
-            .add_prediction_bands(&result.study, &result.solution);
-        let (before, after) = (&result.initial, &result.identification);
-        if verbose {
-            writeln!(out, "before the physics search:")?;
-            write!(out, "{}", before.summary_with(true))?;
-        } else {
-            // The verdict on the final model first; the fit before the search in one line.
-            if let Some(v) = after.verdict() {
-                writeln!(out, "{v}\n")?;
-            }
-            writeln!(
-                out,
-                "before the physics search: fit rms {:.3} um, chi2/dof {:.3}{}",
-                before.fit.rms_um,
-                before.fit.chi2_reduced,
-                validation_rms(before)
-                    .map_or(String::new(), |v| format!(", validation rms {v:.3} um"))
-            )?;
-        }
-        write!(out, "\n{}", after.search_summary_with(verbose))?;
-        writeln!(out, "\nafter the physics search:")?;
-        write!(out, "{}", after.summary_with(verbose))?;
-        initial = Some(result.initial);
-        (result.identification, result.study, result.solution)
-    } else {
-        let (mut id, solution) =
-            mtcal_identify::identify_with_solution(&study, &options, &mut progress)?;
-        progress.finish();
-        if let Some(base) = &base {
-            id.apply_base(base, &study, &solution);
-        }
-        id.add_prediction_bands(&study, &solution);
-        write!(out, "{}", id.summary_with(verbose))?;
-        (id, study, solution)
+        },
+        search: args.search,
     };
-    let mut id = id;
-    let mut account = mtcal_identify::information::account(&study, &solution)?;
-    // What the runs do not determine has no value in the report, nor a line in the account.
-    if let Some(base) = &base {
-        account
-            .parameters
-            .retain(|p| !base.held.iter().any(|h| h.name == p.name));
+    let prepared = mtcal_identify::pipeline::Prepared::load(&args.session, options)?;
+    write!(out, "{}", prepared.header())?;
+    let mut progress = Progress::new(args.quiet);
+    let outcome = prepared.run(&mut progress);
+    progress.finish();
+    let outcome = outcome?;
+    write!(out, "{}", outcome.screen(args.verbose))?;
+    if let Some(dir) = &args.what_if {
+        write!(out, "\n{}", outcome.what_if(dir)?)?;
     }
-    write!(
-        out,
-        "\n{}",
-        screen_lines(&account.summary(), verbose, ACCOUNT_LINES)
-    )?;
-    id.information = Some(account);
-    if let Some(dir) = what_if {
-        let extra = mtcal_identify::Study::load(&dir)?;
-        let after = mtcal_identify::information::what_if(&study, &solution, &extra)?;
-        writeln!(
-            out,
-            "\nwith the runs of {} added (95 % intervals now → after):",
-            dir.display()
-        )?;
-        for (name, u95) in after {
-            let now = id.parameters.iter().find(|p| p.name == name);
-            if let Some(p) = now {
-                writeln!(
-                    out,
-                    "  {:<24} ±{:<10.4} → ±{:<10.4} {}",
-                    name, p.u95, u95, p.unit
-                )?;
-            }
-        }
+    if let Some(path) = &args.suggest_model {
+        write_file(out, path, &outcome.suggested_model())?;
     }
-    if let Some(path) = suggest_model {
-        let text = mtcal_identify::base::suggested_model(&study, base.as_ref());
-        mtcal_machine::write_atomically(&path, text.as_bytes())
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        writeln!(out, "wrote {}", path.display())?;
+    if let Some(path) = &args.json {
+        write_file(out, path, &outcome.identification.to_json())?;
     }
-    if let Some(path) = json {
-        mtcal_machine::write_atomically(&path, id.to_json().as_bytes())
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        writeln!(out, "wrote {}", path.display())?;
-    }
-    if let Some(dir) = predict {
-        for f in mtcal_identify::write_predictions(&study, &id.x, &dir)? {
+    if let Some(dir) = &args.predict {
+        for f in outcome.write_predictions(dir)? {
             writeln!(out, "wrote {}", f.display())?;
         }
     }
-    if let Some(dir) = report {
-        let path = report::write(&dir, session, &study, &solution, &id, initial.as_ref())?;
+    if let Some(dir) = &args.report {
+        let path = outcome.write_report(dir)?;
         writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
 }
 
-/// RMS over every validation run with readings (um), if any.
-fn validation_rms(id: &mtcal_identify::Identification) -> Option<f64> {
-    let (mut ss, mut n) = (0.0, 0usize);
-    for run in &id.validation {
-        for c in &run.channels {
-            ss += c.rms * c.rms * c.samples as f64;
-            n += c.samples;
-        }
-    }
-    (n > 0).then(|| (ss / n as f64).sqrt())
-}
-
-/// Lines of the information account on the screen without `--verbose` (all in the JSON).
-const ACCOUNT_LINES: usize = 12;
-
-/// `text` cut to its first line and `keep` more unless `verbose`, with a line saying so.
-fn screen_lines(text: &str, verbose: bool, keep: usize) -> String {
-    let lines: Vec<&str> = text.lines().collect();
-    if verbose || lines.len() <= keep + 2 {
-        return text.to_string();
-    }
-    let mut s = lines[..=keep].join("\n");
-    s.push_str(&format!(
-        "\n  … {} more (--verbose, or the JSON)\n",
-        lines.len() - keep - 1
-    ));
-    s
+/// Writes `text` to `path` (atomically) and says so.
+fn write_file(out: &mut impl Write, path: &Path, text: &str) -> Result<()> {
+    mtcal_machine::write_atomically(path, text.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    writeln!(out, "wrote {}", path.display())?;
+    Ok(())
 }
 
 /// A progress bar on standard error for long fits (hidden when quiet or not a terminal).

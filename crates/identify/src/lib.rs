@@ -7,6 +7,10 @@
 //! predicted, [`mismatch`]: where the residuals are not noise) → JSON / summary / predicted CSVs. [`simulate`] writes session folders from a
 //! machine, a truth parameter file and a test plan.
 //!
+//! [`pipeline`] runs it all as `mtcal identify` does (fit or physics search, information
+//! account, what-if, suggested model, predictions), [`html_report`] gathers the HTML report's
+//! model.
+//!
 //! # `[identify]` options in `session.toml` (mtcal's addition to the contract)
 //! - `parameters = ["EC0Y", "EB0Z", …]`: the machine parameters to estimate (ISO 230-1 names;
 //!   a component error brings all its coefficients). Default: every parameter of the machine's
@@ -23,6 +27,7 @@ mod blocks;
 mod checks;
 pub mod findings;
 pub mod fit;
+pub mod html_report;
 pub mod information;
 pub mod mismatch;
 pub mod noise;
@@ -107,6 +112,11 @@ pub enum IdentifyError {
     /// The information account ([`information`]) met numbers it cannot use.
     #[error("information account: {0}")]
     Information(String),
+    /// The HTML report's volumetric map cannot be laid out on the machine ([`html_report`]).
+    #[error("cannot build the map grid")]
+    MapGrid(#[source] mtcal_kinematics::volmap::GridError),
+    #[error("cannot write the report")]
+    Report(#[source] mtcal_report::ReportError),
 }
 
 /// Fits `study`: every estimated machine coefficient and free nuisance parameter, priors from
