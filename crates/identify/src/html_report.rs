@@ -544,3 +544,57 @@ fn search(id: &Identification) -> Option<rep::SearchOutcome> {
         not_kept,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_machine::topology::{Reading, nominal_machine, parse_code};
+
+    #[test]
+    fn the_title_names_the_session_by_its_last_two_folders() {
+        assert_eq!(
+            session_name(Path::new("examples/five-axis/session")),
+            "five-axis/session"
+        );
+        assert_eq!(
+            session_name(Path::new("/data/run7/session/session.toml")),
+            "run7/session"
+        );
+        assert_eq!(session_name(Path::new("session")), "session");
+    }
+
+    #[test]
+    fn context_columns_are_described_with_their_units() {
+        let d = |name: &str| {
+            let (what, unit) = describe_variable(name);
+            format!("{what} [{unit}]")
+        };
+        assert_eq!(d("t"), "time since the session started [s]");
+        assert_eq!(d("S"), "spindle speed [rpm]");
+        assert_eq!(d("T_spindle"), "temperature (spindle) [°C]");
+        assert_eq!(d("P_air"), "air pressure (air) [hPa]");
+        assert_eq!(d("H_air"), "relative humidity (air) [%]");
+        assert_eq!(d("load"), " []");
+    }
+
+    #[test]
+    fn a_slice_is_the_grid_transposed_with_the_held_axis_in_its_title() {
+        let code = parse_code("ZFYX", Reading::FromTool).unwrap();
+        let machine = nominal_machine(&code, "ZFYX").unwrap();
+        // X with 3 points, Y held at its middle, Z with 2: grid order X slowest, Z fastest.
+        let grid = Grid::with_counts(&machine, &[3, 1, 2]).unwrap();
+        let mags: Vec<f64> = (0..6).map(f64::from).collect();
+        let s = slice(&machine, &grid, &mags, 0, 2);
+        assert_eq!(s.xs.len(), 3);
+        assert_eq!(s.ys.len(), 2);
+        // values_um[j·nx + i] is X point i, Z point j.
+        assert_eq!(s.values_um, vec![0.0, 2.0, 4.0, 1.0, 3.0, 5.0]);
+        let y = grid.linear()[1].value(0) * 1e3;
+        let held = format!("Y = {y:.0} mm").replace('-', "−");
+        assert_eq!(s.title, format!("X–Z at {held}"));
+        assert_eq!(
+            (s.x_label.as_str(), s.y_label.as_str()),
+            ("X (mm)", "Z (mm)")
+        );
+    }
+}

@@ -410,8 +410,8 @@ mod tests {
         assert_eq!(
             what_if.to_string(),
             "with the runs of more/session added (95 % intervals now → after):\n\
-             \x20 EC0Y                     ±12.3457     → ±3.2000      urad\n\
-             \x20 ball_x (ball-low)        ±0.5000      → ±0.5000      um\n"
+             \x20 EC0Y                     ±12.3457    → ±3.2000     urad\n\
+             \x20 ball_x (ball-low)        ±0.5000     → ±0.5000     um\n"
         );
     }
 }
