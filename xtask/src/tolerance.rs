@@ -38,7 +38,7 @@ pub(crate) fn run(args: ToleranceArgs, out: &mut impl Write) -> Result<()> {
     let loaded = args.machine.load()?;
     let spec = load_spec(&args.spec, &loaded.machine)?;
     let counts = match (&args.grid, &spec.grid) {
-        (Some(text), _) => parse_grid(text)?,
+        (Some(text), _) => mtcal_tolerance::parse_grid(text)?,
         (None, Some(g)) => g.clone(),
         (None, None) => DEFAULT_GRID.to_vec(),
     };
@@ -64,16 +64,4 @@ pub(crate) fn run(args: ToleranceArgs, out: &mut impl Write) -> Result<()> {
         writeln!(out, "wrote {}", path.display())?;
     }
     Ok(())
-}
-
-fn parse_grid(text: &str) -> Result<Vec<usize>> {
-    let counts: Vec<usize> = text
-        .split('x')
-        .map(|s| s.trim().parse::<usize>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--grid `{text}`: expected three counts like 11x11x11"))?;
-    if counts.len() != 3 || counts.iter().any(|&n| n < 3) {
-        bail!("--grid `{text}`: expected three counts >= 3 (X, Y, Z), e.g. 11x11x11");
-    }
-    Ok(counts)
 }

@@ -126,18 +126,24 @@
 //! identified errors these kinematics cannot hold (axis-line tilts, linear-axis errors) in
 //! comments. Conventions in the `trt` module's documentation.
 //!
+//! # One file as the command line asks for it
+//! [`write_compensation`] writes any of these files ([`Compensation`]) with its
+//! [`Settings`] and says what it wrote ([`Written`]).
+//!
 //! # Errors
 //! Files are written atomically (`mtcal_machine::write_atomically`). A bad file gives a
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
 mod grid;
+mod output;
 mod parameters;
 mod pitch;
 mod text;
 mod trt;
 
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
+pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
     read_error_parameters, write_error_parameters,
@@ -188,6 +194,13 @@ pub enum CompensateError {
     },
     #[error("a 3-D error grid needs linear axes X, Y and Z; the machine has {letters}")]
     NotXyz { letters: String },
+    /// A file other than a table or grid (the HAL settings) could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("{}: {cause}", path.display())]
     Io {
         path: PathBuf,

@@ -166,6 +166,7 @@ macro_rules! dummy {
                 path: no_path,
                 path_labels: None,
                 evaluate: None,
+                polar_view: None,
             }
         }
     };

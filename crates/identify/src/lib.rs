@@ -8,6 +8,10 @@
 //! A session held in memory (simulated: `mtcal-simulate`) becomes a study through
 //! [`Study::from_parts`], the same code [`Study::load`] runs on a folder.
 //!
+//! [`pipeline`] runs it all as `mtcal identify` does (fit or physics search, information
+//! account, what-if, suggested model, predictions), [`html_report`] gathers the HTML report's
+//! model.
+//!
 //! # `[identify]` options in `session.toml` (mtcal's addition to the contract)
 //! - `parameters = ["EC0Y", "EB0Z", …]`: the machine parameters to estimate (ISO 230-1 names;
 //!   a component error brings all its coefficients). Default: every parameter of the machine's
@@ -24,6 +28,7 @@ mod blocks;
 mod checks;
 pub mod findings;
 pub mod fit;
+pub mod html_report;
 pub mod information;
 pub mod mismatch;
 pub mod noise;
@@ -105,6 +110,11 @@ pub enum IdentifyError {
     /// The information account ([`information`]) met numbers it cannot use.
     #[error("information account: {0}")]
     Information(String),
+    /// The HTML report's volumetric map cannot be laid out on the machine ([`html_report`]).
+    #[error("cannot build the map grid")]
+    MapGrid(#[source] mtcal_kinematics::volmap::GridError),
+    #[error("cannot write the report")]
+    Report(#[source] mtcal_report::ReportError),
 }
 
 // Written out, not `#[from]`: the message shows the cause, so it is not also the source.

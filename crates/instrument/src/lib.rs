@@ -312,6 +312,25 @@ pub struct InstrumentPlugin {
     pub path_labels: Option<PathLabels>,
     /// The instrument's own evaluation of one run (e.g. ISO 230-4 circular deviation), if any.
     pub evaluate: Option<fn(&Evaluation<'_>) -> Vec<Metric>>,
+    /// A run drawn as a polar plot (a ball-bar's circle), for the instruments whose runs can
+    /// be; `None` for the others. The report draws every run in its common plots whatever
+    /// this says; only here does an instrument add its own view.
+    pub polar_view: Option<fn(&Evaluation<'_>) -> Option<PolarView>>,
+}
+
+/// A run drawn on a circle: one reading channel at each sample's angle (a ball-bar's circular
+/// test). What [`InstrumentPlugin::polar_view`] returns; the report adds the readings and the
+/// model's predictions of that channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolarView {
+    /// The circle's plane, e.g. `XY`.
+    pub plane: String,
+    /// The circle's radius, m.
+    pub radius: f64,
+    /// Each sample's angle on the circle, rad.
+    pub angles: Vec<f64>,
+    /// The channel drawn: its index among the set-up's channels.
+    pub channel: usize,
 }
 
 /// One run's data for an instrument's own evaluation.

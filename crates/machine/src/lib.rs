@@ -2,11 +2,17 @@
 //! error-model configuration that lives beside a URDF, and parameter-value files.
 //!
 //! This crate turns files into `mtcal-kinematics` types; it holds no kinematics of its own.
+//! Beside the files: axis positions and map grids as the command line writes them
+//! ([`axis_text`]) and a machine described for a reader ([`describe()`]).
 
+pub mod axis_text;
 pub mod config;
+mod describe;
 pub mod params;
 pub mod topology;
 pub mod urdf;
+
+pub use describe::describe;
 
 use mtcal_kinematics::{Machine, ParamConfig};
 use std::path::{Path, PathBuf};

@@ -67,8 +67,10 @@
 
 pub mod cl;
 pub mod correct;
+mod files;
 pub mod gcode;
 pub mod offset;
+mod path_error;
 pub mod zero_point;
 
 pub use cl::{
@@ -79,8 +81,10 @@ pub use cl::{
 pub use correct::{
     CorrectError, CorrectOptions, CorrectedPose, Correction, Failure, correct_program,
 };
+pub use files::{FileError, correct_file, offset_file, read_cl, read_program};
 pub use gcode::{Decimals, Line, Modal, Motion, ParseError, Program, Word, rewrite_line};
 pub use offset::{OffsetError, offset_program};
+pub use path_error::{PathErrors, along_mm};
 pub use zero_point::{
     ErrorVectors, GeometricMedian, ModelZeroPoint, ZeroPoint, geometric_median, model_zero_point,
 };

@@ -2,8 +2,8 @@
 //! the smallest sum of error magnitudes over the grid; and the continuous optimum (the geometric
 //! median) for comparison. See the crate documentation for the method.
 
-use mtcal_kinematics::MachineModel;
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
+use mtcal_kinematics::{Machine, MachineModel};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Error vectors in flat arrays (µm), one entry per point.
@@ -456,6 +456,36 @@ pub struct ModelZeroPoint {
     pub positions: Vec<f64>,
 }
 
+impl ModelZeroPoint {
+    /// The three lines `mtcal zero-point` prints: where the zero point is (the axis positions
+    /// of `machine`, mm / degrees) among `grid_points` points, the offset, and the summed and
+    /// largest errors before and after it.
+    pub fn report(&self, machine: &Machine, grid_points: usize) -> String {
+        let zp = &self.zero_point;
+        let at: Vec<String> = self
+            .positions
+            .iter()
+            .zip(machine.axes())
+            .map(|(&v, a)| format!("{}={:.3}", a.letter().as_char(), a.kind().to_file(v)))
+            .collect();
+        format!(
+            "zero point  {} of {grid_points} grid points\n\
+             offset      [{:.3}, {:.3}, {:.3}] um\n\
+             sum |error| {:.1} um before, {:.1} um after (geometric median {:.1} um); max {:.3} \
+             um before, {:.3} um after\n",
+            at.join(" "),
+            zp.offset_um[0],
+            zp.offset_um[1],
+            zp.offset_um[2],
+            zp.sum_before_um,
+            zp.sum_after_um,
+            self.median.sum_um,
+            zp.max_before_um,
+            zp.max_after_um
+        )
+    }
+}
+
 /// See [`ModelZeroPoint`]. `None` for an empty grid.
 pub fn model_zero_point(
     model: &MachineModel,
@@ -477,6 +507,56 @@ pub fn model_zero_point(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn the_report_says_where_the_offset_and_what_it_gains() {
+        let reading = mtcal_machine::topology::Reading::FromWorkpiece;
+        let code = mtcal_machine::topology::parse_code("ZFYX", reading).unwrap();
+        let machine = mtcal_machine::topology::nominal_machine(&code, "ZFYX").unwrap();
+        let config = mtcal_machine::config::default_config(&machine);
+        let model = MachineModel::new(machine, &config).unwrap();
+        // Positioning errors only: 2 µm at every coefficient of EXX, EYY, EZZ.
+        let mut coeffs = vec![0.0; model.n_coeffs()];
+        for p in model.errors().params() {
+            if ["EXX", "EYY", "EZZ"].contains(&p.name.to_string().as_str()) {
+                coeffs[p.offset..p.offset + p.len].fill(2e-6);
+            }
+        }
+        let grid = Grid::with_counts(model.machine(), &[3, 3, 3]).unwrap();
+        let z = model_zero_point(&model, &coeffs, &grid).unwrap();
+        let text = z.report(model.machine(), grid.len());
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3, "{text}");
+        let at: Vec<String> = model
+            .machine()
+            .axes()
+            .iter()
+            .zip(&z.positions)
+            .map(|(a, &v)| format!("{}={:.3}", a.letter().as_char(), v * 1e3))
+            .collect();
+        assert_eq!(
+            lines[0],
+            format!("zero point  {} of 27 grid points", at.join(" "))
+        );
+        let o = z.zero_point.offset_um;
+        assert_eq!(
+            lines[1],
+            format!("offset      [{:.3}, {:.3}, {:.3}] um", o[0], o[1], o[2])
+        );
+        let zp = &z.zero_point;
+        assert_eq!(
+            lines[2],
+            format!(
+                "sum |error| {:.1} um before, {:.1} um after (geometric median {:.1} um); max \
+                 {:.3} um before, {:.3} um after",
+                zp.sum_before_um,
+                zp.sum_after_um,
+                z.median.sum_um,
+                zp.max_before_um,
+                zp.max_after_um
+            )
+        );
+    }
 
     fn vectors(raw: &[(f64, f64, f64)]) -> ErrorVectors {
         let d: Vec<[f64; 3]> = raw.iter().map(|&(x, y, z)| [x, y, z]).collect();

@@ -90,11 +90,13 @@
 //! every maximum exactly.
 
 pub mod eval;
+mod grid_text;
 pub mod monte_carlo;
 pub mod rail;
 pub mod spec;
 pub mod stats;
 
+pub use grid_text::{GridTextError, parse_grid};
 pub use monte_carlo::{
     Analysis, AnalysisError, DEFAULT_GRID, DEFAULT_SAMPLES, Options, Report, Sampler, Sensitivity,
 };

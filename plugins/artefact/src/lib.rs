@@ -154,5 +154,6 @@ inventory::submit! {
         path,
         path_labels: Some(path_labels),
         evaluate: Some(evaluate),
+        polar_view: None,
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::path::Plane;
 use crate::setup::BallbarConfig;
-use mtcal_instrument::{Evaluation, Metric, Unit};
+use mtcal_instrument::{Evaluation, Metric, PolarView, Unit};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::TAU;
 
@@ -210,4 +210,110 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
             cd.radius_offset,
         ),
     ]
+}
+
+/// The plugin's `polar_view`: a circle run (as [`recognise_circle`] finds it) drawn on its
+/// circle, the bar length change `dr` at each sample's commanded angle; any other run (rotary
+/// tests, unreadable set-up) none.
+pub fn polar_view(ev: &Evaluation<'_>) -> Option<PolarView> {
+    let config = BallbarConfig::from_table(ev.setup).ok()?;
+    let circle = recognise_circle(ev.machine, &config, ev.q)?;
+    Some(PolarView {
+        plane: circle.plane.name().to_string(),
+        radius: config.length(),
+        angles: circle.angles,
+        channel: 0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_instrument::PathSpec;
+
+    fn machine() -> mtcal_kinematics::Machine {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../machines/mcv754-zfyx.urdf"
+        );
+        mtcal_machine::load_machine(path, mtcal_machine::topology::Reading::default())
+            .unwrap()
+            .machine
+    }
+
+    fn table(s: &str) -> toml::Table {
+        toml::from_str(s).unwrap()
+    }
+
+    /// The view of the run `path` of the set-up `setup` on the three-axis machine.
+    fn view(setup: &toml::Table, path: &toml::Table) -> Option<PolarView> {
+        let m = machine();
+        let q: Vec<f64> = crate::path(&PathSpec {
+            path,
+            setup,
+            machine: &m,
+        })
+        .unwrap()
+        .concat();
+        polar_view(&Evaluation {
+            machine: &m,
+            setup,
+            q: &q,
+            readings: &[],
+            t: &[],
+            labels: &[],
+        })
+    }
+
+    #[test]
+    fn a_circle_is_drawn_on_its_plane_at_its_angles() {
+        let setup = table("pivot = [0.0, 0.0, 390.0]\nlength = 100.0");
+        let path = table("kind = \"circle\"\nplane = \"YZ\"\nsamples = 37");
+        let v = view(&setup, &path).expect("a circle");
+        assert_eq!(v.plane, "YZ");
+        assert_eq!(v.radius, 0.1);
+        assert_eq!(v.channel, 0);
+        assert_eq!(v.angles.len(), 37);
+        // Counter-clockwise from 0 through one revolution, 10° apart.
+        for (k, a) in v.angles.iter().enumerate() {
+            assert!(
+                (a - (k as f64 * 10.0).to_radians()).abs() < 1e-9,
+                "{k}: {a}"
+            );
+        }
+    }
+
+    #[test]
+    fn no_view_without_a_circle_or_a_readable_set_up() {
+        let setup = table("pivot = [0.0, 0.0, 390.0]\nlength = 100.0");
+        let path = table("kind = \"circle\"\nplane = \"XY\"\nsamples = 37");
+        let m = machine();
+        let q: Vec<f64> = crate::path(&PathSpec {
+            path: &path,
+            setup: &setup,
+            machine: &m,
+        })
+        .unwrap()
+        .concat();
+        let ev = |setup: &toml::Table, q: &[f64]| {
+            polar_view(&Evaluation {
+                machine: &m,
+                setup,
+                q,
+                readings: &[],
+                t: &[],
+                labels: &[],
+            })
+        };
+        assert!(ev(&setup, &q).is_some());
+        // A bar of another length: the positions are no circle about the pivot.
+        assert_eq!(
+            ev(&table("pivot = [0.0, 0.0, 390.0]\nlength = 150.0"), &q),
+            None
+        );
+        // A set-up the plugin cannot read.
+        assert_eq!(ev(&table("length = 100.0"), &q), None);
+        // Two samples are no circle.
+        assert_eq!(ev(&setup, &q[..2 * m.n_axes()]), None);
+    }
 }

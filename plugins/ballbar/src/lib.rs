@@ -68,6 +68,8 @@
 //! 230-4 circular deviation G after least-squares centre removal
 //! ([`circular_deviation`]), with the fitted centre offsets and radius offset. Rotary runs get
 //! no evaluation. [`bidirectional_circular_deviation`] gives G(b) from a ccw and a cw run.
+//! [`polar_view()`] gives the report a circle run's plane, radius and commanded angles, so it
+//! draws the run as a polar plot.
 
 mod evaluate;
 mod fixture;
@@ -76,7 +78,7 @@ mod setup;
 
 pub use evaluate::{
     Bidirectional, CircleRun, CircularDeviation, bidirectional_circular_deviation,
-    circular_deviation, evaluate, recognise_circle,
+    circular_deviation, evaluate, polar_view, recognise_circle,
 };
 pub use fixture::fixture;
 pub use path::{Bar, DEFAULT_SAMPLES, Plane, axis_line, circle_angles, path, place_tool};
@@ -103,5 +105,6 @@ inventory::submit! {
         path,
         path_labels: None,
         evaluate: Some(evaluate),
+        polar_view: Some(polar_view),
     }
 }

@@ -123,5 +123,6 @@ inventory::submit! {
         path,
         path_labels: None,
         evaluate: Some(evaluate),
+        polar_view: None,
     }
 }

@@ -199,5 +199,6 @@ inventory::submit! {
         path,
         path_labels: None,
         evaluate: Some(evaluate),
+        polar_view: None,
     }
 }

@@ -131,5 +131,6 @@ inventory::submit! {
         path,
         path_labels: None,
         evaluate: None,
+        polar_view: None,
     }
 }

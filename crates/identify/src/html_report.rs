@@ -1,14 +1,18 @@
-//! `identify --report DIR`: the data of the HTML report ([`mtcal_report`]) from the
-//! identification, the physics search, the study's runs and the machine model. Everything here
-//! gathers numbers the libraries computed; the page itself is `mtcal_report`'s.
+//! The HTML report's model ([`mtcal_report::Report`]) of an identification: the fit, the
+//! physics search, the study's runs and the machine model gathered into the numbers the page
+//! shows (`mtcal identify --report DIR`). Everything here gathers what the identification
+//! computed; the page itself is `mtcal_report`'s. Instrument-specific views come from the
+//! plugins' hooks ([`mtcal_instrument::InstrumentPlugin::polar_view`]): no instrument is named.
 
-use anyhow::{Context, Result};
-use mtcal_identify::{Identification, Study};
+use crate::IdentifyError;
+use crate::report::Identification;
+use crate::study::Study;
+use mtcal_instrument::{Evaluation, PolarView};
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_report as rep;
 use mtcal_solve::Solution;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Points per axis of a volumetric map slice.
 const SLICE_POINTS: usize = 21;
@@ -20,16 +24,15 @@ struct Before<'a> {
     predictions: Vec<Option<Vec<f64>>>,
 }
 
-/// Writes `dir/index.html` for the identification `id` (its `study` and `solution`); with
+/// The report of the identification `id` (its `study` and `solution`) of `session`; with
 /// `initial` (the fit before the physics search) the page compares before and after.
-pub fn write(
-    dir: &Path,
+pub fn report(
     session: &Path,
     study: &Study,
     solution: &Solution,
     id: &Identification,
     initial: Option<&Identification>,
-) -> Result<PathBuf> {
+) -> Result<rep::Report, IdentifyError> {
     let before = match initial {
         Some(initial) => {
             // The search started from the session as loaded: load it again for its predictions.
@@ -46,18 +49,17 @@ pub fn write(
         None => None,
     };
     let after = predictions(study, &solution.x);
-    let report = rep::Report {
+    Ok(rep::Report {
         title: format!("mtcal identification — {}", session_name(session)),
         summary: summary(session, study, id, before.as_ref()),
-        ballbar: ballbar(study, &after, id, before.as_ref()),
+        ballbar: polar_runs(study, &after, id, before.as_ref()),
         residuals: residuals(study, &after, before.as_ref()),
         components: components(study, id),
         volumetric: volumetric(study, solution)?,
         parameters: parameters(study, solution, id),
         identifiability: identifiability(id),
         search: search(id),
-    };
-    mtcal_report::write(dir, &report).context("cannot write the report")
+    })
 }
 
 fn session_name(session: &Path) -> String {
@@ -77,7 +79,7 @@ fn session_name(session: &Path) -> String {
 
 /// Predicted readings of every run with readings.
 fn predictions(study: &Study, x: &[f64]) -> Vec<Option<Vec<f64>>> {
-    mtcal_identify::predict_runs(study, x, |r| study.runs[r].readings.is_some())
+    crate::predict_runs(study, x, |r| study.runs[r].readings.is_some())
 }
 
 fn summary(
@@ -165,7 +167,9 @@ fn channel_values(study: &Study, r: usize, pred: &[f64], c: usize) -> Option<(Ve
     Some((measured, model))
 }
 
-fn ballbar(
+/// The polar plots of the runs whose instrument draws them so ([`PolarView`]): readings and
+/// predictions of the view's channel at its angles.
+fn polar_runs(
     study: &Study,
     after: &[Option<Vec<f64>>],
     id: &Identification,
@@ -173,28 +177,19 @@ fn ballbar(
 ) -> Vec<rep::PolarRun> {
     let mut out = Vec::new();
     for (r, run) in study.runs.iter().enumerate() {
-        let slot = &study.setups[run.setup];
-        if slot.plugin.name != "ballbar" {
-            continue;
-        }
-        let Ok(config) = mtcal_ballbar::BallbarConfig::from_table(&slot.table) else {
+        let Some(pred) = after[r].as_deref() else {
             continue;
         };
-        let q = run.q.to_row_major();
-        let Some(circle) = mtcal_ballbar::recognise_circle(study.model.machine(), &config, &q)
-        else {
+        let Some(view) = polar_view(study, r) else {
             continue;
         };
-        let Some((measured, model)) = after[r]
-            .as_deref()
-            .and_then(|p| channel_values(study, r, p, 0))
-        else {
+        let Some((measured, model)) = channel_values(study, r, pred, view.channel) else {
             continue;
         };
         let model_before = before.and_then(|b| {
             let rb = b.study.runs.iter().position(|x| x.name == run.name)?;
             let p = b.predictions.get(rb)?.as_deref()?;
-            channel_values(&b.study, rb, p, 0).map(|(_, m)| m)
+            channel_values(&b.study, rb, p, view.channel).map(|(_, m)| m)
         });
         let metrics = id
             .fit
@@ -210,9 +205,9 @@ fn ballbar(
             .unwrap_or_default();
         out.push(rep::PolarRun {
             name: run.name.clone(),
-            plane: circle.plane.name().to_string(),
-            radius_mm: config.length() * 1e3,
-            angles_deg: circle.angles.iter().map(|a| a.to_degrees()).collect(),
+            plane: view.plane,
+            radius_mm: view.radius * 1e3,
+            angles_deg: view.angles.iter().map(|a| a.to_degrees()).collect(),
             measured_um: measured,
             model_um: model,
             model_before_um: model_before,
@@ -220,6 +215,22 @@ fn ballbar(
         });
     }
     out
+}
+
+/// Run `r` as its instrument draws it on a circle, if it does (and the run has readings).
+fn polar_view(study: &Study, r: usize) -> Option<PolarView> {
+    let run = &study.runs[r];
+    let slot = &study.setups[run.setup];
+    let view = slot.plugin.polar_view?;
+    let readings = run.readings.as_ref()?;
+    view(&Evaluation {
+        machine: study.model.machine(),
+        setup: &slot.table,
+        q: &run.q.to_row_major(),
+        readings: &readings.to_row_major(),
+        t: &run.t.to_vec(),
+        labels: &run.labels,
+    })
 }
 
 /// What a context column is and its unit (the run files' units).
@@ -348,11 +359,11 @@ fn components(study: &Study, id: &Identification) -> Vec<rep::ComponentCurve> {
 
 /// Slices of the first-order volumetric map through the middle of the stroke, one per pair of
 /// linear axes (at most three), rotary axes at 0.
-fn volumetric(study: &Study, solution: &Solution) -> Result<rep::Volumetric> {
+fn volumetric(study: &Study, solution: &Solution) -> Result<rep::Volumetric, IdentifyError> {
     let machine = study.model.machine();
     let coeffs = study.coeffs_from(&solution.x);
     let n_linear = Grid::new(machine, 1)
-        .context("cannot build the map grid")?
+        .map_err(IdentifyError::MapGrid)?
         .linear()
         .len();
     let mut slices = Vec::new();
@@ -364,7 +375,7 @@ fn volumetric(study: &Study, solution: &Solution) -> Result<rep::Volumetric> {
             let mut counts = vec![1; n_linear];
             counts[a] = SLICE_POINTS;
             counts[b] = SLICE_POINTS;
-            let grid = Grid::with_counts(machine, &counts).context("cannot build the map grid")?;
+            let grid = Grid::with_counts(machine, &counts).map_err(IdentifyError::MapGrid)?;
             let map = volumetric_map(&study.model, &coeffs, &grid, &MapOptions::default());
             slices.push(slice(machine, &grid, map.magnitudes_um(), a, b));
         }
@@ -532,4 +543,58 @@ fn search(id: &Identification) -> Option<rep::SearchOutcome> {
         discoveries,
         not_kept,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_machine::topology::{Reading, nominal_machine, parse_code};
+
+    #[test]
+    fn the_title_names_the_session_by_its_last_two_folders() {
+        assert_eq!(
+            session_name(Path::new("examples/five-axis/session")),
+            "five-axis/session"
+        );
+        assert_eq!(
+            session_name(Path::new("/data/run7/session/session.toml")),
+            "run7/session"
+        );
+        assert_eq!(session_name(Path::new("session")), "session");
+    }
+
+    #[test]
+    fn context_columns_are_described_with_their_units() {
+        let d = |name: &str| {
+            let (what, unit) = describe_variable(name);
+            format!("{what} [{unit}]")
+        };
+        assert_eq!(d("t"), "time since the session started [s]");
+        assert_eq!(d("S"), "spindle speed [rpm]");
+        assert_eq!(d("T_spindle"), "temperature (spindle) [°C]");
+        assert_eq!(d("P_air"), "air pressure (air) [hPa]");
+        assert_eq!(d("H_air"), "relative humidity (air) [%]");
+        assert_eq!(d("load"), " []");
+    }
+
+    #[test]
+    fn a_slice_is_the_grid_transposed_with_the_held_axis_in_its_title() {
+        let code = parse_code("ZFYX", Reading::FromTool).unwrap();
+        let machine = nominal_machine(&code, "ZFYX").unwrap();
+        // X with 3 points, Y held at its middle, Z with 2: grid order X slowest, Z fastest.
+        let grid = Grid::with_counts(&machine, &[3, 1, 2]).unwrap();
+        let mags: Vec<f64> = (0..6).map(f64::from).collect();
+        let s = slice(&machine, &grid, &mags, 0, 2);
+        assert_eq!(s.xs.len(), 3);
+        assert_eq!(s.ys.len(), 2);
+        // values_um[j·nx + i] is X point i, Z point j.
+        assert_eq!(s.values_um, vec![0.0, 2.0, 4.0, 1.0, 3.0, 5.0]);
+        let y = grid.linear()[1].value(0) * 1e3;
+        let held = format!("Y = {y:.0} mm").replace('-', "−");
+        assert_eq!(s.title, format!("X–Z at {held}"));
+        assert_eq!(
+            (s.x_label.as_str(), s.y_label.as_str()),
+            ("X (mm)", "Z (mm)")
+        );
+    }
 }

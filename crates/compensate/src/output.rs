@@ -1,0 +1,367 @@
+//! One compensation file of an identified machine, as `mtcal compensate` writes it: which file
+//! ([`Compensation`]), its settings ([`Settings`]) and what was written ([`Written`], whose
+//! `Display` is the sentence the command prints).
+
+use crate::parameters::{ParameterFormat, ParameterValue};
+use crate::{CompensateError, GridSpec};
+use mtcal_kinematics::MachineModel;
+use std::fmt;
+use std::path::Path;
+
+/// Which compensation file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Compensation {
+    /// A pitch table of one linear axis (positioning along its own direction).
+    PitchTable { axis: char, format: PitchFormat },
+    /// A 3-D grid of tool-point error vectors (CSV).
+    Grid,
+    /// The machine's ISO 230-1 error parameters, for a controller that models the machine.
+    Parameters(ParameterFormat),
+    /// HAL settings of the rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics.
+    TrtPivots,
+}
+
+/// The file format of a pitch table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PitchFormat {
+    /// LinuxCNC's `COMP_FILE_TYPE = 1` ([`crate::write_linuxcnc_comp`]).
+    LinuxCnc,
+    /// The CSV pitch table ([`crate::write_pitch_csv`]).
+    Csv,
+}
+
+impl PitchFormat {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            PitchFormat::LinuxCnc => "linuxcnc",
+            PitchFormat::Csv => "csv",
+        }
+    }
+}
+
+impl ParameterFormat {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParameterFormat::IsgCsv => "isg",
+            ParameterFormat::Etalon => "etalon",
+        }
+    }
+}
+
+/// The settings of a compensation file; each kind uses those it needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Node spacing of linear axes (pitch tables, grids, parameter tables), mm.
+    pub spacing_mm: f64,
+    /// Node spacing of rotary axes' parameter tables, degrees.
+    pub spacing_deg: f64,
+    /// Pitch tables: the controller's joint position minus mtcal's axis position, mm.
+    pub joint_offset_mm: f64,
+    /// Pitch tables: the signed ISO 230-2 reversal value B, µm (a bidirectional table).
+    pub reversal_um: Option<f64>,
+    /// Positions (SI) of the axes a pitch table or grid does not move ([`crate::default_hold`]
+    /// with the user's changes).
+    pub hold_q: Vec<f64>,
+}
+
+/// What [`write_compensation`] wrote.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Written {
+    PitchTable {
+        format: PitchFormat,
+        axis: char,
+        nodes: usize,
+        bidirectional: bool,
+    },
+    Grid {
+        nodes: [usize; 3],
+    },
+    Parameters {
+        format: ParameterFormat,
+        /// Component errors written as tables.
+        tables: usize,
+        /// Location errors written as constants.
+        locations: usize,
+    },
+    TrtPivots {
+        /// The HAL component, e.g. `xyzac-trt-kins`.
+        kinematics: &'static str,
+        /// Identified errors these kinematics cannot hold (listed in the file).
+        not_representable: usize,
+    },
+}
+
+impl fmt::Display for Written {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Written::PitchTable {
+                format,
+                axis,
+                nodes,
+                bidirectional,
+            } => write!(
+                f,
+                "{} pitch table of {axis}, {nodes} nodes{}",
+                format.name(),
+                if bidirectional { ", bidirectional" } else { "" }
+            ),
+            Written::Grid { nodes: [x, y, z] } => {
+                write!(f, "a {x} × {y} × {z} grid of tool-point errors")
+            }
+            Written::Parameters {
+                format,
+                tables,
+                locations,
+            } => write!(
+                f,
+                "{} error parameters: {tables} component-error tables, {locations} location errors",
+                format.name()
+            ),
+            Written::TrtPivots {
+                kinematics,
+                not_representable,
+            } => write!(
+                f,
+                "HAL settings of LinuxCNC's {kinematics}; {not_representable} identified errors \
+                 it cannot hold are listed in it"
+            ),
+        }
+    }
+}
+
+/// Writes the compensation file `what` of `model` with coefficients `coeffs` to `path`
+/// (atomically); says what it wrote.
+pub fn write_compensation(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    what: Compensation,
+    settings: &Settings,
+) -> Result<Written, CompensateError> {
+    match what {
+        Compensation::PitchTable { axis, format } => {
+            write_pitch_table(model, coeffs, path, axis, format, settings)
+        }
+        Compensation::Grid => {
+            let mut spec = GridSpec::new(model.machine(), [settings.spacing_mm; 3]);
+            spec.hold_q = settings.hold_q.clone();
+            let grid = crate::error_grid(model, coeffs, &spec)?;
+            crate::write_grid_csv(path, &grid)?;
+            Ok(Written::Grid {
+                nodes: [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()],
+            })
+        }
+        Compensation::Parameters(format) => {
+            let params =
+                crate::error_parameters(model, coeffs, settings.spacing_mm, settings.spacing_deg)?;
+            crate::write_error_parameters(path, model.machine(), &params, format)?;
+            let tables = params
+                .params
+                .iter()
+                .filter(|p| matches!(p.value, ParameterValue::Table { .. }))
+                .count();
+            Ok(Written::Parameters {
+                format,
+                tables,
+                locations: params.params.len() - tables,
+            })
+        }
+        Compensation::TrtPivots => {
+            let pivots = crate::trt_pivots_with_nominal(model, coeffs)?;
+            let text = crate::trt_hal_text(&pivots, model.machine().name());
+            mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| {
+                CompensateError::Write {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            })?;
+            Ok(Written::TrtPivots {
+                kinematics: pivots.kind.name(),
+                not_representable: pivots.not_representable.len(),
+            })
+        }
+    }
+}
+
+fn write_pitch_table(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    axis: char,
+    format: PitchFormat,
+    settings: &Settings,
+) -> Result<Written, CompensateError> {
+    let mut table = crate::pitch_table(model, coeffs, axis, settings.spacing_mm, &settings.hold_q)?;
+    if let Some(b) = settings.reversal_um {
+        table = table.with_reversal_um(b);
+    }
+    table = table.shifted_mm(settings.joint_offset_mm);
+    match format {
+        PitchFormat::LinuxCnc => crate::write_linuxcnc_comp(path, &table)?,
+        PitchFormat::Csv => crate::write_pitch_csv(path, &table)?,
+    }
+    Ok(Written::PitchTable {
+        format,
+        axis,
+        nodes: table.len(),
+        bidirectional: table.reverse_um.is_some(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_machine::topology::Reading;
+
+    /// The nominal machine of a topology code, its full ISO error model, coefficients zero.
+    fn model(code: &str) -> (MachineModel, Vec<f64>) {
+        let m = mtcal_machine::load_machine(code, Reading::FromWorkpiece).unwrap();
+        let model = MachineModel::new(m.machine, &m.config).unwrap();
+        let coeffs = vec![0.0; model.n_coeffs()];
+        (model, coeffs)
+    }
+
+    fn settings(model: &MachineModel) -> Settings {
+        Settings {
+            spacing_mm: 100.0,
+            spacing_deg: 30.0,
+            joint_offset_mm: 0.0,
+            reversal_um: None,
+            hold_q: crate::default_hold(model.machine()),
+        }
+    }
+
+    #[test]
+    fn what_was_written_is_said_in_one_sentence() {
+        let said = |w: Written| w.to_string();
+        assert_eq!(
+            said(Written::PitchTable {
+                format: PitchFormat::LinuxCnc,
+                axis: 'X',
+                nodes: 13,
+                bidirectional: true
+            }),
+            "linuxcnc pitch table of X, 13 nodes, bidirectional"
+        );
+        assert_eq!(
+            said(Written::Grid { nodes: [5, 4, 3] }),
+            "a 5 × 4 × 3 grid of tool-point errors"
+        );
+        assert_eq!(
+            said(Written::Parameters {
+                format: ParameterFormat::Etalon,
+                tables: 18,
+                locations: 3
+            }),
+            "etalon error parameters: 18 component-error tables, 3 location errors"
+        );
+        assert_eq!(
+            said(Written::TrtPivots {
+                kinematics: "xyzac-trt-kins",
+                not_representable: 2
+            }),
+            "HAL settings of LinuxCNC's xyzac-trt-kins; 2 identified errors it cannot hold are \
+             listed in it"
+        );
+    }
+
+    #[test]
+    fn each_kind_writes_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("ZFYX");
+        let mut s = settings(&model);
+        let path = dir.path().join("x.csv");
+        let what = Compensation::PitchTable {
+            axis: 'X',
+            format: PitchFormat::Csv,
+        };
+        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let table = crate::read_pitch_csv(&path, 'X').unwrap();
+        assert_eq!(
+            w,
+            Written::PitchTable {
+                format: PitchFormat::Csv,
+                axis: 'X',
+                nodes: table.len(),
+                bidirectional: false
+            }
+        );
+        // A reversal value makes the table bidirectional.
+        s.reversal_um = Some(-2.0);
+        let path = dir.path().join("x.comp");
+        let what = Compensation::PitchTable {
+            axis: 'X',
+            format: PitchFormat::LinuxCnc,
+        };
+        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        assert!(
+            matches!(
+                w,
+                Written::PitchTable {
+                    bidirectional: true,
+                    ..
+                }
+            ),
+            "{w:?}"
+        );
+        assert!(crate::read_linuxcnc_comp(&path, 'X').is_ok());
+
+        let path = dir.path().join("g.csv");
+        let w = write_compensation(&model, &coeffs, &path, Compensation::Grid, &s).unwrap();
+        let grid = crate::read_grid_csv(&path).unwrap();
+        assert_eq!(
+            w,
+            Written::Grid {
+                nodes: [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()]
+            }
+        );
+
+        let path = dir.path().join("p.txt");
+        let what = Compensation::Parameters(ParameterFormat::Etalon);
+        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let read = crate::read_error_parameters(&path, ParameterFormat::Etalon).unwrap();
+        let Written::Parameters {
+            tables, locations, ..
+        } = w
+        else {
+            panic!("{w:?}")
+        };
+        assert_eq!(tables + locations, read.params.len());
+        assert!(tables > 0);
+    }
+
+    #[test]
+    fn a_machine_without_table_table_kinematics_has_no_pivots_and_nothing_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("ZFYX");
+        let path = dir.path().join("pivots.hal");
+        let w = write_compensation(
+            &model,
+            &coeffs,
+            &path,
+            Compensation::TrtPivots,
+            &settings(&model),
+        );
+        assert!(w.is_err(), "{w:?}");
+        assert!(!path.exists());
+    }
+
+    #[test]
+    fn a_rotary_axis_has_no_pitch_table() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("CAFYXZ");
+        let what = Compensation::PitchTable {
+            axis: 'C',
+            format: PitchFormat::Csv,
+        };
+        let path = dir.path().join("c.csv");
+        let e = write_compensation(&model, &coeffs, &path, what, &settings(&model)).unwrap_err();
+        assert!(
+            matches!(e, CompensateError::NotLinear { letter: 'C' }),
+            "{e}"
+        );
+        assert!(!path.exists());
+    }
+}

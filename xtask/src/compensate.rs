@@ -1,0 +1,139 @@
+//! `cargo xtask compensate`: one compensation file of an identified machine
+//! ([`mtcal_compensate::write_compensation`]); `--format` and `--axis` together say which.
+
+use anyhow::{Result, bail};
+use clap::ValueEnum;
+use clap::builder::{EnumValueParser, PossibleValue, TypedValueParser};
+use mtcal_compensate::{Compensation, ParameterFormat, PitchFormat, Settings};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// The arguments of `compensate`.
+#[derive(clap::Args)]
+pub(crate) struct CompensateArgs {
+    #[command(flatten)]
+    machine: crate::MachineArg,
+    /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+    #[arg(long)]
+    params: PathBuf,
+    /// The file to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// A pitch table of this linear axis (positioning along its own direction).
+    #[arg(long)]
+    axis: Option<char>,
+    /// Node spacing, mm.
+    #[arg(long, default_value_t = 25.0)]
+    spacing_mm: f64,
+    /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
+    /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
+    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics).
+    #[arg(long, default_value = "csv", value_parser = FormatParser)]
+    format: Format,
+    /// Error parameters: node spacing of rotary axes' tables, degrees.
+    #[arg(long, default_value_t = 10.0)]
+    spacing_deg: f64,
+    /// Pitch tables: LinuxCNC's joint position minus mtcal's axis position, mm (when the
+    /// controller's home puts the joint zero elsewhere); added to every node position.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    joint_offset_mm: f64,
+    /// Pitch tables: the signed ISO 230-2 reversal value B = x̄↑ − x̄↓ in µm; writes a
+    /// bidirectional table (reverse = forward + B).
+    #[arg(long, allow_negative_numbers = true)]
+    reversal_um: Option<f64>,
+    /// Positions of the other axes, e.g. Y=0,Z=-270,A=0 (mm / degrees; default: linear axes
+    /// mid-stroke, rotary axes 0).
+    #[arg(long)]
+    hold: Option<String>,
+}
+
+/// `--format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Format {
+    Csv,
+    Linuxcnc,
+    Isg,
+    Etalon,
+    LinuxcncTrt,
+}
+
+impl Format {
+    /// The file this format writes, with `--axis` or without: a pitch table needs an axis, the
+    /// error parameters are of every axis, the pivots ignore it.
+    fn compensation(self, axis: Option<char>) -> Result<Compensation> {
+        let parameters = |format: ParameterFormat| match axis {
+            Some(axis) => bail!(
+                "--format {} writes the error parameters of every axis; drop --axis {axis}",
+                format.name()
+            ),
+            None => Ok(Compensation::Parameters(format)),
+        };
+        let pitch = |format| axis.map(|axis| Compensation::PitchTable { axis, format });
+        match self {
+            Format::LinuxcncTrt => Ok(Compensation::TrtPivots),
+            Format::Isg => parameters(ParameterFormat::IsgCsv),
+            Format::Etalon => parameters(ParameterFormat::Etalon),
+            Format::Csv => Ok(pitch(PitchFormat::Csv).unwrap_or(Compensation::Grid)),
+            Format::Linuxcnc => match pitch(PitchFormat::LinuxCnc) {
+                Some(table) => Ok(table),
+                None => bail!(
+                    "--format `linuxcnc` without --axis: expected csv (3-D grid), isg or etalon"
+                ),
+            },
+        }
+    }
+}
+
+/// `--format`'s parser: clap's for [`Format`], saying in mtcal's words which names there are.
+#[derive(Clone)]
+struct FormatParser;
+
+impl TypedValueParser for FormatParser {
+    type Value = Format;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<Format, clap::Error> {
+        EnumValueParser::<Format>::new()
+            .parse_ref(cmd, arg, value)
+            .map_err(|_| {
+                clap::Error::raw(
+                    clap::error::ErrorKind::InvalidValue,
+                    format!(
+                        "--format `{}`: expected linuxcnc, csv, isg, etalon or linuxcnc-trt\n",
+                        value.to_string_lossy()
+                    ),
+                )
+            })
+    }
+
+    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
+        Some(Box::new(
+            Format::value_variants()
+                .iter()
+                .filter_map(ValueEnum::to_possible_value),
+        ))
+    }
+}
+
+pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
+    let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params)?;
+    let defaults = mtcal_compensate::default_hold(model.machine());
+    let hold = args.hold.as_deref().unwrap_or("");
+    let hold_q = mtcal_machine::axis_text::held_positions(model.machine(), defaults, hold)?;
+    let what = args.format.compensation(args.axis)?;
+    let settings = Settings {
+        spacing_mm: args.spacing_mm,
+        spacing_deg: args.spacing_deg,
+        joint_offset_mm: args.joint_offset_mm,
+        reversal_um: args.reversal_um,
+        hold_q,
+    };
+    let written =
+        mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
+    writeln!(out, "wrote {} ({written})", args.out.display())?;
+    Ok(())
+}

@@ -1,0 +1,127 @@
+//! `cargo xtask identify`: a session's errors identified ([`mtcal_identify::pipeline`]) and
+//! printed, with the files asked for.
+
+use anyhow::Result;
+use mtcal_identify::pipeline::{PipelineOptions, Prepared};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// The arguments of `identify`.
+#[derive(clap::Args)]
+pub(crate) struct IdentifyArgs {
+    /// The session folder (or its session.toml).
+    session: PathBuf,
+    /// Write the result as JSON (schema mtcal.identify/1) to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write every validation run's predicted readings to DIR/<run>.csv.
+    #[arg(long)]
+    predict: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Everything on the screen (the whole information account; otherwise its first
+    /// lines, and all of it in the JSON).
+    #[arg(long)]
+    verbose: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Run the physics search: find the effects the model left out (thermal drift,
+    /// backlash, cyclic errors, omitted parameters…), add those that improve held-out
+    /// prediction, and report them as discoveries.
+    #[arg(long)]
+    search: bool,
+    /// Another session (planned, moved or extra runs, e.g. from `simulate`): print what
+    /// adding its runs would do to every interval, without refitting.
+    #[arg(long, value_name = "SESSION")]
+    what_if: Option<PathBuf>,
+    /// Write an HTML report (DIR/index.html, self-contained, SVG plots): ball-bar polar
+    /// plots, residuals along time and temperatures, component errors, volumetric map,
+    /// parameters, what the data cannot separate, discoveries.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Write the error model these runs identify (an .errors.toml to keep beside the
+    /// URDF): the parameters they determine, without those they cannot.
+    #[arg(long, value_name = "FILE")]
+    suggest_model: Option<PathBuf>,
+}
+
+/// `identify`: what was loaded, then (after the fit or the search) the summary and the
+/// information account, what another session would add, and the files asked for.
+pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
+    let options = PipelineOptions {
+        solver: mtcal_solve::Options {
+            threads: args.threads,
+            ..Default::default()
+        },
+        search: args.search,
+    };
+    let prepared = Prepared::load(&args.session, options)?;
+    write!(out, "{}", prepared.header())?;
+    let mut progress = Progress::new(args.quiet);
+    let outcome = prepared.run(&mut progress);
+    progress.finish();
+    let outcome = outcome?;
+    write!(out, "{}", outcome.screen(args.verbose))?;
+    if let Some(dir) = &args.what_if {
+        write!(out, "\n{}", outcome.what_if(dir)?)?;
+    }
+    if let Some(path) = &args.suggest_model {
+        crate::write_file(out, path, &outcome.suggested_model())?;
+    }
+    if let Some(path) = &args.json {
+        crate::write_file(out, path, &outcome.identification.to_json())?;
+    }
+    if let Some(dir) = &args.predict {
+        for f in outcome.write_predictions(dir)? {
+            writeln!(out, "wrote {}", f.display())?;
+        }
+    }
+    if let Some(dir) = &args.report {
+        let path = outcome.write_report(dir)?;
+        writeln!(out, "wrote {}", path.display())?;
+    }
+    Ok(())
+}
+
+/// A progress bar on standard error for long fits (hidden when quiet or not a terminal).
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        let bar = (!quiet).then(|| {
+            let bar = indicatif::ProgressBar::new(0);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} iteration {prefix} [{bar:30}] {pos}/{len} blocks {msg}",
+                )
+                .expect("valid template"),
+            );
+            bar
+        });
+        Self { bar }
+    }
+    fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl mtcal_solve::Observer for Progress {
+    fn iteration(&mut self, it: usize, cost: f64, _lambda: f64) {
+        if let Some(bar) = &self.bar {
+            bar.set_prefix(it.to_string());
+            bar.set_message(format!("cost {cost:.4e}"));
+        }
+    }
+    fn rows(&mut self, done: usize, total: usize) {
+        if let Some(bar) = &self.bar {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        }
+    }
+}
