@@ -1,11 +1,13 @@
 //! The harness on tiny in-test plugins: a correct one passes, broken ones fail the right check.
 
 use mtcal_conformance::{shipped_machines, try_check_plugin};
+use mtcal_instrument::config::{self, Number, Vec3, required};
 use mtcal_instrument::{
     At, Channel, Fixture, InstrumentPlugin, Nuisance, PathSpec, Setup, SetupContext, SetupError,
-    Unit, read,
+    Unit,
 };
 use mtcal_kinematics::{AxisKind, Machine};
+use serde::Deserialize;
 
 /// A point probe: readings are the spindle ball centre minus a target point, plus a lever arm
 /// on a small tilt nuisance.
@@ -86,13 +88,22 @@ impl Setup for Probe {
     }
 }
 
+/// The probe's set-up table. Without `deny_unknown_fields`, so that the lenient probe can read
+/// it with [`config::read_part`], which lets unknown keys pass; [`config::read`] rejects them.
+#[derive(Deserialize)]
+struct ProbeKeys {
+    target: Option<Vec3>,
+    sigma_um: Option<Number>,
+}
+
 fn load(table: &toml::Table, fault: Fault) -> Result<Box<dyn Setup>, SetupError> {
-    if fault != Fault::Lenient {
-        read::only_keys(table, &["target", "sigma_um"])?;
-    }
-    let target_mm = read::vec3(table, "target")?
-        .ok_or_else(|| SetupError::new("target", "missing: the target point, mm"))?;
-    let sigma_um = read::number(table, "sigma_um")?.unwrap_or(1.0);
+    let keys: ProbeKeys = if fault == Fault::Lenient {
+        config::read_part(table)?
+    } else {
+        config::read(table)?
+    };
+    let target_mm = required(keys.target, "target", "the target point, mm")?.0;
+    let sigma_um = keys.sigma_um.map_or(1.0, f64::from);
     let um = |name: &str| Nuisance {
         name: name.into(),
         unit: Unit::Um,

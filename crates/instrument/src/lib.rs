@@ -27,11 +27,13 @@
 //! # Adding an instrument
 //! Write a crate under `plugins/`, implement [`Setup`], submit an [`InstrumentPlugin`] with
 //! `inventory::submit!`, name the crate in `mtcal-plugins`, and call the conformance harness
-//! (`mtcal-conformance`) from its tests.
+//! (`mtcal-conformance`) from its tests. Read its set-up and path tables with
+//! [`config::read`], one typed struct per table.
 
 use mtcal_kinematics::{Machine, Rigid};
 use std::fmt;
 
+pub mod config;
 pub mod program;
 
 /// The unit a reading or a nuisance parameter is written in outside (files, reports).
@@ -374,111 +376,9 @@ pub fn find(name: &str) -> Option<&'static InstrumentPlugin> {
         .find(|p| p.name == name)
 }
 
-/// Helpers for set-up loaders: typed reads of a manifest table with [`SetupError`]s that say
-/// what was expected.
-pub mod read {
-    use super::SetupError;
-
-    /// A number (integers accepted).
-    pub fn number(table: &toml::Table, key: &str) -> Result<Option<f64>, SetupError> {
-        match table.get(key) {
-            None => Ok(None),
-            Some(v) => as_number(v)
-                .filter(|x| x.is_finite())
-                .map(Some)
-                .ok_or_else(|| {
-                    SetupError::new(key, format!("expected a finite number, found {v}"))
-                }),
-        }
-    }
-
-    /// A required number.
-    pub fn required_number(table: &toml::Table, key: &str, what: &str) -> Result<f64, SetupError> {
-        number(table, key)?.ok_or_else(|| SetupError::new(key, format!("missing: {what}")))
-    }
-
-    /// A vector of three numbers.
-    pub fn vec3(table: &toml::Table, key: &str) -> Result<Option<[f64; 3]>, SetupError> {
-        let Some(v) = table.get(key) else {
-            return Ok(None);
-        };
-        let bad = || SetupError::new(key, format!("expected three numbers [x, y, z], found {v}"));
-        let arr = v.as_array().ok_or_else(bad)?;
-        if arr.len() != 3 {
-            return Err(bad());
-        }
-        let mut out = [0.0; 3];
-        for (o, x) in out.iter_mut().zip(arr) {
-            *o = as_number(x).filter(|x| x.is_finite()).ok_or_else(bad)?;
-        }
-        Ok(Some(out))
-    }
-
-    /// A boolean.
-    pub fn boolean(table: &toml::Table, key: &str) -> Result<Option<bool>, SetupError> {
-        match table.get(key) {
-            None => Ok(None),
-            Some(toml::Value::Boolean(b)) => Ok(Some(*b)),
-            Some(v) => Err(SetupError::new(
-                key,
-                format!("expected true or false, found {v}"),
-            )),
-        }
-    }
-
-    /// A string.
-    pub fn string<'a>(table: &'a toml::Table, key: &str) -> Result<Option<&'a str>, SetupError> {
-        match table.get(key) {
-            None => Ok(None),
-            Some(toml::Value::String(s)) => Ok(Some(s)),
-            Some(v) => Err(SetupError::new(
-                key,
-                format!("expected a string, found {v}"),
-            )),
-        }
-    }
-
-    /// Rejects keys outside `allowed`, so a typo does not pass silently.
-    pub fn only_keys(table: &toml::Table, allowed: &[&str]) -> Result<(), SetupError> {
-        for key in table.keys() {
-            if !allowed.contains(&key.as_str()) {
-                return Err(SetupError::new(
-                    key,
-                    format!("unknown key; this instrument knows {}", allowed.join(", ")),
-                ));
-            }
-        }
-        Ok(())
-    }
-
-    fn as_number(v: &toml::Value) -> Option<f64> {
-        match v {
-            toml::Value::Float(x) => Some(*x),
-            toml::Value::Integer(i) => Some(*i as f64),
-            _ => None,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn readers_name_the_key_and_the_expectation() {
-        let t: toml::Table =
-            toml::from_str("a = 1\nb = [1.0, 2, 3.5]\nc = \"x\"\nd = [1, 2]").expect("valid toml");
-        assert_eq!(read::number(&t, "a").unwrap(), Some(1.0));
-        assert_eq!(read::vec3(&t, "b").unwrap(), Some([1.0, 2.0, 3.5]));
-        let e = read::vec3(&t, "d").unwrap_err();
-        assert_eq!(e.key, "d");
-        assert!(e.message.contains("three numbers"), "{e}");
-        let e = read::number(&t, "c").unwrap_err();
-        assert!(e.to_string().starts_with("setup key `c`"), "{e}");
-        assert!(read::required_number(&t, "zz", "ball height").is_err());
-        let e = read::only_keys(&t, &["a", "b", "c"]).unwrap_err();
-        assert_eq!(e.key, "d");
-    }
 
     #[test]
     fn units_scale_si_to_micro() {

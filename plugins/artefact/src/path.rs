@@ -1,26 +1,51 @@
 //! Measuring paths (every feature of every placement) and the conformance fixture.
 
 use crate::setup::{ArtefactSetup, frame_of, load};
-use mtcal_instrument::{Fixture, PathSpec, SetupContext, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected};
+use mtcal_instrument::{Fixture, PathSpec, SetupContext, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
+use serde::Deserialize;
 
 /// Every key a path table may have.
 pub const PATH_KEYS: &[&str] = &["placements", "repeat"];
+
+/// A path table as written ([`PATH_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathKeys {
+    placements: Option<PlacementNames>,
+    repeat: Option<Number>,
+}
+
+/// The placements a path visits, as written (a name that is not a string names no placement).
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "toml::Value")]
+struct PlacementNames(Vec<toml::Value>);
+
+impl TryFrom<toml::Value> for PlacementNames {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        match value {
+            toml::Value::Array(names) => Ok(PlacementNames(names)),
+            v => Err(expected("a list of placement names", &v)),
+        }
+    }
+}
 
 /// The (placement, feature) pairs of a path, in probing order: placements in the order the path
 /// names them (default: every placement, name order), features in name order, the whole
 /// sequence `repeat` times.
 fn visits(spec: &PathSpec<'_>) -> Result<(ArtefactSetup, Vec<(usize, usize)>), SetupError> {
-    read::only_keys(spec.path, PATH_KEYS)?;
+    let keys: PathKeys = config::read(spec.path)?;
     let setup = load(
         spec.setup,
         &SetupContext {
             machine: spec.machine,
         },
     )?;
-    let order: Vec<usize> = match spec.path.get("placements") {
+    let order: Vec<usize> = match &keys.placements {
         None => (0..setup.placements().len()).collect(),
-        Some(toml::Value::Array(a)) => a
+        Some(PlacementNames(names)) => names
             .iter()
             .map(|v| {
                 let name = v.as_str().unwrap_or("");
@@ -33,14 +58,8 @@ fn visits(spec: &PathSpec<'_>) -> Result<(ArtefactSetup, Vec<(usize, usize)>), S
                     })
             })
             .collect::<Result<_, _>>()?,
-        Some(v) => {
-            return Err(SetupError::new(
-                "placements",
-                format!("expected a list of placement names, found {v}"),
-            ));
-        }
     };
-    let repeat = match read::number(spec.path, "repeat")? {
+    let repeat = match keys.repeat.map(f64::from) {
         None => 1,
         Some(r) if r >= 1.0 && r.fract() == 0.0 => r as usize,
         Some(r) => {
@@ -193,4 +212,14 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         poses,
         labels,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<PathKeys>(), Some(PATH_KEYS));
+    }
 }

@@ -1,11 +1,12 @@
 //! The artefact set-up: loading, the measurement model and its analytic derivatives.
 
+use mtcal_instrument::config::{self, Number, Vec3, expected, required};
 use mtcal_instrument::{
     At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
-    read,
 };
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Deserializer};
 
 /// Default standard deviation of one measured coordinate, µm.
 pub const DEFAULT_SIGMA_UM: f64 = 1.0;
@@ -31,6 +32,41 @@ pub const DEFAULT_PLACEMENT: &str = "p1";
 /// Largest departure (m) of the nominal tool point from "workpiece coordinates = axis
 /// coordinates + a constant" accepted when loading on a machine.
 const FRAME_TOL: f64 = 1e-9;
+
+/// A set-up table as written ([`SETUP_KEYS`], in that order). Features and placements are
+/// keyed by their names: each is read once its name is known to be valid.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    #[serde(default, deserialize_with = "features_table")]
+    features: Option<toml::Table>,
+    #[serde(default, deserialize_with = "placements_table")]
+    placements: Option<toml::Table>,
+    origin: Option<Vec3>,
+    rotation_deg: Option<Number>,
+    flipped: Option<bool>,
+    sigma_um: Option<Number>,
+    feature_sigma_um: Option<Number>,
+    feature_errors: Option<bool>,
+}
+
+fn features_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of features, e.g. { h1 = [0.0, 0.0] }").map(Some)
+}
+
+fn placements_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of placements, e.g. { p1 = { origin = [..] } }").map(Some)
+}
+
+/// A placement written in `placements` ([`PLACEMENT_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlacementKeys {
+    origin: Option<Vec3>,
+    rotation_deg: Option<Number>,
+    flipped: Option<bool>,
+    free: Option<bool>,
+}
 
 /// One placement of the plate on the table.
 #[derive(Clone, Debug, PartialEq)]
@@ -248,36 +284,16 @@ impl ArtefactSetup {
 
 /// Reads a list of 2 or 3 numbers; errors name `key`.
 fn point(v: &toml::Value, key: &str) -> Result<(usize, [f64; 3]), SetupError> {
-    let bad = || {
-        SetupError::new(
-            key,
-            format!("expected a position [x, y] or [x, y, z] in mm, found {v}"),
-        )
-    };
+    let bad = || SetupError::new(key, expected("a position [x, y] or [x, y, z] in mm", v));
     let a = v.as_array().ok_or_else(bad)?;
     if !(a.len() == 2 || a.len() == 3) {
         return Err(bad());
     }
     let mut out = [0.0; 3];
     for (o, x) in out.iter_mut().zip(a) {
-        *o = match x {
-            toml::Value::Float(f) if f.is_finite() => *f,
-            toml::Value::Integer(i) => *i as f64,
-            _ => return Err(bad()),
-        };
+        *o = config::number(x).ok_or_else(bad)?;
     }
     Ok((a.len(), out))
-}
-
-fn table<'a>(t: &'a toml::Table, key: &str, what: &str) -> Result<&'a toml::Table, SetupError> {
-    match t.get(key) {
-        Some(toml::Value::Table(x)) => Ok(x),
-        Some(v) => Err(SetupError::new(
-            key,
-            format!("expected a table of {what}, found {v}"),
-        )),
-        None => Err(SetupError::new(key, format!("missing: the {what}"))),
-    }
 }
 
 fn positive(key: &str, v: Option<f64>) -> Result<Option<f64>, SetupError> {
@@ -287,16 +303,44 @@ fn positive(key: &str, v: Option<f64>) -> Result<Option<f64>, SetupError> {
     }
 }
 
-/// Reads one placement's keys from `t` (`prefix` is put before the keys in errors).
-fn load_placement(name: &str, t: &toml::Table, prefix: &str) -> Result<Placement, SetupError> {
-    let wrap = |e: SetupError| SetupError::new(format!("{prefix}{}", e.key), e.message);
-    let origin = read::vec3(t, "origin").map_err(wrap)?.unwrap_or([0.0; 3]);
-    let rot = read::number(t, "rotation_deg")
-        .map_err(wrap)?
-        .unwrap_or(0.0);
-    let flipped = read::boolean(t, "flipped").map_err(wrap)?.unwrap_or(false);
-    let free = read::boolean(t, "free").map_err(wrap)?.unwrap_or(true);
-    Ok(Placement::new(name, origin, rot, flipped, free))
+/// A placement from its keys as written (the defaults for those left out).
+fn placement(name: &str, keys: PlacementKeys) -> Placement {
+    Placement::new(
+        name,
+        keys.origin.map_or([0.0; 3], <[f64; 3]>::from),
+        keys.rotation_deg.map_or(0.0, f64::from),
+        keys.flipped.unwrap_or(false),
+        keys.free.unwrap_or(true),
+    )
+}
+
+/// Reads the `placements` table: every entry a valid name and a table of placement keys.
+fn load_placements(pt: &toml::Table) -> Result<Vec<Placement>, SetupError> {
+    if pt.is_empty() {
+        return Err(SetupError::new("placements", "no placements"));
+    }
+    let mut pn: Vec<&String> = pt.keys().collect();
+    pn.sort();
+    let mut out = Vec::new();
+    for name in pn {
+        let key = format!("placements.{name}");
+        if !valid_name(name) {
+            return Err(SetupError::new(key, "not a valid placement name"));
+        }
+        let t = match &pt[name.as_str()] {
+            toml::Value::Table(t) => t,
+            v => {
+                return Err(SetupError::new(
+                    key,
+                    expected("a table { origin = [..], rotation_deg = .. }", v),
+                ));
+            }
+        };
+        let keys =
+            config::read(t).map_err(|e| SetupError::new(format!("{key}.{}", e.key), e.message))?;
+        out.push(placement(name, keys));
+    }
+    Ok(out)
 }
 
 /// Where X, Y, Z sit in the machine's axis order, and the nominal tool point at q = 0, if the
@@ -336,8 +380,12 @@ pub fn frame_of(machine: &Machine) -> Result<([usize; 3], Vector3<f64>), String>
 
 /// Loads an artefact set-up table (keys in the crate documentation).
 pub fn load(table_: &toml::Table, ctx: &SetupContext<'_>) -> Result<ArtefactSetup, SetupError> {
-    read::only_keys(table_, SETUP_KEYS)?;
-    let ft = table(table_, "features", "features, e.g. { h1 = [0.0, 0.0] }")?;
+    let keys: Keys = config::read(table_)?;
+    let ft = required(
+        keys.features.as_ref(),
+        "features",
+        "the features, e.g. { h1 = [0.0, 0.0] }",
+    )?;
     if ft.is_empty() {
         return Err(SetupError::new("features", "the plate has no features"));
     }
@@ -364,58 +412,32 @@ pub fn load(table_: &toml::Table, ctx: &SetupContext<'_>) -> Result<ArtefactSetu
         features.push((name.clone(), p));
     }
     let dim = dim.unwrap_or(2);
-    let placements = match table_.get("placements") {
-        Some(_) => {
-            for k in ["origin", "rotation_deg", "flipped"] {
-                if table_.contains_key(k) {
-                    return Err(SetupError::new(
-                        k,
-                        "give the placement either at the top level or in `placements`, not both",
-                    ));
-                }
-            }
-            let pt = table(
-                table_,
-                "placements",
-                "placements, e.g. { p1 = { origin = [..] } }",
-            )?;
-            if pt.is_empty() {
-                return Err(SetupError::new("placements", "no placements"));
-            }
-            let mut pn: Vec<&String> = pt.keys().collect();
-            pn.sort();
-            let mut out = Vec::new();
-            for name in pn {
-                let key = format!("placements.{name}");
-                if !valid_name(name) {
-                    return Err(SetupError::new(key, "not a valid placement name"));
-                }
-                let t = match &pt[name.as_str()] {
-                    toml::Value::Table(t) => t,
-                    v => {
-                        return Err(SetupError::new(
-                            key,
-                            format!(
-                                "expected a table {{ origin = [..], rotation_deg = .. }}, found {v}"
-                            ),
-                        ));
-                    }
-                };
-                read::only_keys(t, PLACEMENT_KEYS)
-                    .map_err(|e| SetupError::new(format!("{key}.{}", e.key), e.message))?;
-                out.push(load_placement(name, t, &format!("{key}."))?);
-            }
-            out
-        }
-        None => vec![load_placement(DEFAULT_PLACEMENT, table_, "")?],
+    let top_level = PlacementKeys {
+        origin: keys.origin,
+        rotation_deg: keys.rotation_deg,
+        flipped: keys.flipped,
+        free: None,
     };
-    let sigma_um =
-        positive("sigma_um", read::number(table_, "sigma_um")?)?.unwrap_or(DEFAULT_SIGMA_UM);
-    let feature_sigma_um = positive(
-        "feature_sigma_um",
-        read::number(table_, "feature_sigma_um")?,
-    )?;
-    let feature_errors = read::boolean(table_, "feature_errors")?.unwrap_or(true);
+    let placements = match &keys.placements {
+        Some(pt) => {
+            let written = [
+                ("origin", top_level.origin.is_some()),
+                ("rotation_deg", top_level.rotation_deg.is_some()),
+                ("flipped", top_level.flipped.is_some()),
+            ];
+            if let Some((k, _)) = written.iter().find(|(_, given)| *given) {
+                return Err(SetupError::new(
+                    *k,
+                    "give the placement either at the top level or in `placements`, not both",
+                ));
+            }
+            load_placements(pt)?
+        }
+        None => vec![placement(DEFAULT_PLACEMENT, top_level)],
+    };
+    let sigma_um = positive("sigma_um", keys.sigma_um.map(f64::from))?.unwrap_or(DEFAULT_SIGMA_UM);
+    let feature_sigma_um = positive("feature_sigma_um", keys.feature_sigma_um.map(f64::from))?;
+    let feature_errors = keys.feature_errors.unwrap_or(true);
     let (xyz, c) = frame_of(ctx.machine).map_err(|m| SetupError::new("features", m))?;
     let mut setup = ArtefactSetup {
         features_m: features
@@ -707,5 +729,16 @@ impl Setup for ArtefactSetup {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
+        assert_eq!(config::keys_of::<PlacementKeys>(), Some(PLACEMENT_KEYS));
     }
 }

@@ -2,16 +2,20 @@
 //! The keys are documented in the crate docs.
 
 use crate::setup::BallbarConfig;
-use mtcal_instrument::{PathSpec, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected, required};
+use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::ik::follow_point;
 use mtcal_kinematics::rigid::log_so3;
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use serde::de::IgnoredAny;
+use serde::{Deserialize, Deserializer};
 
 /// A coordinate plane of the workpiece frame, with its in-plane basis `(e1, e2)` and normal
 /// `e1 × e2`: XY (normal +Z), YZ (normal +X), ZX (normal +Y). Angles are measured from `e1`
 /// towards `e2`, so counter-clockwise is positive about the normal.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum Plane {
     XY,
     YZ,
@@ -52,8 +56,17 @@ impl Plane {
     }
 }
 
+impl TryFrom<String> for Plane {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        Plane::parse(&value)
+            .ok_or_else(|| format!("expected \"XY\", \"YZ\" or \"ZX\", found \"{value}\""))
+    }
+}
+
 /// Which way the bar points in a rotary-axis test.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(try_from = "toml::Value")]
 pub enum Bar {
     /// Away from the rotary axis line, through the pivot.
     Radial,
@@ -65,34 +78,137 @@ pub enum Bar {
     Vector(Vector3<f64>),
 }
 
+impl TryFrom<toml::Value> for Bar {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        if let toml::Value::String(s) = &value {
+            return match s.as_str() {
+                "radial" => Ok(Bar::Radial),
+                "tangential" => Ok(Bar::Tangential),
+                "axial" => Ok(Bar::Axial),
+                other => Err(format!(
+                    "expected \"radial\", \"tangential\", \"axial\" or [x, y, z], found \"{other}\""
+                )),
+            };
+        }
+        let v = config::vec3(&value)
+            .map(Vector3::from)
+            .ok_or_else(|| expected("three numbers [x, y, z]", &value))?;
+        let n = v.norm();
+        if n < 1e-9 {
+            return Err("the bar direction is the zero vector".into());
+        }
+        Ok(Bar::Vector(v / n))
+    }
+}
+
 /// Default number of samples of a path.
 pub const DEFAULT_SAMPLES: usize = 361;
 
-const CIRCLE_KEYS: &[&str] = &[
-    "kind",
-    "plane",
-    "direction",
-    "start_deg",
-    "sweep_deg",
-    "overshoot_deg",
-    "samples",
-    "hold",
-];
-const ROTARY_KEYS: &[&str] = &["kind", "sweep", "bar", "samples", "hold"];
+/// The key that says how the rest of a path table is read.
+#[derive(Debug, Deserialize)]
+struct Tagged {
+    kind: Option<PathKind>,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(try_from = "String")]
+enum PathKind {
+    Circle,
+    Rotary,
+}
+
+impl TryFrom<String> for PathKind {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        match value.as_str() {
+            "circle" => Ok(PathKind::Circle),
+            "rotary" => Ok(PathKind::Rotary),
+            other => Err(format!(
+                "unknown path kind \"{other}\"; the ball-bar knows \"circle\" and \"rotary\""
+            )),
+        }
+    }
+}
+
+/// A circle path table as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CircleKeys {
+    /// Read by [`Tagged`].
+    #[serde(rename = "kind")]
+    _kind: Option<IgnoredAny>,
+    plane: Option<Plane>,
+    direction: Option<Turn>,
+    start_deg: Option<Number>,
+    sweep_deg: Option<Number>,
+    overshoot_deg: Option<Number>,
+    samples: Option<Number>,
+    #[serde(default, deserialize_with = "hold_table")]
+    hold: Option<toml::Table>,
+}
+
+/// A rotary-axis path table as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RotaryKeys {
+    /// Read by [`Tagged`].
+    #[serde(rename = "kind")]
+    _kind: Option<IgnoredAny>,
+    #[serde(default, deserialize_with = "sweep_table")]
+    sweep: Option<toml::Table>,
+    bar: Option<Bar>,
+    samples: Option<Number>,
+    #[serde(default, deserialize_with = "hold_table")]
+    hold: Option<toml::Table>,
+}
+
+fn hold_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(
+        d,
+        "a table of rotary axis positions in degrees, e.g. { A = 0.0 }",
+    )
+    .map(Some)
+}
+
+/// What a `sweep` that is not a table, or names more or fewer than one axis, is told.
+const SWEEP_EXPECTED: &str = "one rotary axis and its range in degrees, e.g. { C = [0.0, 360.0] }";
+
+fn sweep_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, SWEEP_EXPECTED).map(Some)
+}
+
+/// The direction a circle is run in.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(try_from = "String")]
+enum Turn {
+    Ccw,
+    Cw,
+}
+
+impl TryFrom<String> for Turn {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        match value.as_str() {
+            "ccw" => Ok(Turn::Ccw),
+            "cw" => Ok(Turn::Cw),
+            other => Err(format!("expected \"ccw\" or \"cw\", found \"{other}\"")),
+        }
+    }
+}
 
 /// Commanded positions (SI, one `Vec` per sample) of a path; see the crate docs for the keys.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let config = BallbarConfig::from_table(spec.setup)?;
-    let kind = read::string(spec.path, "kind")?.ok_or_else(|| {
-        SetupError::new("kind", "missing: the path kind, \"circle\" or \"rotary\"")
-    })?;
+    let setup = BallbarConfig::from_table(spec.setup)?;
+    let tagged: Tagged = config::read_part(spec.path)?;
+    let kind = required(
+        tagged.kind,
+        "kind",
+        "the path kind, \"circle\" or \"rotary\"",
+    )?;
     match kind {
-        "circle" => circle_path(spec.machine, &config, spec.path),
-        "rotary" => rotary_path(spec.machine, &config, spec.path),
-        other => Err(SetupError::new(
-            "kind",
-            format!("unknown path kind \"{other}\"; the ball-bar knows \"circle\" and \"rotary\""),
-        )),
+        PathKind::Circle => circle_path(spec.machine, &setup, &config::read(spec.path)?),
+        PathKind::Rotary => rotary_path(spec.machine, &setup, &config::read(spec.path)?),
     }
 }
 
@@ -118,44 +234,27 @@ pub fn circle_angles(
 fn circle_path(
     machine: &Machine,
     config: &BallbarConfig,
-    table: &toml::Table,
+    keys: &CircleKeys,
 ) -> Result<Vec<Vec<f64>>, SetupError> {
-    read::only_keys(table, CIRCLE_KEYS)?;
-    let plane_name = read::string(table, "plane")?
-        .ok_or_else(|| SetupError::new("plane", "missing: \"XY\", \"YZ\" or \"ZX\""))?;
-    let plane = Plane::parse(plane_name).ok_or_else(|| {
-        SetupError::new(
-            "plane",
-            format!("expected \"XY\", \"YZ\" or \"ZX\", found \"{plane_name}\""),
-        )
-    })?;
-    let ccw = match read::string(table, "direction")?.unwrap_or("ccw") {
-        "ccw" => true,
-        "cw" => false,
-        other => {
-            return Err(SetupError::new(
-                "direction",
-                format!("expected \"ccw\" or \"cw\", found \"{other}\""),
-            ));
-        }
-    };
-    let start = read::number(table, "start_deg")?.unwrap_or(0.0);
-    let sweep = read::number(table, "sweep_deg")?.unwrap_or(360.0);
+    let plane = required(keys.plane, "plane", "\"XY\", \"YZ\" or \"ZX\"")?;
+    let ccw = matches!(keys.direction.unwrap_or(Turn::Ccw), Turn::Ccw);
+    let start = keys.start_deg.map_or(0.0, f64::from);
+    let sweep = keys.sweep_deg.map_or(360.0, f64::from);
     if sweep <= 0.0 {
         return Err(SetupError::new(
             "sweep_deg",
             format!("the swept angle must be positive (degrees), found {sweep}"),
         ));
     }
-    let overshoot = read::number(table, "overshoot_deg")?.unwrap_or(0.0);
+    let overshoot = keys.overshoot_deg.map_or(0.0, f64::from);
     if overshoot < 0.0 {
         return Err(SetupError::new(
             "overshoot_deg",
             format!("the overshoot arcs cannot be negative (degrees), found {overshoot}"),
         ));
     }
-    let samples = samples(table)?;
-    let base = held_rotaries(machine, table, None)?;
+    let samples = samples(keys.samples)?;
+    let base = held_rotaries(machine, keys.hold.as_ref(), None)?;
     let pivot = config.pivot();
     let length = config.length();
     let mut out = Vec::with_capacity(samples);
@@ -180,13 +279,16 @@ fn circle_path(
 fn rotary_path(
     machine: &Machine,
     config: &BallbarConfig,
-    table: &toml::Table,
+    keys: &RotaryKeys,
 ) -> Result<Vec<Vec<f64>>, SetupError> {
-    read::only_keys(table, ROTARY_KEYS)?;
-    let (axis, from, to) = swept_axis(machine, table)?;
-    let bar = bar(table)?;
-    let samples = samples(table)?;
-    let mut base = held_rotaries(machine, table, Some(axis))?;
+    let (axis, from, to) = swept_axis(machine, keys.sweep.as_ref())?;
+    let bar = required(
+        keys.bar,
+        "bar",
+        "\"radial\", \"tangential\", \"axial\" or a direction [x, y, z]",
+    )?;
+    let samples = samples(keys.samples)?;
+    let mut base = held_rotaries(machine, keys.hold.as_ref(), Some(axis))?;
     base[axis] = from;
     let pivot = config.pivot();
     let u = bar_direction(machine, &base, axis, &pivot, bar)?;
@@ -335,8 +437,8 @@ fn check_limits(machine: &Machine, q: &[f64], sample: usize) -> Result<(), Setup
     Ok(())
 }
 
-fn samples(table: &toml::Table) -> Result<usize, SetupError> {
-    let Some(n) = read::number(table, "samples")? else {
+fn samples(samples: Option<Number>) -> Result<usize, SetupError> {
+    let Some(Number(n)) = samples else {
         return Ok(DEFAULT_SAMPLES);
     };
     if n.fract() != 0.0 || !(2.0..=1e7).contains(&n) {
@@ -351,20 +453,14 @@ fn samples(table: &toml::Table) -> Result<usize, SetupError> {
 /// Axis positions with every axis at 0 except the rotary axes named in `hold` (degrees).
 fn held_rotaries(
     machine: &Machine,
-    table: &toml::Table,
+    hold: Option<&toml::Table>,
     swept: Option<usize>,
 ) -> Result<Vec<f64>, SetupError> {
     let mut q = vec![0.0; machine.n_axes()];
-    let Some(hold) = table.get("hold") else {
+    let Some(hold) = hold else {
         return Ok(q);
     };
-    let hold = hold.as_table().ok_or_else(|| {
-        SetupError::new(
-            "hold",
-            format!("expected a table of rotary axis positions in degrees, e.g. {{ A = 0.0 }}, found {hold}"),
-        )
-    })?;
-    for key in hold.keys() {
+    for (key, v) in hold {
         let i = rotary_index(machine, key, "hold")?;
         if Some(i) == swept {
             return Err(SetupError::new(
@@ -372,9 +468,10 @@ fn held_rotaries(
                 format!("axis {key} is the swept axis; it cannot also be held"),
             ));
         }
-        q[i] = read::number(hold, key)
-            .map_err(|e| SetupError::new("hold", format!("{key}: {}", e.message)))?
-            .unwrap_or(0.0)
+        q[i] = config::number(v)
+            .ok_or_else(|| {
+                SetupError::new("hold", format!("{key}: {}", expected("a finite number", v)))
+            })?
             .to_radians();
     }
     Ok(q)
@@ -403,15 +500,16 @@ fn rotary_index(machine: &Machine, letter: &str, key: &str) -> Result<usize, Set
     }
 }
 
-fn swept_axis(machine: &Machine, table: &toml::Table) -> Result<(usize, f64, f64), SetupError> {
+fn swept_axis(
+    machine: &Machine,
+    sweep: Option<&toml::Table>,
+) -> Result<(usize, f64, f64), SetupError> {
     let bad = |why: String| SetupError::new("sweep", why);
-    let sweep = table.get("sweep").ok_or_else(|| {
-        bad("missing: one rotary axis and its range in degrees, e.g. { C = [0.0, 360.0] }".into())
-    })?;
-    let sweep = sweep
-        .as_table()
-        .filter(|t| t.len() == 1)
-        .ok_or_else(|| bad(format!("expected one rotary axis and its range in degrees, e.g. {{ C = [0.0, 360.0] }}, found {sweep}")))?;
+    let sweep = required(sweep, "sweep", SWEEP_EXPECTED)?;
+    if sweep.len() != 1 {
+        let written = toml::Value::Table(sweep.clone());
+        return Err(bad(expected(SWEEP_EXPECTED, &written)));
+    }
     let (letter, range) = sweep.iter().next().expect("one entry");
     let axis = rotary_index(machine, letter, "sweep")?;
     let range = range
@@ -428,35 +526,4 @@ fn swept_axis(machine: &Machine, table: &toml::Table) -> Result<(usize, f64, f64
             ))
         })?;
     Ok((axis, range.0.to_radians(), range.1.to_radians()))
-}
-
-fn bar(table: &toml::Table) -> Result<Bar, SetupError> {
-    match table.get("bar") {
-        None => Err(SetupError::new(
-            "bar",
-            "missing: \"radial\", \"tangential\", \"axial\" or a direction [x, y, z]",
-        )),
-        Some(toml::Value::String(s)) => match s.as_str() {
-            "radial" => Ok(Bar::Radial),
-            "tangential" => Ok(Bar::Tangential),
-            "axial" => Ok(Bar::Axial),
-            other => Err(SetupError::new(
-                "bar",
-                format!(
-                    "expected \"radial\", \"tangential\", \"axial\" or [x, y, z], found \"{other}\""
-                ),
-            )),
-        },
-        Some(_) => {
-            let v = Vector3::from(read::vec3(table, "bar")?.expect("present"));
-            let n = v.norm();
-            if n < 1e-9 {
-                return Err(SetupError::new(
-                    "bar",
-                    "the bar direction is the zero vector",
-                ));
-            }
-            Ok(Bar::Vector(v / n))
-        }
-    }
 }

@@ -1,7 +1,9 @@
 //! The ball-bar set-up: its manifest keys, nuisance parameters and measurement model.
 
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupError, Touches, Unit, read};
+use mtcal_instrument::config::{self, Number, Vec3, required};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupError, Touches, Unit};
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 /// Every key a ball-bar set-up table may hold.
 pub const SETUP_KEYS: &[&str] = &[
@@ -13,6 +15,21 @@ pub const SETUP_KEYS: &[&str] = &[
     "length_u_um",
     "tool_length_free",
 ];
+
+/// A set-up table as written ([`SETUP_KEYS`], in that order); [`BallbarConfig::to_table`]
+/// writes one too.
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    pivot: Option<Vec3>,
+    length: Option<Number>,
+    sigma_um: Option<Number>,
+    pivot_free: Option<bool>,
+    length_free: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    length_u_um: Option<Number>,
+    tool_length_free: Option<bool>,
+}
 
 /// Index of each nuisance parameter in [`BallbarSetup::nuisance`] (and in `nuis` slices).
 pub mod nuis {
@@ -44,29 +61,29 @@ pub struct BallbarConfig {
 impl BallbarConfig {
     /// Reads and validates a set-up table; unknown keys are rejected.
     pub fn from_table(table: &toml::Table) -> Result<Self, SetupError> {
-        read::only_keys(table, SETUP_KEYS)?;
-        let pivot_mm = read::vec3(table, "pivot")?.ok_or_else(|| {
-            SetupError::new(
-                "pivot",
-                "missing: the nominal table-side ball centre [x, y, z] in mm, workpiece frame",
-            )
-        })?;
-        let length_mm = read::required_number(table, "length", "the nominal bar length in mm")?;
+        let keys: Keys = config::read(table)?;
+        let pivot_mm = required(
+            keys.pivot,
+            "pivot",
+            "the nominal table-side ball centre [x, y, z] in mm, workpiece frame",
+        )?
+        .0;
+        let length_mm = required(keys.length, "length", "the nominal bar length in mm")?.0;
         if length_mm <= 0.0 {
             return Err(SetupError::new(
                 "length",
                 format!("the bar length must be positive (mm), found {length_mm}"),
             ));
         }
-        let sigma_um = read::number(table, "sigma_um")?.unwrap_or(1.0);
+        let sigma_um = keys.sigma_um.map_or(1.0, f64::from);
         if sigma_um <= 0.0 {
             return Err(SetupError::new(
                 "sigma_um",
                 format!("the reading's standard deviation must be positive (µm), found {sigma_um}"),
             ));
         }
-        let length_free = read::boolean(table, "length_free")?.unwrap_or(false);
-        let length_u_um = read::number(table, "length_u_um")?;
+        let length_free = keys.length_free.unwrap_or(false);
+        let length_u_um = keys.length_u_um.map(f64::from);
         if let Some(u) = length_u_um {
             if u <= 0.0 {
                 return Err(SetupError::new(
@@ -87,34 +104,25 @@ impl BallbarConfig {
             pivot_mm,
             length_mm,
             sigma_um,
-            pivot_free: read::boolean(table, "pivot_free")?.unwrap_or(true),
+            pivot_free: keys.pivot_free.unwrap_or(true),
             length_free,
             length_u_um,
-            tool_length_free: read::boolean(table, "tool_length_free")?.unwrap_or(true),
+            tool_length_free: keys.tool_length_free.unwrap_or(true),
         })
     }
 
     /// The table again (every key written, defaults included).
     pub fn to_table(&self) -> toml::Table {
-        let mut t = toml::Table::new();
-        let pivot = self
-            .pivot_mm
-            .iter()
-            .map(|&v| toml::Value::Float(v))
-            .collect();
-        t.insert("pivot".into(), toml::Value::Array(pivot));
-        t.insert("length".into(), toml::Value::Float(self.length_mm));
-        t.insert("sigma_um".into(), toml::Value::Float(self.sigma_um));
-        t.insert("pivot_free".into(), toml::Value::Boolean(self.pivot_free));
-        t.insert("length_free".into(), toml::Value::Boolean(self.length_free));
-        if let Some(u) = self.length_u_um {
-            t.insert("length_u_um".into(), toml::Value::Float(u));
-        }
-        t.insert(
-            "tool_length_free".into(),
-            toml::Value::Boolean(self.tool_length_free),
-        );
-        t
+        let keys = Keys {
+            pivot: Some(Vec3(self.pivot_mm)),
+            length: Some(Number(self.length_mm)),
+            sigma_um: Some(Number(self.sigma_um)),
+            pivot_free: Some(self.pivot_free),
+            length_free: Some(self.length_free),
+            length_u_um: self.length_u_um.map(Number),
+            tool_length_free: Some(self.tool_length_free),
+        };
+        toml::Table::try_from(keys).expect("numbers and flags make a table")
     }
 
     /// Nominal pivot, m.
@@ -251,5 +259,15 @@ impl Setup for BallbarSetup {
 
     fn to_toml(&self) -> toml::Table {
         self.config.to_table()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
     }
 }

@@ -1,8 +1,10 @@
 //! Measuring paths: the machine held still at one position for the whole run.
 
 use crate::setup::{DisplacementSetup, load};
-use mtcal_instrument::{PathSpec, SetupContext, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected};
+use mtcal_instrument::{PathSpec, SetupContext, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
+use serde::{Deserialize, Deserializer};
 
 /// Samples of a path when the table does not say.
 pub const DEFAULT_SAMPLES: usize = 100;
@@ -18,6 +20,20 @@ pub const POSITION_TOL_MM: f64 = 1e-3;
 /// Axis limits are checked with this tolerance (m or rad), as the conformance harness does.
 const LIMIT_TOL: f64 = 1e-9;
 
+/// A path table as written ([`PATH_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathKeys {
+    samples: Option<Number>,
+    #[serde(default, deserialize_with = "at_table")]
+    at: Option<toml::Table>,
+}
+
+/// Axis positions by letter; each is read once its letter is known to name an axis.
+fn at_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of axis positions like { X = 0.0, Z = -200.0 }").map(Some)
+}
+
 fn show(machine: &Machine, axis: usize, v: f64) -> String {
     match machine.axes()[axis].kind() {
         AxisKind::Linear => format!("{:.4} mm", v * 1e3),
@@ -30,19 +46,13 @@ fn show(machine: &Machine, axis: usize, v: f64) -> String {
 /// Unknown letters, non-numbers and positions outside the axis limits are errors naming
 /// `at.<letter>` (or `at` for an unnamed axis whose 0 lies outside its limits).
 pub fn held_position(machine: &Machine, path: &toml::Table) -> Result<Vec<f64>, SetupError> {
+    let keys: PathKeys = config::read(path)?;
+    held(machine, keys.at.as_ref())
+}
+
+/// [`held_position`] of the `at` table as written.
+fn held(machine: &Machine, at: Option<&toml::Table>) -> Result<Vec<f64>, SetupError> {
     let mut q = vec![0.0; machine.n_axes()];
-    let at = match path.get("at") {
-        None => None,
-        Some(toml::Value::Table(t)) => Some(t),
-        Some(v) => {
-            return Err(SetupError::new(
-                "at",
-                format!(
-                    "expected a table of axis positions like {{ X = 0.0, Z = -200.0 }}, found {v}"
-                ),
-            ));
-        }
-    };
     let mut named = vec![false; machine.n_axes()];
     for (letter, v) in at.into_iter().flatten() {
         let key = format!("at.{letter}");
@@ -61,18 +71,15 @@ pub fn held_position(machine: &Machine, path: &toml::Table) -> Result<Vec<f64>, 
                 ),
             )
         })?;
-        let x = match v {
-            toml::Value::Float(f) if f.is_finite() => *f,
-            toml::Value::Integer(i) => *i as f64,
-            _ => {
-                return Err(SetupError::new(
-                    &key,
-                    format!(
-                        "expected a position (mm for linear axes, degrees for rotary ones), found {v}"
-                    ),
-                ));
-            }
-        };
+        let x = config::number(v).ok_or_else(|| {
+            SetupError::new(
+                &key,
+                expected(
+                    "a position (mm for linear axes, degrees for rotary ones)",
+                    v,
+                ),
+            )
+        })?;
         q[axis] = machine.axes()[axis].kind().from_file(x);
         named[axis] = true;
     }
@@ -150,8 +157,8 @@ pub fn check_setup(
 }
 
 /// The number of samples of a path table (default [`DEFAULT_SAMPLES`], at least 1).
-fn samples(path: &toml::Table) -> Result<usize, SetupError> {
-    match read::number(path, "samples")? {
+fn samples(samples: Option<Number>) -> Result<usize, SetupError> {
+    match samples.map(f64::from) {
         None => Ok(DEFAULT_SAMPLES),
         Some(x) if x.fract() == 0.0 && (1.0..=1e7).contains(&x) => Ok(x as usize),
         Some(x) => Err(SetupError::new(
@@ -170,9 +177,19 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
             machine: spec.machine,
         },
     )?;
-    read::only_keys(spec.path, PATH_KEYS)?;
-    let n = samples(spec.path)?;
-    let q = held_position(spec.machine, spec.path)?;
+    let keys: PathKeys = config::read(spec.path)?;
+    let n = samples(keys.samples)?;
+    let q = held(spec.machine, keys.at.as_ref())?;
     check_setup(spec.machine, &setup, &q)?;
     Ok(vec![q; n])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<PathKeys>(), Some(PATH_KEYS));
+    }
 }

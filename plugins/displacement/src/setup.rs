@@ -1,9 +1,9 @@
 //! The displacement set-up: loading, the measurement model and its analytic derivatives.
 
-use mtcal_instrument::{
-    At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit, read,
-};
+use mtcal_instrument::config::{self, Number, Vec3, expected, required};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit};
 use nalgebra::Vector3;
+use serde::{Deserialize, Deserializer};
 
 /// Default standard deviation of one reading, µm.
 pub const DEFAULT_SIGMA_UM: f64 = 0.5;
@@ -14,9 +14,35 @@ pub const SETUP_KEYS: &[&str] = &["position", "sigma_um", "offset_free", "sensor
 /// Every key a sensor written as a table may have.
 pub const SENSOR_KEYS: &[&str] = &["direction", "sigma_um", "at"];
 
+/// A set-up table as written ([`SETUP_KEYS`], in that order). The sensors are keyed by their
+/// names: each is read once its name is known to be valid ([`load_sensor`]).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    position: Option<Vec3>,
+    sigma_um: Option<Number>,
+    offset_free: Option<bool>,
+    #[serde(default, deserialize_with = "sensors_table")]
+    sensors: Option<toml::Table>,
+}
+
+fn sensors_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of sensors, e.g. { x1 = \"X\", ch5 = {} }").map(Some)
+}
+
+/// A sensor written as a table ([`SENSOR_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SensorKeys {
+    direction: Option<SensorDirection>,
+    sigma_um: Option<Number>,
+    at: Option<Vec3>,
+}
+
 /// A sensor's measuring direction as the set-up gives it: the direction, in the workpiece frame,
 /// in which a displacement of the touched point reads positive.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(try_from = "toml::Value")]
 pub enum SensorDirection {
     /// Along a workpiece-frame axis: `axis` 0, 1, 2 for X, Y, Z; `negative` for `"-X"`.
     Axis { axis: usize, negative: bool },
@@ -68,58 +94,36 @@ impl SensorDirection {
             Self::Vector(v) => toml::Value::Array(v.iter().map(|&x| x.into()).collect()),
         }
     }
+}
 
-    /// A direction from a manifest value: a letter string or a nonzero vector of three finite
-    /// numbers; errors name `key`.
-    fn from_value(v: &toml::Value, key: &str) -> Result<Self, SetupError> {
-        match v {
+/// A letter string or a nonzero vector of three finite numbers.
+impl TryFrom<toml::Value> for SensorDirection {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        match &value {
             toml::Value::String(s) => Self::parse_letter(s).ok_or_else(|| {
-                SetupError::new(
-                    key,
-                    format!(
-                        "unknown direction `{s}`; expected an axis letter \"X\", \"Y\", \"Z\" \
-                         (optionally signed, \"-X\") or a vector [x, y, z]"
-                    ),
+                format!(
+                    "unknown direction `{s}`; expected an axis letter \"X\", \"Y\", \"Z\" \
+                     (optionally signed, \"-X\") or a vector [x, y, z]"
                 )
             }),
             toml::Value::Array(_) => {
-                let v3 = vec3_value(v, key)?;
+                let v3 = Vec3::try_from(value.clone())?.0;
                 let norm = Vector3::from(v3).norm();
                 if !(norm.is_finite() && norm > 0.0) {
-                    return Err(SetupError::new(
-                        key,
-                        format!(
-                            "the direction vector {v} has no usable length (|v| = {norm}); it \
-                             must be nonzero"
-                        ),
+                    return Err(format!(
+                        "the direction vector {value} has no usable length (|v| = {norm}); it \
+                         must be nonzero"
                     ));
                 }
                 Ok(Self::Vector(v3))
             }
-            _ => Err(SetupError::new(
-                key,
-                format!(
-                    "expected a direction: an axis letter (\"X\", \"-Y\") or a vector [x, y, z], \
-                     found {v}"
-                ),
+            _ => Err(expected(
+                "a direction: an axis letter (\"X\", \"-Y\") or a vector [x, y, z]",
+                &value,
             )),
         }
     }
-}
-
-/// Three finite numbers from a value (integers accepted); errors name `key`.
-fn vec3_value(v: &toml::Value, key: &str) -> Result<[f64; 3], SetupError> {
-    let bad = || SetupError::new(key, format!("expected three numbers [x, y, z], found {v}"));
-    let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(bad)?;
-    let mut out = [0.0; 3];
-    for (o, x) in out.iter_mut().zip(arr) {
-        *o = match x {
-            toml::Value::Float(f) if f.is_finite() => *f,
-            toml::Value::Integer(i) => *i as f64,
-            _ => return Err(bad()),
-        };
-    }
-    Ok(out)
 }
 
 /// One sensor of a set-up, as written (file units) and as used (SI).
@@ -217,20 +221,10 @@ fn load_sensor(name: &str, v: &toml::Value) -> Result<Sensor, SetupError> {
     }
     let (direction, sigma_um, at_mm) = match v {
         toml::Value::Table(t) => {
-            let wrap = in_sensor(name);
-            read::only_keys(t, SENSOR_KEYS).map_err(&wrap)?;
-            let direction = t
-                .get("direction")
-                .map(|d| SensorDirection::from_value(d, &format!("{key}.direction")))
-                .transpose()?;
-            let sigma_key = format!("{key}.sigma_um");
-            let sigma = read::number(t, "sigma_um").map_err(&wrap)?;
-            let sigma = positive(&sigma_key, sigma)?;
-            let at = t
-                .get("at")
-                .map(|a| vec3_value(a, &format!("{key}.at")))
-                .transpose()?;
-            if at.is_some() && direction.is_none() {
+            let keys: SensorKeys = config::read(t).map_err(in_sensor(name))?;
+            let sigma = positive(&format!("{key}.sigma_um"), keys.sigma_um.map(f64::from))?;
+            let at = keys.at.map(<[f64; 3]>::from);
+            if at.is_some() && keys.direction.is_none() {
                 // Its reading does not depend on the pose, so where it touches would be ignored:
                 // more likely a forgotten `direction` than a deliberate choice.
                 return Err(SetupError::new(
@@ -238,9 +232,13 @@ fn load_sensor(name: &str, v: &toml::Value) -> Result<Sensor, SetupError> {
                     "`at` needs a `direction`: a sensor without one reads only its own offset",
                 ));
             }
-            (direction, sigma, at)
+            (keys.direction, sigma, at)
         }
-        other => (Some(SensorDirection::from_value(other, &key)?), None, None),
+        other => {
+            let direction =
+                SensorDirection::try_from(other.clone()).map_err(|m| SetupError::new(&key, m))?;
+            (Some(direction), None, None)
+        }
     };
     Ok(Sensor {
         name: name.to_string(),
@@ -294,28 +292,15 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<DisplacementS
     // The model sees the machine only through the tool pose; the path checks the set-up
     // against the machine's nominal geometry.
     let _ = ctx;
-    read::only_keys(table, SETUP_KEYS)?;
-    let position_mm = read::vec3(table, "position")?.unwrap_or([0.0; 3]);
-    let sigma_um =
-        positive("sigma_um", read::number(table, "sigma_um")?)?.unwrap_or(DEFAULT_SIGMA_UM);
-    let offset_free = read::boolean(table, "offset_free")?.unwrap_or(true);
-    let sensors_table = match table.get("sensors") {
-        Some(toml::Value::Table(t)) => t,
-        Some(v) => {
-            return Err(SetupError::new(
-                "sensors",
-                format!(
-                    "expected a table of sensors, e.g. {{ x1 = \"X\", ch5 = {{}} }}, found {v}"
-                ),
-            ));
-        }
-        None => {
-            return Err(SetupError::new(
-                "sensors",
-                "missing: the sensors, e.g. [setup.<name>.sensors] x1 = \"X\"",
-            ));
-        }
-    };
+    let keys: Keys = config::read(table)?;
+    let position_mm = keys.position.map_or([0.0; 3], <[f64; 3]>::from);
+    let sigma_um = positive("sigma_um", keys.sigma_um.map(f64::from))?.unwrap_or(DEFAULT_SIGMA_UM);
+    let offset_free = keys.offset_free.unwrap_or(true);
+    let sensors_table = required(
+        keys.sensors.as_ref(),
+        "sensors",
+        "the sensors, e.g. [setup.<name>.sensors] x1 = \"X\"",
+    )?;
     if sensors_table.is_empty() {
         return Err(SetupError::new("sensors", "the set-up has no sensors"));
     }
@@ -441,5 +426,16 @@ impl Setup for DisplacementSetup {
             .collect();
         t.insert("sensors".into(), toml::Value::Table(sensors));
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
+        assert_eq!(config::keys_of::<SensorKeys>(), Some(SENSOR_KEYS));
     }
 }

@@ -2,7 +2,7 @@
 //! equation of Birch & Downs) and the normalisation to a 20 °C material temperature.
 
 use crate::mode::Mode;
-use mtcal_instrument::{ReadingError, RunData, SetupError, read};
+use mtcal_instrument::{ReadingError, RunData, SetupError};
 
 /// Vacuum wavelength of a stabilised He-Ne laser, nm (the default of `wavelength_nm`).
 pub const HENE_NM: f64 = 632.991;
@@ -96,14 +96,6 @@ pub struct Environment {
     pub expansion_ppm_per_k: Option<f64>,
 }
 
-const AIR_KEYS: [&str; 5] = [
-    "assumed_index",
-    "wavelength_nm",
-    "air_temperature_c",
-    "air_pressure_hpa",
-    "air_humidity_pct",
-];
-
 fn in_range(key: &str, v: Option<f64>, lo: f64, hi: f64, what: &str) -> Result<(), SetupError> {
     match v {
         Some(x) if !(lo..=hi).contains(&x) => Err(SetupError::new(
@@ -115,27 +107,36 @@ fn in_range(key: &str, v: Option<f64>, lo: f64, hi: f64, what: &str) -> Result<(
 }
 
 impl Environment {
-    /// Reads the environment keys; they apply to length modes only.
-    pub fn load(table: &toml::Table, mode: Mode) -> Result<Self, SetupError> {
-        let e = Self {
-            wavelength_compensated: read::boolean(table, "wavelength_compensated")?,
-            assumed_index: read::number(table, "assumed_index")?,
-            wavelength_nm: read::number(table, "wavelength_nm")?,
-            air_temperature_c: read::number(table, "air_temperature_c")?,
-            air_pressure_hpa: read::number(table, "air_pressure_hpa")?,
-            air_humidity_pct: read::number(table, "air_humidity_pct")?,
-            material_temperature_c: read::number(table, "material_temperature_c")?,
-            expansion_ppm_per_k: read::number(table, "expansion_ppm_per_k")?,
-        };
+    /// The air keys and whether each is written.
+    fn air_keys(&self) -> [(&'static str, bool); 5] {
+        [
+            ("assumed_index", self.assumed_index.is_some()),
+            ("wavelength_nm", self.wavelength_nm.is_some()),
+            ("air_temperature_c", self.air_temperature_c.is_some()),
+            ("air_pressure_hpa", self.air_pressure_hpa.is_some()),
+            ("air_humidity_pct", self.air_humidity_pct.is_some()),
+        ]
+    }
+
+    /// Checks the environment keys as written: they apply to length modes only, the air keys
+    /// to uncompensated readings only, and each lies in its plausible range.
+    pub fn checked(self, mode: Mode) -> Result<Self, SetupError> {
         if !mode.is_length() {
-            for key in AIR_KEYS.iter().chain(&[
-                "wavelength_compensated",
-                "material_temperature_c",
-                "expansion_ppm_per_k",
-            ]) {
-                if table.contains_key(*key) {
+            let others = [
+                (
+                    "wavelength_compensated",
+                    self.wavelength_compensated.is_some(),
+                ),
+                (
+                    "material_temperature_c",
+                    self.material_temperature_c.is_some(),
+                ),
+                ("expansion_ppm_per_k", self.expansion_ppm_per_k.is_some()),
+            ];
+            for (key, given) in self.air_keys().into_iter().chain(others) {
+                if given {
                     return Err(SetupError::new(
-                        *key,
+                        key,
                         format!(
                             "environmental compensation applies to length readings (linear, \
                              diagonal, step-diagonal), not \"{}\"",
@@ -145,9 +146,9 @@ impl Environment {
                 }
             }
         }
-        if e.wavelength_compensated != Some(false) {
-            for key in AIR_KEYS {
-                if table.contains_key(key) {
+        if self.wavelength_compensated != Some(false) {
+            for (key, given) in self.air_keys() {
+                if given {
                     return Err(SetupError::new(
                         key,
                         "only used with `wavelength_compensated = false` (the readings are \
@@ -158,60 +159,60 @@ impl Environment {
         }
         in_range(
             "assumed_index",
-            e.assumed_index,
+            self.assumed_index,
             0.9,
             1.1,
             "a refractive index",
         )?;
         in_range(
             "wavelength_nm",
-            e.wavelength_nm,
+            self.wavelength_nm,
             200.0,
             2000.0,
             "a vacuum wavelength, nm",
         )?;
         in_range(
             "air_temperature_c",
-            e.air_temperature_c,
+            self.air_temperature_c,
             AIR_T_RANGE.0,
             AIR_T_RANGE.1,
             "an air temperature, °C",
         )?;
         in_range(
             "air_pressure_hpa",
-            e.air_pressure_hpa,
+            self.air_pressure_hpa,
             AIR_P_RANGE_HPA.0,
             AIR_P_RANGE_HPA.1,
             "an air pressure, hPa",
         )?;
         in_range(
             "air_humidity_pct",
-            e.air_humidity_pct,
+            self.air_humidity_pct,
             AIR_H_RANGE.0,
             AIR_H_RANGE.1,
             "a relative humidity, %",
         )?;
         in_range(
             "material_temperature_c",
-            e.material_temperature_c,
+            self.material_temperature_c,
             MATERIAL_T_RANGE.0,
             MATERIAL_T_RANGE.1,
             "a material temperature, °C",
         )?;
         in_range(
             "expansion_ppm_per_k",
-            e.expansion_ppm_per_k,
+            self.expansion_ppm_per_k,
             -50.0,
             50.0,
             "an expansion coefficient, ppm/K",
         )?;
-        if e.material_temperature_c.is_some() && e.expansion_ppm_per_k.is_none() {
+        if self.material_temperature_c.is_some() && self.expansion_ppm_per_k.is_none() {
             return Err(SetupError::new(
                 "material_temperature_c",
                 "needs `expansion_ppm_per_k` (the material's expansion coefficient)",
             ));
         }
-        Ok(e)
+        Ok(self)
     }
 
     /// Writes the keys that were given (and `wavelength_compensated` for length modes).

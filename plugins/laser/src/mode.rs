@@ -1,7 +1,10 @@
 //! What the optics measure: the laser's measurement modes.
 
+use serde::Deserialize;
+
 /// What the optics measure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum Mode {
     /// Displacement along the beam (ISO 230-2 positioning).
     Linear,
@@ -38,5 +41,17 @@ impl Mode {
     /// Whether the reading is a length along the beam (linear, diagonal, step-diagonal).
     pub fn is_length(self) -> bool {
         matches!(self, Self::Linear | Self::Diagonal | Self::StepDiagonal)
+    }
+}
+
+impl TryFrom<String> for Mode {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        Mode::parse(&value).ok_or_else(|| {
+            format!(
+                "unknown mode `{value}`; expected linear, straightness, angular, diagonal or \
+                 step-diagonal"
+            )
+        })
     }
 }

@@ -3,8 +3,10 @@
 //! The keys are documented in the crate docs.
 
 use crate::setup::{LaserSetup, Mode, load};
-use mtcal_instrument::{PathSpec, SetupContext, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected, required};
+use mtcal_instrument::{PathSpec, SetupContext, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
+use serde::{Deserialize, Deserializer};
 
 /// Every key of a path along one axis.
 pub const AXIS_PATH_KEYS: &[&str] = &[
@@ -29,16 +31,64 @@ pub const ALIGN_TOL: f64 = 1e-6;
 
 const LIMIT_TOL: f64 = 1e-9;
 
-fn to_si(machine: &Machine, axis: usize, v: f64) -> f64 {
-    machine.axes()[axis].kind().from_file(v)
+/// A path along one axis as written ([`AXIS_PATH_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisPathKeys {
+    axis: Option<String>,
+    targets: Option<Targets>,
+    from: Option<Number>,
+    to: Option<Number>,
+    step: Option<Number>,
+    points: Option<Number>,
+    cycles: Option<Number>,
+    bidirectional: Option<bool>,
+    overrun: Option<Number>,
+    #[serde(default, deserialize_with = "positions_table")]
+    hold: Option<toml::Table>,
 }
 
-fn number_value(v: &toml::Value) -> Option<f64> {
-    match v {
-        toml::Value::Float(f) if f.is_finite() => Some(*f),
-        toml::Value::Integer(i) => Some(*i as f64),
-        _ => None,
+/// A diagonal or step-diagonal path as written ([`DIAGONAL_PATH_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DiagonalPathKeys {
+    #[serde(default, deserialize_with = "positions_table")]
+    from: Option<toml::Table>,
+    #[serde(default, deserialize_with = "positions_table")]
+    to: Option<toml::Table>,
+    points: Option<Number>,
+    cycles: Option<Number>,
+    bidirectional: Option<bool>,
+    #[serde(default, deserialize_with = "positions_table")]
+    hold: Option<toml::Table>,
+}
+
+/// Axis positions by letter (`{ X = 10.0, C = 90.0 }`); each is read once its letter is known
+/// to name an axis ([`positions`]).
+fn positions_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of axis positions like { X = 0.0, Z = -200.0 }").map(Some)
+}
+
+/// The targets of a path along one axis, mm.
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "toml::Value")]
+struct Targets(Vec<f64>);
+
+impl TryFrom<toml::Value> for Targets {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        let list = value
+            .as_array()
+            .ok_or_else(|| expected("a list of positions (mm)", &value))?;
+        list.iter()
+            .map(|x| config::number(x).ok_or_else(|| expected("numbers (mm)", x)))
+            .collect::<Result<_, _>>()
+            .map(Targets)
     }
+}
+
+fn to_si(machine: &Machine, axis: usize, v: f64) -> f64 {
+    machine.axes()[axis].kind().from_file(v)
 }
 
 fn axis_of(machine: &Machine, letter: &str, key: &str) -> Result<usize, SetupError> {
@@ -59,28 +109,19 @@ fn axis_of(machine: &Machine, letter: &str, key: &str) -> Result<usize, SetupErr
     })
 }
 
-/// Axis positions by letter (`{ X = 10.0, C = 90.0 }`, mm / degrees) written into `q` (SI).
-/// Returns which axes were named.
+/// Axis positions by letter (`{ X = 10.0, C = 90.0 }`, mm / degrees) of key `key`, written
+/// into `q` (SI). Returns which axes were named.
 fn positions(
     machine: &Machine,
-    table: &toml::Table,
+    positions: Option<&toml::Table>,
     key: &str,
     q: &mut [f64],
 ) -> Result<Vec<bool>, SetupError> {
     let mut named = vec![false; machine.n_axes()];
-    let Some(v) = table.get(key) else {
-        return Ok(named);
-    };
-    let t = v.as_table().ok_or_else(|| {
-        SetupError::new(
-            key,
-            format!("expected a table of axis positions like {{ X = 0.0, Z = -200.0 }}, found {v}"),
-        )
-    })?;
-    for (letter, v) in t {
+    for (letter, v) in positions.into_iter().flatten() {
         let k = format!("{key}.{letter}");
         let axis = axis_of(machine, letter, &k)?;
-        let x = number_value(v).ok_or_else(|| {
+        let x = config::number(v).ok_or_else(|| {
             SetupError::new(
                 &k,
                 format!("expected a position (mm, or degrees for a rotary axis), found {v}"),
@@ -92,8 +133,13 @@ fn positions(
     Ok(named)
 }
 
-fn count(table: &toml::Table, key: &str, default: usize, min: usize) -> Result<usize, SetupError> {
-    match read::number(table, key)? {
+fn count(
+    value: Option<Number>,
+    key: &str,
+    default: usize,
+    min: usize,
+) -> Result<usize, SetupError> {
+    match value.map(f64::from) {
         None => Ok(default),
         Some(x) if x.fract() == 0.0 && x >= min as f64 && x <= 1e6 => Ok(x as usize),
         Some(x) => Err(SetupError::new(
@@ -184,11 +230,10 @@ fn check_direction(
 
 fn axis_path(spec: &PathSpec<'_>, setup: &LaserSetup) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
-    let table = spec.path;
-    read::only_keys(table, AXIS_PATH_KEYS)?;
-    let letter = match read::string(table, "axis")? {
+    let keys: AxisPathKeys = config::read(spec.path)?;
+    let letter = match &keys.axis {
         Some(s) => s.to_string(),
-        None => match spec.setup.get("direction").and_then(|v| v.as_str()) {
+        None => match setup.direction().value().as_str() {
             Some(d) => d.trim_start_matches(['+', '-']).to_string(),
             None => {
                 return Err(SetupError::new(
@@ -206,7 +251,7 @@ fn axis_path(spec: &PathSpec<'_>, setup: &LaserSetup) -> Result<Vec<Vec<f64>>, S
         ));
     }
     let mut base = vec![0.0; machine.n_axes()];
-    let held = positions(machine, table, "hold", &mut base)?;
+    let held = positions(machine, keys.hold.as_ref(), "hold", &mut base)?;
     if held[axis] {
         return Err(SetupError::new(
             format!("hold.{letter}"),
@@ -215,41 +260,33 @@ fn axis_path(spec: &PathSpec<'_>, setup: &LaserSetup) -> Result<Vec<Vec<f64>>, S
     }
     let limits = machine.axes()[axis].limits();
     // Targets, mm along the axis, ascending.
-    let mut targets: Vec<f64> = if let Some(v) = table.get("targets") {
-        for key in ["from", "to", "step", "points"] {
-            if table.contains_key(key) {
-                return Err(SetupError::new(
-                    key,
-                    "give either `targets` or a range, not both",
-                ));
-            }
+    let mut targets: Vec<f64> = if let Some(Targets(targets)) = &keys.targets {
+        let range = [
+            ("from", keys.from.is_some()),
+            ("to", keys.to.is_some()),
+            ("step", keys.step.is_some()),
+            ("points", keys.points.is_some()),
+        ];
+        if let Some((key, _)) = range.iter().find(|(_, given)| *given) {
+            return Err(SetupError::new(
+                *key,
+                "give either `targets` or a range, not both",
+            ));
         }
-        let arr = v.as_array().ok_or_else(|| {
-            SetupError::new(
-                "targets",
-                format!("expected a list of positions (mm), found {v}"),
-            )
-        })?;
-        arr.iter()
-            .map(|x| {
-                number_value(x).ok_or_else(|| {
-                    SetupError::new("targets", format!("expected numbers (mm), found {x}"))
-                })
-            })
-            .collect::<Result<_, _>>()?
+        targets.clone()
     } else {
         let (lo, hi) = limits.map_or((-0.1, 0.1), |(l, h)| (l, h));
-        let from = read::number(table, "from")?.unwrap_or(lo * 1e3);
-        let to = read::number(table, "to")?.unwrap_or(hi * 1e3);
+        let from = keys.from.map_or(lo * 1e3, f64::from);
+        let to = keys.to.map_or(hi * 1e3, f64::from);
         if from == to {
             return Err(SetupError::new(
                 "to",
                 "`from` and `to` are the same position",
             ));
         }
-        let points = match read::number(table, "step")? {
+        let points = match keys.step.map(f64::from) {
             Some(step) => {
-                if table.contains_key("points") {
+                if keys.points.is_some() {
                     return Err(SetupError::new("points", "give either `step` or `points`"));
                 }
                 if step <= 0.0 {
@@ -262,30 +299,30 @@ fn axis_path(spec: &PathSpec<'_>, setup: &LaserSetup) -> Result<Vec<Vec<f64>>, S
                 if n < 2 {
                     return Err(SetupError::new("step", "the step is longer than the range"));
                 }
-                return finish_axis(spec, setup, axis, &base, {
+                return finish_axis(spec, setup, &keys, axis, &base, {
                     let sgn = (to - from).signum();
                     (0..n).map(|i| from + sgn * step * i as f64).collect()
                 });
             }
-            None => count(table, "points", DEFAULT_POINTS, 2)?,
+            None => count(keys.points, "points", DEFAULT_POINTS, 2)?,
         };
         (0..points)
             .map(|i| from + (to - from) * i as f64 / (points - 1) as f64)
             .collect()
     };
     targets.sort_by(f64::total_cmp);
-    finish_axis(spec, setup, axis, &base, targets)
+    finish_axis(spec, setup, &keys, axis, &base, targets)
 }
 
 fn finish_axis(
     spec: &PathSpec<'_>,
     setup: &LaserSetup,
+    keys: &AxisPathKeys,
     axis: usize,
     base: &[f64],
     mut targets_mm: Vec<f64>,
 ) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
-    let table = spec.path;
     targets_mm.sort_by(f64::total_cmp);
     targets_mm.dedup();
     if targets_mm.len() < 2 {
@@ -294,9 +331,9 @@ fn finish_axis(
             "need at least two distinct targets",
         ));
     }
-    let cycles = count(table, "cycles", 1, 1)?;
-    let bidirectional = read::boolean(table, "bidirectional")?.unwrap_or(true);
-    let overrun = read::number(table, "overrun")?.unwrap_or(0.0);
+    let cycles = count(keys.cycles, "cycles", 1, 1)?;
+    let bidirectional = keys.bidirectional.unwrap_or(true);
+    let overrun = keys.overrun.map_or(0.0, f64::from);
     if overrun < 0.0 {
         return Err(SetupError::new(
             "overrun",
@@ -332,23 +369,19 @@ fn diagonal_path(
     steps: bool,
 ) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
-    let table = spec.path;
-    read::only_keys(table, DIAGONAL_PATH_KEYS)?;
+    let keys: DiagonalPathKeys = config::read(spec.path)?;
     let mut base = vec![0.0; machine.n_axes()];
-    let held = positions(machine, table, "hold", &mut base)?;
+    let held = positions(machine, keys.hold.as_ref(), "hold", &mut base)?;
     let mut from = base.clone();
     let mut to = base.clone();
-    if !table.contains_key("from") {
-        return Err(SetupError::new(
-            "from",
-            "missing: the start corner, e.g. { X = -200.0, Y = -150.0, Z = -400.0 }",
-        ));
-    }
-    if !table.contains_key("to") {
-        return Err(SetupError::new("to", "missing: the end corner"));
-    }
-    let nf = positions(machine, table, "from", &mut from)?;
-    let nt = positions(machine, table, "to", &mut to)?;
+    let from_given = required(
+        keys.from.as_ref(),
+        "from",
+        "the start corner, e.g. { X = -200.0, Y = -150.0, Z = -400.0 }",
+    )?;
+    let to_given = required(keys.to.as_ref(), "to", "the end corner")?;
+    let nf = positions(machine, Some(from_given), "from", &mut from)?;
+    let nt = positions(machine, Some(to_given), "to", &mut to)?;
     for i in 0..machine.n_axes() {
         let letter = machine.axes()[i].letter();
         if held[i] && (nf[i] || nt[i]) {
@@ -370,9 +403,9 @@ fn diagonal_path(
     if moving.len() < 2 {
         return Err(SetupError::new("to", "a diagonal moves at least two axes"));
     }
-    let points = count(table, "points", DEFAULT_POINTS, 2)?;
-    let cycles = count(table, "cycles", 1, 1)?;
-    let bidirectional = read::boolean(table, "bidirectional")?.unwrap_or(true);
+    let points = count(keys.points, "points", DEFAULT_POINTS, 2)?;
+    let cycles = count(keys.cycles, "cycles", 1, 1)?;
+    let bidirectional = keys.bidirectional.unwrap_or(true);
     let corner =
         |s: f64| -> Vec<f64> { from.iter().zip(&to).map(|(a, b)| a + (b - a) * s).collect() };
     let targets: Vec<Vec<f64>> = (0..points)
@@ -416,5 +449,19 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
         Mode::Diagonal => diagonal_path(spec, &setup, false),
         Mode::StepDiagonal => diagonal_path(spec, &setup, true),
         _ => axis_path(spec, &setup),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<AxisPathKeys>(), Some(AXIS_PATH_KEYS));
+        assert_eq!(
+            config::keys_of::<DiagonalPathKeys>(),
+            Some(DIAGONAL_PATH_KEYS)
+        );
     }
 }

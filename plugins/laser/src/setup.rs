@@ -2,13 +2,14 @@
 
 use crate::env::{Environment, compensate, uncompensate};
 pub use crate::mode::Mode;
+use mtcal_instrument::config::{self, Number, Vec3, expected, required};
 use mtcal_instrument::{
     At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
-    read,
 };
 use mtcal_kinematics::Machine;
 use mtcal_kinematics::rigid::{left_jacobian_inverse, log_so3};
 use nalgebra::{Matrix3, Vector3};
+use serde::Deserialize;
 
 /// Default standard deviation of one length reading (linear, straightness, diagonal), µm.
 pub const DEFAULT_SIGMA_UM: f64 = 0.5;
@@ -44,8 +45,53 @@ pub const SETUP_KEYS: &[&str] = &[
     "expansion_ppm_per_k",
 ];
 
+/// A set-up table as written ([`SETUP_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    mode: Option<Mode>,
+    direction: Option<Direction>,
+    sense: Option<Direction>,
+    about: Option<Direction>,
+    optic: Option<Optic>,
+    optic_offset: Option<Vec3>,
+    origin: Option<Vec3>,
+    sigma_um: Option<Number>,
+    sigma_urad: Option<Number>,
+    offset_free: Option<bool>,
+    tilt_free: Option<bool>,
+    tilt_prior_urad: Option<Number>,
+    slope_free: Option<bool>,
+    wavelength_compensated: Option<bool>,
+    assumed_index: Option<Number>,
+    wavelength_nm: Option<Number>,
+    air_temperature_c: Option<Number>,
+    air_pressure_hpa: Option<Number>,
+    air_humidity_pct: Option<Number>,
+    material_temperature_c: Option<Number>,
+    expansion_ppm_per_k: Option<Number>,
+}
+
+impl Keys {
+    /// The environment keys as written.
+    fn environment(&self) -> Environment {
+        let number = |n: Option<Number>| n.map(f64::from);
+        Environment {
+            wavelength_compensated: self.wavelength_compensated,
+            assumed_index: number(self.assumed_index),
+            wavelength_nm: number(self.wavelength_nm),
+            air_temperature_c: number(self.air_temperature_c),
+            air_pressure_hpa: number(self.air_pressure_hpa),
+            air_humidity_pct: number(self.air_humidity_pct),
+            material_temperature_c: number(self.material_temperature_c),
+            expansion_ppm_per_k: number(self.expansion_ppm_per_k),
+        }
+    }
+}
+
 /// Where the moving optic sits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum Optic {
     /// Moving optic on the tool side; laser and fixed optic on the table (the beam is fixed in
     /// the workpiece frame).
@@ -55,55 +101,61 @@ pub enum Optic {
     Table,
 }
 
+impl TryFrom<String> for Optic {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        match value.as_str() {
+            "tool" => Ok(Optic::Tool),
+            "table" => Ok(Optic::Table),
+            s => Err(format!(
+                "unknown optic `{s}`; expected \"tool\" or \"table\""
+            )),
+        }
+    }
+}
+
 /// A direction as written in the set-up: a signed axis letter or a vector (workpiece frame).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(try_from = "toml::Value")]
 pub struct Direction {
     value: toml::Value,
     unit: Vector3<f64>,
 }
 
-impl Direction {
-    /// From a manifest value; errors name `key`.
-    pub fn from_value(v: &toml::Value, key: &str) -> Result<Self, SetupError> {
-        let unit = match v {
+impl TryFrom<toml::Value> for Direction {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        let unit = match &value {
             toml::Value::String(s) => parse_letter(s).ok_or_else(|| {
-                SetupError::new(
-                    key,
-                    format!(
-                        "unknown direction `{s}`; expected an axis letter \"X\", \"Y\", \"Z\" \
-                         (optionally signed, \"-X\") or a vector [x, y, z]"
-                    ),
+                format!(
+                    "unknown direction `{s}`; expected an axis letter \"X\", \"Y\", \"Z\" \
+                     (optionally signed, \"-X\") or a vector [x, y, z]"
                 )
             })?,
             toml::Value::Array(_) => {
-                let mut t = toml::Table::new();
-                t.insert(key.to_string(), v.clone());
-                let v3 = Vector3::from(read::vec3(&t, key)?.expect("inserted"));
+                let v3 = config::vec3(&value)
+                    .map(Vector3::from)
+                    .ok_or_else(|| expected("three numbers [x, y, z]", &value))?;
                 let norm = v3.norm();
                 if !(norm.is_finite() && norm > 0.0) {
-                    return Err(SetupError::new(
-                        key,
-                        format!("the vector {v} has no usable length; it must be nonzero"),
+                    return Err(format!(
+                        "the vector {value} has no usable length; it must be nonzero"
                     ));
                 }
                 v3 / norm
             }
             _ => {
-                return Err(SetupError::new(
-                    key,
-                    format!(
-                        "expected a direction: an axis letter (\"X\", \"-Y\") or a vector \
-                         [x, y, z], found {v}"
-                    ),
+                return Err(expected(
+                    "a direction: an axis letter (\"X\", \"-Y\") or a vector [x, y, z]",
+                    &value,
                 ));
             }
         };
-        Ok(Self {
-            value: v.clone(),
-            unit,
-        })
+        Ok(Self { value, unit })
     }
+}
 
+impl Direction {
     /// The unit vector, workpiece frame.
     pub fn unit(&self) -> Vector3<f64> {
         self.unit
@@ -199,6 +251,10 @@ impl LaserSetup {
     pub fn mode(&self) -> Mode {
         self.mode
     }
+    /// The beam direction as written.
+    pub fn direction(&self) -> &Direction {
+        &self.direction
+    }
     pub fn optic(&self) -> Optic {
         self.optic
     }
@@ -277,18 +333,17 @@ fn positive(key: &str, v: Option<f64>, what: &str) -> Result<Option<f64>, SetupE
 /// A perpendicular direction (`sense`, `about`): required in its mode, rejected elsewhere,
 /// perpendicular to the beam.
 fn perpendicular(
-    table: &toml::Table,
+    given: Option<Direction>,
     key: &str,
     needed: bool,
     mode: Mode,
     n: &Vector3<f64>,
     what: &str,
 ) -> Result<Option<Direction>, SetupError> {
-    match (table.get(key), needed) {
+    match (given, needed) {
         (None, false) => Ok(None),
         (None, true) => Err(SetupError::new(key, format!("missing: {what}"))),
-        (Some(v), needed) => {
-            let d = Direction::from_value(v, key)?;
+        (Some(d), needed) => {
             if !needed {
                 return Err(SetupError::new(
                     key,
@@ -309,34 +364,21 @@ fn perpendicular(
 
 /// Loads a laser set-up table (keys in the crate documentation).
 pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, SetupError> {
-    read::only_keys(table, SETUP_KEYS)?;
-    let mode_s = read::string(table, "mode")?.ok_or_else(|| {
-        SetupError::new(
-            "mode",
-            "missing: linear, straightness, angular, diagonal or step-diagonal",
-        )
-    })?;
-    let mode = Mode::parse(mode_s).ok_or_else(|| {
-        SetupError::new(
-            "mode",
-            format!(
-                "unknown mode `{mode_s}`; expected linear, straightness, angular, diagonal or \
-                 step-diagonal"
-            ),
-        )
-    })?;
-    let direction = Direction::from_value(
-        table.get("direction").ok_or_else(|| {
-            SetupError::new(
-                "direction",
-                "missing: the beam direction (axis letter or vector, workpiece frame)",
-            )
-        })?,
+    let keys: Keys = config::read(table)?;
+    let environment = keys.environment();
+    let mode = required(
+        keys.mode,
+        "mode",
+        "linear, straightness, angular, diagonal or step-diagonal",
+    )?;
+    let direction = required(
+        keys.direction,
         "direction",
+        "the beam direction (axis letter or vector, workpiece frame)",
     )?;
     let n = direction.unit;
     let sense = perpendicular(
-        table,
+        keys.sense,
         "sense",
         mode == Mode::Straightness,
         mode,
@@ -344,33 +386,24 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
         "the direction in which the straightness deviation is read, perpendicular to the beam",
     )?;
     let about = perpendicular(
-        table,
+        keys.about,
         "about",
         mode == Mode::Angular,
         mode,
         &n,
         "the axis of the rotation read (pitch or yaw), perpendicular to the beam",
     )?;
-    let optic = match read::string(table, "optic")? {
-        None | Some("tool") => Optic::Tool,
-        Some("table") => Optic::Table,
-        Some(s) => {
-            return Err(SetupError::new(
-                "optic",
-                format!("unknown optic `{s}`; expected \"tool\" or \"table\""),
-            ));
-        }
-    };
-    let optic_offset_mm = read::vec3(table, "optic_offset")?;
-    let origin_mm = read::vec3(table, "origin")?;
+    let optic = keys.optic.unwrap_or(Optic::Tool);
+    let optic_offset_mm = keys.optic_offset.map(<[f64; 3]>::from);
+    let origin_mm = keys.origin.map(<[f64; 3]>::from);
     let sigma_um = positive(
         "sigma_um",
-        read::number(table, "sigma_um")?,
+        keys.sigma_um.map(f64::from),
         "the standard deviation of a reading",
     )?;
     let sigma_urad = positive(
         "sigma_urad",
-        read::number(table, "sigma_urad")?,
+        keys.sigma_urad.map(f64::from),
         "the standard deviation of a reading",
     )?;
     let angular = mode == Mode::Angular;
@@ -386,14 +419,14 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
             "a length reading's standard deviation is `sigma_um`",
         ));
     }
-    let offset_free = read::boolean(table, "offset_free")?.unwrap_or(true);
-    let tilt_free = read::boolean(table, "tilt_free")?;
+    let offset_free = keys.offset_free.unwrap_or(true);
+    let tilt_free = keys.tilt_free;
     let tilt_prior = positive(
         "tilt_prior_urad",
-        read::number(table, "tilt_prior_urad")?,
+        keys.tilt_prior_urad.map(f64::from),
         "the prior's standard deviation",
     )?;
-    let slope_free = read::boolean(table, "slope_free")?;
+    let slope_free = keys.slope_free;
     if !mode.is_length() {
         for (key, given) in [
             ("tilt_free", tilt_free.is_some()),
@@ -416,7 +449,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<LaserSetup, S
             "the reference slope is a nuisance of mode \"straightness\" only",
         ));
     }
-    let env = Environment::load(table, mode)?;
+    let env = environment.checked(mode)?;
     let a = optic_offset_mm.map_or_else(Vector3::zeros, |v| Vector3::from(v) * 1e-3);
     let b = origin_mm.map_or_else(Vector3::zeros, |v| Vector3::from(v) * 1e-3);
     let (m0, e1, e2) = match mode {
@@ -686,5 +719,15 @@ impl Setup for LaserSetup {
         let n_axes = self.machine.n_axes();
         let travel: Vec<f64> = run.q.chunks_exact(n_axes).map(|q| self.travel(q)).collect();
         uncompensate(&self.env, run, &travel, readings)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
     }
 }

@@ -1,9 +1,11 @@
 //! Measuring paths: rotary axes swept, linear axes following the ball.
 
 use crate::setup::load;
-use mtcal_instrument::{PathSpec, SetupContext, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected};
+use mtcal_instrument::{PathSpec, SetupContext, SetupError};
 use mtcal_kinematics::{AxisKind, Machine, ik};
 use nalgebra::Vector3;
+use serde::{Deserialize, Deserializer};
 
 /// Samples of a path when the table does not say.
 pub const DEFAULT_SAMPLES: usize = 73;
@@ -16,8 +18,31 @@ pub const XYZAC_TILT_DEG: f64 = 30.0;
 /// The range the `yza` and `zxb` presets clip the tilting axis' limits to, degrees.
 pub const TILT_RANGE_DEG: (f64, f64) = (-30.0, 90.0);
 
+/// A path table as written ([`PATH_KEYS`], in that order). `sweep` and `hold` are keyed by
+/// axis letters: their entries are read once the letter is known to name a rotary axis.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathKeys {
+    kind: Option<Kind>,
+    #[serde(default, deserialize_with = "sweep_table")]
+    sweep: Option<toml::Table>,
+    #[serde(default, deserialize_with = "hold_table")]
+    hold: Option<toml::Table>,
+    samples: Option<Number>,
+    back: Option<bool>,
+}
+
+fn sweep_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table like { C = [0.0, 360.0] }").map(Some)
+}
+
+fn hold_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table like { A = -30.0 }").map(Some)
+}
+
 /// A named path: a preset or the general `rotary` sweep.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum Kind {
     /// C from 0 to 360°, the other rotary axis held.
     Xyc,
@@ -51,6 +76,18 @@ impl Kind {
             Kind::Xyzac => "xyzac",
             Kind::Rotary => "rotary",
         }
+    }
+}
+
+impl TryFrom<String> for Kind {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        Kind::parse(&value).ok_or_else(|| {
+            format!(
+                "unknown path `{value}`; expected \"xyc\", \"yza\", \"zxb\", \"xyzac\" or \
+                 \"rotary\""
+            )
+        })
     }
 }
 
@@ -123,40 +160,26 @@ fn rotary_axis(machine: &Machine, letter: &str, key: &str) -> Result<usize, Setu
     })
 }
 
-fn table<'a>(
-    path: &'a toml::Table,
-    key: &str,
-    example: &str,
-) -> Result<Option<&'a toml::Table>, SetupError> {
-    match path.get(key) {
-        None => Ok(None),
-        Some(toml::Value::Table(t)) => Ok(Some(t)),
-        Some(v) => Err(SetupError::new(
-            key,
-            format!("expected a table like {example}, found {v}"),
-        )),
-    }
-}
-
-fn parse_sweep(machine: &Machine, t: &toml::Table) -> Result<Vec<(usize, f64, f64)>, SetupError> {
-    if t.is_empty() || t.len() > 2 {
+fn parse_sweep(
+    machine: &Machine,
+    sweep: &toml::Table,
+) -> Result<Vec<(usize, f64, f64)>, SetupError> {
+    if sweep.is_empty() || sweep.len() > 2 {
         return Err(SetupError::new(
             "sweep",
-            format!("expected one or two rotary axes, found {}", t.len()),
+            format!("expected one or two rotary axes, found {}", sweep.len()),
         ));
     }
     let mut out = Vec::new();
-    for (letter, v) in t {
+    for (letter, v) in sweep {
         let key = format!("sweep.{letter}");
         let axis = rotary_axis(machine, letter, &key)?;
-        let bad = || SetupError::new(&key, format!("expected [from, to] in degrees, found {v}"));
-        let arr = v.as_array().filter(|a| a.len() == 2).ok_or_else(bad)?;
-        let num = |x: &toml::Value| match x {
-            toml::Value::Float(f) if f.is_finite() => Some(*f),
-            toml::Value::Integer(i) => Some(*i as f64),
+        let ends = match v.as_array().map(Vec::as_slice) {
+            Some([from, to]) => config::number(from).zip(config::number(to)),
             _ => None,
         };
-        let (from, to) = (num(&arr[0]).ok_or_else(bad)?, num(&arr[1]).ok_or_else(bad)?);
+        let (from, to) =
+            ends.ok_or_else(|| SetupError::new(&key, expected("[from, to] in degrees", v)))?;
         if from == to {
             return Err(SetupError::new(
                 &key,
@@ -209,19 +232,10 @@ fn preset_axis(machine: &Machine, kind: Kind, letter: char) -> Result<usize, Set
 
 /// Resolves a path table against a machine (keys in the crate documentation).
 pub fn plan(machine: &Machine, path: &toml::Table) -> Result<Plan, SetupError> {
-    read::only_keys(path, PATH_KEYS)?;
+    let keys: PathKeys = config::read(path)?;
     check_machine(machine)?;
-    let kind_str = read::string(path, "kind")?.unwrap_or("rotary");
-    let kind = Kind::parse(kind_str).ok_or_else(|| {
-        SetupError::new(
-            "kind",
-            format!(
-                "unknown path `{kind_str}`; expected \"xyc\", \"yza\", \"zxb\", \"xyzac\" or \
-                 \"rotary\""
-            ),
-        )
-    })?;
-    let samples = match read::number(path, "samples")? {
+    let kind = keys.kind.unwrap_or(Kind::Rotary);
+    let samples = match keys.samples.map(f64::from) {
         None => DEFAULT_SAMPLES,
         Some(x) if x.fract() == 0.0 && (2.0..=1e6).contains(&x) => x as usize,
         Some(x) => {
@@ -231,8 +245,8 @@ pub fn plan(machine: &Machine, path: &toml::Table) -> Result<Plan, SetupError> {
             ));
         }
     };
-    let back = read::boolean(path, "back")?.unwrap_or(false);
-    let sweep = match table(path, "sweep", "{ C = [0.0, 360.0] }")? {
+    let back = keys.back.unwrap_or(false);
+    let sweep = match &keys.sweep {
         Some(t) => parse_sweep(machine, t)?,
         None => match kind {
             Kind::Rotary => {
@@ -271,28 +285,18 @@ pub fn plan(machine: &Machine, path: &toml::Table) -> Result<Plan, SetupError> {
         },
     };
     let mut hold = Vec::new();
-    if let Some(t) = table(path, "hold", "{ A = -30.0 }")? {
-        for (letter, v) in t {
-            let key = format!("hold.{letter}");
-            let axis = rotary_axis(machine, letter, &key)?;
-            if sweep.iter().any(|s| s.0 == axis) {
-                return Err(SetupError::new(
-                    &key,
-                    "this axis is swept; it cannot be held too",
-                ));
-            }
-            let x = match v {
-                toml::Value::Float(f) if f.is_finite() => *f,
-                toml::Value::Integer(i) => *i as f64,
-                _ => {
-                    return Err(SetupError::new(
-                        &key,
-                        format!("expected a position in degrees, found {v}"),
-                    ));
-                }
-            };
-            hold.push((axis, x.to_radians()));
+    for (letter, v) in keys.hold.iter().flatten() {
+        let key = format!("hold.{letter}");
+        let axis = rotary_axis(machine, letter, &key)?;
+        if sweep.iter().any(|s| s.0 == axis) {
+            return Err(SetupError::new(
+                &key,
+                "this axis is swept; it cannot be held too",
+            ));
         }
+        let x = config::number(v)
+            .ok_or_else(|| SetupError::new(&key, expected("a position in degrees", v)))?;
+        hold.push((axis, x.to_radians()));
     }
     for axis in rotary_axes(machine) {
         if !sweep.iter().any(|s| s.0 == axis) && !hold.iter().any(|h| h.0 == axis) {
@@ -407,4 +411,14 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
     )?;
     let plan = plan(spec.machine, spec.path)?;
     poses(spec.machine, &setup.ball_m(), &plan)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<PathKeys>(), Some(PATH_KEYS));
+    }
 }

@@ -1,7 +1,9 @@
 //! The R-test set-up: loading, the measurement model and its analytic derivatives.
 
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Unit, read};
+use mtcal_instrument::config::{self, Number, Vec3, required};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Unit};
 use nalgebra::{Matrix3, Vector3};
+use serde::Deserialize;
 
 /// Default standard deviation of one reading, µm.
 pub const DEFAULT_SIGMA_UM: f64 = 0.5;
@@ -33,14 +35,36 @@ pub const SETUP_KEYS: &[&str] = &[
     "sensor_angle_u_urad",
 ];
 
-/// The keys only the three-sensor head takes.
-const THREE_SENSOR_KEYS: &[&str] = &[
-    "ball_diameter_mm",
-    "sensor_elevation_deg",
-    "sensor_geometry_free",
-    "sensor_gain_u_ppm",
-    "sensor_angle_u_urad",
-];
+/// A set-up table as written ([`SETUP_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    ball: Option<Vec3>,
+    mount: Option<Mount>,
+    head: Option<HeadKind>,
+    sigma_um: Option<Number>,
+    range_um: Option<Number>,
+    ball_free: Option<bool>,
+    tool_length_free: Option<bool>,
+    ball_diameter_mm: Option<Number>,
+    sensor_elevation_deg: Option<Number>,
+    sensor_geometry_free: Option<bool>,
+    sensor_gain_u_ppm: Option<Number>,
+    sensor_angle_u_urad: Option<Number>,
+}
+
+impl Keys {
+    /// The keys only the three-sensor head takes, and whether each is written.
+    fn three_sensor_keys(&self) -> [(&'static str, bool); 5] {
+        [
+            ("ball_diameter_mm", self.ball_diameter_mm.is_some()),
+            ("sensor_elevation_deg", self.sensor_elevation_deg.is_some()),
+            ("sensor_geometry_free", self.sensor_geometry_free.is_some()),
+            ("sensor_gain_u_ppm", self.sensor_gain_u_ppm.is_some()),
+            ("sensor_angle_u_urad", self.sensor_angle_u_urad.is_some()),
+        ]
+    }
+}
 
 /// Sensor azimuths about the head's z axis, degrees.
 pub const SENSOR_AZIMUTHS_DEG: [f64; 3] = [0.0, 120.0, 240.0];
@@ -49,7 +73,8 @@ pub const SENSOR_AZIMUTHS_DEG: [f64; 3] = [0.0, 120.0, 240.0];
 ///
 /// The default is [`Mount::BallOnTable`]: FORMATS.md v1 defined the readings for that
 /// arrangement (source 000's MT-Check), so a file without `mount` means it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum Mount {
     /// The ball is fixed to the table at `ball` (workpiece frame) and turns with it; the
     /// sensor nest is in the spindle, centred on the tool point, its axes the tool frame's.
@@ -97,8 +122,16 @@ impl Mount {
     }
 }
 
+impl TryFrom<String> for Mount {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        Mount::parse(&value).map_err(|e| e.message)
+    }
+}
+
 /// Which head model converts the ball displacement into readings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
 pub enum HeadKind {
     /// The readings are the ball-centre displacement itself.
     Ideal,
@@ -111,6 +144,19 @@ impl HeadKind {
         match self {
             HeadKind::Ideal => "ideal",
             HeadKind::ThreeSensor => "three-sensor",
+        }
+    }
+}
+
+impl TryFrom<String> for HeadKind {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        match value.as_str() {
+            "ideal" => Ok(HeadKind::Ideal),
+            "three-sensor" => Ok(HeadKind::ThreeSensor),
+            other => Err(format!(
+                "unknown head model `{other}`; expected \"ideal\" or \"three-sensor\""
+            )),
         }
     }
 }
@@ -334,44 +380,30 @@ fn um(name: &str, free: bool) -> Nuisance {
 /// Loads an R-test set-up table (keys in the crate documentation).
 pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupError> {
     let _ = ctx;
-    read::only_keys(table, SETUP_KEYS)?;
-    let ball_mm = read::vec3(table, "ball")?.ok_or_else(|| {
-        SetupError::new(
-            "ball",
-            "missing: the nominal centre of the table-side part (ball or nest) [x, y, z], mm, \
-             in the workpiece frame",
-        )
-    })?;
-    let mount = match read::string(table, "mount")? {
-        None => Mount::default(),
-        Some(v) => Mount::parse(v)?,
-    };
-    let head_kind = match read::string(table, "head")?.unwrap_or("ideal") {
-        "ideal" => HeadKind::Ideal,
-        "three-sensor" => HeadKind::ThreeSensor,
-        other => {
-            return Err(SetupError::new(
-                "head",
-                format!("unknown head model `{other}`; expected \"ideal\" or \"three-sensor\""),
-            ));
-        }
-    };
-    let positive = |key: &str, v: Option<f64>| -> Result<Option<f64>, SetupError> {
-        match v {
+    let keys: Keys = config::read(table)?;
+    let ball_mm = required(
+        keys.ball,
+        "ball",
+        "the nominal centre of the table-side part (ball or nest) [x, y, z], mm, in the \
+         workpiece frame",
+    )?
+    .0;
+    let mount = keys.mount.unwrap_or_default();
+    let head_kind = keys.head.unwrap_or(HeadKind::Ideal);
+    let positive = |key: &str, v: Option<Number>| -> Result<Option<f64>, SetupError> {
+        match v.map(f64::from) {
             Some(x) if x <= 0.0 => Err(SetupError::new(key, format!("must be > 0, found {x}"))),
             v => Ok(v),
         }
     };
-    let sigma_um =
-        positive("sigma_um", read::number(table, "sigma_um")?)?.unwrap_or(DEFAULT_SIGMA_UM);
-    let range_um =
-        positive("range_um", read::number(table, "range_um")?)?.unwrap_or(DEFAULT_RANGE_UM);
-    let ball_free = read::boolean(table, "ball_free")?.unwrap_or(true);
-    let tool_length_free = read::boolean(table, "tool_length_free")?.unwrap_or(true);
+    let sigma_um = positive("sigma_um", keys.sigma_um)?.unwrap_or(DEFAULT_SIGMA_UM);
+    let range_um = positive("range_um", keys.range_um)?.unwrap_or(DEFAULT_RANGE_UM);
+    let ball_free = keys.ball_free.unwrap_or(true);
+    let tool_length_free = keys.tool_length_free.unwrap_or(true);
 
     let head = match head_kind {
         HeadKind::Ideal => {
-            if let Some(key) = THREE_SENSOR_KEYS.iter().find(|k| table.contains_key(**k)) {
+            if let Some((key, _)) = keys.three_sensor_keys().iter().find(|(_, given)| *given) {
                 return Err(SetupError::new(
                     *key,
                     "only for head = \"three-sensor\" (this set-up has the ideal head)",
@@ -380,25 +412,20 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
             Head::Ideal
         }
         HeadKind::ThreeSensor => {
-            let diameter = positive("ball_diameter_mm", read::number(table, "ball_diameter_mm")?)?
+            let diameter = positive("ball_diameter_mm", keys.ball_diameter_mm)?
                 .unwrap_or(DEFAULT_BALL_DIAMETER_MM);
-            let elevation = read::number(table, "sensor_elevation_deg")?
-                .unwrap_or_else(default_sensor_elevation_deg);
+            let elevation = keys
+                .sensor_elevation_deg
+                .map_or_else(default_sensor_elevation_deg, f64::from);
             if elevation <= 0.0 || elevation >= 90.0 {
                 return Err(SetupError::new(
                     "sensor_elevation_deg",
                     format!("must lie strictly between 0 and 90°, found {elevation}"),
                 ));
             }
-            let geometry_free = read::boolean(table, "sensor_geometry_free")?.unwrap_or(false);
-            let gain_u = positive(
-                "sensor_gain_u_ppm",
-                read::number(table, "sensor_gain_u_ppm")?,
-            )?;
-            let angle_u = positive(
-                "sensor_angle_u_urad",
-                read::number(table, "sensor_angle_u_urad")?,
-            )?;
+            let geometry_free = keys.sensor_geometry_free.unwrap_or(false);
+            let gain_u = positive("sensor_gain_u_ppm", keys.sensor_gain_u_ppm)?;
+            let angle_u = positive("sensor_angle_u_urad", keys.sensor_angle_u_urad)?;
             if !geometry_free {
                 for (key, v) in [
                     ("sensor_gain_u_ppm", gain_u),
@@ -578,5 +605,15 @@ impl Setup for RTest {
             }
         }
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
     }
 }

@@ -2,8 +2,10 @@
 //! axes' strokes, the same commanded path whatever the station.
 
 use crate::setup::{TracerConfig, TracerSetup};
-use mtcal_instrument::{PathSpec, SetupError, read};
+use mtcal_instrument::config::{self, Number, expected};
+use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
+use serde::{Deserialize, Deserializer};
 
 /// Every key a path table may have.
 pub const PATH_KEYS: &[&str] = &["kind", "counts", "samples", "fraction", "hold"];
@@ -19,6 +21,71 @@ pub const MIN_DISTANCE_MM: f64 = 50.0;
 
 /// Axis limits are checked with this tolerance (m or rad), as the conformance harness does.
 const LIMIT_TOL: f64 = 1e-9;
+
+/// A path table as written ([`PATH_KEYS`], in that order).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathKeys {
+    kind: Option<Kind>,
+    counts: Option<Counts>,
+    samples: Option<LineSamples>,
+    fraction: Option<Number>,
+    #[serde(default, deserialize_with = "hold_table")]
+    hold: Option<toml::Table>,
+}
+
+fn hold_table<'de, D: Deserializer<'de>>(d: D) -> Result<Option<toml::Table>, D::Error> {
+    config::table(d, "a table of axis positions like { A = 0.0 }").map(Some)
+}
+
+/// The shape of a path.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(try_from = "String")]
+enum Kind {
+    Grid,
+    Lines,
+}
+
+impl TryFrom<String> for Kind {
+    type Error = String;
+    fn try_from(value: String) -> Result<Self, String> {
+        match value.as_str() {
+            "grid" => Ok(Kind::Grid),
+            "lines" => Ok(Kind::Lines),
+            other => Err(format!(
+                "unknown path kind `{other}`; expected \"grid\" or \"lines\""
+            )),
+        }
+    }
+}
+
+/// Samples per line of a `lines` path.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(try_from = "toml::Value")]
+struct LineSamples(usize);
+
+impl TryFrom<toml::Value> for LineSamples {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        count(&value, 2).map(LineSamples)
+    }
+}
+
+/// Grid points per axis `[nx, ny, nz]` as written; each is read by [`count`] where an error
+/// can name its place (`counts[1]`).
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "toml::Value")]
+struct Counts([toml::Value; 3]);
+
+impl TryFrom<toml::Value> for Counts {
+    type Error = String;
+    fn try_from(value: toml::Value) -> Result<Self, String> {
+        match value.as_array().map(Vec::as_slice) {
+            Some([x, y, z]) => Ok(Counts([x.clone(), y.clone(), z.clone()])),
+            _ => Err(expected("three whole numbers [nx, ny, nz]", &value)),
+        }
+    }
+}
 
 /// The indices of the linear axes X, Y, Z of `machine` and their strokes (m), or an error
 /// naming `kind` if it lacks one or one has no limits.
@@ -49,61 +116,44 @@ pub fn linear_axes(machine: &Machine) -> Result<[(usize, f64, f64); 3], SetupErr
     Ok(out)
 }
 
-fn count(v: &toml::Value, key: &str, min: usize) -> Result<usize, SetupError> {
+/// A whole number from `min` to 10000, written as an integer.
+fn count(v: &toml::Value, min: usize) -> Result<usize, String> {
     match v {
         toml::Value::Integer(i) if *i >= min as i64 && *i <= 10_000 => Ok(*i as usize),
-        _ => Err(SetupError::new(
-            key,
-            format!("expected a whole number from {min} to 10000, found {v}"),
-        )),
+        _ => Err(expected(&format!("a whole number from {min} to 10000"), v)),
     }
 }
 
 /// The held positions of the other axes (`hold = { A = 0.0 }`, degrees for rotary, mm for
 /// linear axes other than X, Y, Z); unnamed ones at 0.
-fn held(machine: &Machine, path: &toml::Table, xyz: &[usize; 3]) -> Result<Vec<f64>, SetupError> {
+fn held(
+    machine: &Machine,
+    hold: Option<&toml::Table>,
+    xyz: &[usize; 3],
+) -> Result<Vec<f64>, SetupError> {
     let mut q = vec![0.0; machine.n_axes()];
-    match path.get("hold") {
-        None => {}
-        Some(toml::Value::Table(t)) => {
-            for (letter, v) in t {
-                let key = format!("hold.{letter}");
-                let mut chars = letter.chars();
-                let i = match (chars.next(), chars.next()) {
-                    (Some(c), None) => machine.axis_index(c),
-                    _ => None,
-                }
-                .filter(|i| !xyz.contains(i))
-                .ok_or_else(|| {
-                    SetupError::new(
-                        &key,
-                        format!(
-                            "`{letter}` is not an axis of machine `{}` that the path holds \
-                             (axes: {}; X, Y and Z are moved by the path)",
-                            machine.name(),
-                            machine.letters()
-                        ),
-                    )
-                })?;
-                let x = match v {
-                    toml::Value::Float(f) if f.is_finite() => *f,
-                    toml::Value::Integer(n) => *n as f64,
-                    _ => {
-                        return Err(SetupError::new(
-                            &key,
-                            format!("expected a position (degrees or mm), found {v}"),
-                        ));
-                    }
-                };
-                q[i] = machine.axes()[i].kind().from_file(x);
-            }
+    for (letter, v) in hold.into_iter().flatten() {
+        let key = format!("hold.{letter}");
+        let mut chars = letter.chars();
+        let i = match (chars.next(), chars.next()) {
+            (Some(c), None) => machine.axis_index(c),
+            _ => None,
         }
-        Some(v) => {
-            return Err(SetupError::new(
-                "hold",
-                format!("expected a table of axis positions like {{ A = 0.0 }}, found {v}"),
-            ));
-        }
+        .filter(|i| !xyz.contains(i))
+        .ok_or_else(|| {
+            SetupError::new(
+                &key,
+                format!(
+                    "`{letter}` is not an axis of machine `{}` that the path holds \
+                     (axes: {}; X, Y and Z are moved by the path)",
+                    machine.name(),
+                    machine.letters()
+                ),
+            )
+        })?;
+        let x = config::number(v)
+            .ok_or_else(|| SetupError::new(&key, expected("a position (degrees or mm)", v)))?;
+        q[i] = machine.axes()[i].kind().from_file(x);
     }
     Ok(q)
 }
@@ -125,41 +175,34 @@ fn ticks(lo: f64, hi: f64, fraction: f64, n: usize) -> Vec<f64> {
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
     let setup = TracerSetup::new(TracerConfig::from_table(spec.setup)?, machine);
-    let p = spec.path;
-    read::only_keys(p, PATH_KEYS)?;
+    let p: PathKeys = config::read(spec.path)?;
     let axes = linear_axes(machine)?;
     let xyz = [axes[0].0, axes[1].0, axes[2].0];
-    let fraction = read::number(p, "fraction")?.unwrap_or(DEFAULT_FRACTION);
+    let fraction = p.fraction.map_or(DEFAULT_FRACTION, f64::from);
     if !(fraction > 0.0 && fraction <= 1.0) {
         return Err(SetupError::new(
             "fraction",
             format!("expected a share of the strokes in (0, 1], found {fraction}"),
         ));
     }
-    let base = held(machine, p, &xyz)?;
-    let kind = read::string(p, "kind")?.unwrap_or("grid");
-    let points: Vec<[f64; 3]> = match kind {
-        "grid" => {
-            if p.contains_key("samples") {
+    let base = held(machine, p.hold.as_ref(), &xyz)?;
+    let points: Vec<[f64; 3]> = match p.kind.unwrap_or(Kind::Grid) {
+        Kind::Grid => {
+            if p.samples.is_some() {
                 return Err(SetupError::new(
                     "samples",
                     "a grid path takes `counts = [nx, ny, nz]`, not `samples`",
                 ));
             }
-            let counts = match p.get("counts") {
+            let counts = match &p.counts {
                 None => DEFAULT_COUNTS,
-                Some(toml::Value::Array(a)) if a.len() == 3 => {
+                Some(Counts(written)) => {
                     let mut c = [0; 3];
-                    for (k, v) in a.iter().enumerate() {
-                        c[k] = count(v, &format!("counts[{k}]"), 1)?;
+                    for (k, v) in written.iter().enumerate() {
+                        c[k] =
+                            count(v, 1).map_err(|m| SetupError::new(format!("counts[{k}]"), m))?;
                     }
                     c
-                }
-                Some(v) => {
-                    return Err(SetupError::new(
-                        "counts",
-                        format!("expected three whole numbers [nx, ny, nz], found {v}"),
-                    ));
                 }
             };
             let t: Vec<Vec<f64>> = (0..3)
@@ -186,17 +229,14 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
             }
             out
         }
-        "lines" => {
-            if p.contains_key("counts") {
+        Kind::Lines => {
+            if p.counts.is_some() {
                 return Err(SetupError::new(
                     "counts",
                     "a lines path takes `samples` (per line), not `counts`",
                 ));
             }
-            let n = match p.get("samples") {
-                None => DEFAULT_LINE_SAMPLES,
-                Some(v) => count(v, "samples", 2)?,
-            };
+            let n = p.samples.map_or(DEFAULT_LINE_SAMPLES, |LineSamples(n)| n);
             let lo: Vec<f64> = (0..3)
                 .map(|k| ticks(axes[k].1, axes[k].2, fraction, 2)[0])
                 .collect();
@@ -225,12 +265,6 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
             }
             out
         }
-        other => {
-            return Err(SetupError::new(
-                "kind",
-                format!("unknown path kind `{other}`; expected \"grid\" or \"lines\""),
-            ));
-        }
     };
     let mut poses = Vec::with_capacity(points.len());
     for (k, pt) in points.iter().enumerate() {
@@ -239,11 +273,7 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
             q[i] = pt[j];
         }
         if !machine.within_limits(&q, LIMIT_TOL) {
-            let key = if p.contains_key("hold") {
-                "hold"
-            } else {
-                "kind"
-            };
+            let key = if p.hold.is_some() { "hold" } else { "kind" };
             return Err(SetupError::new(
                 key,
                 format!(
@@ -266,4 +296,14 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
         poses.push(q);
     }
     Ok(poses)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<PathKeys>(), Some(PATH_KEYS));
+    }
 }

@@ -1,11 +1,11 @@
 //! The tracer set-up: its manifest keys, nuisance parameters, measurement model and analytic
 //! derivatives (equations in the crate docs).
 
-use mtcal_instrument::{
-    At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit, read,
-};
+use mtcal_instrument::config::{self, Number, Vec3, required};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit};
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
 /// Every key a tracer set-up table may hold.
 pub const SETUP_KEYS: &[&str] = &[
@@ -17,6 +17,21 @@ pub const SETUP_KEYS: &[&str] = &[
     "station_u_mm",
     "dead_path_free",
 ];
+
+/// A set-up table as written ([`SETUP_KEYS`], in that order); [`TracerConfig::to_table`]
+/// writes one too.
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct Keys {
+    station: Option<Vec3>,
+    reflector: Option<Vec3>,
+    sigma_um: Option<Number>,
+    sigma_um_per_m: Option<Number>,
+    station_free: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    station_u_mm: Option<Number>,
+    dead_path_free: Option<bool>,
+}
 
 /// Default length-independent standard deviation of one reading, µm (k = 1 from the
 /// LaserTRACER's U(k = 2) = 0.2 µm + 0.3 µm/m).
@@ -65,15 +80,15 @@ fn non_negative(key: &str, v: f64, what: &str) -> Result<f64, SetupError> {
 impl TracerConfig {
     /// Reads and validates a set-up table; unknown keys are rejected.
     pub fn from_table(table: &toml::Table) -> Result<Self, SetupError> {
-        read::only_keys(table, SETUP_KEYS)?;
-        let station_mm = read::vec3(table, "station")?.ok_or_else(|| {
-            SetupError::new(
-                "station",
-                "missing: the approximate station position [x, y, z] in mm, workpiece frame",
-            )
-        })?;
-        let reflector_mm = read::vec3(table, "reflector")?.unwrap_or([0.0; 3]);
-        let sigma_um = read::number(table, "sigma_um")?.unwrap_or(DEFAULT_SIGMA_UM);
+        let keys: Keys = config::read(table)?;
+        let station_mm = required(
+            keys.station,
+            "station",
+            "the approximate station position [x, y, z] in mm, workpiece frame",
+        )?
+        .0;
+        let reflector_mm = keys.reflector.map_or([0.0; 3], <[f64; 3]>::from);
+        let sigma_um = keys.sigma_um.map_or(DEFAULT_SIGMA_UM, f64::from);
         if sigma_um <= 0.0 {
             return Err(SetupError::new(
                 "sigma_um",
@@ -84,11 +99,12 @@ impl TracerConfig {
         }
         let sigma_um_per_m = non_negative(
             "sigma_um_per_m",
-            read::number(table, "sigma_um_per_m")?.unwrap_or(DEFAULT_SIGMA_UM_PER_M),
+            keys.sigma_um_per_m
+                .map_or(DEFAULT_SIGMA_UM_PER_M, f64::from),
             "the length-proportional standard deviation (µm/m)",
         )?;
-        let station_free = read::boolean(table, "station_free")?.unwrap_or(true);
-        let station_u_mm = read::number(table, "station_u_mm")?;
+        let station_free = keys.station_free.unwrap_or(true);
+        let station_u_mm = keys.station_u_mm.map(f64::from);
         if let Some(u) = station_u_mm {
             if u <= 0.0 {
                 return Err(SetupError::new(
@@ -105,7 +121,7 @@ impl TracerConfig {
                 ));
             }
         }
-        let dead_path_free = read::boolean(table, "dead_path_free")?.unwrap_or(true);
+        let dead_path_free = keys.dead_path_free.unwrap_or(true);
         Ok(Self {
             station_mm,
             reflector_mm,
@@ -119,18 +135,16 @@ impl TracerConfig {
 
     /// The table again (every key written, defaults included; `station_u_mm` only if given).
     pub fn to_table(&self) -> toml::Table {
-        let v3 = |v: &[f64; 3]| toml::Value::Array(v.iter().map(|&x| x.into()).collect());
-        let mut t = toml::Table::new();
-        t.insert("station".into(), v3(&self.station_mm));
-        t.insert("reflector".into(), v3(&self.reflector_mm));
-        t.insert("sigma_um".into(), self.sigma_um.into());
-        t.insert("sigma_um_per_m".into(), self.sigma_um_per_m.into());
-        t.insert("station_free".into(), self.station_free.into());
-        if let Some(u) = self.station_u_mm {
-            t.insert("station_u_mm".into(), u.into());
-        }
-        t.insert("dead_path_free".into(), self.dead_path_free.into());
-        t
+        let keys = Keys {
+            station: Some(Vec3(self.station_mm)),
+            reflector: Some(Vec3(self.reflector_mm)),
+            sigma_um: Some(Number(self.sigma_um)),
+            sigma_um_per_m: Some(Number(self.sigma_um_per_m)),
+            station_free: Some(self.station_free),
+            station_u_mm: self.station_u_mm.map(Number),
+            dead_path_free: Some(self.dead_path_free),
+        };
+        toml::Table::try_from(keys).expect("numbers and flags make a table")
     }
 
     /// Nominal station, m.
@@ -321,5 +335,15 @@ impl Setup for TracerSetup {
 
     fn to_toml(&self) -> toml::Table {
         self.config.to_table()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_typed_tables_know_the_documented_keys() {
+        assert_eq!(config::keys_of::<Keys>(), Some(SETUP_KEYS));
     }
 }
