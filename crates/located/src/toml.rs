@@ -221,8 +221,9 @@ fn complaint(message: &str) -> Complaint<'_> {
             .unwrap_or_default();
         return Complaint::UnknownKey { key, expected };
     }
+    // The found value may itself hold ", expected " (a string); serde's expectation is last.
     if let Some(rest) = message.strip_prefix("invalid type: ")
-        && let Some((found, expected)) = rest.split_once(", expected ")
+        && let Some((found, expected)) = rest.rsplit_once(", expected ")
     {
         return Complaint::WrongType { found, expected };
     }

@@ -142,6 +142,15 @@ fn serde_wording_is_what_the_rewording_parses() {
             expected: "a string"
         }
     );
+    let e =
+        toml::de::Error::invalid_type(serde::de::Unexpected::Str("yes, expected"), &"a boolean");
+    assert_eq!(
+        complaint(e.message()),
+        Complaint::WrongType {
+            found: "string \"yes, expected\"",
+            expected: "a boolean"
+        }
+    );
     assert_eq!(found_noun("integer `3`"), "an integer");
     assert_eq!(found_noun("floating point `1.5`"), "a float");
     assert_eq!(found_noun("string \"x\""), "a string");
