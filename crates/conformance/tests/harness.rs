@@ -4,7 +4,7 @@ use mtcal_conformance::{shipped_machines, try_check_plugin};
 use mtcal_instrument::config::{self, Number, Vec3, required};
 use mtcal_instrument::{
     At, Channel, Fixture, InstrumentPlugin, Nuisance, PathSpec, Setup, SetupContext, SetupError,
-    Unit,
+    SetupFormat, Unit,
 };
 use mtcal_kinematics::{AxisKind, Machine};
 use serde::Deserialize;
@@ -77,6 +77,9 @@ impl Setup for Probe {
         }
         true
     }
+}
+
+impl SetupFormat for Probe {
     fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         t.insert(

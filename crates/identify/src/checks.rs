@@ -7,7 +7,7 @@
 //! - **beyond the axis limits**: a commanded position outside its axis' limits by more than
 //!   [`LIMIT_TOLERANCE_MM`] mm (linear) or [`LIMIT_TOLERANCE_DEG`]° (rotary);
 //! - **beyond the instrument's range**: a reading whose magnitude exceeds the set-up's
-//!   [`Setup::reading_range`]; when most of the column does, the message says the column looks
+//!   [`SetupFormat::reading_range`]; when most of the column does, the message says the column looks
 //!   1000 times too large (nm where µm are expected).
 //!
 //! Each error names the file, line and column of the cell and says what was expected.

@@ -69,11 +69,11 @@ pub struct RunSlot {
     /// [`Column::raw`] the file's mm and degrees.
     pub q: Columns,
     /// Readings, SI, `samples × channels`, as the set-up prepared them
-    /// ([`Setup::prepare_readings`]); `None` for a validation run without them.
+    /// ([`SetupFormat::prepare_readings`]); `None` for a validation run without them.
     pub readings: Option<Columns>,
     /// Context columns (`T_<name>`, `P_<name>`, `H_<name>`, `S`, `F`), file units, file order.
     pub context: Vec<(String, Column)>,
-    /// Each sample's label number ([`Setup::resolve_label`]); empty when the instrument has no
+    /// Each sample's label number ([`SetupFormat::resolve_label`]); empty when the instrument has no
     /// label columns.
     pub labels: Vec<u32>,
     /// Block means and directions of the commanded positions, file units (for the mismatch

@@ -25,7 +25,9 @@
 //!   to the tool moves by `δt + δθ × (R·o)`. Columns `[δt_x, δt_y, δt_z, δθ_x, δθ_y, δθ_z]`.
 //!
 //! # Adding an instrument
-//! Write a crate under `plugins/`, implement [`Setup`], submit an [`InstrumentPlugin`] with
+//! Write a crate under `plugins/`, implement [`Setup`] (the measurement model) and
+//! [`SetupFormat`] (the set-up as a table; how recordings differ from the model), read the
+//! set-up table into a typed config with [`config::read`], submit an [`InstrumentPlugin`] with
 //! `inventory::submit!`, name the crate in `mtcal-plugins`, and call the conformance harness
 //! (`mtcal-conformance`) from its tests. Read its set-up and path tables with
 //! [`config::read`], one typed struct per table.
@@ -113,12 +115,12 @@ pub struct At<'a> {
     pub t: f64,
     /// Actual pose of the tool point in the workpiece frame (`w_T_t`), errors inserted.
     pub w_t_t: &'a Rigid,
-    /// The sample's label as [`Setup::resolve_label`] numbered it (which artefact feature was
-    /// probed, say); 0 for an instrument without [`Setup::label_columns`].
+    /// The sample's label as [`SetupFormat::resolve_label`] numbered it (which artefact feature was
+    /// probed, say); 0 for an instrument without [`SetupFormat::label_columns`].
     pub label: u32,
 }
 
-/// One run's samples as [`Setup::prepare_readings`] sees them.
+/// One run's samples as [`SetupFormat::prepare_readings`] sees them.
 #[derive(Clone, Copy, Debug)]
 pub struct RunData<'a> {
     /// Commanded positions, SI, row-major `samples × axes` (the machine's axis order).
@@ -151,11 +153,13 @@ pub struct ReadingError {
     pub message: String,
 }
 
-/// A loaded set-up of one instrument: its measurement model for one or more runs.
+/// A loaded set-up of one instrument: its measurement model for one or more runs — what it
+/// reads and with what noise, which parameters of its own it has, and the readings it predicts
+/// from the tool pose. How its files differ from that model is its [`SetupFormat`].
 ///
 /// Object safe; the core holds `Box<dyn Setup>`. Implementations must not allocate in
 /// [`Setup::predict`] or [`Setup::derivatives`]: they run once per sample.
-pub trait Setup: fmt::Debug + Send + Sync {
+pub trait Setup: SetupFormat + fmt::Debug + Send + Sync {
     /// The reading channels, in the order `predict` writes them.
     fn channels(&self) -> &[Channel];
 
@@ -179,15 +183,6 @@ pub trait Setup: fmt::Debug + Send + Sync {
         true
     }
 
-    /// The measuring range of reading channel `channel`: the largest magnitude (SI) of a
-    /// reading as recorded that the instrument can report, or `None` (the default) when it has
-    /// no fixed range. The core rejects a run file whose readings lie beyond it, naming the
-    /// cell (a reading 1000 times too large, nm where µm are expected, is caught here).
-    fn reading_range(&self, channel: usize) -> Option<f64> {
-        let _ = channel;
-        None
-    }
-
     /// Predicted readings (SI) at one sample, for nuisance values `nuis` (SI deviations).
     fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]);
 
@@ -205,18 +200,24 @@ pub trait Setup: fmt::Debug + Send + Sync {
         let _ = (at, nuis, d_pose, d_nuis);
         false
     }
+}
 
+/// The file side of a set-up: the set-up as a manifest table, and how the instrument's
+/// recordings differ from what [`Setup::predict`] models (readings as recorded, label columns,
+/// a measuring range). Everything but [`SetupFormat::to_toml`] has a default that suits an
+/// instrument whose recordings are the modelled readings.
+pub trait SetupFormat {
     /// The set-up as a manifest table: loading it again gives an equal set-up.
     fn to_toml(&self) -> toml::Table;
 
     /// Text columns every sample of this set-up's runs carries besides the readings (an
-    /// artefact's `feature`): the core reads them and asks [`Setup::resolve_label`] for the
+    /// artefact's `feature`): the core reads them and asks [`SetupFormat::resolve_label`] for the
     /// number it then passes in [`At::label`]. Empty (the default) for most instruments.
     fn label_columns(&self) -> &[&'static str] {
         &[]
     }
 
-    /// The number of a sample's labels (`values` in the order of [`Setup::label_columns`]);
+    /// The number of a sample's labels (`values` in the order of [`SetupFormat::label_columns`]);
     /// an error says what was expected (the known features, say).
     fn resolve_label(&self, values: &[&str]) -> Result<u32, String> {
         let _ = values;
@@ -235,12 +236,21 @@ pub trait Setup: fmt::Debug + Send + Sync {
         Ok(())
     }
 
-    /// The inverse of [`Setup::prepare_readings`]: turns modelled readings (SI, row-major)
+    /// The inverse of [`SetupFormat::prepare_readings`]: turns modelled readings (SI, row-major)
     /// into readings as the instrument would record them, for files mtcal writes (simulated
     /// runs, predictions of validation runs): `prepare_readings(record_readings(r)) = r`.
     fn record_readings(&self, run: &RunData<'_>, readings: &mut [f64]) -> Result<(), ReadingError> {
         let _ = (run, readings);
         Ok(())
+    }
+
+    /// The measuring range of reading channel `channel`: the largest magnitude (SI) of a
+    /// reading as recorded that the instrument can report, or `None` (the default) when it has
+    /// no fixed range. The core rejects a run file whose readings lie beyond it, naming the
+    /// cell (a reading 1000 times too large, nm where µm are expected, is caught here).
+    fn reading_range(&self, channel: usize) -> Option<f64> {
+        let _ = channel;
+        None
     }
 }
 
@@ -274,7 +284,7 @@ pub struct Fixture {
     pub setup: toml::Table,
     /// Axis positions, SI, one `Vec` per sample.
     pub poses: Vec<Vec<f64>>,
-    /// Each sample's label values (see [`Setup::label_columns`]); empty when the instrument
+    /// Each sample's label values (see [`SetupFormat::label_columns`]); empty when the instrument
     /// has no label columns.
     pub labels: Vec<Vec<String>>,
 }
@@ -289,7 +299,7 @@ pub struct PathSpec<'a> {
     pub machine: &'a Machine,
 }
 
-/// The label values of each sample of a measuring path (see [`Setup::label_columns`]).
+/// The label values of each sample of a measuring path (see [`SetupFormat::label_columns`]).
 pub type PathLabels = fn(&PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError>;
 
 /// A plugin's set-up loader: from a manifest table to a [`Setup`].
@@ -309,7 +319,7 @@ pub struct InstrumentPlugin {
     pub fixture: fn(&Machine, u64) -> Option<Fixture>,
     /// Commanded positions (SI) of a measuring path, one `Vec` per sample.
     pub path: fn(&PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError>,
-    /// The label values of each sample of that path (see [`Setup::label_columns`]), for an
+    /// The label values of each sample of that path (see [`SetupFormat::label_columns`]), for an
     /// instrument that has label columns; `None` otherwise.
     pub path_labels: Option<PathLabels>,
     /// The instrument's own evaluation of one run (e.g. ISO 230-4 circular deviation), if any.
@@ -342,7 +352,7 @@ pub struct Evaluation<'a> {
     pub setup: &'a toml::Table,
     /// Commanded positions, SI, row-major `samples × axes`.
     pub q: &'a [f64],
-    /// Readings, SI, row-major `samples × channels` (after [`Setup::prepare_readings`]).
+    /// Readings, SI, row-major `samples × channels` (after [`SetupFormat::prepare_readings`]).
     pub readings: &'a [f64],
     pub t: &'a [f64],
     /// Each sample's label number (empty for an instrument without label columns).

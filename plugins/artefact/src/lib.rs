@@ -16,7 +16,7 @@
 //! machine's scales say the centre is) and the label column `feature`.
 //!
 //! With `m` the measured centre and `q` the probed axis positions, the modelled reading is
-//! `d = m − q` ([`Setup::prepare_readings`](mtcal_instrument::Setup::prepare_readings) forms it
+//! `d = m − q` ([`SetupFormat::prepare_readings`](mtcal_instrument::SetupFormat::prepare_readings) forms it
 //! from the file). The machine reports `m = q*`, the axis positions at which its *actual* tool
 //! point sits on the feature's true centre `f_w`: `p_act(q*) = f_w`. With nominal kinematics
 //! `p_nom(q) = q + c` (on every machine the plugin accepts, the linear axes X, Y, Z move the

@@ -2,7 +2,8 @@
 
 use mtcal_instrument::config::{self, Number, Vec3, expected, required};
 use mtcal_instrument::{
-    At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
+    At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, SetupFormat,
+    Touches, Unit,
 };
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::{Matrix3, Vector3};
@@ -614,7 +615,9 @@ impl Setup for ArtefactSetup {
         }
         true
     }
+}
 
+impl SetupFormat for ArtefactSetup {
     fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         let feats: toml::Table = self
@@ -684,7 +687,6 @@ impl Setup for ArtefactSetup {
             })?;
         Ok(self.label(j, k))
     }
-
     /// The file holds measured centres in machine coordinates; the model reads the measured
     /// centre minus the axis position where the feature was probed (crate docs).
     fn prepare_readings(

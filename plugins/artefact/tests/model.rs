@@ -2,7 +2,7 @@
 //! a machine error do to the readings, the label grammar, the datum, reading preparation.
 
 use mtcal_artefact::{ArtefactSetup, load};
-use mtcal_instrument::{At, RunData, Setup, SetupContext};
+use mtcal_instrument::{At, RunData, Setup, SetupContext, SetupFormat};
 use mtcal_kinematics::{Machine, Rigid};
 use nalgebra::Vector3;
 

@@ -13,7 +13,7 @@
 //!
 //! The single reading channel `dr` (µm in files) is the bar length minus its nominal `length`.
 //! A reading beyond ±1000 µm, the measuring range of the usual telescopic bars (QC20-W), is
-//! rejected when the run is loaded (`Setup::reading_range`).
+//! rejected when the run is loaded (`SetupFormat::reading_range`).
 //! The readings depend on the tool position and, through the tool-length offset, on its
 //! orientation; [`Setup::derivatives`] is analytic.
 //!

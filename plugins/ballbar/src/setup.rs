@@ -1,7 +1,7 @@
 //! The ball-bar set-up: its manifest keys, nuisance parameters and measurement model.
 
 use mtcal_instrument::config::{self, Number, Vec3, required};
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupError, Touches, Unit};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupError, SetupFormat, Touches, Unit};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -206,10 +206,6 @@ impl Setup for BallbarSetup {
         &self.channels
     }
 
-    fn reading_range(&self, _channel: usize) -> Option<f64> {
-        Some(RANGE_M)
-    }
-
     fn nuisance(&self) -> &[Nuisance] {
         &self.nuisance
     }
@@ -255,6 +251,12 @@ impl Setup for BallbarSetup {
         d_nuis[nuis::LENGTH] = -1.0;
         d_nuis[nuis::TOOL_LENGTH] = -n.dot(&at.w_t_t.r.column(2));
         true
+    }
+}
+
+impl SetupFormat for BallbarSetup {
+    fn reading_range(&self, _channel: usize) -> Option<f64> {
+        Some(RANGE_M)
     }
 
     fn to_toml(&self) -> toml::Table {

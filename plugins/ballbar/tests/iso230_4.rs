@@ -4,7 +4,7 @@
 use mtcal_ballbar::{
     BallbarConfig, BallbarSetup, bidirectional_circular_deviation, circular_deviation,
 };
-use mtcal_instrument::{Setup, Unit};
+use mtcal_instrument::{Setup, SetupFormat, Unit};
 
 /// `n` evenly spaced angles over one revolution, without repeating the start.
 fn angles(n: usize) -> Vec<f64> {

@@ -1,7 +1,9 @@
 //! The displacement set-up: loading, the measurement model and its analytic derivatives.
 
 use mtcal_instrument::config::{self, Number, Vec3, expected, required};
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit};
+use mtcal_instrument::{
+    At, Channel, Nuisance, Setup, SetupContext, SetupError, SetupFormat, Touches, Unit,
+};
 use nalgebra::Vector3;
 use serde::{Deserialize, Deserializer};
 
@@ -410,7 +412,9 @@ impl Setup for DisplacementSetup {
         }
         true
     }
+}
 
+impl SetupFormat for DisplacementSetup {
     fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         t.insert(

@@ -1,7 +1,7 @@
 //! The measurement model on hand-computed cases: a planted tool displacement and tilt.
 
 use mtcal_displacement::{DisplacementSetup, load};
-use mtcal_instrument::{At, Setup, SetupContext};
+use mtcal_instrument::{At, Setup, SetupContext, SetupFormat};
 use mtcal_kinematics::{Machine, Rigid};
 use nalgebra::{Matrix3, Vector3};
 

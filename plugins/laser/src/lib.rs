@@ -109,7 +109,7 @@
 //! expansion_ppm_per_k = 11.5
 //! ```
 //!
-//! # Environmental compensation ([`Setup::prepare_readings`](mtcal_instrument::Setup::prepare_readings))
+//! # Environmental compensation ([`SetupFormat::prepare_readings`](mtcal_instrument::SetupFormat::prepare_readings))
 //! Length modes only, before the fit. The instrument reports, at sample `k`, the deviation
 //! `d_k = L_k − c_k`, with `c_k = n·(p₀(q_k) − p₀(q_0))` the commanded travel along the beam
 //! from the datum, which is the run's **first sample** (the instrument zeroed there), and

@@ -4,7 +4,8 @@ use crate::env::{Environment, compensate, uncompensate};
 pub use crate::mode::Mode;
 use mtcal_instrument::config::{self, Number, Vec3, expected, required};
 use mtcal_instrument::{
-    At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, Touches, Unit,
+    At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, SetupFormat,
+    Touches, Unit,
 };
 use mtcal_kinematics::Machine;
 use mtcal_kinematics::rigid::{left_jacobian_inverse, log_so3};
@@ -645,7 +646,9 @@ impl Setup for LaserSetup {
         }
         true
     }
+}
 
+impl SetupFormat for LaserSetup {
     fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         t.insert("mode".into(), self.mode.as_str().into());

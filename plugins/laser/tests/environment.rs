@@ -2,7 +2,7 @@
 //! round trip from hand-made raw readings (a known true displacement seen through known air
 //! and material temperature) back to the true deviation.
 
-use mtcal_instrument::{RunData, Setup, SetupContext};
+use mtcal_instrument::{RunData, SetupContext, SetupFormat};
 use mtcal_kinematics::Machine;
 use mtcal_laser::{edlen_index, edlen_index_f, load, saturation_vapour_pressure};
 

@@ -1,7 +1,7 @@
 //! The R-test set-up: loading, the measurement model and its analytic derivatives.
 
 use mtcal_instrument::config::{self, Number, Vec3, required};
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Unit};
+use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, SetupFormat, Unit};
 use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
@@ -509,10 +509,6 @@ impl Setup for RTest {
         &self.channels
     }
 
-    fn reading_range(&self, _channel: usize) -> Option<f64> {
-        Some(self.range_um * 1e-6)
-    }
-
     fn nuisance(&self) -> &[Nuisance] {
         &self.nuisance
     }
@@ -579,6 +575,12 @@ impl Setup for RTest {
             }
         }
         true
+    }
+}
+
+impl SetupFormat for RTest {
+    fn reading_range(&self, _channel: usize) -> Option<f64> {
+        Some(self.range_um * 1e-6)
     }
 
     fn to_toml(&self) -> toml::Table {

@@ -1,6 +1,6 @@
 //! The measurement model on hand-computed cases.
 
-use mtcal_instrument::{At, Setup, SetupContext};
+use mtcal_instrument::{At, Setup, SetupContext, SetupFormat};
 use mtcal_kinematics::{Machine, ik};
 use mtcal_rtest::{HeadKind, Mount, RTest, load, sensor_directions};
 use nalgebra::Vector3;

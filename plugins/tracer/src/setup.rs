@@ -2,7 +2,9 @@
 //! derivatives (equations in the crate docs).
 
 use mtcal_instrument::config::{self, Number, Vec3, required};
-use mtcal_instrument::{At, Channel, Nuisance, Setup, SetupContext, SetupError, Touches, Unit};
+use mtcal_instrument::{
+    At, Channel, Nuisance, Setup, SetupContext, SetupError, SetupFormat, Touches, Unit,
+};
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -332,7 +334,9 @@ impl Setup for TracerSetup {
         d_nuis[nuis::DEAD_PATH] = 1.0;
         true
     }
+}
 
+impl SetupFormat for TracerSetup {
     fn to_toml(&self) -> toml::Table {
         self.config.to_table()
     }

@@ -1,6 +1,6 @@
 //! The set-up loader: defaults, validation and what `to_toml` writes.
 
-use mtcal_instrument::{Setup, SetupContext, Unit};
+use mtcal_instrument::{Setup, SetupContext, SetupFormat, Unit};
 use mtcal_kinematics::Machine;
 use mtcal_machine::topology::Reading;
 use std::path::Path;
