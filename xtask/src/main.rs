@@ -120,7 +120,7 @@ enum Command {
     Identify(identify::IdentifyArgs),
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
-        /// The test plan (TOML; see crates/identify/src/simulate.rs).
+        /// The test plan (TOML; see crates/simulate/src/lib.rs).
         plan: PathBuf,
         /// The session folder to write.
         #[arg(long)]
