@@ -65,6 +65,25 @@ pub struct AxisView {
     pub stroke: (f64, f64),
 }
 
+impl AxisView {
+    /// Every axis of `machine`, in its axis order.
+    pub fn of_machine(machine: &mtcal_kinematics::Machine) -> Vec<AxisView> {
+        machine
+            .axes()
+            .iter()
+            .enumerate()
+            .map(|(a, ax)| AxisView {
+                letter: ax.letter().as_char(),
+                rotary: ax.kind() == mtcal_kinematics::AxisKind::Rotary,
+                stroke: ax
+                    .limits()
+                    .filter(|(lo, hi)| hi > lo)
+                    .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(machine, a)),
+            })
+            .collect()
+    }
+}
+
 /// One set-up: an instrument's channels and nuisance parameters.
 #[derive(Clone, Debug)]
 pub struct SetupView {

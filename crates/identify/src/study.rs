@@ -712,19 +712,7 @@ impl Study {
 
     fn build_view(&self) -> SessionView {
         let machine = self.model.machine();
-        let axes = machine
-            .axes()
-            .iter()
-            .enumerate()
-            .map(|(a, ax)| AxisView {
-                letter: ax.letter().as_char(),
-                rotary: ax.kind() == AxisKind::Rotary,
-                stroke: ax
-                    .limits()
-                    .filter(|(lo, hi)| hi > lo)
-                    .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(machine, a)),
-            })
-            .collect();
+        let axes = AxisView::of_machine(machine);
         let setups = self
             .setups
             .iter()

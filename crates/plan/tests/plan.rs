@@ -10,33 +10,16 @@ use mtcal_machine::{load_machine, topology::Reading};
 use mtcal_plan::geometry::{Carrier, MachineGeometry, Primitive, Solid, signed_distance};
 use mtcal_plan::info::{Choice, combinations};
 use mtcal_plan::scene::{GeometryConfig, Scene, instrument_bodies};
+use mtcal_testkit::random::SplitMix64;
+use mtcal_testkit::repo;
 use nalgebra::{DMatrix, Isometry3, Vector3};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// splitmix64: a few reproducible numbers without a generator crate.
-struct Rng(u64);
+type Rng = SplitMix64;
 
-impl Rng {
-    fn seed_from_u64(s: u64) -> Self {
-        Rng(s)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+/// A uniform index below `n`.
+fn below(rng: &mut Rng, n: usize) -> usize {
+    (rng.next_u64() % n as u64) as usize
 }
 
 fn machine(name: &str) -> Machine {
@@ -173,7 +156,7 @@ fn collision_shapes_sit_on_their_links_frames() {
         g.bodies[sensor].carrier,
         Carrier::Axis(m.axis_index('A').unwrap())
     );
-    let mut rng = Rng::seed_from_u64(3);
+    let mut rng = SplitMix64(3);
     for _ in 0..20 {
         let q: Vec<f64> = m
             .axes()
@@ -271,7 +254,7 @@ fn random_info(rng: &mut Rng, m: usize, rank: usize) -> DMatrix<f64> {
 
 #[test]
 fn greedy_beats_random_selections_and_matches_exhaustive_search() {
-    let mut rng = Rng::seed_from_u64(11);
+    let mut rng = SplitMix64(11);
     let m = 6;
     let wanted = [0, 2, 3, 5];
     let mut greedy_gaps = Vec::new();
@@ -303,9 +286,9 @@ fn greedy_beats_random_selections_and_matches_exhaustive_search() {
         let mut random = Vec::new();
         for _ in 0..30 {
             let mut first: Vec<usize> = (0..5).collect();
-            let a = first.remove(rng.below(5));
-            let b = first.remove(rng.below(4));
-            let c = 5 + rng.below(4);
+            let a = first.remove(below(&mut rng, 5));
+            let b = first.remove(below(&mut rng, 4));
+            let c = 5 + below(&mut rng, 4);
             let v = choice.value(&[a, b, c]);
             assert!(vb <= v + 1e-12);
             random.push(v);
@@ -325,7 +308,7 @@ fn greedy_beats_random_selections_and_matches_exhaustive_search() {
 
 #[test]
 fn an_excluded_candidate_is_never_chosen() {
-    let mut rng = Rng::seed_from_u64(5);
+    let mut rng = SplitMix64(5);
     let m = 5;
     let base = DMatrix::zeros(m, m);
     let cands: Vec<DMatrix<f64>> = (0..6).map(|_| random_info(&mut rng, m, 2)).collect();

@@ -8,7 +8,7 @@ use mtcal_effects::{
     AxisView, Effect, ParamKind, PreparedEffects, RunView, SampleEffects, SessionView, SetupView,
 };
 use mtcal_instrument::At;
-use mtcal_kinematics::{AxisKind, MachineModel, Workspace};
+use mtcal_kinematics::{MachineModel, Workspace};
 use mtcal_session::RunUse;
 use std::sync::Arc;
 
@@ -89,19 +89,7 @@ fn below_noise(table: &mut toml::Table) -> Result<Option<f64>, String> {
 /// The planned session as the effect families see it.
 fn session_view(model: &MachineModel, setups: &[PlannedSetup], runs: &[PlannedRun]) -> SessionView {
     let machine = model.machine();
-    let axes = machine
-        .axes()
-        .iter()
-        .enumerate()
-        .map(|(a, ax)| AxisView {
-            letter: ax.letter().as_char(),
-            rotary: ax.kind() == AxisKind::Rotary,
-            stroke: ax
-                .limits()
-                .filter(|(lo, hi)| hi > lo)
-                .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(machine, a)),
-        })
-        .collect();
+    let axes = AxisView::of_machine(machine);
     let setups = setups
         .iter()
         .map(|s| SetupView {
