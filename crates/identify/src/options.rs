@@ -114,3 +114,69 @@ fn index_in(path: &str, list: &str) -> Option<usize> {
         .parse()
         .ok()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The key and message of reading `text` as `[identify]` into `T`.
+    fn problem<T: serde::de::DeserializeOwned + std::fmt::Debug>(text: &str) -> (String, String) {
+        let table: toml::Table = toml::from_str(text).unwrap();
+        let p = from_table::<T>(&table, &IdentifyMessages).unwrap_err();
+        let key = p.key.split(['.', '[']).next().unwrap().to_string();
+        (key, p.message)
+    }
+
+    #[test]
+    fn the_studys_keys_are_worded_at_their_key() {
+        let unknown = format!("unknown key; [identify] knows {}", IDENTIFY_KEYS.join(", "));
+        let cases = [
+            ("parameter = 1", "parameter", unknown.as_str()),
+            (
+                "parameters = 3",
+                "parameters",
+                "expected a list of ISO 230-1 names, found 3",
+            ),
+            (
+                "parameters = [\"EXX\", 3]",
+                "parameters",
+                "expected a name in quotes, found 3",
+            ),
+            (
+                "start = 3",
+                "start",
+                "expected a parameter file name, found 3",
+            ),
+            (
+                "effect = 3",
+                "effect",
+                "expected a list of [[identify.effect]] tables",
+            ),
+            ("effect = [{}, 3]", "effect", "effect 2 is not a table"),
+            (
+                "held_prior = \"x\"",
+                "held_prior",
+                "expected a positive number (µm or µrad), found \"x\"",
+            ),
+        ];
+        for (text, key, message) in cases {
+            let got = problem::<StudyOptions>(text);
+            assert_eq!(got, (key.to_string(), message.to_string()), "{text}");
+        }
+    }
+
+    #[test]
+    fn the_search_keys_are_left_to_the_search() {
+        let table: toml::Table = toml::from_str("heldout = 3\nfolds = \"x\"").unwrap();
+        assert!(from_table::<StudyOptions>(&table, &IdentifyMessages).is_ok());
+        let (key, message) = problem::<SearchKeys>("heldout = 3");
+        assert_eq!(key, "heldout");
+        assert_eq!(
+            message,
+            "expected \"blocks\", \"runs\" or \"timeline\", found 3"
+        );
+        let (key, message) = problem::<SearchKeys>("folds = 2.5");
+        assert_eq!(key, "folds");
+        assert_eq!(message, "expected a whole number ≥ 2, found 2.5");
+    }
+}

@@ -321,6 +321,95 @@ mod tests {
         );
     }
 
+    /// The message of `text` read as a plan, or of its settings.
+    fn problem(text: &str) -> String {
+        let table: toml::Table = toml::from_str(text).unwrap();
+        let plan = Plan::from_table(table, Path::new("p.toml"));
+        let e = match plan {
+            Ok(plan) => plan.settings().expect_err(text),
+            Err(e) => e,
+        };
+        e.to_string().strip_prefix("p.toml: ").unwrap().to_string()
+    }
+
+    #[test]
+    fn every_top_level_problem_is_worded_as_the_plan_format_words_it() {
+        let cases = [
+            (
+                "machine = 3",
+                "missing `machine = \"<file>.urdf\"` (or a topology code)",
+            ),
+            ("truth = 3", "`truth` must be a file name, found 3"),
+            (
+                "truth_errors = [1]",
+                "`truth_errors` must be a file name, found [1]",
+            ),
+            (
+                "seed = 1.5",
+                "`seed` must be a non-negative integer, found 1.5",
+            ),
+            (
+                "seed = -1",
+                "`seed` must be a non-negative integer, found -1",
+            ),
+            (
+                "interval_s = \"x\"",
+                "`interval_s` must be a positive number, found \"x\"",
+            ),
+            (
+                "interval_s = 0",
+                "`interval_s` must be a positive number, found 0",
+            ),
+            (
+                "pause_s = -1.0",
+                "`pause_s` must be a number ≥ 0, found -1.0",
+            ),
+            ("pause_s = nan", "`pause_s` must be a number ≥ 0, found nan"),
+            ("record = 3", "`record` must be a table, found 3"),
+            ("context = 3", "`context` must be a table of columns"),
+            ("effect = 3", "`effect` must be a list of [[effect]] tables"),
+            ("effect = [{}, 3]", "effect 2 is not a table"),
+            ("setup = 3", "`setup` must be a table of set-ups"),
+            ("setup = { a = 3 }", "`setup.a` must be a table"),
+            ("run = 3", "no [[run]]"),
+            ("run = [1]", "run 1 is not a table"),
+        ];
+        for (text, message) in cases {
+            assert_eq!(problem(text), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn record_decimals_are_checked_in_the_order_of_their_names() {
+        let decimals = "must be a number of decimals from 0 to 9";
+        let cases = [
+            (
+                "positions = 1.5",
+                format!("[record] `positions` {decimals}, found 1.5"),
+            ),
+            ("time = 10", format!("[record] `time` {decimals}, found 10")),
+            (
+                "time = 10\ncontext = -1",
+                format!("[record] `context` {decimals}, found -1"),
+            ),
+            (
+                "angles = 3",
+                "[record] unknown key `angles`; it has positions, readings, time, context".into(),
+            ),
+        ];
+        for (text, message) in cases {
+            assert_eq!(problem(&format!("[record]\n{text}")), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn identify_and_nuisance_that_are_not_tables_count_as_none() {
+        let table: toml::Table = toml::from_str("identify = 3\nnuisance = 3").unwrap();
+        let plan = Plan::from_table(table, Path::new("p.toml")).unwrap();
+        assert!(plan.identify().is_empty());
+        assert!(plan.settings().unwrap().nuisance.is_empty());
+    }
+
     #[test]
     fn a_machine_from_text_is_the_machine_from_its_files() {
         let urdf = machines().join("mcu630-cafyxz.urdf");

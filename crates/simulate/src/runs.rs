@@ -329,3 +329,76 @@ fn context_columns(t: &[f64], settings: &Settings) -> Vec<(String, Vec<f64>)> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::keys::RUN_KEYS;
+
+    fn keys(text: &str) -> Result<RunKeys, String> {
+        let table: toml::Table = toml::from_str(&format!("name = \"r\"\n{text}")).unwrap();
+        from_table::<RunKeys>(&table, &RunMessages).map_err(|p| p.message)
+    }
+
+    #[test]
+    fn a_runs_keys_are_worded_as_the_plan_format_words_them() {
+        let cases = [
+            (
+                "bogus = 1",
+                format!(
+                    "unknown key `bogus`; a plan run has {}",
+                    RUN_KEYS.join(", ")
+                ),
+            ),
+            ("instrument = 3", "missing `instrument`".into()),
+            (
+                "setup = 3",
+                "`setup` must be a name or a table, found 3".into(),
+            ),
+            ("path = 3", "`path` must be a table, found 3".into()),
+            (
+                "noise = \"x\"",
+                "`noise` must be a number ≥ 0, found \"x\"".into(),
+            ),
+            (
+                "readings = 1",
+                "`readings` must be true or false, found 1".into(),
+            ),
+            (
+                "interval_s = \"x\"",
+                "`interval_s` must be > 0, found \"x\"".into(),
+            ),
+            (
+                "feed_mm_min = true",
+                "`feed_mm_min` must be > 0, found true".into(),
+            ),
+        ];
+        for (text, message) in cases {
+            assert_eq!(keys(text).unwrap_err(), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn a_runs_values_are_checked_as_before() {
+        let run = keys("interval_s = 1\nnoise = -1\nfeed_mm_min = 0.0\nuse = 3").unwrap();
+        assert_eq!(
+            interval(&run, 0.5).unwrap_err(),
+            "`interval_s` must be > 0, found 1"
+        );
+        assert_eq!(
+            run_noise(&run, &[]).unwrap_err(),
+            "`noise` must be a number ≥ 0, found -1"
+        );
+        assert_eq!(
+            feed(&run).unwrap_err(),
+            "`feed_mm_min` must be > 0, found 0.0"
+        );
+        // A `use` that is not a string has always meant a fitted run.
+        assert!(run_use(&run).unwrap() == RunUse::Fit);
+        let run = keys("interval_s = 0.25\nsetup = { a = 1 }").unwrap();
+        assert_eq!(interval(&run, 0.5).unwrap(), 0.25);
+        assert!(matches!(run.setup, Some(SetupKey::Own(t)) if t["a"].as_integer() == Some(1)));
+        let run = keys("setup = \"ball1\"").unwrap();
+        assert!(matches!(run.setup, Some(SetupKey::Shared(s)) if s == "ball1"));
+    }
+}
