@@ -32,6 +32,7 @@ pub mod html_report;
 pub mod information;
 pub mod mismatch;
 pub mod noise;
+mod options;
 pub mod pipeline;
 mod relabel;
 pub mod report;

@@ -62,6 +62,7 @@ pub use crate::findings::{
     SearchStop, Trial,
 };
 use crate::fit::{FitProblem, FoldOf, Row, RowTarget, SampleEval};
+use crate::options::SearchKeys;
 use crate::relabel::unique;
 use crate::report::Identification;
 use crate::study::{Changes, Study};
@@ -1021,30 +1022,30 @@ fn with_session_options(
         key: key.into(),
         message: m,
     };
-    match study.session.identify.get("heldout") {
+    let keys = SearchKeys::read(&study.session)?;
+    match keys.heldout.as_deref() {
         None => {}
-        Some(toml::Value::String(s)) if s == "blocks" => {
-            out.cross_validation = CrossValidation::BlocksPerRun;
-        }
-        Some(toml::Value::String(s)) if s == "runs" => out.cross_validation = CrossValidation::Runs,
-        Some(toml::Value::String(s)) if s == "timeline" => {
+        Some("blocks") => out.cross_validation = CrossValidation::BlocksPerRun,
+        Some("runs") => out.cross_validation = CrossValidation::Runs,
+        Some("timeline") => {
             out.cross_validation = CrossValidation::Timeline;
             out.folds = 16;
         }
-        Some(v) => {
+        Some(other) => {
+            let found = toml::Value::from(other);
             return Err(bad(
                 "heldout",
-                format!("expected \"blocks\", \"runs\" or \"timeline\", found {v}"),
+                format!("expected \"blocks\", \"runs\" or \"timeline\", found {found}"),
             ));
         }
     }
-    match study.session.identify.get("folds") {
+    match keys.folds {
         None => {}
-        Some(toml::Value::Integer(k)) if *k >= 2 => out.folds = *k as usize,
-        Some(v) => {
+        Some(k) if k >= 2 => out.folds = k as usize,
+        Some(k) => {
             return Err(bad(
                 "folds",
-                format!("expected a whole number ≥ 2, found {v}"),
+                format!("expected a whole number ≥ 2, found {k}"),
             ));
         }
     }

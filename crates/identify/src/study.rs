@@ -3,6 +3,7 @@
 
 use crate::IdentifyError;
 use crate::checks::cell;
+use crate::options::{StudyOptions, identify_key};
 use mtcal_effects::{
     AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
 };
@@ -18,15 +19,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
-/// Keys of the manifest's `[identify]` table.
-pub const IDENTIFY_KEYS: &[&str] = &[
-    "parameters",
-    "start",
-    "effect",
-    "heldout",
-    "folds",
-    "held_prior",
-];
+pub use crate::options::IDENTIFY_KEYS;
 
 /// Default prior standard deviation of the machine coefficients the runs cannot determine
 /// (`[identify] held_prior`, µm or µrad per coefficient; [`crate::base`]).
@@ -329,18 +322,12 @@ impl Study {
     /// physics search adds to: source 003's temperature polynomial, say). Their parameter
     /// values are starting values.
     fn configured_effects(&self) -> Result<Vec<Arc<dyn Effect>>, IdentifyError> {
-        let Some(v) = self.session.identify.get("effect") else {
+        let Some(list) = StudyOptions::read(&self.session)?.effect else {
             return Ok(Vec::new());
         };
         let bad = |m: String| identify_key(&self.session, "effect", &m);
-        let list = v
-            .as_array()
-            .ok_or_else(|| bad("expected a list of [[identify.effect]] tables".into()))?;
         let mut effects: Vec<Arc<dyn Effect>> = Vec::new();
-        for (k, item) in list.iter().enumerate() {
-            let table = item
-                .as_table()
-                .ok_or_else(|| bad(format!("effect {} is not a table", k + 1)))?;
+        for (k, table) in list.iter().enumerate() {
             let (e, _) = mtcal_effects::configure(table, self.view())
                 .map_err(|m| bad(format!("effect {}: {m}", k + 1)))?;
             effects.push(crate::relabel::unique(&e, &effects));
@@ -407,22 +394,14 @@ impl Study {
         }
         let model = MachineModel::new(machine.machine.clone(), &config)
             .map_err(|e| model_error(&machine, &e))?;
-        check_identify_keys(&session)?;
-        let base_coeffs = match session.identify.get("start") {
+        let options = StudyOptions::read(&session)?;
+        let base_coeffs = match &options.start {
             None => vec![0.0; model.n_coeffs()],
-            Some(toml::Value::String(f)) => {
-                params::load_params(&session.dir.join(f), model.errors())?
-            }
-            Some(v) => {
-                return Err(identify_key(
-                    &session,
-                    "start",
-                    &format!("expected a parameter file name, found {v}"),
-                ));
-            }
+            Some(f) => params::load_params(&session.dir.join(f), model.errors())?,
         };
         let coeff_labels = model.errors().coefficient_labels();
-        let mut estimated = estimated_coefficients(&session, &model)?;
+        let mut estimated =
+            estimated_coefficients(&session, options.parameters.as_deref(), &model)?;
         for name in &changes.estimate {
             let p = model.errors().find(name).ok_or_else(|| {
                 model_error(
@@ -530,18 +509,16 @@ impl Study {
         }
         let effect_offset = n_x;
         n_x += mtcal_effects::prepared::n_params(&changes.effects);
-        let held_prior = match session.identify.get("held_prior") {
+        let held_prior = match options.held_prior {
             None => DEFAULT_HELD_PRIOR,
-            Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
-                Some(x) if x > 0.0 && x.is_finite() => x,
-                _ => {
-                    return Err(identify_key(
-                        &session,
-                        "held_prior",
-                        &format!("expected a positive number (µm or µrad), found {v}"),
-                    ));
-                }
-            },
+            Some(n) if n.value > 0.0 && n.value.is_finite() => n.value,
+            Some(n) => {
+                return Err(identify_key(
+                    &session,
+                    "held_prior",
+                    &format!("expected a positive number (µm or µrad), found {n}"),
+                ));
+            }
         } * 1e-6;
         Ok(Study {
             session,
@@ -864,27 +841,6 @@ fn load_session_machine(session: &Session) -> Result<LoadedMachine, IdentifyErro
     })
 }
 
-fn check_identify_keys(session: &Session) -> Result<(), IdentifyError> {
-    for key in session.identify.keys() {
-        if !IDENTIFY_KEYS.contains(&key.as_str()) {
-            return Err(identify_key(
-                session,
-                key,
-                &format!("unknown key; [identify] knows {}", IDENTIFY_KEYS.join(", ")),
-            ));
-        }
-    }
-    Ok(())
-}
-
-fn identify_key(session: &Session, key: &str, message: &str) -> IdentifyError {
-    IdentifyError::Options {
-        at: session.identify_location(key),
-        key: key.to_string(),
-        message: message.to_string(),
-    }
-}
-
 /// Raises the order of component error `name` in `config` by `extra` (Legendre degree or
 /// Fourier harmonics).
 fn raise_order(
@@ -956,20 +912,15 @@ fn reduced_model(
 /// component error's coefficients); default: every parameter of the error model.
 fn estimated_coefficients(
     session: &Session,
+    names: Option<&[String]>,
     model: &MachineModel,
 ) -> Result<Vec<usize>, IdentifyError> {
-    let Some(v) = session.identify.get("parameters") else {
+    let Some(names) = names else {
         return Ok((0..model.n_coeffs()).collect());
     };
     let bad = |m: String| identify_key(session, "parameters", &m);
-    let list = v
-        .as_array()
-        .ok_or_else(|| bad(format!("expected a list of ISO 230-1 names, found {v}")))?;
     let mut out = Vec::new();
-    for item in list {
-        let s = item
-            .as_str()
-            .ok_or_else(|| bad(format!("expected a name in quotes, found {item}")))?;
+    for s in names {
         let name: ParamName = s
             .parse()
             .map_err(|e| bad(format!("`{s}` is not an ISO 230-1 parameter name: {e}")))?;

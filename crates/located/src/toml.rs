@@ -17,6 +17,9 @@ use serde::de::DeserializeOwned;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
+mod number;
+pub use number::Number;
+
 /// Byte range in the file.
 pub type Span = Range<usize>;
 /// A value of the spanned tree and where it is written.

@@ -30,21 +30,19 @@ impl Schedule {
     }
 }
 
-/// The plan's `[context]` table: per column a list of `[time_s, value]` points.
+/// The plan's `[context]` table (`None`: none): per column a list of `[time_s, value]`
+/// points.
 pub(crate) fn context_schedules(
-    plan: &toml::Table,
+    context: Option<&toml::Table>,
     file: &Path,
 ) -> Result<Vec<(String, Schedule)>, SimulateError> {
     let err = |message: String| SimulateError::Plan {
         file: file.to_path_buf(),
         message,
     };
-    let Some(v) = plan.get("context") else {
+    let Some(table) = context else {
         return Ok(Vec::new());
     };
-    let table = v
-        .as_table()
-        .ok_or_else(|| err("`context` must be a table of columns".into()))?;
     table
         .iter()
         .map(|(name, v)| Ok((name.clone(), schedule(name, v).map_err(err)?)))
@@ -114,15 +112,14 @@ mod tests {
 
     #[test]
     fn a_context_column_must_be_a_known_kind_with_increasing_times() {
-        let table: toml::Table =
-            toml::from_str("[context]\nT_bed = [[0.0, 20.0], [0.0, 21.0]]").unwrap();
-        let e = context_schedules(&table, Path::new("p.toml")).unwrap_err();
+        let table: toml::Table = toml::from_str("T_bed = [[0.0, 20.0], [0.0, 21.0]]").unwrap();
+        let e = context_schedules(Some(&table), Path::new("p.toml")).unwrap_err();
         assert_eq!(
             e.to_string(),
             "p.toml: [context] `T_bed` must be a list of [time_s, value] pairs, increasing in time"
         );
-        let table: toml::Table = toml::from_str("[context]\nX = [[0.0, 1.0]]").unwrap();
-        let e = context_schedules(&table, Path::new("p.toml")).unwrap_err();
+        let table: toml::Table = toml::from_str("X = [[0.0, 1.0]]").unwrap();
+        let e = context_schedules(Some(&table), Path::new("p.toml")).unwrap_err();
         assert!(e.to_string().contains("context columns are S, F"), "{e}");
     }
 }

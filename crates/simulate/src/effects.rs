@@ -23,19 +23,13 @@ pub(crate) fn planted_effects(
     setups: &[PlannedSetup],
     runs: &[PlannedRun],
 ) -> Result<Option<Planted>, SimulateError> {
-    let Some(v) = plan.table.get("effect") else {
+    let Some(list) = plan.effects() else {
         return Ok(None);
     };
-    let list = v
-        .as_array()
-        .ok_or_else(|| plan.error("`effect` must be a list of [[effect]] tables".into()))?;
     let view = Arc::new(session_view(model, setups, runs));
     let mut effects: Vec<Arc<dyn Effect>> = Vec::new();
     let mut values = Vec::new();
-    for (k, item) in list.iter().enumerate() {
-        let table = item
-            .as_table()
-            .ok_or_else(|| plan.error(format!("effect {} is not a table", k + 1)))?;
+    for (k, table) in list.iter().enumerate() {
         let (effect, v) = planted_effect(table.clone(), &view, model, truth, setups, runs)
             .map_err(|m| plan.error(format!("[[effect]] {}: {m}", k + 1)))?;
         effects.push(effect);

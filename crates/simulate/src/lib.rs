@@ -91,6 +91,7 @@
 
 mod context;
 mod effects;
+mod keys;
 mod plan;
 mod plant;
 mod readings;

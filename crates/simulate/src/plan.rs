@@ -3,35 +3,20 @@
 
 use crate::SimulateError;
 use crate::context::{Schedule, context_schedules};
+use crate::keys::{PlanKeys, PlanMessages};
 use crate::record::Record;
 use mtcal_kinematics::MachineModel;
 use mtcal_machine::{LoadError, LoadedMachine, load_machine, params, topology::Reading};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Keys of a plan's top level.
-const PLAN_KEYS: &[&str] = &[
-    "machine",
-    "truth",
-    "truth_errors",
-    "pause_s",
-    "record",
-    "context",
-    "effect",
-    "seed",
-    "interval_s",
-    "identify",
-    "setup",
-    "nuisance",
-    "run",
-];
-
-/// A test plan: its table, and the file that names it in messages. Relative paths in it
-/// (machine, truth) start at that file's folder.
+/// A test plan: its table, its keys as read, and the file that names it in messages.
+/// Relative paths in it (machine, truth) start at that file's folder.
 #[derive(Debug, Clone)]
 pub struct Plan {
     pub table: toml::Table,
     pub file: PathBuf,
+    keys: PlanKeys,
 }
 
 /// The machine of a plan: as loaded, and the files a session folder gets of it.
@@ -91,15 +76,12 @@ impl Plan {
 
     /// A plan held in memory; `file` names it in messages.
     pub fn from_table(table: toml::Table, file: &Path) -> Result<Plan, SimulateError> {
-        if let Some(k) = table.keys().find(|k| !PLAN_KEYS.contains(&k.as_str())) {
-            return Err(plan_error(
-                file,
-                format!("unknown key `{k}`; a plan has {}", PLAN_KEYS.join(", ")),
-            ));
-        }
+        let keys = mtcal_located::toml::from_table(&table, &PlanMessages)
+            .map_err(|p| plan_error(file, p.message))?;
         Ok(Plan {
             table,
             file: file.to_path_buf(),
+            keys,
         })
     }
 
@@ -125,13 +107,9 @@ impl Plan {
     /// The machine the plan names: a URDF relative to the plan (with the `.errors.toml` beside
     /// it) or a topology code.
     pub fn machine(&self) -> Result<PlanMachine, SimulateError> {
-        let arg = self
-            .table
-            .get("machine")
-            .and_then(|v| v.as_str())
-            .ok_or_else(|| {
-                self.error("missing `machine = \"<file>.urdf\"` (or a topology code)".into())
-            })?;
+        let arg = self.keys.machine.as_deref().ok_or_else(|| {
+            self.error("missing `machine = \"<file>.urdf\"` (or a topology code)".into())
+        })?;
         let file = self.base().join(arg);
         let is_file = file.is_file();
         let loaded = load_machine(
@@ -157,94 +135,88 @@ impl Plan {
         &self,
         loaded: &LoadedMachine,
     ) -> Result<(MachineModel, Vec<f64>), SimulateError> {
-        let config = match self.table.get("truth_errors") {
+        let config = match &self.keys.truth_errors {
             None => loaded.config.clone(),
-            Some(v) => {
-                let f = self.file_name("truth_errors", v)?;
-                mtcal_machine::config::load_config(&self.base().join(f), &loaded.machine)
-                    .map_err(|e| self.error(format!("truth_errors: {e}")))?
-            }
+            Some(f) => mtcal_machine::config::load_config(&self.base().join(f), &loaded.machine)
+                .map_err(|e| self.error(format!("truth_errors: {e}")))?,
         };
         let model = MachineModel::new(loaded.machine.clone(), &config)
             .map_err(|e| self.error(format!("error model: {e}")))?;
-        let truth = match self.table.get("truth") {
+        let truth = match &self.keys.truth {
             None => vec![0.0; model.n_coeffs()],
-            Some(v) => {
-                let f = self.file_name("truth", v)?;
-                params::load_params(&self.base().join(f), model.errors())
-                    .map_err(|e| self.error(format!("truth: {e}")))?
-            }
+            Some(f) => params::load_params(&self.base().join(f), model.errors())
+                .map_err(|e| self.error(format!("truth: {e}")))?,
         };
         Ok((model, truth))
     }
 
-    /// Key `key`'s value `v` as a file name.
-    fn file_name<'a>(&self, key: &str, v: &'a toml::Value) -> Result<&'a str, SimulateError> {
-        v.as_str()
-            .ok_or_else(|| self.error(format!("`{key}` must be a file name, found {v}")))
-    }
-
     /// The session-wide settings, checked in the order the plan format lists them.
     pub(crate) fn settings(&self) -> Result<Settings, SimulateError> {
-        let t = &self.table;
+        let keys = &self.keys;
+        let nuisance = match &keys.nuisance {
+            Some(toml::Value::Table(t)) => t.clone(),
+            _ => toml::Table::new(),
+        };
         Ok(Settings {
-            seed: int_key(t, "seed", &self.file)?.unwrap_or(0),
-            interval: float_key(t, "interval_s", &self.file)?.unwrap_or(0.5),
+            seed: self.seed()?,
+            interval: self.interval()?,
             pause: self.pause()?,
-            schedules: context_schedules(t, &self.file)?,
-            record: Record::from_plan(t, &self.file)?,
-            setups: self.setups()?,
-            nuisance: t
-                .get("nuisance")
-                .and_then(|v| v.as_table())
-                .cloned()
-                .unwrap_or_default(),
+            schedules: context_schedules(keys.context.as_ref(), &self.file)?,
+            record: Record::from_plan(keys.record.as_ref(), &self.file)?,
+            setups: keys.setup.clone().unwrap_or_default(),
+            nuisance,
         })
+    }
+
+    /// `seed`: the noise seed (default 0).
+    fn seed(&self) -> Result<u64, SimulateError> {
+        match self.keys.seed {
+            None => Ok(0),
+            Some(i) => u64::try_from(i).map_err(|_| {
+                self.error(format!("`seed` must be a non-negative integer, found {i}"))
+            }),
+        }
+    }
+
+    /// `interval_s`: time between samples (default 0.5 s).
+    fn interval(&self) -> Result<f64, SimulateError> {
+        match self.keys.interval_s {
+            None => Ok(0.5),
+            Some(n) if n.value.is_finite() && n.value > 0.0 => Ok(n.value),
+            Some(n) => {
+                Err(self.error(format!("`interval_s` must be a positive number, found {n}")))
+            }
+        }
     }
 
     /// `pause_s`: time between runs (default 10 s).
     fn pause(&self) -> Result<f64, SimulateError> {
-        match self.table.get("pause_s") {
+        match self.keys.pause_s {
             None => Ok(10.0),
-            Some(v) => v
-                .as_float()
-                .or_else(|| v.as_integer().map(|i| i as f64))
-                .filter(|x| x.is_finite() && *x >= 0.0)
-                .ok_or_else(|| self.error(format!("`pause_s` must be a number ≥ 0, found {v}"))),
-        }
-    }
-
-    /// The shared set-ups, `[setup.<name>]`.
-    fn setups(&self) -> Result<BTreeMap<String, toml::Table>, SimulateError> {
-        match self.table.get("setup") {
-            None => Ok(BTreeMap::new()),
-            Some(toml::Value::Table(t)) => t
-                .iter()
-                .map(|(k, v)| match v {
-                    toml::Value::Table(t) => Ok((k.clone(), t.clone())),
-                    _ => Err(self.error(format!("`setup.{k}` must be a table"))),
-                })
-                .collect(),
-            Some(_) => Err(self.error("`setup` must be a table of set-ups".into())),
+            Some(n) if n.value.is_finite() && n.value >= 0.0 => Ok(n.value),
+            Some(n) => Err(self.error(format!("`pause_s` must be a number ≥ 0, found {n}"))),
         }
     }
 
     /// The `[[run]]` tables.
-    pub(crate) fn runs(&self) -> Result<&[toml::Value], SimulateError> {
-        self.table
-            .get("run")
-            .and_then(|v| v.as_array())
-            .map(Vec::as_slice)
+    pub(crate) fn runs(&self) -> Result<&[toml::Table], SimulateError> {
+        self.keys
+            .run
+            .as_deref()
             .ok_or_else(|| self.error("no [[run]]".into()))
+    }
+
+    /// The `[[effect]]` tables (`None` without the key).
+    pub(crate) fn effects(&self) -> Option<&[toml::Table]> {
+        self.keys.effect.as_deref()
     }
 
     /// `[identify]`, copied into the session's manifest.
     pub(crate) fn identify(&self) -> toml::Table {
-        self.table
-            .get("identify")
-            .and_then(|v| v.as_table())
-            .cloned()
-            .unwrap_or_default()
+        match &self.keys.identify {
+            Some(toml::Value::Table(t)) => t.clone(),
+            _ => toml::Table::new(),
+        }
     }
 }
 
@@ -308,34 +280,6 @@ fn plan_error(file: &Path, message: String) -> SimulateError {
     }
 }
 
-fn int_key(t: &toml::Table, key: &str, file: &Path) -> Result<Option<u64>, SimulateError> {
-    match t.get(key) {
-        None => Ok(None),
-        Some(toml::Value::Integer(i)) if *i >= 0 => Ok(Some(*i as u64)),
-        Some(v) => Err(plan_error(
-            file,
-            format!("`{key}` must be a non-negative integer, found {v}"),
-        )),
-    }
-}
-
-fn float_key(t: &toml::Table, key: &str, file: &Path) -> Result<Option<f64>, SimulateError> {
-    match t.get(key) {
-        None => Ok(None),
-        Some(v) => v
-            .as_float()
-            .or_else(|| v.as_integer().map(|i| i as f64))
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .map(Some)
-            .ok_or_else(|| {
-                plan_error(
-                    file,
-                    format!("`{key}` must be a positive number, found {v}"),
-                )
-            }),
-    }
-}
-
 /// Line and column (1-based, in characters) of byte `offset` of `text`.
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
@@ -347,6 +291,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::keys::PLAN_KEYS;
 
     fn machines() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../machines")
@@ -374,6 +319,95 @@ mod tests {
                 PLAN_KEYS.join(", ")
             )
         );
+    }
+
+    /// The message of `text` read as a plan, or of its settings.
+    fn problem(text: &str) -> String {
+        let table: toml::Table = toml::from_str(text).unwrap();
+        let plan = Plan::from_table(table, Path::new("p.toml"));
+        let e = match plan {
+            Ok(plan) => plan.settings().expect_err(text),
+            Err(e) => e,
+        };
+        e.to_string().strip_prefix("p.toml: ").unwrap().to_string()
+    }
+
+    #[test]
+    fn every_top_level_problem_is_worded_as_the_plan_format_words_it() {
+        let cases = [
+            (
+                "machine = 3",
+                "missing `machine = \"<file>.urdf\"` (or a topology code)",
+            ),
+            ("truth = 3", "`truth` must be a file name, found 3"),
+            (
+                "truth_errors = [1]",
+                "`truth_errors` must be a file name, found [1]",
+            ),
+            (
+                "seed = 1.5",
+                "`seed` must be a non-negative integer, found 1.5",
+            ),
+            (
+                "seed = -1",
+                "`seed` must be a non-negative integer, found -1",
+            ),
+            (
+                "interval_s = \"x\"",
+                "`interval_s` must be a positive number, found \"x\"",
+            ),
+            (
+                "interval_s = 0",
+                "`interval_s` must be a positive number, found 0",
+            ),
+            (
+                "pause_s = -1.0",
+                "`pause_s` must be a number ≥ 0, found -1.0",
+            ),
+            ("pause_s = nan", "`pause_s` must be a number ≥ 0, found nan"),
+            ("record = 3", "`record` must be a table, found 3"),
+            ("context = 3", "`context` must be a table of columns"),
+            ("effect = 3", "`effect` must be a list of [[effect]] tables"),
+            ("effect = [{}, 3]", "effect 2 is not a table"),
+            ("setup = 3", "`setup` must be a table of set-ups"),
+            ("setup = { a = 3 }", "`setup.a` must be a table"),
+            ("run = 3", "no [[run]]"),
+            ("run = [1]", "run 1 is not a table"),
+        ];
+        for (text, message) in cases {
+            assert_eq!(problem(text), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn record_decimals_are_checked_in_the_order_of_their_names() {
+        let decimals = "must be a number of decimals from 0 to 9";
+        let cases = [
+            (
+                "positions = 1.5",
+                format!("[record] `positions` {decimals}, found 1.5"),
+            ),
+            ("time = 10", format!("[record] `time` {decimals}, found 10")),
+            (
+                "time = 10\ncontext = -1",
+                format!("[record] `context` {decimals}, found -1"),
+            ),
+            (
+                "angles = 3",
+                "[record] unknown key `angles`; it has positions, readings, time, context".into(),
+            ),
+        ];
+        for (text, message) in cases {
+            assert_eq!(problem(&format!("[record]\n{text}")), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn identify_and_nuisance_that_are_not_tables_count_as_none() {
+        let table: toml::Table = toml::from_str("identify = 3\nnuisance = 3").unwrap();
+        let plan = Plan::from_table(table, Path::new("p.toml")).unwrap();
+        assert!(plan.identify().is_empty());
+        assert!(plan.settings().unwrap().nuisance.is_empty());
     }
 
     #[test]

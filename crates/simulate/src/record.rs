@@ -1,6 +1,7 @@
 //! `[record]`: the decimals the files hold, as a controller and an instrument write them.
 
 use crate::SimulateError;
+use crate::keys::RecordKeys;
 use mtcal_kinematics::AxisKind;
 use std::path::Path;
 
@@ -14,43 +15,35 @@ pub(crate) struct Record {
 }
 
 impl Record {
-    const KEYS: [&str; 4] = ["positions", "readings", "time", "context"];
-
-    pub(crate) fn from_plan(plan: &toml::Table, file: &Path) -> Result<Record, SimulateError> {
-        let err = |message: String| SimulateError::Plan {
-            file: file.to_path_buf(),
-            message,
-        };
-        let Some(v) = plan.get("record") else {
+    /// `[record]` as read (`None`: no table), its decimals checked, in the order of their
+    /// names.
+    pub(crate) fn from_plan(
+        keys: Option<&RecordKeys>,
+        file: &Path,
+    ) -> Result<Record, SimulateError> {
+        let Some(keys) = keys else {
             return Ok(Record::default());
         };
-        let table = v
-            .as_table()
-            .ok_or_else(|| err(format!("`record` must be a table, found {v}")))?;
-        let mut record = Record::default();
-        for (k, v) in table {
-            let decimals = v
-                .as_integer()
-                .filter(|d| (0..=9).contains(d))
-                .ok_or_else(|| {
-                    err(format!(
-                        "[record] `{k}` must be a number of decimals from 0 to 9, found {v}"
-                    ))
-                })? as usize;
-            match k.as_str() {
-                "positions" => record.positions = Some(decimals),
-                "readings" => record.readings = Some(decimals),
-                "time" => record.time = Some(decimals),
-                "context" => record.context = Some(decimals),
-                _ => {
-                    return Err(err(format!(
-                        "[record] unknown key `{k}`; it has {}",
-                        Record::KEYS.join(", ")
-                    )));
-                }
-            }
-        }
-        Ok(record)
+        let decimals = |key: &str, value: Option<i64>| match value {
+            None => Ok(None),
+            Some(d) if (0..=9).contains(&d) => Ok(Some(d as usize)),
+            Some(d) => Err(SimulateError::Plan {
+                file: file.to_path_buf(),
+                message: format!(
+                    "[record] `{key}` must be a number of decimals from 0 to 9, found {d}"
+                ),
+            }),
+        };
+        let context = decimals("context", keys.context)?;
+        let positions = decimals("positions", keys.positions)?;
+        let readings = decimals("readings", keys.readings)?;
+        let time = decimals("time", keys.time)?;
+        Ok(Record {
+            positions,
+            readings,
+            time,
+            context,
+        })
     }
 
     /// `v` as written with `decimals` and read back (a written `-0.000` reads as 0).

@@ -2,24 +2,13 @@
 //! context, and the distinct set-ups with their true nuisance values.
 
 use crate::SimulateError;
+use crate::keys::{RunKeys, RunMessages, RunName, SetupKey};
 use crate::plan::{Plan, Settings};
 use crate::record::Record;
 use mtcal_instrument::{Channel, InstrumentPlugin, PathSpec, Setup, SetupContext};
 use mtcal_kinematics::MachineModel;
+use mtcal_located::toml::{SerdeMessages, from_table};
 use mtcal_session::{RunUse, SetupRef};
-
-/// Keys of a plan's runs.
-const RUN_KEYS: &[&str] = &[
-    "name",
-    "instrument",
-    "setup",
-    "use",
-    "path",
-    "noise",
-    "readings",
-    "interval_s",
-    "feed_mm_min",
-];
 
 /// One run of a plan, ready to be measured.
 pub(crate) struct PlannedRun {
@@ -69,15 +58,15 @@ pub(crate) fn plan_runs(
     let mut runs = Vec::new();
     let mut setups: Vec<PlannedSetup> = Vec::new();
     let mut t0 = 0.0;
-    for (ri, run) in plan.runs()?.iter().enumerate() {
-        let table = run
-            .as_table()
-            .ok_or_else(|| plan.error(format!("run {} is not a table", ri + 1)))?;
-        let name = table
-            .get("name")
-            .and_then(|v| v.as_str())
+    for (ri, table) in plan.runs()?.iter().enumerate() {
+        let name = from_table::<RunName>(table, &SerdeMessages)
+            .ok()
+            .and_then(|n| n.name)
             .ok_or_else(|| plan.error(format!("run {} has no `name`", ri + 1)))?;
-        let (mut run, setup, end) = plan_run(table, name, settings, model, t0)
+        let name = name.as_str();
+        let (mut run, setup, end) = from_table::<RunKeys>(table, &RunMessages)
+            .map_err(|p| p.message)
+            .and_then(|keys| plan_run(&keys, name, settings, model, t0))
             .map_err(|message| plan.run_error(name, message))?;
         t0 = end;
         run.setup = match setups.iter().position(|d| d.name == setup.name) {
@@ -96,27 +85,17 @@ pub(crate) fn plan_runs(
 /// index not yet set), its set-up as loaded and the time the next run starts; or what is
 /// wrong with it.
 fn plan_run(
-    run: &toml::Table,
+    run: &RunKeys,
     name: &str,
     settings: &Settings,
     model: &MachineModel,
     t0: f64,
 ) -> Result<(PlannedRun, PlannedSetup, f64), String> {
-    if let Some(k) = run.keys().find(|k| !RUN_KEYS.contains(&k.as_str())) {
-        return Err(format!(
-            "unknown key `{k}`; a plan run has {}",
-            RUN_KEYS.join(", ")
-        ));
-    }
     let (instrument, plugin) = plugin_of(run)?;
     let choice = setup_choice(run, name, settings)?;
     let use_ = run_use(run)?;
     let empty = toml::Table::new();
-    let path_table = match run.get("path") {
-        Some(toml::Value::Table(t)) => t,
-        None => &empty,
-        Some(v) => return Err(format!("`path` must be a table, found {v}")),
-    };
+    let path_table = run.path.as_ref().unwrap_or(&empty);
     let ctx = SetupContext {
         machine: model.machine(),
     };
@@ -130,7 +109,7 @@ fn plan_run(
     let (labels, label_numbers) = path_labels(plugin, &spec, &*setup, poses.len())?;
     let nuis = true_nuisance(&*setup, &choice.name, &settings.nuisance)?;
     let noise = run_noise(run, setup.channels())?;
-    let with_readings = with_readings(run)?;
+    let with_readings = with_readings(run);
     let dt = interval(run, settings.interval)?;
     let feed = feed(run)?;
     let t = sample_times(t0, dt, poses.len(), &settings.record)?;
@@ -161,10 +140,10 @@ fn plan_run(
 }
 
 /// The run's instrument and its plugin.
-fn plugin_of(run: &toml::Table) -> Result<(&str, &'static InstrumentPlugin), String> {
+fn plugin_of(run: &RunKeys) -> Result<(&str, &'static InstrumentPlugin), String> {
     let instrument = run
-        .get("instrument")
-        .and_then(|v| v.as_str())
+        .instrument
+        .as_deref()
         .ok_or_else(|| "missing `instrument`".to_string())?;
     let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
         format!(
@@ -180,22 +159,21 @@ fn plugin_of(run: &toml::Table) -> Result<(&str, &'static InstrumentPlugin), Str
 }
 
 /// `setup = "<name>"` (a shared `[setup.<name>]`), an own table, or none (an empty own one).
-fn setup_choice(run: &toml::Table, name: &str, settings: &Settings) -> Result<SetupChoice, String> {
-    let (reference, name, table) = match run.get("setup") {
-        Some(toml::Value::String(s)) => {
+fn setup_choice(run: &RunKeys, name: &str, settings: &Settings) -> Result<SetupChoice, String> {
+    let (reference, name, table) = match &run.setup {
+        Some(SetupKey::Shared(s)) => {
             let t = settings
                 .setups
                 .get(s)
                 .ok_or_else(|| format!("no [setup.{s}] in the plan"))?;
             (SetupRef::Shared(s.clone()), s.clone(), t.clone())
         }
-        Some(toml::Value::Table(t)) => (SetupRef::Own(t.clone()), name.to_string(), t.clone()),
+        Some(SetupKey::Own(t)) => (SetupRef::Own(t.clone()), name.to_string(), t.clone()),
         None => (
             SetupRef::Own(toml::Table::new()),
             name.to_string(),
             toml::Table::new(),
         ),
-        Some(v) => return Err(format!("`setup` must be a name or a table, found {v}")),
     };
     Ok(SetupChoice {
         reference,
@@ -205,8 +183,8 @@ fn setup_choice(run: &toml::Table, name: &str, settings: &Settings) -> Result<Se
 }
 
 /// `use = "fit"` (the default) or `"validate"`.
-fn run_use(run: &toml::Table) -> Result<RunUse, String> {
-    match run.get("use").and_then(|v| v.as_str()) {
+fn run_use(run: &RunKeys) -> Result<RunUse, String> {
+    match run.use_.as_ref().and_then(|v| v.as_str()) {
         None | Some("fit") => Ok(RunUse::Fit),
         Some("validate") => Ok(RunUse::Validate),
         Some(other) => Err(format!(
@@ -289,48 +267,37 @@ fn true_nuisance(
 }
 
 /// σ of each channel's noise (SI): `noise` in the channels' units, default their own σ.
-fn run_noise(run: &toml::Table, channels: &[Channel]) -> Result<Vec<f64>, String> {
-    let Some(v) = run.get("noise") else {
+fn run_noise(run: &RunKeys, channels: &[Channel]) -> Result<Vec<f64>, String> {
+    let Some(n) = run.noise else {
         return Ok(channels.iter().map(|c| c.sigma).collect());
     };
-    let x = v
-        .as_float()
-        .or_else(|| v.as_integer().map(|i| i as f64))
-        .filter(|x| x.is_finite() && *x >= 0.0)
-        .ok_or_else(|| format!("`noise` must be a number ≥ 0, found {v}"))?;
-    Ok(channels.iter().map(|c| x / c.unit.per_si()).collect())
+    if !(n.value.is_finite() && n.value >= 0.0) {
+        return Err(format!("`noise` must be a number ≥ 0, found {n}"));
+    }
+    Ok(channels.iter().map(|c| n.value / c.unit.per_si()).collect())
 }
 
 /// `readings = false`: a validation run written without readings.
-fn with_readings(run: &toml::Table) -> Result<bool, String> {
-    match run.get("readings") {
-        None => Ok(true),
-        Some(v) => v
-            .as_bool()
-            .ok_or_else(|| format!("`readings` must be true or false, found {v}")),
-    }
+fn with_readings(run: &RunKeys) -> bool {
+    run.readings.unwrap_or(true)
 }
 
-/// `interval_s`: the run's time between samples (default the plan's).
-fn interval(run: &toml::Table, default: f64) -> Result<f64, String> {
-    match run.get("interval_s") {
+/// `interval_s`: the run's time between samples (default the plan's). Only a float: an
+/// integer has always been refused here.
+fn interval(run: &RunKeys, default: f64) -> Result<f64, String> {
+    match run.interval_s {
         None => Ok(default),
-        Some(v) => v
-            .as_float()
-            .filter(|x| *x > 0.0)
-            .ok_or_else(|| format!("`interval_s` must be > 0, found {v}")),
+        Some(n) if !n.integer && n.value > 0.0 => Ok(n.value),
+        Some(n) => Err(format!("`interval_s` must be > 0, found {n}")),
     }
 }
 
 /// `feed_mm_min`, the NC program's feed (default 1000 mm/min).
-fn feed(run: &toml::Table) -> Result<f64, String> {
-    match run.get("feed_mm_min") {
+fn feed(run: &RunKeys) -> Result<f64, String> {
+    match run.feed_mm_min {
         None => Ok(1000.0),
-        Some(v) => v
-            .as_float()
-            .or_else(|| v.as_integer().map(|i| i as f64))
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .ok_or_else(|| format!("`feed_mm_min` must be > 0, found {v}")),
+        Some(n) if n.value.is_finite() && n.value > 0.0 => Ok(n.value),
+        Some(n) => Err(format!("`feed_mm_min` must be > 0, found {n}")),
     }
 }
 
@@ -361,4 +328,77 @@ fn context_columns(t: &[f64], settings: &Settings) -> Vec<(String, Vec<f64>)> {
             (name.clone(), values)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::keys::RUN_KEYS;
+
+    fn keys(text: &str) -> Result<RunKeys, String> {
+        let table: toml::Table = toml::from_str(&format!("name = \"r\"\n{text}")).unwrap();
+        from_table::<RunKeys>(&table, &RunMessages).map_err(|p| p.message)
+    }
+
+    #[test]
+    fn a_runs_keys_are_worded_as_the_plan_format_words_them() {
+        let cases = [
+            (
+                "bogus = 1",
+                format!(
+                    "unknown key `bogus`; a plan run has {}",
+                    RUN_KEYS.join(", ")
+                ),
+            ),
+            ("instrument = 3", "missing `instrument`".into()),
+            (
+                "setup = 3",
+                "`setup` must be a name or a table, found 3".into(),
+            ),
+            ("path = 3", "`path` must be a table, found 3".into()),
+            (
+                "noise = \"x\"",
+                "`noise` must be a number ≥ 0, found \"x\"".into(),
+            ),
+            (
+                "readings = 1",
+                "`readings` must be true or false, found 1".into(),
+            ),
+            (
+                "interval_s = \"x\"",
+                "`interval_s` must be > 0, found \"x\"".into(),
+            ),
+            (
+                "feed_mm_min = true",
+                "`feed_mm_min` must be > 0, found true".into(),
+            ),
+        ];
+        for (text, message) in cases {
+            assert_eq!(keys(text).unwrap_err(), message, "{text}");
+        }
+    }
+
+    #[test]
+    fn a_runs_values_are_checked_as_before() {
+        let run = keys("interval_s = 1\nnoise = -1\nfeed_mm_min = 0.0\nuse = 3").unwrap();
+        assert_eq!(
+            interval(&run, 0.5).unwrap_err(),
+            "`interval_s` must be > 0, found 1"
+        );
+        assert_eq!(
+            run_noise(&run, &[]).unwrap_err(),
+            "`noise` must be a number ≥ 0, found -1"
+        );
+        assert_eq!(
+            feed(&run).unwrap_err(),
+            "`feed_mm_min` must be > 0, found 0.0"
+        );
+        // A `use` that is not a string has always meant a fitted run.
+        assert!(run_use(&run).unwrap() == RunUse::Fit);
+        let run = keys("interval_s = 0.25\nsetup = { a = 1 }").unwrap();
+        assert_eq!(interval(&run, 0.5).unwrap(), 0.25);
+        assert!(matches!(run.setup, Some(SetupKey::Own(t)) if t["a"].as_integer() == Some(1)));
+        let run = keys("setup = \"ball1\"").unwrap();
+        assert!(matches!(run.setup, Some(SetupKey::Shared(s)) if s == "ball1"));
+    }
 }
