@@ -65,6 +65,21 @@ pub struct AxisView {
     pub stroke: (f64, f64),
 }
 
+impl SetupView {
+    /// The view of a loaded set-up named `name` of instrument `instrument`.
+    pub fn of(name: &str, instrument: &str, setup: &dyn mtcal_instrument::Setup) -> SetupView {
+        SetupView {
+            name: name.to_string(),
+            instrument: instrument.to_string(),
+            channels: setup.channels().to_vec(),
+            reads_pose: (0..setup.channels().len())
+                .map(|c| setup.reads_pose(c))
+                .collect(),
+            nuisance: setup.nuisance().to_vec(),
+        }
+    }
+}
+
 impl AxisView {
     /// Every axis of `machine`, in its axis order.
     pub fn of_machine(machine: &mtcal_kinematics::Machine) -> Vec<AxisView> {

@@ -7,7 +7,7 @@
 use crate::IdentifyError;
 use crate::report::Identification;
 use crate::study::Study;
-use mtcal_instrument::{Evaluation, PolarView};
+use mtcal_instrument::PolarView;
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_report as rep;
@@ -219,18 +219,8 @@ fn polar_runs(
 
 /// Run `r` as its instrument draws it on a circle, if it does (and the run has readings).
 fn polar_view(study: &Study, r: usize) -> Option<PolarView> {
-    let run = &study.runs[r];
-    let slot = &study.setups[run.setup];
-    let view = slot.plugin.polar_view?;
-    let readings = run.readings.as_ref()?;
-    view(&Evaluation {
-        machine: study.model.machine(),
-        setup: &slot.table,
-        q: &run.q.to_row_major(),
-        readings: &readings.to_row_major(),
-        t: &run.t.to_vec(),
-        labels: &run.labels,
-    })
+    let view = study.setups[study.runs[r].setup].plugin.polar_view?;
+    study.with_evaluation(r, view).flatten()
 }
 
 /// What a context column is and its unit (the run files' units).

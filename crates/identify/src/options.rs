@@ -90,7 +90,7 @@ impl Messages for IdentifyMessages {
         if path.starts_with("parameters[") {
             return Some(format!("expected a name in quotes, found {v}"));
         }
-        if let Some(i) = index_in(path, "effect") {
+        if let Some(i) = mtcal_located::toml::index_in(path, "effect") {
             return Some(format!("effect {} is not a table", i + 1));
         }
         let message = match path {
@@ -104,15 +104,6 @@ impl Messages for IdentifyMessages {
         };
         Some(message)
     }
-}
-
-/// `i` of a path `<list>[i]`.
-fn index_in(path: &str, list: &str) -> Option<usize> {
-    path.strip_prefix(list)?
-        .strip_prefix('[')?
-        .strip_suffix(']')?
-        .parse()
-        .ok()
 }
 
 #[cfg(test)]

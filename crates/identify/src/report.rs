@@ -4,7 +4,6 @@
 
 use crate::base::{BaseModel, ConditionalCovariance, HeldWhy, expression};
 use crate::study::Study;
-use mtcal_instrument::Evaluation;
 use mtcal_kinematics::model::Role;
 use mtcal_solve::Solution;
 use serde::Serialize;
@@ -839,17 +838,7 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
     let metrics = slot
         .plugin
         .evaluate
-        .map(|f| {
-            // The instrument's evaluation takes whole vectors: expanded for this run only.
-            f(&Evaluation {
-                machine: study.model.machine(),
-                setup: &slot.table,
-                q: &run.q.to_row_major(),
-                readings: &readings.to_row_major(),
-                t: &run.t.to_vec(),
-                labels: &run.labels,
-            })
-        })
+        .and_then(|f| study.with_evaluation(r, f))
         .unwrap_or_default()
         .into_iter()
         .map(|m| MetricValue {

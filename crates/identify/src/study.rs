@@ -687,21 +687,32 @@ impl Study {
         }
     }
 
+    /// `f` on run `r` as its instrument's own evaluations see it (whole vectors, expanded for
+    /// this run only); `None` for a run without readings.
+    pub fn with_evaluation<T>(
+        &self,
+        r: usize,
+        f: impl FnOnce(&mtcal_instrument::Evaluation<'_>) -> T,
+    ) -> Option<T> {
+        let run = &self.runs[r];
+        let readings = run.readings.as_ref()?;
+        Some(f(&mtcal_instrument::Evaluation {
+            machine: self.model.machine(),
+            setup: &self.setups[run.setup].table,
+            q: &run.q.to_row_major(),
+            readings: &readings.to_row_major(),
+            t: &run.t.to_vec(),
+            labels: &run.labels,
+        }))
+    }
+
     fn build_view(&self) -> SessionView {
         let machine = self.model.machine();
         let axes = AxisView::of_machine(machine);
         let setups = self
             .setups
             .iter()
-            .map(|s| SetupView {
-                name: s.name.clone(),
-                instrument: s.plugin.name.to_string(),
-                channels: s.setup.channels().to_vec(),
-                reads_pose: (0..s.setup.channels().len())
-                    .map(|c| s.setup.reads_pose(c))
-                    .collect(),
-                nuisance: s.setup.nuisance().to_vec(),
-            })
+            .map(|s| SetupView::of(&s.name, s.plugin.name, s.setup.as_ref()))
             .collect();
         // The study's columns, shared (not copied): the positions convert to SI as they are
         // read, bit for bit what the fit reads.

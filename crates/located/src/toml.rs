@@ -170,6 +170,15 @@ fn split_index(part: &str) -> (&str, Option<usize>) {
     }
 }
 
+/// `i` of a key path `<list>[i]` (as [`Messages`] and [`KeyProblem`] give them).
+pub fn index_in(path: &str, list: &str) -> Option<usize> {
+    path.strip_prefix(list)?
+        .strip_prefix('[')?
+        .strip_suffix(']')?
+        .parse()
+        .ok()
+}
+
 fn join(prefix: &str, path: &str) -> String {
     match (prefix.is_empty(), path.is_empty()) {
         (true, _) => path.to_string(),

@@ -480,16 +480,8 @@ impl Ctx<'_> {
         use_: &str,
         feed: f64,
     ) -> Result<PlannedRun, String> {
-        let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
-            format!(
-                "unknown instrument `{instrument}`; known: {}",
-                mtcal_plugins::plugins()
-                    .iter()
-                    .map(|p| p.name)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
+        let plugin =
+            mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
         let ctx = SetupContext {
             machine: &self.tooled,
         };

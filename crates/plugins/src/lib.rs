@@ -16,6 +16,11 @@ use mtcal_tracer as _;
 
 pub use mtcal_instrument::{find, plugins};
 
+/// "unknown instrument `x`; known: a, b, …": the message for a name no plugin has.
+pub fn unknown(name: &str) -> String {
+    format!("unknown instrument `{name}`; known: {}", names().join(", "))
+}
+
 /// The names of every registered plugin, sorted.
 pub fn names() -> Vec<&'static str> {
     plugins().iter().map(|p| p.name).collect()

@@ -86,15 +86,7 @@ fn session_view(model: &MachineModel, setups: &[PlannedSetup], runs: &[PlannedRu
     let axes = AxisView::of_machine(machine);
     let setups = setups
         .iter()
-        .map(|s| SetupView {
-            name: s.name.clone(),
-            instrument: s.instrument.clone(),
-            channels: s.setup.channels().to_vec(),
-            reads_pose: (0..s.setup.channels().len())
-                .map(|c| s.setup.reads_pose(c))
-                .collect(),
-            nuisance: s.setup.nuisance().to_vec(),
-        })
+        .map(|s| SetupView::of(&s.name, &s.instrument, s.setup.as_ref()))
         .collect();
     let runs = runs
         .iter()

@@ -161,10 +161,10 @@ impl Messages for PlanMessages {
         if let Some(k) = path.strip_prefix("setup.") {
             return Some(format!("`setup.{k}` must be a table"));
         }
-        if let Some(i) = index_in(path, "run") {
+        if let Some(i) = mtcal_located::toml::index_in(path, "run") {
             return Some(format!("run {} is not a table", i + 1));
         }
-        if let Some(i) = index_in(path, "effect") {
+        if let Some(i) = mtcal_located::toml::index_in(path, "effect") {
             return Some(format!("effect {} is not a table", i + 1));
         }
         let message = match path {
@@ -209,13 +209,4 @@ impl Messages for RunMessages {
         };
         Some(message)
     }
-}
-
-/// `i` of a path `<list>[i]`.
-fn index_in(path: &str, list: &str) -> Option<usize> {
-    path.strip_prefix(list)?
-        .strip_prefix('[')?
-        .strip_suffix(']')?
-        .parse()
-        .ok()
 }

@@ -145,16 +145,8 @@ fn plugin_of(run: &RunKeys) -> Result<(&str, &'static InstrumentPlugin), String>
         .instrument
         .as_deref()
         .ok_or_else(|| "missing `instrument`".to_string())?;
-    let plugin = mtcal_plugins::find(instrument).ok_or_else(|| {
-        format!(
-            "unknown instrument `{instrument}`; known: {}",
-            mtcal_plugins::plugins()
-                .iter()
-                .map(|p| p.name)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })?;
+    let plugin =
+        mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
     Ok((instrument, plugin))
 }
 

@@ -180,6 +180,14 @@ fn the_tree_accessors_say_what_was_expected() {
 }
 
 #[test]
+fn list_indices_are_read_from_key_paths() {
+    assert_eq!(index_in("run[3]", "run"), Some(3));
+    assert_eq!(index_in("run[x]", "run"), None);
+    assert_eq!(index_in("runs[3]", "run"), None);
+    assert_eq!(index_in("run", "run"), None);
+}
+
+#[test]
 fn every_length_of_serde_key_list_is_read() {
     use serde::de::Error as _;
     let e = toml::de::Error::unknown_field("k", &["a", "b", "c"]);
