@@ -170,7 +170,7 @@ fn bench_identify(c: &mut Criterion) {
         eprintln!(
             "11-errors/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations",
             GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
-            study.n_x,
+            study.layout().n_x(),
             once.solver.iterations
         );
         g.bench_with_input(BenchmarkId::new("11-errors", n), &study, |b, study| {
@@ -193,7 +193,7 @@ fn bench_identify(c: &mut Criterion) {
             "full-model/{n}: peak heap during selection and identify {:.1} MiB, {} parameters, \
              {} iterations, converged {}",
             GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
-            study.n_x,
+            study.layout().n_x(),
             once.solver.iterations,
             once.solver.converged
         );
@@ -209,7 +209,7 @@ fn bench_identify(c: &mut Criterion) {
             "c-axis/{n}: peak heap during identify {:.1} MiB, {} parameters, {} iterations, \
              {} passes ({} with a factorisation), converged {}",
             GLOBAL.get_peak_memory() as f64 / (1024.0 * 1024.0),
-            study.n_x,
+            study.layout().n_x(),
             once.solver.iterations,
             once.solver.passes,
             once.solver.factorizations,

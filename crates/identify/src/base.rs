@@ -116,7 +116,7 @@ impl BaseModel {
 /// Physical priority of parameter `i` (lower is taken first); `None`: always estimated (an
 /// effect's parameters, a set-up parameter with a prior).
 fn priority(study: &Study, i: usize) -> Option<(u32, usize)> {
-    if i >= study.effect_offset {
+    if i >= study.layout().effect_offset() {
         return None;
     }
     let info = study.param_info(i);
@@ -142,7 +142,7 @@ pub fn select(study: &Study, options: &Options) -> Result<BaseModel, IdentifyErr
     let specs = param_specs(study);
     let problem = FitProblem::new(study);
     let lin = mtcal_solve::linearize(&problem, &specs, &study.initial_x(), options.threads)?;
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let range: Vec<f64> = specs.iter().map(|s| s.scale.unwrap_or(1.0)).collect();
     // Columns of the factor (Rᵀ R = Jᵀ J), each scaled by its parameter's plausible range: a
     // column's norm is then how many standard deviations of the readings a move over the
@@ -232,7 +232,7 @@ fn describe(
     col: &dyn Fn(usize) -> DVector<f64>,
     range: &[f64],
 ) -> BaseModel {
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let a = a_matrix(taken, col);
     let chol = a.as_ref().and_then(|a| (a.transpose() * a).cholesky());
     let mut held = Vec::new();
@@ -240,7 +240,7 @@ fn describe(
     // Per seen held parameter: how the taken ones stand in for it (SI per SI), least squares.
     let mut stand_in: Vec<(usize, Vec<f64>)> = Vec::new();
     for j in 0..n {
-        if taken.contains(&j) || j >= study.effect_offset {
+        if taken.contains(&j) || j >= study.layout().effect_offset() {
             continue;
         }
         let info = study.param_info(j);
@@ -453,7 +453,7 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
     let held: Vec<&str> = base.map_or(Vec::new(), |b| {
         b.held.iter().map(|h| h.name.as_str()).collect()
     });
-    for &k in &study.estimated {
+    for &k in study.layout().estimated() {
         let label = &study.coeff_labels[k];
         if held.contains(&label.as_str()) {
             continue;
@@ -488,7 +488,7 @@ pub fn suggested_model(study: &Study, base: Option<&BaseModel>) -> String {
          session's parameters not determined).\n# Keep it beside the URDF as <stem>.errors.toml. Format: \
          crates/machine/src/config.rs.\nschema = \"mtcal.errors/1\"",
         study.session.manifest.display(),
-        study.estimated.len(),
+        study.layout().n_machine(),
         base.map_or(0, |b| b.held.len()),
     );
     let _ = writeln!(s, "components = [{}]", list(&order_of));
@@ -538,7 +538,7 @@ impl ConditionalCovariance {
             .filter_map(|n| index.get(*n).copied())
             .filter(|i| with_sigma(i) && study.param_info(*i).machine)
             .collect();
-        let t: Vec<usize> = (0..study.n_x)
+        let t: Vec<usize> = (0..study.layout().n_x())
             .filter(|i| with_sigma(i) && !h.contains(i))
             .collect();
         let block = |a: &[usize], b: &[usize]| {

@@ -54,16 +54,14 @@ struct ChannelGroup {
 /// group's rows come group by group (a joint thermal model of five sensors: each sensor's rows
 /// carry its own model's columns, not all five).
 fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
-    let m = study.estimated.len();
+    let m = study.layout().n_machine();
     let effects = study.effects();
     (0..study.setups.len())
         .map(|s| {
             let slot = &study.setups[s];
+            let n_free = study.layout().free(s).len();
             let nch = slot.setup.channels().len();
-            let full: Vec<usize> = (0..m)
-                .chain(slot.x_offset..slot.x_offset + slot.free.len())
-                .chain(study.effect_offset..study.n_x)
-                .collect();
+            let full: Vec<usize> = study.layout().columns_of_setup(s).collect();
             let reaches = |c: usize, t: &mtcal_effects::Target| match t {
                 mtcal_effects::Target::Axis(_) => slot.setup.reads_pose(c),
                 mtcal_effects::Target::Nuisance { setup, .. } => *setup == s,
@@ -75,8 +73,8 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
             let mut groups: Vec<ChannelGroup> = Vec::new();
             for c in 0..nch {
                 let mut place = Vec::with_capacity(full.len());
-                place.extend(0..m + slot.free.len());
-                let mut o = study.effect_offset;
+                place.extend(0..m + n_free);
+                let mut o = study.layout().effect_offset();
                 for e in effects {
                     let any = e.terms().iter().any(|t| reaches(c, &t.target));
                     for (j, p) in e.params().iter().enumerate() {
@@ -88,7 +86,7 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
                             mtcal_effects::ParamKind::Shape => any,
                         };
                         if used {
-                            place.push(m + slot.free.len() + (o + j - study.effect_offset));
+                            place.push(m + n_free + (o + j - study.layout().effect_offset()));
                         }
                     }
                     o += e.params().len();
@@ -259,7 +257,7 @@ fn prepared_at(
 
 impl Problem for FitProblem<'_> {
     fn n_params(&self) -> usize {
-        self.study.n_x
+        self.study.layout().n_x()
     }
 
     fn n_blocks(&self) -> usize {
@@ -317,13 +315,12 @@ impl FitProblem<'_> {
         let (r, start, end) = self.blocks[b];
         let study = self.study;
         let run = &study.runs[r];
-        let slot = &study.setups[run.setup];
         let readings = run
             .readings
             .as_ref()
             .expect("fitted runs have readings (checked when loading)");
         let mut eval = SampleEval::new(study, r, x, self.effects_at(x));
-        let full = study.estimated.len() + slot.free.len() + (study.n_x - study.effect_offset);
+        let full = study.layout().columns_of_setup(run.setup).count();
         let nch = eval.n_channels();
         let phi: Vec<f64> = (0..nch).map(|c| study.noise(r, c).phi).collect();
         let coloured = phi.iter().any(|&p| p != 0.0);
@@ -488,12 +485,7 @@ impl<'a> SampleEval<'a> {
             nuis: study.nuisance_from(study.runs[run].setup, x),
             ws: study.fit_model.workspace(),
             jac: vec![0.0; nch * study.fit_model.n_coeffs()],
-            estimated_in_order: study.estimated_in_fit.len() == study.fit_model.n_coeffs()
-                && study
-                    .estimated_in_fit
-                    .iter()
-                    .enumerate()
-                    .all(|(i, &k)| i == k),
+            estimated_in_order: study.layout().estimated_in_order(),
             pred: vec![0.0; nch],
             d_pose: vec![[0.0; 6]; nch],
             d_nuis: vec![0.0; nch * nn],
@@ -680,19 +672,19 @@ impl<'a> SampleEval<'a> {
         if self.estimated_in_order {
             row[..n].copy_from_slice(jac);
         } else {
-            for (o, &k) in row.iter_mut().zip(&study.estimated_in_fit) {
+            for (o, &k) in row.iter_mut().zip(study.layout().estimated_in_fit()) {
                 *o = jac[k];
             }
         }
-        let slot = &study.setups[study.runs[self.run].setup];
+        let free = study.layout().free(study.runs[self.run].setup);
         let nn = self.nuis.len();
-        let m = study.estimated.len();
-        for (j, &i) in slot.free.iter().enumerate() {
+        let m = study.layout().n_machine();
+        for (j, &i) in free.iter().enumerate() {
             row[m + j] = self.d_nuis[c * nn + i];
         }
         if let Some(fx) = &self.effects {
             // Effect parameters: through the axes, the nuisance parameters and the reading.
-            let base = m + slot.free.len();
+            let base = m + free.len();
             let d_nuis = &self.d_nuis[c * nn..(c + 1) * nn];
             let out = &fx.out;
             for (j, tw) in fx.twists.iter().enumerate() {

@@ -37,7 +37,7 @@ pub fn report(
         Some(initial) => {
             // The search started from the session as loaded: load it again for its predictions.
             let study = Study::load(session)?;
-            (study.n_x == initial.x.len()).then(|| {
+            (study.layout().n_x() == initial.x.len()).then(|| {
                 let predictions = predictions(&study, &initial.x);
                 Before {
                     study,
@@ -99,8 +99,8 @@ fn summary(
         "{} runs, {} samples; {} parameters ({} machine coefficients)",
         study.runs.len(),
         samples,
-        study.n_x,
-        study.estimated.len()
+        study.layout().n_x(),
+        study.layout().n_machine()
     )];
     if let Some(b) = before {
         facts.push(format!("fit before the physics search: {}", fit(b.id)));
@@ -434,7 +434,7 @@ fn slice(machine: &Machine, grid: &Grid, mags: &[f64], a: usize, b: usize) -> re
 /// Every parameter in the fit's order: its value, or "not identifiable" (never a number).
 fn parameters(study: &Study, solution: &Solution, id: &Identification) -> Vec<rep::ParameterRow> {
     let mut rows = Vec::new();
-    for i in 0..study.n_x {
+    for i in 0..study.layout().n_x() {
         let info = study.param_info(i);
         if let Some(p) = id.parameters.iter().find(|p| p.name == info.name) {
             rows.push(rep::ParameterRow {
@@ -447,20 +447,9 @@ fn parameters(study: &Study, solution: &Solution, id: &Identification) -> Vec<re
                 },
             });
         } else if !solution.identified.get(i).copied().unwrap_or(true) {
-            let group = if info.machine {
-                "machine".to_string()
-            } else if i >= study.effect_offset {
-                "effect".to_string()
-            } else {
-                study
-                    .setups
-                    .iter()
-                    .find(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
-                    .map_or_else(String::new, |s| s.name.clone())
-            };
             rows.push(rep::ParameterRow {
                 name: info.name,
-                group,
+                group: study.param_group(i),
                 unit: info.unit,
                 estimate: rep::Estimate::NotIdentifiable,
             });

@@ -30,6 +30,7 @@ pub mod findings;
 pub mod fit;
 pub mod html_report;
 pub mod information;
+pub mod layout;
 pub mod mismatch;
 pub mod noise;
 mod options;
@@ -41,6 +42,7 @@ pub mod study;
 pub mod whiten;
 
 pub use fit::{FitProblem, predict_run, predict_runs};
+pub use layout::{ParamLayout, ParamSlot};
 pub use report::Identification;
 pub use study::Study;
 
@@ -167,7 +169,7 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
     } else {
         study.initial_x()
     };
-    (0..study.n_x)
+    (0..study.layout().n_x())
         .map(|i| {
             let info = study.param_info(i);
             // What the runs cannot determine stays near its start ([`base`]).
@@ -225,7 +227,7 @@ pub fn solve_holding(
 ) -> Result<mtcal_solve::Solution, IdentifyError> {
     let problem = FitProblem::new(study);
     let mut specs = param_specs_from(study, x0);
-    let shapes: Vec<usize> = (0..study.n_x)
+    let shapes: Vec<usize> = (0..study.layout().n_x())
         .filter(|&i| {
             study
                 .effect_param(i)

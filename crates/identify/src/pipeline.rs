@@ -130,8 +130,8 @@ impl Prepared {
             samples,
             study.machine.machine.name(),
             study.machine.source,
-            study.n_x,
-            study.estimated.len()
+            study.layout().n_x(),
+            study.layout().n_machine()
         );
         if let Some(base) = self.base.as_ref().filter(|b| !b.held.is_empty()) {
             s.push_str(&format!(

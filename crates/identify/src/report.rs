@@ -213,13 +213,7 @@ impl Identification {
                 unit: info.unit,
                 u95: K95 * sigma * info.per_si,
                 u95_given_held: None,
-                kind: if info.machine {
-                    "machine".into()
-                } else if i >= study.effect_offset {
-                    "effect".into()
-                } else {
-                    study.setups[setup_of(study, i)].name.clone()
-                },
+                kind: study.param_group(i),
             });
         }
         let unidentifiable = solution
@@ -716,7 +710,7 @@ fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined
     let specs = crate::param_specs_from(study, &solution.x);
     let mut out = Vec::new();
     // Machine and set-up parameters (an effect's shape is judged by the search).
-    for &i in ids.iter().filter(|&&i| i < study.effect_offset) {
+    for &i in ids.iter().filter(|&&i| i < study.layout().effect_offset()) {
         let (Some(sigma), Some(scale)) = (solution.sigma[i], specs[i].scale) else {
             continue;
         };
@@ -799,14 +793,6 @@ fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined
     out
 }
 
-fn setup_of(study: &Study, i: usize) -> usize {
-    study
-        .setups
-        .iter()
-        .rposition(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
-        .expect("a nuisance index belongs to a set-up")
-}
-
 /// Residual statistics of run `r` (which has readings) from its predictions `pred`.
 fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
     let run = &study.runs[r];
@@ -862,7 +848,7 @@ fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
     let model = &study.model;
     let pos: Vec<Option<usize>> = {
         let mut p = vec![None; model.n_coeffs()];
-        for (i, &k) in study.estimated.iter().enumerate() {
+        for (i, &k) in study.layout().estimated().iter().enumerate() {
             p[k] = Some(i);
         }
         p
@@ -918,7 +904,7 @@ impl Identification {
         study: &Study,
         solution: &mtcal_solve::Solution,
     ) {
-        let index: std::collections::HashMap<String, usize> = (0..study.n_x)
+        let index: std::collections::HashMap<String, usize> = (0..study.layout().n_x())
             .map(|i| (study.param_info(i).name, i))
             .collect();
         let held: Vec<&str> = base.held.iter().map(|h| h.name.as_str()).collect();

@@ -493,7 +493,7 @@ fn model_change_columns(
 
 impl ScoredProblem for Scoring<'_> {
     fn n_params(&self) -> usize {
-        self.study.n_x
+        self.study.layout().n_x()
     }
     fn candidate_widths(&self) -> Vec<usize> {
         self.widths.clone()
@@ -1119,7 +1119,7 @@ pub fn heldout(
 ) -> Result<Heldout, IdentifyError> {
     let (folds, assign) = fold_assignment(study, options);
     let specs = param_specs_from(study, x);
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let problem = FitProblem::new(study);
     let blocks = problem.n_blocks();
     // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
@@ -1378,7 +1378,7 @@ fn try_candidate(
         x0 = first.x;
     } else if let Candidate::Effect(e) = &ranked.candidate {
         // Start the new amplitudes where the score test put them.
-        let offset = study.n_x - e.params().len();
+        let offset = study.layout().n_x() - e.params().len();
         let mut a = ranked.score.amplitude.iter();
         for (j, p) in e.params().iter().enumerate() {
             if p.kind == mtcal_effects::ParamKind::Amplitude {
@@ -1397,8 +1397,11 @@ fn try_candidate(
     // two amplitudes grow without bound in opposite directions: then the earlier effects keep
     // the shapes they were found with and only the new one's is refined.
     let solution = match implausible(current, &study, &solution) {
-        Some(_) if current.study.effect_offset < current.study.n_x => {
-            let earlier: Vec<usize> = (current.study.effect_offset..current.study.n_x)
+        Some(_) if !current.study.layout().effects().is_empty() => {
+            let earlier: Vec<usize> = current
+                .study
+                .layout()
+                .effects()
                 .filter(|&i| {
                     current
                         .study
@@ -1469,7 +1472,7 @@ fn try_candidate(
 /// (what the data cannot see has no value to judge).
 fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<String> {
     let specs = param_specs(study);
-    let before: HashMap<String, f64> = (0..current.study.n_x)
+    let before: HashMap<String, f64> = (0..current.study.layout().n_x())
         .map(|i| (current.study.param_info(i).name, current.solution.x[i]))
         .collect();
     for (i, spec) in specs.iter().enumerate() {
@@ -1526,7 +1529,7 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
 /// `1 − σ²_fit/σ²_prior`, the share of it the data rather than the prior decide); at least 1.
 fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
     let mut dof = 0.0;
-    for i in current.study.n_x..study.n_x {
+    for i in current.study.layout().n_x()..study.layout().n_x() {
         dof += match (
             study.effect_param(i).and_then(|d| d.prior),
             solution.sigma[i],
@@ -1567,7 +1570,7 @@ fn choose_width(
         fold_assignment(study, options)
     };
     let x = &solution.x;
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let sums = fold_sums(study, x, folds, &assign)?;
     let specs = param_specs_from(study, x);
     let first = n - ladder[0].params().len();
@@ -1680,7 +1683,7 @@ fn fold_sums(
     folds: usize,
     assign: &FoldOf,
 ) -> Result<FoldSums, IdentifyError> {
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let problem = FitProblem::new(study);
     let blocks = problem.n_blocks();
     let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
@@ -1719,18 +1722,18 @@ struct Refitted {
 /// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at
 /// their starting values.
 fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
-    let known: HashMap<String, f64> = (0..from.n_x)
+    let known: HashMap<String, f64> = (0..from.layout().n_x())
         .map(|i| (from.param_info(i).name, x[i]))
         .collect();
     let start = to.initial_x();
-    (0..to.n_x)
+    (0..to.layout().n_x())
         .map(|i| *known.get(&to.param_info(i).name).unwrap_or(&start[i]))
         .collect()
 }
 
 /// The machine parameters of a fit: name, value and unit (reported units).
 fn machine_values(study: &Study, solution: &Solution) -> Vec<(String, f64, String)> {
-    (0..study.estimated.len())
+    (0..study.layout().n_machine())
         .map(|i| {
             let info = study.param_info(i);
             (info.name, solution.x[i] * info.per_si, info.unit)
@@ -1746,7 +1749,7 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         Candidate::Effect(e) => {
             // Find the effect in the final study by its place: effects are only appended.
             let label = &e.info().label;
-            let mut offset = study.effect_offset;
+            let mut offset = study.layout().effect_offset();
             let mut found = None;
             for fx in study.effects() {
                 let n = fx.params().len();
@@ -1759,7 +1762,7 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                 }
                 offset += n;
             }
-            let (fx, offset) = found.unwrap_or((Arc::clone(e), study.effect_offset));
+            let (fx, offset) = found.unwrap_or((Arc::clone(e), study.layout().effect_offset()));
             let values: Vec<f64> = (0..fx.params().len()).map(|j| sol.x[offset + j]).collect();
             let u95: Vec<Option<f64>> = (0..fx.params().len())
                 .map(|j| sol.sigma[offset + j].map(|s| K95 * s))
@@ -1779,7 +1782,7 @@ fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         }
         Candidate::Model(m) => {
             let prefix = format!("{}", m.param);
-            let params: Vec<DiscoveryParameter> = (0..study.estimated.len())
+            let params: Vec<DiscoveryParameter> = (0..study.layout().n_machine())
                 .filter_map(|i| {
                     let info = study.param_info(i);
                     let base = info.name.split('.').next().unwrap_or(&info.name);
@@ -1971,7 +1974,7 @@ fn corrections(stage: &Stage, study: &Study, sol: &Solution) -> Vec<Correction> 
         .iter()
         .map(|(n, v, _)| (n.as_str(), *v))
         .collect();
-    let mut out: Vec<(f64, Correction)> = (0..study.estimated.len())
+    let mut out: Vec<(f64, Correction)> = (0..study.layout().n_machine())
         .filter_map(|i| {
             let info = study.param_info(i);
             let sigma = sol.sigma[i]? * info.per_si;

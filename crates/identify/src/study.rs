@@ -3,11 +3,12 @@
 
 use crate::IdentifyError;
 use crate::checks::cell;
+use crate::layout::{ParamLayout, ParamSlot};
 use crate::options::{StudyOptions, identify_key};
 use mtcal_effects::{
     AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
 };
-use mtcal_instrument::{Channel, InstrumentPlugin, Nuisance, Setup, SetupContext};
+use mtcal_instrument::{Channel, InstrumentPlugin, Setup, SetupContext};
 use mtcal_kinematics::Basis;
 use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
 use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
@@ -34,10 +35,6 @@ pub struct SetupSlot {
     pub setup: Box<dyn Setup>,
     /// The manifest table it was loaded from.
     pub table: toml::Table,
-    /// Indices (into `setup.nuisance()`) of the free nuisance parameters.
-    pub free: Vec<usize>,
-    /// Where the free nuisance parameters start in the parameter vector.
-    pub x_offset: usize,
 }
 
 /// One run's samples.
@@ -204,26 +201,18 @@ pub struct Study {
     /// Machine coefficients (SI) that are not estimated keep these values; estimated ones start
     /// from them. Zero unless `[identify] start` names a parameter file.
     pub base_coeffs: Vec<f64>,
-    /// Indices of the estimated machine coefficients; `x[i]` is coefficient `estimated[i]`.
-    pub estimated: Vec<usize>,
     /// The model the fit evaluates: only the parameters that are estimated or have a nonzero
     /// base value. A parameter held at zero changes no prediction, so leaving it out gives the
     /// same poses while the Jacobian skips its columns (the 11-error R-test fit of a machine
     /// with a full error model evaluates 11 columns instead of 121).
     pub fit_model: MachineModel,
-    /// Per coefficient of `fit_model`: its index in `model`.
-    pub fit_coeffs: Vec<usize>,
-    /// Per estimated coefficient (`estimated[i]`): its index in `fit_model`.
-    pub estimated_in_fit: Vec<usize>,
     /// A label per machine coefficient (`EX0C`, `EXX.P2`).
     pub coeff_labels: Vec<String>,
     pub setups: Vec<SetupSlot>,
     pub runs: Vec<RunSlot>,
-    /// Where the effects' parameters start in the parameter vector.
-    pub effect_offset: usize,
-    /// Length of the parameter vector: estimated machine coefficients, then every set-up's free
-    /// nuisance parameters, then the effects' parameters.
-    pub n_x: usize,
+    /// The parameter vector: which machine coefficients are estimated, every set-up's free
+    /// nuisance parameters, the effects' parameters (and the reduced model's coefficients).
+    layout: ParamLayout,
     /// Prior standard deviation (SI) of the machine coefficients [`Changes::hold`] names:
     /// `[identify] held_prior` (µm or µrad), default [`DEFAULT_HELD_PRIOR`].
     pub held_prior: f64,
@@ -415,15 +404,10 @@ impl Study {
         estimated.dedup();
         let (fit_model, fit_coeffs) =
             reduced_model(&machine, &config, &model, &estimated, &base_coeffs)?;
-        let mut in_fit = vec![usize::MAX; model.n_coeffs()];
-        for (j, &k) in fit_coeffs.iter().enumerate() {
-            in_fit[k] = j;
-        }
-        let estimated_in_fit = estimated.iter().map(|&k| in_fit[k]).collect();
         let mut setups: Vec<SetupSlot> = Vec::new();
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
-        let mut n_x = estimated.len();
+        let mut free_nuisance: Vec<Vec<usize>> = Vec::new();
         for spec in &session.runs {
             let plugin = mtcal_plugins::find(&spec.instrument).ok_or_else(|| {
                 IdentifyError::UnknownInstrument {
@@ -473,16 +457,13 @@ impl Study {
                         })
                         .map(|(i, _)| i)
                         .collect();
-                    let slot = SetupSlot {
+                    free_nuisance.push(free);
+                    setups.push(SetupSlot {
                         name: setup_name.clone(),
                         plugin,
                         setup,
                         table,
-                        x_offset: n_x,
-                        free,
-                    };
-                    n_x += slot.free.len();
-                    setups.push(slot);
+                    });
                     by_name.insert(setup_name, setups.len() - 1);
                     setups.len() - 1
                 }
@@ -507,8 +488,12 @@ impl Study {
                 manifest: session.manifest.clone(),
             });
         }
-        let effect_offset = n_x;
-        n_x += mtcal_effects::prepared::n_params(&changes.effects);
+        let layout = ParamLayout::new(
+            estimated,
+            fit_coeffs,
+            free_nuisance,
+            mtcal_effects::prepared::n_params(&changes.effects),
+        );
         let held_prior = match options.held_prior {
             None => DEFAULT_HELD_PRIOR,
             Some(n) if n.value > 0.0 && n.value.is_finite() => n.value,
@@ -525,15 +510,11 @@ impl Study {
             machine,
             model,
             base_coeffs,
-            estimated,
             fit_model,
-            fit_coeffs,
-            estimated_in_fit,
             coeff_labels,
             setups,
             runs,
-            effect_offset,
-            n_x,
+            layout,
             held_prior,
             changes,
             view: OnceLock::new(),
@@ -541,10 +522,15 @@ impl Study {
         })
     }
 
+    /// Where every parameter sits in the parameter vector `x`.
+    pub fn layout(&self) -> &ParamLayout {
+        &self.layout
+    }
+
     /// The machine coefficient vector (SI) for parameter vector `x`.
     pub fn coeffs_from(&self, x: &[f64]) -> Vec<f64> {
         let mut c = self.base_coeffs.clone();
-        for (i, &k) in self.estimated.iter().enumerate() {
+        for (i, &k) in self.layout.estimated().iter().enumerate() {
             c[k] = x[i];
         }
         c
@@ -553,26 +539,25 @@ impl Study {
     /// The coefficient vector of [`Self::fit_model`] (SI) for parameter vector `x`.
     pub fn fit_coeffs_from(&self, x: &[f64]) -> Vec<f64> {
         let full = self.coeffs_from(x);
-        self.fit_coeffs.iter().map(|&k| full[k]).collect()
+        self.layout.fit_coeffs().iter().map(|&k| full[k]).collect()
     }
 
     /// Set-up `s`'s full nuisance vector (SI; held ones at zero) for parameter vector `x`.
     pub fn nuisance_from(&self, s: usize, x: &[f64]) -> Vec<f64> {
-        let slot = &self.setups[s];
-        let mut n = vec![0.0; slot.setup.nuisance().len()];
-        for (j, &i) in slot.free.iter().enumerate() {
-            n[i] = x[slot.x_offset + j];
+        let mut n = vec![0.0; self.setups[s].setup.nuisance().len()];
+        for (&i, j) in self.layout.free(s).iter().zip(self.layout.setup_range(s)) {
+            n[i] = x[j];
         }
         n
     }
 
     /// The starting parameter vector.
     pub fn initial_x(&self) -> Vec<f64> {
-        let mut x = vec![0.0; self.n_x];
-        for (i, &k) in self.estimated.iter().enumerate() {
+        let mut x = vec![0.0; self.layout.n_x()];
+        for (i, &k) in self.layout.estimated().iter().enumerate() {
             x[i] = self.base_coeffs[k];
         }
-        let mut o = self.effect_offset;
+        let mut o = self.layout.effect_offset();
         for e in self.effects() {
             for p in e.params() {
                 x[o] = p.initial;
@@ -589,26 +574,29 @@ impl Study {
 
     /// The effects' parameters in `x`.
     pub fn effect_params<'x>(&self, x: &'x [f64]) -> &'x [f64] {
-        &x[self.effect_offset..self.n_x]
+        &x[self.layout.effects()]
     }
 
     /// The effect parameter's definition, for parameter `i` of the parameter vector (`None` for
     /// machine and set-up parameters).
     pub fn effect_param(&self, i: usize) -> Option<&mtcal_effects::ParamDef> {
-        (i >= self.effect_offset && i < self.n_x).then(|| self.effect_at(i).1)
+        self.layout
+            .effects()
+            .contains(&i)
+            .then(|| self.effect_at(i - self.layout.effect_offset()).1)
     }
 
-    /// The effect and its parameter of parameter `i` (≥ `effect_offset`).
-    fn effect_at(&self, i: usize) -> (&Arc<dyn Effect>, &mtcal_effects::ParamDef) {
-        let mut o = self.effect_offset;
+    /// The effect and its parameter of the `index`-th effect parameter.
+    fn effect_at(&self, index: usize) -> (&Arc<dyn Effect>, &mtcal_effects::ParamDef) {
+        let mut o = 0;
         for e in self.effects() {
             let n = e.params().len();
-            if i < o + n {
-                return (e, &e.params()[i - o]);
+            if index < o + n {
+                return (e, &e.params()[index - o]);
             }
             o += n;
         }
-        panic!("parameter {i} is past the parameter vector ({})", self.n_x)
+        unreachable!("the layout counts every effect's parameters")
     }
 
     /// Scratch for [`Self::axis_jacobian`].
@@ -729,7 +717,7 @@ impl Study {
             })
             .collect();
         let mut is_estimated = vec![false; self.model.n_coeffs()];
-        for &k in &self.estimated {
+        for &k in self.layout.estimated() {
             is_estimated[k] = true;
         }
         let model = self
@@ -758,52 +746,55 @@ impl Study {
 
     /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.
     pub fn param_info(&self, i: usize) -> ParamInfo {
-        if i < self.estimated.len() {
-            let k = self.estimated[i];
-            let label = &self.coeff_labels[k];
-            let base = label.split('.').next().unwrap_or(label);
-            let unit = base
-                .parse::<ParamName>()
-                .map(|n| n.unit())
-                .unwrap_or("um")
-                .to_string();
-            return ParamInfo {
-                name: label.clone(),
-                unit,
-                per_si: 1e6,
-                prior_sigma: None,
-                machine: true,
-            };
-        }
-        if i >= self.effect_offset {
-            let (effect, def) = self.effect_at(i);
-            return ParamInfo {
-                name: format!("{}.{}", effect.info().label, def.name),
-                unit: def.unit.clone(),
-                per_si: def.per_si,
-                prior_sigma: None,
-                machine: false,
-            };
-        }
-        let (slot, nuis) = self.nuisance_at(i);
-        ParamInfo {
-            name: format!("{}.{}", slot.name, nuis.name),
-            unit: nuis.unit.as_str().to_string(),
-            per_si: nuis.unit.per_si(),
-            prior_sigma: nuis.prior_sigma,
-            machine: false,
+        match self.layout.slot(i) {
+            ParamSlot::Machine { coeff } => {
+                let label = &self.coeff_labels[coeff];
+                let base = label.split('.').next().unwrap_or(label);
+                let unit = base
+                    .parse::<ParamName>()
+                    .map(|n| n.unit())
+                    .unwrap_or("um")
+                    .to_string();
+                ParamInfo {
+                    name: label.clone(),
+                    unit,
+                    per_si: 1e6,
+                    prior_sigma: None,
+                    machine: true,
+                }
+            }
+            ParamSlot::Effect { index } => {
+                let (effect, def) = self.effect_at(index);
+                ParamInfo {
+                    name: format!("{}.{}", effect.info().label, def.name),
+                    unit: def.unit.clone(),
+                    per_si: def.per_si,
+                    prior_sigma: None,
+                    machine: false,
+                }
+            }
+            ParamSlot::Nuisance { setup, nuisance } => {
+                let slot = &self.setups[setup];
+                let nuis = &slot.setup.nuisance()[nuisance];
+                ParamInfo {
+                    name: format!("{}.{}", slot.name, nuis.name),
+                    unit: nuis.unit.as_str().to_string(),
+                    per_si: nuis.unit.per_si(),
+                    prior_sigma: nuis.prior_sigma,
+                    machine: false,
+                }
+            }
         }
     }
 
-    fn nuisance_at(&self, i: usize) -> (&SetupSlot, &Nuisance) {
-        let slot = self
-            .setups
-            .iter()
-            .rev()
-            .find(|s| s.x_offset <= i && i < s.x_offset + s.free.len())
-            .expect("index past the machine coefficients belongs to a set-up");
-        let nuis = &slot.setup.nuisance()[slot.free[i - slot.x_offset]];
-        (slot, nuis)
+    /// The group parameter `i` belongs to, as the report names it: `machine`, `effect`, or the
+    /// name of its set-up.
+    pub fn param_group(&self, i: usize) -> String {
+        match self.layout.slot(i) {
+            ParamSlot::Machine { .. } => "machine".to_string(),
+            ParamSlot::Effect { .. } => "effect".to_string(),
+            ParamSlot::Nuisance { setup, .. } => self.setups[setup].name.clone(),
+        }
     }
 
     /// The channels of run `r`.

@@ -168,14 +168,14 @@ fn effect_columns_equal_finite_differences() {
         })
         .unwrap();
     // Machine and set-up parameters of some µm / µrad, the effects at their planted values.
-    let mut x: Vec<f64> = (0..study.n_x)
+    let mut x: Vec<f64> = (0..study.layout().n_x())
         .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
         .collect();
-    x[study.effect_offset..].copy_from_slice(&values);
+    x[study.layout().effect_offset()..].copy_from_slice(&values);
     let specs = param_specs_from(&study, &x);
     let problem = FitProblem::new(&study);
     let lin = mtcal_solve::linearize(&problem, &specs, &x, 0).unwrap();
-    let n = study.n_x;
+    let n = study.layout().n_x();
     // JᵀJ from the factor and from differences of the whitened predictions.
     let jtj =
         |i: usize, j: usize| -> f64 { (0..n).map(|k| lin.r[k * n + i] * lin.r[k * n + j]).sum() };
@@ -233,7 +233,7 @@ fn planted_effects_are_fitted_back_without_noise() {
             ..Changes::default()
         })
         .unwrap();
-    assert_eq!(study.effect_offset, loaded.n_x);
+    assert_eq!(study.layout().effect_offset(), loaded.layout().n_x());
     // Start from the fit without effects (as the search does: an instrument's gain has no
     // column while the machine predicts nothing), the time constants and the decay length
     // 30 % off their truth, amplitudes at zero: the fit must find them. (A screw's pitch is a
@@ -245,18 +245,18 @@ fn planted_effects_are_fitted_back_without_noise() {
         plain.fit.chi2, plain.solver.iterations, plain.solver.termination, &plain.x
     );
     let mut x0 = study.initial_x();
-    x0[..loaded.n_x].copy_from_slice(&plain.x);
-    for i in study.effect_offset..study.n_x {
+    x0[..loaded.layout().n_x()].copy_from_slice(&plain.x);
+    for i in study.layout().effects() {
         if let Some(p) = study.effect_param(i)
             && p.kind == mtcal_effects::ParamKind::Shape
         {
             let factor = if p.name == "pitch_mm" { 1.0 } else { 1.3 };
-            x0[i] = values[i - study.effect_offset] * factor;
+            x0[i] = values[i - study.layout().effect_offset()] * factor;
         }
     }
     let sol = mtcal_identify::solve_from(&study, &x0, &Options::default(), &mut Silent).unwrap();
-    for i in study.effect_offset..study.n_x {
-        let truth = values[i - study.effect_offset];
+    for i in study.layout().effects() {
+        let truth = values[i - study.layout().effect_offset()];
         let got = sol.x[i];
         // The fit carries the effects to first order (through the axis Jacobian of the
         // nominal machine); the simulation displaces the axes exactly. What is left is of the

@@ -229,9 +229,9 @@ fn the_full_default_model_on_a_five_axis_session_gives_a_result() {
     let extra = simulate_session(dir.path(), "extra", 4, EXTRA_RUNS);
     let study = Study::load(&session).unwrap();
     assert!(
-        study.estimated.len() > 100,
+        study.layout().n_machine() > 100,
         "the default model should be the full one, not {} coefficients",
-        study.estimated.len()
+        study.layout().n_machine()
     );
     // The account's own covariance must be the fit's: it used to invert the rounding noise of
     // the information matrix along the weakest identified directions (singular values down to

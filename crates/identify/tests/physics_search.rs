@@ -120,7 +120,7 @@ fn check(name: &str, case: Case) {
             } else {
                 format!("{}.{param}", d.label)
             };
-            let i = (0..study.n_x)
+            let i = (0..study.layout().n_x())
                 .find(|&i| study.param_info(i).name == full)
                 .unwrap_or_else(|| panic!("{name}: no parameter {full}\n{summary}"));
             if result.solution.sigma[i].is_none() {
@@ -173,7 +173,7 @@ fn check(name: &str, case: Case) {
     // The machine: the identified ones of the 11-error set against the truth.
     let mut idx = Vec::new();
     let mut truth = Vec::new();
-    for i in 0..study.estimated.len() {
+    for i in 0..study.layout().n_machine() {
         let info = study.param_info(i);
         if let Some((_, t)) = TRUTH.iter().find(|(n, _)| *n == info.name)
             && result.solution.sigma[i].is_some()

@@ -10,19 +10,26 @@ fn reduced_fit_model_gives_the_full_models_poses() {
     let study = Study::load(&dir).unwrap();
     // The example estimates the 11-error set of a machine whose error model has every
     // component error too: the fit model must carry just those 11 coefficients.
-    assert_eq!(study.estimated.len(), 11);
-    assert_eq!(study.fit_model.n_coeffs(), 11, "{:?}", study.fit_coeffs);
+    assert_eq!(study.layout().n_machine(), 11);
+    assert_eq!(
+        study.fit_model.n_coeffs(),
+        11,
+        "{:?}",
+        study.layout().fit_coeffs()
+    );
     assert!(study.model.n_coeffs() > 100);
     let mut lcg = mtcal_testkit::random::Lcg64(7);
     let mut ws_full = study.model.workspace();
     let mut ws_fit = study.fit_model.workspace();
     for _ in 0..5 {
         // Values of a few tens of µm / µrad for the estimated coefficients.
-        let x: Vec<f64> = (0..study.n_x).map(|_| 5e-5 * lcg.signed()).collect();
+        let x: Vec<f64> = (0..study.layout().n_x())
+            .map(|_| 5e-5 * lcg.signed())
+            .collect();
         let full = study.coeffs_from(&x);
         let fit = study.fit_coeffs_from(&x);
-        for &k in &study.fit_coeffs {
-            assert!(study.estimated.contains(&k) || study.base_coeffs[k] != 0.0);
+        for &k in study.layout().fit_coeffs() {
+            assert!(study.layout().estimated().contains(&k) || study.base_coeffs[k] != 0.0);
         }
         for run in &study.runs {
             let na = study.model.machine().n_axes();

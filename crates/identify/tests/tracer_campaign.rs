@@ -207,7 +207,7 @@ fn noise_free_campaign_recovers_all_21_errors_exactly() {
         .collect();
     want.sort();
     assert_eq!(names, want);
-    assert_eq!(study.estimated.len(), errors.n_coeffs());
+    assert_eq!(study.layout().n_machine(), errors.n_coeffs());
     let truth = truth(&study);
     assert!(
         truth.iter().all(|&t| t.abs() >= 0.5),
@@ -321,7 +321,7 @@ fn without_reflector_offsets_the_angular_errors_of_z_are_reported_unidentifiable
     for name in ["EAX.P1", "ECX.P2", "EBY.P1", "ECY.P1"] {
         assert!(value(&id, name).is_some(), "{name}: {lost:?}");
     }
-    assert!(study.estimated.len() > lost.len());
+    assert!(study.layout().n_machine() > lost.len());
 }
 
 #[test]

@@ -36,7 +36,7 @@ pub struct Informations {
 /// Information of each group of runs (`units[u]`: run indices of `study`) on the study's
 /// machine parameters, the units' set-up parameters eliminated.
 pub fn unit_information(study: &Study, units: &[Vec<usize>]) -> Result<Informations, PlanError> {
-    let n = study.n_x;
+    let n = study.layout().n_x();
     let machine: Vec<usize> = (0..n).filter(|&i| study.param_info(i).machine).collect();
     let x = study.initial_x();
     let mut specs = param_specs_from(study, &x);

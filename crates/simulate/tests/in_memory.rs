@@ -77,16 +77,13 @@ fn assert_same_study(a: &Study, b: &Study) {
         format!("{:?}", (&b.machine.machine, &b.machine.config))
     );
     assert_eq!(bits(&a.base_coeffs), bits(&b.base_coeffs));
-    assert_eq!(
-        (&a.estimated, &a.coeff_labels, a.n_x, a.effect_offset),
-        (&b.estimated, &b.coeff_labels, b.n_x, b.effect_offset)
-    );
+    assert_eq!((a.layout(), &a.coeff_labels), (b.layout(), &b.coeff_labels));
     assert_eq!(a.effects().len(), b.effects().len());
     assert_eq!(a.setups.len(), b.setups.len());
     for (s, t) in a.setups.iter().zip(&b.setups) {
         assert_eq!(
-            (&s.name, s.plugin.name, &s.table, &s.free, s.x_offset),
-            (&t.name, t.plugin.name, &t.table, &t.free, t.x_offset)
+            (&s.name, s.plugin.name, &s.table),
+            (&t.name, t.plugin.name, &t.table)
         );
     }
     assert_eq!(a.runs.len(), b.runs.len());
