@@ -199,7 +199,8 @@ mod tests {
     #[test]
     fn slots_follow_the_documented_order() {
         let l = example();
-        assert_eq!(l.n_x(), 3 + 2 + 0 + 1 + 3);
+        // three machine coefficients, 2 + 0 + 1 nuisance parameters, three effect parameters
+        assert_eq!(l.n_x(), 9);
         let slots: Vec<ParamSlot> = (0..l.n_x()).map(|i| l.slot(i)).collect();
         use ParamSlot::*;
         assert_eq!(

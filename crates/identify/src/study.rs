@@ -1042,11 +1042,11 @@ fn run_labels(setup: &dyn Setup, table: &RunTable) -> Result<Vec<u32>, IdentifyE
     }
     (0..table.len())
         .map(|i| {
-            setup.resolve_label(&table.label_row(i)).map_err(|message| {
+            setup.resolve_label(&table.label_row(i)).map_err(|e| {
                 let first = &table.labels[0].0;
                 IdentifyError::RunData {
                     at: cell(table, i, first),
-                    message: format!("column \"{first}\": {message}"),
+                    message: format!("column \"{first}\": {e}"),
                 }
             })
         })

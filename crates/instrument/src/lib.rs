@@ -153,6 +153,17 @@ pub struct ReadingError {
     pub message: String,
 }
 
+/// Why a sample's label values name nothing the set-up has ([`SetupFormat::resolve_label`]);
+/// the message says what was expected (the known features, say). The core adds the file, line
+/// and column.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct LabelError {
+    /// The label as written.
+    pub value: String,
+    pub message: String,
+}
+
 /// A loaded set-up of one instrument: its measurement model for one or more runs — what it
 /// reads and with what noise, which parameters of its own it has, and the readings it predicts
 /// from the tool pose. How its files differ from that model is its [`SetupFormat`].
@@ -219,7 +230,7 @@ pub trait SetupFormat {
 
     /// The number of a sample's labels (`values` in the order of [`SetupFormat::label_columns`]);
     /// an error says what was expected (the known features, say).
-    fn resolve_label(&self, values: &[&str]) -> Result<u32, String> {
+    fn resolve_label(&self, values: &[&str]) -> Result<u32, LabelError> {
         let _ = values;
         Ok(0)
     }

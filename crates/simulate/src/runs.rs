@@ -216,7 +216,7 @@ fn path_labels(
             let refs: Vec<&str> = values.iter().map(String::as_str).collect();
             setup.resolve_label(&refs)
         })
-        .collect::<Result<Vec<u32>, String>>()
+        .collect::<Result<Vec<u32>, _>>()
         .map_err(|e| format!("path labels: {e}"))?;
     if !setup.label_columns().is_empty() && labels.len() != samples {
         return Err(format!(

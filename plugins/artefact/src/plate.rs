@@ -262,11 +262,25 @@ pub struct Hole {
     pub roundness: f64,
 }
 
+/// Why a hole report could not be read: the line (1-based) and what was wrong with it.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum HoleReportError {
+    #[error("line {line}: expected 9 numbers, found {found} fields")]
+    FieldCount { line: usize, found: usize },
+    #[error("line {line}: field {field} `{text}` is not a number")]
+    NotANumber {
+        line: usize,
+        /// 1-based.
+        field: usize,
+        text: String,
+    },
+}
+
 /// Reads a whitespace-separated hole report (the SDSS plug-plate CMM format): header lines
 /// (`Plug Plate: …`, `Date: …`, a column header), `#` comments and blank lines are skipped;
 /// every line of nine numbers is `Meas X, Meas Y, Nom X, Nom Y, Err X, Err Y, Meas D, Nom D,
 /// Round`. CRLF line ends are accepted. An error names the line (1-based) of a malformed row.
-pub fn read_hole_report(text: &str) -> Result<Vec<Hole>, String> {
+pub fn read_hole_report(text: &str) -> Result<Vec<Hole>, HoleReportError> {
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -282,17 +296,22 @@ pub fn read_hole_report(text: &str) -> Result<Vec<Hole>, String> {
             continue; // a header line
         }
         if fields.len() != 9 {
-            return Err(format!(
-                "line {}: expected 9 numbers, found {} fields",
-                i + 1,
-                fields.len()
-            ));
+            return Err(HoleReportError::FieldCount {
+                line: i + 1,
+                found: fields.len(),
+            });
         }
         let v: Vec<f64> = fields
             .iter()
-            .map(|f| f.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| format!("line {}: {e}", i + 1))?;
+            .enumerate()
+            .map(|(j, f)| {
+                f.parse::<f64>().map_err(|_| HoleReportError::NotANumber {
+                    line: i + 1,
+                    field: j + 1,
+                    text: f.to_string(),
+                })
+            })
+            .collect::<Result<_, _>>()?;
         out.push(Hole {
             measured: [v[0], v[1]],
             nominal: [v[2], v[3]],
@@ -307,6 +326,24 @@ pub fn read_hole_report(text: &str) -> Result<Vec<Hole>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hole_reports_are_read_and_bad_rows_located() {
+        let text = "Plug Plate: 1234\r\n# a comment\r\nMeas X Meas Y ...\r\n\
+                    1 2 1.5 2.5 -0.5 -0.5 3.1 3.0 0.01\r\n";
+        let holes = read_hole_report(text).unwrap();
+        assert_eq!(holes.len(), 1);
+        assert_eq!(
+            (holes[0].measured, holes[0].nominal, holes[0].roundness),
+            ([1.0, 2.0], [1.5, 2.5], 0.01)
+        );
+        assert_eq!(
+            read_hole_report("x\n1 2 3\n"),
+            Err(HoleReportError::FieldCount { line: 2, found: 3 })
+        );
+        let e = read_hole_report("1 2 3 4 5 six 7 8 9").unwrap_err();
+        assert_eq!(e.to_string(), "line 1: field 6 `six` is not a number");
+    }
 
     #[test]
     fn f_distribution_matches_known_values() {

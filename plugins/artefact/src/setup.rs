@@ -2,8 +2,8 @@
 
 use mtcal_instrument::config::{self, Number, Vec3, expected, required};
 use mtcal_instrument::{
-    At, Channel, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError, SetupFormat,
-    Touches, Unit,
+    At, Channel, LabelError, Nuisance, ReadingError, RunData, Setup, SetupContext, SetupError,
+    SetupFormat, Touches, Unit,
 };
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::{Matrix3, Vector3};
@@ -644,8 +644,12 @@ impl SetupFormat for ArtefactSetup {
         &["feature"]
     }
 
-    fn resolve_label(&self, values: &[&str]) -> Result<u32, String> {
+    fn resolve_label(&self, values: &[&str]) -> Result<u32, LabelError> {
         let v = values.first().copied().unwrap_or("").trim();
+        let refused = |message: String| LabelError {
+            value: v.to_string(),
+            message,
+        };
         let (pname, fname) = match v.split_once('/') {
             Some((p, f)) => (Some(p), f),
             None => (None, v),
@@ -656,21 +660,21 @@ impl SetupFormat for ArtefactSetup {
                 .iter()
                 .position(|p| p.name == pn)
                 .ok_or_else(|| {
-                    format!(
+                    refused(format!(
                         "unknown placement `{pn}` in `{v}`; the set-up has {}",
                         self.placements
                             .iter()
                             .map(|p| p.name.as_str())
                             .collect::<Vec<_>>()
                             .join(", ")
-                    )
+                    ))
                 })?,
             None if self.placements.len() == 1 => 0,
             None => {
-                return Err(format!(
+                return Err(refused(format!(
                     "`{v}`: the set-up has {} placements; write `<placement>/<feature>`",
                     self.placements.len()
-                ));
+                )));
             }
         };
         let k = self
@@ -683,7 +687,7 @@ impl SetupFormat for ArtefactSetup {
                 } else {
                     known.join(", ")
                 };
-                format!("unknown feature `{fname}`; the plate has {shown}")
+                refused(format!("unknown feature `{fname}`; the plate has {shown}"))
             })?;
         Ok(self.label(j, k))
     }

@@ -131,9 +131,24 @@ fn labels_name_placement_and_feature() {
     let s = setup(PLATE, &m);
     assert_eq!(s.label_columns(), ["feature"]);
     assert_eq!(s.resolve_label(&["p2/c"]), Ok(s.label(1, 2)));
-    assert!(s.resolve_label(&["c"]).unwrap_err().contains("placements"));
-    assert!(s.resolve_label(&["p9/c"]).unwrap_err().contains("p9"));
-    assert!(s.resolve_label(&["p1/zz"]).unwrap_err().contains("a, b, c"));
+    assert!(
+        s.resolve_label(&["c"])
+            .unwrap_err()
+            .message
+            .contains("placements")
+    );
+    assert!(
+        s.resolve_label(&["p9/c"])
+            .unwrap_err()
+            .message
+            .contains("p9")
+    );
+    assert!(
+        s.resolve_label(&["p1/zz"])
+            .unwrap_err()
+            .message
+            .contains("a, b, c")
+    );
     let one = setup(
         "[features]\nh1 = [0.0, 0.0, 0.0]\nh2 = [10.0, 0.0, 1.0]\n",
         &m,

@@ -81,7 +81,9 @@ pub use evaluate::{
     circular_deviation, evaluate, polar_view, recognise_circle,
 };
 pub use fixture::fixture;
-pub use path::{Bar, DEFAULT_SAMPLES, Plane, axis_line, circle_angles, path, place_tool};
+pub use path::{
+    Bar, DEFAULT_SAMPLES, PlaceError, Plane, axis_line, circle_angles, path, place_tool,
+};
 pub use setup::{BallbarConfig, BallbarSetup, SETUP_KEYS, nuis};
 
 use mtcal_instrument::{InstrumentPlugin, Setup, SetupContext, SetupError};

@@ -4,7 +4,7 @@
 use crate::setup::BallbarConfig;
 use mtcal_instrument::config::{self, Number, expected, required};
 use mtcal_instrument::{PathSpec, SetupError};
-use mtcal_kinematics::ik::follow_point;
+use mtcal_kinematics::ik::{IkError, follow_point};
 use mtcal_kinematics::rigid::log_so3;
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -361,22 +361,41 @@ pub fn axis_line(machine: &Machine, q: &[f64], axis: usize) -> (Vector3<f64>, Ve
     (a, c)
 }
 
+/// Why the tool cannot be placed at a point.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlaceError {
+    #[error(transparent)]
+    Ik(#[from] IkError),
+    #[error("machine `{machine}` (axes {axes}) has no linear axes to move the ball")]
+    NoLinearAxes { machine: String, axes: String },
+    #[error("{0}")]
+    Solve(&'static str),
+    #[error(
+        "machine `{machine}` (axes {axes}) has too few linear axes: its linear axes cannot reach \
+         the ball position (missed by {miss_mm:.3} mm)"
+    )]
+    Unreachable {
+        machine: String,
+        axes: String,
+        miss_mm: f64,
+    },
+}
+
 /// Sets the linear axes of `q` so that the nominal tool point is at `tip` (workpiece frame, m),
 /// rotary axes as they are: [`follow_point`] on machines with three linear axes, otherwise a
 /// least-squares solve over the linear axes that must reach `tip` exactly.
-pub fn place_tool(machine: &Machine, q: &mut [f64], tip: &Vector3<f64>) -> Result<(), String> {
+pub fn place_tool(machine: &Machine, q: &mut [f64], tip: &Vector3<f64>) -> Result<(), PlaceError> {
     let linear: Vec<usize> = (0..machine.n_axes())
         .filter(|&i| machine.axes()[i].kind() == AxisKind::Linear)
         .collect();
     if linear.len() == 3 {
-        return follow_point(machine, q, tip).map_err(|e| e.to_string());
+        return Ok(follow_point(machine, q, tip)?);
     }
     if linear.is_empty() {
-        return Err(format!(
-            "machine `{}` (axes {}) has no linear axes to move the ball",
-            machine.name(),
-            machine.letters()
-        ));
+        return Err(PlaceError::NoLinearAxes {
+            machine: machine.name().to_string(),
+            axes: machine.letters(),
+        });
     }
     for &i in &linear {
         q[i] = 0.0;
@@ -393,16 +412,14 @@ pub fn place_tool(machine: &Machine, q: &mut [f64], tip: &Vector3<f64>) -> Resul
         .clone()
         .svd(true, true)
         .solve(&rhs, 1e-12)
-        .map_err(|e| e.to_string())?;
+        .map_err(PlaceError::Solve)?;
     let miss = (&jac * &x - &rhs).norm();
     if miss > 1e-9 {
-        return Err(format!(
-            "machine `{}` (axes {}) has too few linear axes: its linear axes cannot reach the \
-             ball position (missed by {:.3} mm)",
-            machine.name(),
-            machine.letters(),
-            miss * 1e3
-        ));
+        return Err(PlaceError::Unreachable {
+            machine: machine.name().to_string(),
+            axes: machine.letters(),
+            miss_mm: miss * 1e3,
+        });
     }
     for (c, &i) in linear.iter().enumerate() {
         q[i] = x[c];

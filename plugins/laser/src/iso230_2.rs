@@ -80,31 +80,53 @@ fn range(it: impl Iterator<Item = f64> + Clone) -> f64 {
     it.clone().fold(f64::NEG_INFINITY, f64::max) - it.fold(f64::INFINITY, f64::min)
 }
 
+/// Why a bidirectional table cannot be evaluated to ISO 230-2.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Iso230_2Error {
+    #[error(
+        "need at least one target with deviations in both directions ({targets} targets, {up} ↑ \
+         lists, {down} ↓ lists)"
+    )]
+    Shape {
+        targets: usize,
+        up: usize,
+        down: usize,
+    },
+    #[error(
+        "target {number} ({position}) has {up} ↑ and {down} ↓ approaches; ISO 230-2 needs at \
+         least 2 each"
+    )]
+    TooFewApproaches {
+        /// 1-based, in table order.
+        number: usize,
+        position: f64,
+        up: usize,
+        down: usize,
+    },
+}
+
 /// The ISO 230-2:2014 evaluation of a bidirectional table. Every target needs at least two
 /// approaches in each direction (the error names the target otherwise), and there must be at
 /// least one target.
-pub fn iso230_2(table: &Approaches) -> Result<Iso230_2, String> {
+pub fn iso230_2(table: &Approaches) -> Result<Iso230_2, Iso230_2Error> {
     let m = table.targets.len();
     if m == 0 || table.up.len() != m || table.down.len() != m {
-        return Err(format!(
-            "need at least one target with deviations in both directions ({} targets, {} ↑ \
-             lists, {} ↓ lists)",
-            m,
-            table.up.len(),
-            table.down.len()
-        ));
+        return Err(Iso230_2Error::Shape {
+            targets: m,
+            up: table.up.len(),
+            down: table.down.len(),
+        });
     }
     let mut targets = Vec::with_capacity(m);
     for i in 0..m {
         let (up, down) = (&table.up[i], &table.down[i]);
         if up.len() < 2 || down.len() < 2 {
-            return Err(format!(
-                "target {} ({}) has {} ↑ and {} ↓ approaches; ISO 230-2 needs at least 2 each",
-                i + 1,
-                table.targets[i],
-                up.len(),
-                down.len()
-            ));
+            return Err(Iso230_2Error::TooFewApproaches {
+                number: i + 1,
+                position: table.targets[i],
+                up: up.len(),
+                down: down.len(),
+            });
         }
         let (mu, md) = (mean(up), mean(down));
         let (su, sd) = (std_n1(up, mu), std_n1(down, md));

@@ -181,8 +181,8 @@ pub use env::{
 };
 pub use fixture::fixture;
 pub use iso230_2::{
-    Approaches, Iso230_2, TARGET_TOL, TargetStats, approach_directions, approach_table, evaluate,
-    iso230_2, straightness,
+    Approaches, Iso230_2, Iso230_2Error, TARGET_TOL, TargetStats, approach_directions,
+    approach_table, evaluate, iso230_2, straightness,
 };
 pub use path::{ALIGN_TOL, AXIS_PATH_KEYS, DEFAULT_POINTS, DIAGONAL_PATH_KEYS, path};
 pub use setup::{

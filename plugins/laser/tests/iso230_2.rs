@@ -3,7 +3,8 @@
 
 use mtcal_instrument::Evaluation;
 use mtcal_laser::{
-    Approaches, approach_directions, approach_table, evaluate, iso230_2, straightness,
+    Approaches, Iso230_2Error, approach_directions, approach_table, evaluate, iso230_2,
+    straightness,
 };
 
 /// Two targets, three approaches each way (µm):
@@ -54,7 +55,16 @@ fn too_few_approaches_are_an_error_naming_the_target() {
     let mut t = example();
     t.down[1].truncate(1);
     let e = iso230_2(&t).unwrap_err();
-    assert!(e.contains("target 2"), "{e}");
+    assert!(e.to_string().contains("target 2"), "{e}");
+    assert!(matches!(
+        e,
+        Iso230_2Error::TooFewApproaches {
+            number: 2,
+            up: 3,
+            down: 1,
+            ..
+        }
+    ));
 }
 
 #[test]
