@@ -90,6 +90,7 @@ pub mod scene;
 pub mod spec;
 
 mod planner;
+mod run_keys;
 
 pub use planner::{
     CandidateReport, Criteria, FixedReport, IntervalRow, Planned, PlannedRun, Report, RunCheck,

@@ -4,6 +4,7 @@
 use crate::PlanError;
 use crate::geometry::MachineGeometry;
 use crate::info::{self, Choice, Informations};
+use crate::run_keys;
 use crate::scene::{Hit, Scene, instrument_bodies};
 use crate::spec::{Group, Source, Wanted};
 use mtcal_identify::Study;
@@ -393,58 +394,41 @@ impl Ctx<'_> {
 
     /// A `[[run]]` of the planning file, its set-up loaded and its path generated.
     fn fixed_run(&self, r: &toml::Spanned<toml::Table>) -> Result<PlannedRun, PlanError> {
-        let t = r.get_ref();
         let err = |m: String| self.src.at(r, m);
-        let name = t
-            .get("name")
-            .and_then(|v| v.as_str())
-            .ok_or_else(|| err("a [[run]] needs `name = \"…\"`".into()))?
-            .to_string();
-        const KEYS: &[&str] = &["name", "instrument", "setup", "path", "use", "feed_mm_min"];
-        if let Some(k) = t.keys().find(|k| !KEYS.contains(&k.as_str())) {
-            return Err(err(format!(
-                "run `{name}`: unknown key `{k}`; a run has {}",
-                KEYS.join(", ")
-            )));
-        }
-        let instrument = t
-            .get("instrument")
-            .and_then(|v| v.as_str())
+        let keys = run_keys::read(r.get_ref()).map_err(err)?;
+        let name = keys.name;
+        let instrument = keys
+            .instrument
             .ok_or_else(|| err(format!("run `{name}`: missing `instrument`")))?;
-        let (setup_name, setup) = match t.get("setup") {
+        let (setup_name, setup) = match keys.setup {
             Some(toml::Value::String(s)) => {
                 let table = self
                     .src
                     .file
                     .setup
-                    .get(s)
+                    .get(&s)
                     .and_then(|v| v.as_table())
                     .ok_or_else(|| err(format!("run `{name}`: no [setup.{s}] in the file")))?;
-                (s.clone(), table.clone())
+                (s, table.clone())
             }
-            Some(toml::Value::Table(tb)) => (name.clone(), tb.clone()),
+            Some(toml::Value::Table(tb)) => (name.clone(), tb),
             _ => {
                 return Err(err(format!(
                     "run `{name}`: `setup` must name a [setup.<name>] or be a table"
                 )));
             }
         };
-        let path = match t.get("path") {
-            Some(toml::Value::Table(p)) => p.clone(),
-            None => toml::Table::new(),
-            Some(_) => return Err(err(format!("run `{name}`: `path` must be a table"))),
-        };
-        let use_ = t
-            .get("use")
-            .and_then(|v| v.as_str())
-            .unwrap_or("fit")
-            .to_string();
-        let feed = t
-            .get("feed_mm_min")
-            .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
-            .unwrap_or(self.feed);
-        self.make_run(&name, instrument, &setup_name, &setup, &path, &use_, feed)
-            .map_err(|m| err(format!("run `{name}`: {m}")))
+        let feed = keys.feed_mm_min.unwrap_or(self.feed);
+        self.make_run(
+            &name,
+            &instrument,
+            &setup_name,
+            &setup,
+            &keys.path,
+            &keys.use_,
+            feed,
+        )
+        .map_err(|m| err(format!("run `{name}`: {m}")))
     }
 
     /// `setup` with an R-test's `mount` written out when it is left to the plugin's default
