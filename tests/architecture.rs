@@ -9,7 +9,9 @@
 //!   holds shared types and the entry points), never a module that uses it back. References are
 //!   found as `crate::m`, `crate::{m, …}` and (from a top-level module) `super::m`, outside
 //!   comments, strings and `#[cfg(test)]` modules; an item the root re-exports
-//!   (`pub use m::Item`) counts as a use of `m`.
+//!   (`pub use m::Item`) counts as a use of `m`. The same holds inside every module folder
+//!   (`src/m/`): its children may not use each other in a circle (`super::x`, `crate::m::x`,
+//!   or an item `m` re-exports).
 //! - **An error tells its cause once.** A `thiserror` message that shows a field (`{cause}`,
 //!   `{0}`) must not also make it the error's `source` (`#[source]`, `#[from]` or a field named
 //!   `source`): a reader walking the chain would see the cause twice.
@@ -356,14 +358,15 @@ fn names_after(code: &str, prefix: &str) -> BTreeSet<String> {
     names
 }
 
-/// A crate's top-level modules (name → the code of its files) and its root's code.
-fn modules(src: &Path) -> (BTreeMap<String, String>, String) {
+/// The modules directly inside a module folder `dir` (`src/`, or `src/m/` of module `m`; name →
+/// the code of its files) and the code of the folder's own module (`lib.rs`/`main.rs`, or
+/// `m/mod.rs` / `m.rs`).
+fn modules(dir: &Path) -> (BTreeMap<String, String>, String) {
     let mut modules = BTreeMap::new();
-    let mut root = String::new();
     let mut files = Vec::new();
-    let mut stack = vec![src.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
             let path = entry.unwrap().path();
             if path.is_dir() {
                 stack.push(path);
@@ -372,12 +375,17 @@ fn modules(src: &Path) -> (BTreeMap<String, String>, String) {
             }
         }
     }
+    // A module folder `m/` beside `m.rs`: that file is the folder's own module.
+    let mut root = match std::fs::read_to_string(dir.with_extension("rs")) {
+        Ok(text) => code_of(&text),
+        Err(_) => String::new(),
+    };
     let tests_only = test_module_files(&files);
     for path in files
         .iter()
         .filter(|p| !tests_only.iter().any(|t| p.starts_with(t)))
     {
-        let rel = path.strip_prefix(src).unwrap();
+        let rel = path.strip_prefix(dir).unwrap();
         let top = rel
             .components()
             .next()
@@ -386,11 +394,11 @@ fn modules(src: &Path) -> (BTreeMap<String, String>, String) {
             .to_string_lossy();
         let name = top.trim_end_matches(".rs").to_string();
         let code = code_of(&std::fs::read_to_string(path).unwrap());
-        if rel.components().count() == 1 && (name == "lib" || name == "main") {
+        if rel.components().count() == 1 && matches!(name.as_str(), "lib" | "main" | "mod") {
             root.push_str(&code);
         } else {
             let entry: &mut String = modules.entry(name).or_default();
-            // `super::` from a file in a module's folder is that module, not the root.
+            // `super::` from a file in a module's folder is that module, not its parent.
             let own = if rel.components().count() == 1 || rel.ends_with("mod.rs") {
                 code
             } else {
@@ -430,16 +438,29 @@ fn test_module_files(files: &[PathBuf]) -> Vec<PathBuf> {
     out
 }
 
-/// Module → the modules it uses.
-fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
-    let (modules, root) = modules(src);
-    // Items the root re-exports from a module: `pub use m::{A, b::C};` → A, C → m.
+/// Module → the modules it uses, among the modules directly inside module folder `dir` of the
+/// crate whose sources are in `src` (`dir` = `src` for the crate's top-level modules).
+fn module_graph_in(src: &Path, dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let (modules, root) = modules(dir);
+    // How a module names its siblings from anywhere in the crate: `crate::m::` for the
+    // children of module `m` (`crate::` at the top), and `super::` from beside them.
+    let path: Vec<String> = dir
+        .strip_prefix(src)
+        .unwrap()
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    let absolute: String = std::iter::once("crate".to_string())
+        .chain(path)
+        .map(|p| p + "::")
+        .collect();
+    // Items the folder's module re-exports from a child: `pub use m::{A, b::C};` → A, C → m.
     let mut reexports: BTreeMap<String, String> = BTreeMap::new();
     for (at, _) in root.match_indices("pub use ") {
         let stmt = &root[at + 8..];
         let stmt = &stmt[..stmt.find(';').unwrap_or(stmt.len())];
         let stmt = stmt
-            .trim_start_matches("crate::")
+            .trim_start_matches(absolute.as_str())
             .trim_start_matches("self::");
         let m = identifier_at(stmt);
         if modules.contains_key(m) {
@@ -454,7 +475,7 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     modules
         .iter()
         .map(|(name, code)| {
-            let mut names = names_after(code, "crate::");
+            let mut names = names_after(code, &absolute);
             names.extend(names_after(code, "super::"));
             let uses = names
                 .into_iter()
@@ -470,6 +491,33 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
             (name.clone(), uses)
         })
         .collect()
+}
+
+/// The crate's top-level modules → the modules each uses.
+fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    module_graph_in(src, src)
+}
+
+/// Every module folder of a crate (`src/` itself first, then each `src/…/m/`), except the
+/// folders of test-only modules.
+fn module_folders(src: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    let mut folders = vec![src.to_path_buf()];
+    let mut stack = vec![src.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                folders.push(path.clone());
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    let tests_only = test_module_files(&files);
+    folders.retain(|f| !tests_only.iter().any(|t| f.starts_with(t)));
+    folders
 }
 
 /// Every cycle's modules (strongly connected components of more than one module), each as
@@ -539,9 +587,11 @@ fn crate_sources() -> Vec<PathBuf> {
 fn no_crate_has_an_import_cycle_between_its_modules() {
     let mut faults = Vec::new();
     for src in crate_sources() {
-        for cycle in cycles(&module_graph(&src)) {
-            let at = src.parent().unwrap().strip_prefix(workspace()).unwrap();
-            faults.push(format!("{}: {cycle}", at.display()));
+        for dir in module_folders(&src) {
+            for cycle in cycles(&module_graph_in(&src, &dir)) {
+                let at = dir.strip_prefix(workspace()).unwrap();
+                faults.push(format!("{}: {cycle}", at.display()));
+            }
         }
     }
     assert!(
@@ -582,6 +632,36 @@ fn the_cycle_check_reads_paths_groups_and_reexports() {
     let found = cycles(&module_graph(src));
     assert_eq!(found.len(), 1, "{found:?}");
     assert!(found[0].starts_with("a → [\"b\"]"), "{found:?}");
+}
+
+#[test]
+fn the_cycle_check_looks_inside_module_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    let write = |f: &str, s: &str| {
+        let path = src.join(f);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, s).unwrap();
+    };
+    write("lib.rs", "mod m;");
+    write("m/mod.rs", "mod a; mod b; mod c; pub use c::Shared;");
+    // `a` uses its sibling `b` through `super::`, `b` uses `c` through the folder module's
+    // re-export; `c/inner.rs`'s `super::` is `c` itself.
+    write("m/a.rs", "use super::b::f;");
+    write("m/b.rs", "use super::Shared;");
+    write("m/c.rs", "mod inner; pub struct Shared;");
+    write("m/c/inner.rs", "use super::Shared;");
+    let folders = module_folders(src);
+    assert!(folders.contains(&src.join("m")) && folders.contains(&src.join("m/c")));
+    let graph = module_graph_in(src, &src.join("m"));
+    assert_eq!(graph["a"], ["b".to_string()].into());
+    assert_eq!(graph["b"], ["c".to_string()].into());
+    assert!(graph["c"].is_empty(), "{graph:?}");
+    assert!(cycles(&graph).is_empty());
+    // `c` naming `a` by its absolute path closes a cycle inside `m`.
+    write("m/c/inner.rs", "use crate::m::a::g;");
+    let found = cycles(&module_graph_in(src, &src.join("m")));
+    assert_eq!(found.len(), 1, "{found:?}");
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,0 +1,91 @@
+//! One fitted model of the search ([`Fitted`]: study, solution, report, held-out score) and the
+//! helpers every phase fits with: [`fit`] (fit and cross-validate), [`with_noise`] (refit on the
+//! noise the residuals show, step 0), [`bic`], [`carry_over`] and [`machine_values`]. Uses the
+//! settings and the cross-validation (`heldout`); the step, the discoveries and the loop use it.
+
+use super::heldout::heldout;
+use super::settings::SearchOptions;
+use crate::IdentifyError;
+use crate::findings::Heldout;
+use crate::report::Identification;
+use crate::study::{Changes, Study};
+use mtcal_solve::{Silent, Solution};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// One fitted model.
+pub(super) struct Fitted {
+    pub(super) study: Study,
+    pub(super) solution: Solution,
+    pub(super) id: Identification,
+    pub(super) heldout: Heldout,
+}
+
+/// `fitted` on the noise its residuals show ([`crate::noise`]): every decision of the search is
+/// a χ² statistic, on the noise the recordings really carry rather than the σ the manifest
+/// states. Estimated again after every step: a large effect left out inflates the estimate
+/// (a cycle of a few samples reads as noise), and once it is in the model the smaller ones
+/// need the noise it leaves. Within a step every candidate is compared on one metric.
+pub(super) fn with_noise(fitted: Fitted, options: &SearchOptions) -> Result<Fitted, IdentifyError> {
+    let noise = crate::noise::estimate(&fitted.study, &fitted.solution.x);
+    let now = fitted.study.changes().noise.as_deref();
+    let same = match now {
+        Some(n) => *n == noise,
+        None => noise.is_stated(),
+    };
+    if same {
+        return Ok(fitted);
+    }
+    let changes = Changes {
+        noise: (!noise.is_stated()).then(|| Arc::new(noise)),
+        ..fitted.study.changes().clone()
+    };
+    let study = fitted.study.rebuild(changes)?;
+    fit(study, Some(fitted.solution.x), options)
+}
+
+/// Fits `study` (from `x0` or its own start) and cross-validates it.
+pub(super) fn fit(
+    study: Study,
+    x0: Option<Vec<f64>>,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let x0 = x0.unwrap_or_else(|| study.initial_x());
+    let solution = crate::solve_from(&study, &x0, &options.solver, &mut Silent)?;
+    let id = Identification::new(&study, &solution)?;
+    let heldout = heldout(&study, &solution.x, options)?;
+    Ok(Fitted {
+        study,
+        solution,
+        id,
+        heldout,
+    })
+}
+
+/// The Bayesian information criterion of a fit with known noise: `χ² + k·ln n`, `k` the
+/// identified parameters.
+pub(super) fn bic(solution: &Solution) -> f64 {
+    solution.chi2 + solution.rank as f64 * (solution.n_rows.max(2) as f64).ln()
+}
+
+/// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at
+/// their starting values.
+pub(super) fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
+    let known: HashMap<String, f64> = (0..from.layout().n_x())
+        .map(|i| (from.param_info(i).name, x[i]))
+        .collect();
+    let start = to.initial_x();
+    (0..to.layout().n_x())
+        .map(|i| *known.get(&to.param_info(i).name).unwrap_or(&start[i]))
+        .collect()
+}
+
+/// The machine parameters of a fit: name, value and unit (reported units).
+pub(super) fn machine_values(study: &Study, solution: &Solution) -> Vec<(String, f64, String)> {
+    (0..study.layout().n_machine())
+        .map(|i| {
+            let info = study.param_info(i);
+            (info.name, solution.x[i] * info.per_si, info.unit)
+        })
+        .collect()
+}

@@ -1,0 +1,410 @@
+//! Cross-validation, the held-out check of step 2: [`heldout`] (every fold's refit from the full
+//! fit's normal equations, in one pass) and [`choose_width`] (a joint model's prior width by
+//! leaving each fitted run out). Uses the settings; gives [`Heldout`] to the fit helpers
+//! (`fitted`) and the step.
+
+use super::settings::{CrossValidation, SearchOptions};
+use crate::IdentifyError;
+use crate::findings::Heldout;
+use crate::fit::{FitProblem, FoldOf, Row, RowTarget, SampleEval};
+use crate::param_specs_from;
+use crate::study::Study;
+use mtcal_effects::Effect;
+use mtcal_solve::{Problem, Solution};
+use std::sync::Arc;
+
+/// Cross-validation: each fold of the fitted data ([`CrossValidation`]) is left out, the model
+/// refitted on the rest and the left-out samples predicted.
+///
+/// The refit is the Gauss–Newton step from the full fit `x` (where the model is linear to the
+/// accuracy that matters here), `δ_k = −R_k⁺z_k` from the streaming QR factor of the other
+/// folds' rows ([`mtcal_solve::linearize`], with the solver's column scaling and rank rule: the
+/// normal equations would square the condition number, and a direction the data barely see
+/// would move by metres on their rounding). The left-out rows enter only through their normal
+/// equations `A_k = J_kᵀJ_k`, `g_k = J_kᵀr_k`, summed for every fold in one pass: their
+/// residuals become `r_k + J_k·δ_k`, whose sum of squares is `r_kᵀr_k + 2δ_kᵀg_k + δ_kᵀA_kδ_k`.
+/// One factor per fold and no iteration, instead of a fit per fold.
+pub fn heldout(
+    study: &Study,
+    x: &[f64],
+    options: &SearchOptions,
+) -> Result<Heldout, IdentifyError> {
+    let (folds, assign) = fold_assignment(study, options);
+    let specs = param_specs_from(study, x);
+    let n = study.layout().n_x();
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
+    // Each lane: its sums and a column-list buffer reused from block to block.
+    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| (FoldSums::new(folds, n), Vec::new()))
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
+        let mut target = FoldTarget {
+            sums,
+            cols: std::mem::take(cols),
+            assign: &assign,
+        };
+        let res =
+            problem
+                .walk_rows(b, x, &mut target)
+                .map_err(|source| mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
+                });
+        *cols = target.cols;
+        res
+    })?;
+    let mut total = FoldSums::new(folds, n);
+    for (part, _) in &parts {
+        total.add(part);
+    }
+    let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
+    for k in 0..folds {
+        if total.count[k] == 0 {
+            continue;
+        }
+        let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
+        let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
+        let delta = lin.step(options.solver.rank_tolerance)?;
+        let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
+            let mut q = rr;
+            for i in 0..n {
+                q += 2.0 * delta[i] * g[i];
+                for j in 0..n {
+                    q += delta[i] * a[i * n + j] * delta[j];
+                }
+            }
+            q.max(0.0)
+        };
+        sum_w += quad(
+            &total.a[k * n * n..(k + 1) * n * n],
+            &total.g[k * n..(k + 1) * n],
+            total.rr[k],
+        );
+        sum_u += quad(
+            &total.au[k * n * n..(k + 1) * n * n],
+            &total.gu[k * n..(k + 1) * n],
+            total.rru[k],
+        );
+        count += total.count[k];
+    }
+    let c = count.max(1) as f64;
+    Ok(Heldout {
+        mean_square: sum_w / c,
+        rms_um: (sum_u / c).sqrt() * 1e6,
+        samples: count,
+    })
+}
+
+/// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the
+/// channels' units (`au`, `gu`, `rru`, SI), and the number of rows.
+struct FoldSums {
+    n: usize,
+    a: Vec<f64>,
+    g: Vec<f64>,
+    rr: Vec<f64>,
+    au: Vec<f64>,
+    gu: Vec<f64>,
+    rru: Vec<f64>,
+    count: Vec<usize>,
+}
+
+impl FoldSums {
+    fn new(folds: usize, n: usize) -> Self {
+        Self {
+            n,
+            a: vec![0.0; folds * n * n],
+            g: vec![0.0; folds * n],
+            rr: vec![0.0; folds],
+            au: vec![0.0; folds * n * n],
+            gu: vec![0.0; folds * n],
+            rru: vec![0.0; folds],
+            count: vec![0; folds],
+        }
+    }
+
+    fn add(&mut self, other: &FoldSums) {
+        for (a, b) in [
+            (&mut self.a, &other.a),
+            (&mut self.g, &other.g),
+            (&mut self.rr, &other.rr),
+            (&mut self.au, &other.au),
+            (&mut self.gu, &other.gu),
+            (&mut self.rru, &other.rru),
+        ] {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+        }
+        for (x, y) in self.count.iter_mut().zip(&other.count) {
+            *x += y;
+        }
+    }
+}
+
+/// Sends a block's rows into their fold's sums.
+struct FoldTarget<'a> {
+    sums: &'a mut FoldSums,
+    cols: Vec<usize>,
+    assign: &'a FoldOf,
+}
+
+/// The folds of `options`' cross-validation on `study`: their number and the assignment.
+fn fold_assignment(study: &Study, options: &SearchOptions) -> (usize, FoldOf) {
+    let fitted = study.runs.iter().filter(|r| r.fit).count();
+    match options.cross_validation {
+        CrossValidation::BlocksPerRun => (
+            options.folds.max(2),
+            FoldOf::BlocksPerRun {
+                count: options.folds.max(2),
+                lengths: study.runs.iter().map(|r| r.len()).collect(),
+            },
+        ),
+        CrossValidation::Runs => {
+            let mut k = 0;
+            let fold = study
+                .runs
+                .iter()
+                .map(|r| {
+                    let f = k;
+                    k += usize::from(r.fit);
+                    f
+                })
+                .collect();
+            (fitted.max(2), FoldOf::Run(fold))
+        }
+        CrossValidation::Timeline => {
+            let mut offsets = vec![0; study.runs.len()];
+            let mut total = 0;
+            for &r in study.view().runs_in_time_order() {
+                if study.runs[r].fit {
+                    offsets[r] = total;
+                    total += study.runs[r].len();
+                }
+            }
+            let count = options.folds.max(2);
+            (
+                count,
+                FoldOf::Timeline {
+                    offsets,
+                    total,
+                    count,
+                },
+            )
+        }
+    }
+}
+
+impl RowTarget for FoldTarget<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        self.cols.clear();
+        self.cols.extend_from_slice(cols);
+    }
+
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
+        if out.seed {
+            return;
+        }
+        let n = self.sums.n;
+        let k = self.assign.of(eval.run, sample);
+        let sigma = 1.0 / eval.inv_sigma[channel];
+        let s2 = sigma * sigma;
+        let (a, au) = (
+            &mut self.sums.a[k * n * n..(k + 1) * n * n],
+            &mut self.sums.au[k * n * n..(k + 1) * n * n],
+        );
+        // The decision's sums from the prewhitened rows; the RMS in the channels' units from
+        // the residuals as they are.
+        let (row, res) = (out.jac, out.res);
+        let (raw, raw_res) = (out.raw_jac, out.raw_res);
+        for (p, &i) in self.cols.iter().enumerate() {
+            let (ri, ui) = (row[p], raw[p]);
+            if ri != 0.0 {
+                for (q, &j) in self.cols.iter().enumerate() {
+                    a[i * n + j] += ri * row[q];
+                }
+                self.sums.g[k * n + i] += ri * res;
+            }
+            if ui != 0.0 {
+                for (q, &j) in self.cols.iter().enumerate() {
+                    au[i * n + j] += ui * raw[q] * s2;
+                }
+                self.sums.gu[k * n + i] += ui * raw_res * s2;
+            }
+        }
+        self.sums.rr[k] += res * res;
+        self.sums.rru[k] += raw_res * raw_res * s2;
+        self.sums.count[k] += 1;
+    }
+}
+
+/// The prior width of `ladder` (the same effect at every width, the study's last) whose fit
+/// predicts held-out runs best: each fitted run left out in turn (three or more; otherwise
+/// the search's folds), the others' normal equations at `solution` with the ladder's priors
+/// solved for the Gauss–Newton step (the model is linear in the effect's amplitudes), the
+/// left-out rows predicted. One pass over the data for every width and fold.
+pub(super) fn choose_width(
+    study: &Study,
+    solution: &Solution,
+    ladder: &[Arc<dyn Effect>],
+    options: &SearchOptions,
+) -> Result<usize, IdentifyError> {
+    let fitted = study.runs.iter().filter(|r| r.fit).count();
+    let (folds, assign) = if fitted >= 3 {
+        let mut k = 0;
+        let fold = study
+            .runs
+            .iter()
+            .map(|r| {
+                let f = k;
+                k += usize::from(r.fit);
+                f
+            })
+            .collect();
+        (fitted, FoldOf::Run(fold))
+    } else {
+        fold_assignment(study, options)
+    };
+    let x = &solution.x;
+    let n = study.layout().n_x();
+    let sums = fold_sums(study, x, folds, &assign)?;
+    let specs = param_specs_from(study, x);
+    let first = n - ladder[0].params().len();
+    // Only the parameters that share rows with the effect's take part in the refit of a fold
+    // (the rest, another sensor's model, keep their fitted values: what they do does not
+    // depend on this effect's prior).
+    let coupled: Vec<usize> = (0..n)
+        .filter(|&i| {
+            i >= first
+                || (first..n).any(|j| (0..folds).any(|k| sums.a[k * n * n + i * n + j] != 0.0))
+        })
+        .collect();
+    let m = coupled.len();
+    let mut best = (f64::INFINITY, 0);
+    for (w, effect) in ladder.iter().enumerate() {
+        // Prior precision and gradient of every coupled parameter at x (the effect's at this
+        // width).
+        let mut precision = vec![0.0; m];
+        let mut prior_grad = vec![0.0; m];
+        for (p, &i) in coupled.iter().enumerate() {
+            let prior = if i >= first {
+                effect.params()[i - first].prior.map(|s| (0.0, s))
+            } else {
+                specs[i].prior
+            };
+            if let Some((mu, sigma)) = prior {
+                precision[p] = 1.0 / (sigma * sigma);
+                prior_grad[p] = (x[i] - mu) / (sigma * sigma);
+            }
+        }
+        let mut total = 0.0;
+        for k in 0..folds {
+            if sums.count[k] == 0 {
+                continue;
+            }
+            let mut a = vec![0.0; m * m];
+            let mut g = prior_grad.clone();
+            for j in (0..folds).filter(|&j| j != k) {
+                let (aj, gj) = (
+                    &sums.a[j * n * n..(j + 1) * n * n],
+                    &sums.g[j * n..(j + 1) * n],
+                );
+                for (p, &i) in coupled.iter().enumerate() {
+                    g[p] += gj[i];
+                    for (q, &l) in coupled.iter().enumerate() {
+                        a[p * m + q] += aj[i * n + l];
+                    }
+                }
+            }
+            for p in 0..m {
+                a[p * m + p] += precision[p];
+            }
+            let delta = solve_psd(&a, &g, m);
+            let (ak, gk) = (
+                &sums.a[k * n * n..(k + 1) * n * n],
+                &sums.g[k * n..(k + 1) * n],
+            );
+            let mut q = sums.rr[k];
+            for (p, &i) in coupled.iter().enumerate() {
+                q += 2.0 * delta[p] * gk[i];
+                for (r, &l) in coupled.iter().enumerate() {
+                    q += delta[p] * ak[i * n + l] * delta[r];
+                }
+            }
+            total += q.max(0.0);
+        }
+        if total < best.0 {
+            best = (total, w);
+        }
+    }
+    Ok(best.1)
+}
+
+/// `−A⁺g` for a symmetric positive semi-definite `A` (`n × n`): through the eigenvectors of the
+/// diagonally scaled matrix, directions below 1e-12 of the largest left out.
+fn solve_psd(a: &[f64], g: &[f64], n: usize) -> Vec<f64> {
+    let d: Vec<f64> = (0..n)
+        .map(|i| {
+            let v = a[i * n + i];
+            if v > 0.0 { v.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+        0.5 * (a[i * n + j] + a[j * n + i]) / (d[i] * d[j])
+    });
+    let eig = scaled.symmetric_eigen();
+    let top = eig.eigenvalues.iter().copied().fold(0.0, f64::max);
+    let gs: Vec<f64> = (0..n).map(|i| g[i] / d[i]).collect();
+    let mut out = vec![0.0; n];
+    for (k, &l) in eig.eigenvalues.iter().enumerate() {
+        if l.is_nan() || l <= 1e-12 * top {
+            continue;
+        }
+        let v = eig.eigenvectors.column(k);
+        let proj: f64 = (0..n).map(|i| v[i] * gs[i]).sum::<f64>() / l;
+        for i in 0..n {
+            out[i] -= v[i] * proj;
+        }
+    }
+    for i in 0..n {
+        out[i] /= d[i];
+    }
+    out
+}
+
+/// Every fold's normal equations of `study`'s rows at `x` (one pass, lanes merged in order).
+fn fold_sums(
+    study: &Study,
+    x: &[f64],
+    folds: usize,
+    assign: &FoldOf,
+) -> Result<FoldSums, IdentifyError> {
+    let n = study.layout().n_x();
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| (FoldSums::new(folds, n), Vec::new()))
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
+        let mut target = FoldTarget {
+            sums,
+            cols: std::mem::take(cols),
+            assign,
+        };
+        let res =
+            problem
+                .walk_rows(b, x, &mut target)
+                .map_err(|source| mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
+                });
+        *cols = target.cols;
+        res
+    })?;
+    let mut total = FoldSums::new(folds, n);
+    for (part, _) in &parts {
+        total.add(part);
+    }
+    Ok(total)
+}

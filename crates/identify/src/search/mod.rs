@@ -1,0 +1,305 @@
+//! The physics search: when the identified model and the recordings disagree, find which
+//! physics the model left out, add it, and show the fit improve on data it did not train on.
+//!
+//! # The loop
+//! 0. **Noise.** Every decision below is a χ² statistic, and real recordings are neither white
+//!    nor of the σ their manifest states: the fit's residuals give each instrument channel's
+//!    real σ and AR(1) coefficient ([`crate::noise`]), and every fit of the search is then the
+//!    generalised least-squares fit for that noise (rows prewhitened). Estimated again after
+//!    every accepted step (a large effect left out reads partly as noise); within a step every
+//!    candidate is judged on one metric.
+//! 1. **Rank.** Every registered effect family ([`mtcal_effects::families`]) proposes its
+//!    candidates for the session (thermal drifts at a grid of time constants, reversal of each
+//!    axis that reverses, cyclic errors at screw pitches, joint thermal models, the model's
+//!    left-out parameters…). Each is scored against the current fit without refitting
+//!    ([`mtcal_solve::score_candidates`], a Lagrange-multiplier test): the predicted drop in χ²,
+//!    Holm's correction over all candidates, the share of it the fitted parameters absorb, the
+//!    fitted parameters it would move.
+//! 2. **Fit and check.** The strongest significant candidates (at most [`SearchOptions::tries`],
+//!    one per label and three per class, so that every kind of explanation the scores point at
+//!    is refitted) are each added to the model and refitted — in two stages, the shape
+//!    parameters (τ, pitch…) held first and then refined with everything else; a cycle's pitch
+//!    is first scanned on a grid fine enough for every phase ([`Effect::shape_scan`]), a joint
+//!    model's prior width chosen by leaving each fitted run out ([`Effect::prior_ladder`]). A
+//!    candidate passes if its refit is physics (no parameter driven beyond its plausible range,
+//!    no new one whose interval is wider than it), the information criterion agrees
+//!    (`Δχ²/max(1, χ²_red) > Δk·ln n`, a parameter under a prior counting for the share the data
+//!    decide) **and** it predicts held-out data better: cross-validation ([`CrossValidation`]:
+//!    contiguous time blocks of every fitted run by default, whole runs, or blocks of the whole
+//!    timeline for a long recording; `[identify] heldout`), its whitened mean square lower by
+//!    more than [`SearchOptions::min_heldout_gain`]. The cross-validation is the Gauss–Newton
+//!    refit of each fold from the full fit, computed from every fold's normal equations in one
+//!    pass ([`heldout`]). Of those that pass, the lowest BIC wins: scores at grid starting
+//!    values cannot tell a drift in time from a lagged temperature that follows it, their
+//!    refits can; and of two that fit alike the one with fewer parameters.
+//! 3. **Look-alikes.** Others that passed within [`LOOKALIKE_BIC`] of the winner, and that are
+//!    no longer significant once it is in the model (they explained the same thing), are its
+//!    look-alikes: the discovery names them and the measurement that would tell them apart,
+//!    and claims neither as the answer (machine drift or set-up drift, a drift in time or a
+//!    temperature that follows it).
+//! 4. **Repeat** with the accepted effect in the model, until no candidate is significant or
+//!    none that is passes.
+//!
+//! # What it reports
+//! Each accepted step is a [`Discovery`] (FORMATS.md `discoveries`): the effect, its
+//! parameters with 95 % intervals from the final fit, the fit and held-out RMS before and
+//! after, the share of the excess χ² it explains, the machine parameters it had biased (before
+//! and after), where the residuals showed it, its look-alikes, and a sentence. Candidates the
+//! data cannot tell from the fitted parameters (almost wholly absorbed) are listed as
+//! [`Concealed`], with the parameters they hide behind and the measurement that would separate
+//! them.
+//!
+//! # Columns of a candidate
+//! Effects give their columns through [`mtcal_effects::PreparedEffects`] (axis perturbations
+//! through the machine's axis Jacobian, set-up parameters through the instrument's nuisance
+//! derivatives, readings directly); model changes through the projected Jacobian of the
+//! machine model with the candidate parameters added (held-out parameters are zero at the
+//! solution, so the pose is the fit's).
+//!
+//! # Where each phase lives
+//! Each module uses only those listed above it; this one composes them.
+//! - `settings`: [`SearchOptions`], [`CrossValidation`], [`LOOKALIKE_BIC`], the session's
+//!   `[identify]` keys applied to them.
+//! - `heldout`: the cross-validation ([`heldout`]) and a joint model's prior width.
+//! - `fitted`: one fitted model and the fit helpers (noise re-estimate, BIC, carry-over).
+//! - `rank`: step 1, the candidates and their score tests ([`candidates`], [`rank`], [`Ranked`]).
+//! - `step`: steps 2 and 3, a candidate refitted and judged, the accepted step and its
+//!   look-alikes.
+//! - `discovery`: the accepted steps as [`Discovery`]s, the [`Concealed`] candidates, the search
+//!   in words.
+//! - here: [`search`], the loop that drives them, and its [`SearchResult`].
+//!
+//! [`Effect::shape_scan`]: mtcal_effects::Effect::shape_scan
+//! [`Effect::prior_ladder`]: mtcal_effects::Effect::prior_ladder
+//! [`heldout`]: fn@heldout
+//! [`rank`]: fn@rank
+
+mod discovery;
+mod fitted;
+mod heldout;
+mod rank;
+mod settings;
+mod step;
+
+pub use crate::findings::{
+    Concealed, Correction, Discovery, DiscoveryParameter, Heldout, LookAlike, SearchReport,
+    SearchStop, Trial,
+};
+pub use discovery::separating_measurement;
+pub use heldout::heldout;
+pub use rank::{Ranked, candidates, omitted_parameters, rank};
+pub use settings::{CrossValidation, LOOKALIKE_BIC, SearchOptions};
+
+use crate::IdentifyError;
+use crate::report::Identification;
+use crate::study::Study;
+use discovery::{concealed, discovery, telling_apart};
+use fitted::{Fitted, bic, fit, machine_values, with_noise};
+use mtcal_solve::Solution;
+use rank::rank_with;
+use settings::with_session_options;
+use step::{Refitted, Stage, choose_tries, scanned, try_candidate};
+
+/// What [`search`] returns: the final study (the session with the discoveries added), its
+/// fit, and the report (with `discoveries` and `search` filled).
+#[derive(Debug)]
+pub struct SearchResult {
+    pub study: Study,
+    pub solution: Solution,
+    pub identification: Identification,
+    /// The fit before the search added anything.
+    pub initial: Identification,
+    /// Its solution, and the changes of its study (`study.rebuild(initial_changes)` gives it
+    /// back: the parameter vector `initial_solution` belongs to).
+    pub initial_solution: Solution,
+    pub initial_changes: crate::study::Changes,
+}
+
+// ---------------------------------------------------------------------------------------------
+// The loop
+
+/// Runs the physics search on `study` (see the module documentation).
+pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
+    let options = &with_session_options(&study, options)?;
+    let mut current = with_noise(fit(study, None, options)?, options)?;
+    let initial = current.id.clone();
+    let initial_solution = current.solution.clone();
+    let initial_changes = current.study.changes().clone();
+    let mut report = SearchReport {
+        candidates: 0,
+        steps: Vec::new(),
+        stopped: SearchStop::MostAllowed {
+            steps: options.max_steps,
+        },
+        concealed: Vec::new(),
+        ranking: Vec::new(),
+    };
+    let mut stages: Vec<Stage> = Vec::new();
+    let mut last_ranking: Option<Vec<Ranked>> = None;
+    for step in 0..options.max_steps {
+        let cands = candidates(&current.study, options.families.as_deref());
+        if step == 0 {
+            report.candidates = cands.len();
+        }
+        let ranked = rank_with(
+            &current.study,
+            &current.solution,
+            cands,
+            options.alpha,
+            options.cache_bytes,
+        )?;
+        // What the last step added was told from its look-alikes only if they no longer
+        // explain anything now that it is in the model.
+        if let Some(stage) = stages.last_mut() {
+            stage.confirm_lookalikes(&ranked);
+        }
+        let tries = choose_tries(&ranked, options.tries);
+        if tries.is_empty() {
+            report.stopped = if step == 0 {
+                SearchStop::NothingSignificant
+            } else {
+                SearchStop::NothingFurther
+            };
+            last_ranking = Some(ranked);
+            break;
+        }
+        let mut trials = Vec::new();
+        let mut passed: Vec<(usize, Ranked, Refitted)> = Vec::new();
+        for r in tries {
+            let r = scanned(&current, r, options)?;
+            let (trial, fitted) = try_candidate(&current, &r, options)?;
+            if let Some(f) = fitted {
+                passed.push((trials.len(), r, f));
+            }
+            trials.push(trial);
+        }
+        // Among those that pass, the information criterion decides: the better fit unless it
+        // pays for it with parameters (stick-slip with an endless decay is a reversal error
+        // with one parameter more). Those within a whisker of it are its look-alikes.
+        let scale = current.solution.chi2_reduced.max(1.0);
+        let winner = passed
+            .iter()
+            .enumerate()
+            .min_by(|a, b| bic(&a.1.2.solution).total_cmp(&bic(&b.1.2.solution)))
+            .map(|(k, _)| k);
+        let mut lookalikes = Vec::new();
+        if let Some(w) = winner {
+            let (wk, wr, wf) = &passed[w];
+            let best = bic(&wf.solution);
+            for (k, r, f) in &passed {
+                if k == wk {
+                    continue;
+                }
+                let delta = (bic(&f.solution) - best) / scale;
+                let t = &mut trials[*k];
+                t.accepted = false;
+                if delta < LOOKALIKE_BIC && r.candidate.label() != wr.candidate.label() {
+                    t.why = format!(
+                        "explains nearly as well as the one added (information criterion {delta:+.1}): \
+                         a look-alike; {}",
+                        t.why
+                    );
+                    lookalikes.push(LookAlike {
+                        candidate: r.name(),
+                        effect: r.candidate.class().to_string(),
+                        label: r.candidate.label(),
+                        delta_chi2: (f.solution.chi2 - wf.solution.chi2) / scale,
+                        delta_bic: delta,
+                        measurement: telling_apart(&wr.candidate, &r.candidate),
+                    });
+                } else {
+                    t.why = format!("passed, but another candidate predicts better; {}", t.why);
+                }
+            }
+        }
+        report.steps.push(trials);
+        let accepted = match winner {
+            Some(w) => {
+                let (_, r, f) = passed.swap_remove(w);
+                let id = Identification::new(&f.study, &f.solution)?;
+                Some((
+                    r,
+                    Fitted {
+                        study: f.study,
+                        solution: f.solution,
+                        id,
+                        heldout: f.heldout,
+                    },
+                ))
+            }
+            None => None,
+        };
+        let Some((ranked_ok, fitted)) = accepted else {
+            report.stopped = SearchStop::NoneImproved;
+            last_ranking = Some(ranked);
+            break;
+        };
+        let before_params = machine_values(&current.study, &current.solution);
+        let Fitted {
+            study,
+            solution,
+            id,
+            heldout,
+        } = fitted;
+        stages.push(Stage {
+            lookalikes,
+            ranked: ranked_ok,
+            before_id: current.id,
+            before_solution: current.solution,
+            before_heldout: current.heldout,
+            before_params,
+            after_heldout: heldout,
+            after_id: id.clone(),
+            after_solution: solution.clone(),
+        });
+        current = with_noise(
+            Fitted {
+                study,
+                solution,
+                id,
+                heldout,
+            },
+            options,
+        )?;
+    }
+    let last_ranking = match last_ranking {
+        Some(r) => r,
+        None => rank_with(
+            &current.study,
+            &current.solution,
+            candidates(&current.study, options.families.as_deref()),
+            options.alpha,
+            options.cache_bytes,
+        )?,
+    };
+    if let Some(stage) = stages.last_mut() {
+        stage.confirm_lookalikes(&last_ranking);
+    }
+    report.concealed = concealed(&last_ranking);
+    report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
+    let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();
+    let mut identification = current.id;
+    identification.discoveries = discoveries;
+    identification.search = Some(report);
+    Ok(SearchResult {
+        study: current.study,
+        solution: current.solution,
+        identification,
+        initial,
+        initial_solution,
+        initial_changes,
+    })
+}
+
+impl SearchResult {
+    /// Applies `base` to the reports before and after the search (each with its own study's
+    /// parameter vector).
+    pub fn apply_base(&mut self, base: &crate::base::BaseModel) -> Result<(), IdentifyError> {
+        let initial_study = self.study.rebuild(self.initial_changes.clone())?;
+        self.initial
+            .apply_base(base, &initial_study, &self.initial_solution);
+        self.identification
+            .apply_base(base, &self.study, &self.solution);
+        Ok(())
+    }
+}

@@ -1,0 +1,331 @@
+//! Step 2, fit and check: which ranked candidates to refit ([`choose_tries`]), a cycle's pitch
+//! scanned first ([`scanned`]), each added and refitted and judged ([`try_candidate`]: physics,
+//! information criterion, held-out prediction) into a [`Refitted`] model, and the accepted
+//! step kept as a [`Stage`] with its look-alikes (step 3). Uses the ranking, the cross-validation
+//! and the fit helpers; the loop drives it and the discoveries read its stages.
+
+use super::fitted::{Fitted, carry_over};
+use super::heldout::{choose_width, heldout};
+use super::rank::{Ranked, rank_with};
+use super::settings::SearchOptions;
+use crate::K95;
+use crate::findings::{Heldout, LookAlike, Trial};
+use crate::relabel::unique;
+use crate::report::Identification;
+use crate::study::{Changes, Study};
+use crate::{IdentifyError, param_specs};
+use mtcal_effects::Candidate;
+use mtcal_solve::{Silent, Solution};
+use std::collections::HashMap;
+
+/// One accepted step.
+pub(super) struct Stage {
+    /// Candidates that explained nearly as well ([`LOOKALIKE_BIC`]); those still significant
+    /// once this one is in the model explained something else and are dropped
+    /// ([`Stage::confirm_lookalikes`]).
+    ///
+    /// [`LOOKALIKE_BIC`]: super::LOOKALIKE_BIC
+    pub(super) lookalikes: Vec<LookAlike>,
+    pub(super) ranked: Ranked,
+    pub(super) before_id: Identification,
+    pub(super) before_solution: Solution,
+    pub(super) before_heldout: Heldout,
+    pub(super) before_params: Vec<(String, f64, String)>,
+    pub(super) after_heldout: Heldout,
+    pub(super) after_id: Identification,
+    pub(super) after_solution: Solution,
+}
+
+impl Stage {
+    /// Keeps the look-alikes that `ranking` (with this stage's effect in the model) no longer
+    /// finds significant: they explained the same thing.
+    pub(super) fn confirm_lookalikes(&mut self, ranking: &[Ranked]) {
+        self.lookalikes.retain(|l| {
+            !ranking
+                .iter()
+                .any(|r| r.score.significant && r.candidate.label() == l.label)
+        });
+    }
+}
+
+/// The candidates to refit at a step: the strongest significant ones, at most three targets or
+/// drivers of one class (a drift of Z or of the tool length, a thermal expansion in time or
+/// with a temperature) and one starting shape per label, `tries` in all, so that every kind of
+/// explanation the scores point at is refitted and the look-alikes of the winner are seen.
+pub(super) fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
+    let mut out: Vec<Ranked> = Vec::new();
+    for r in ranked
+        .iter()
+        .filter(|r| r.score.significant && r.score.df > 0)
+    {
+        if out.len() == tries {
+            break;
+        }
+        let class = r.candidate.class();
+        let same_class = out.iter().filter(|t| t.candidate.class() == class).count();
+        if same_class < 3
+            && !out
+                .iter()
+                .any(|t| t.candidate.label() == r.candidate.label())
+        {
+            out.push(r.clone());
+        }
+    }
+    out
+}
+
+/// `r` from the best of its shape scan ([`Effect::shape_scan`]: a cycle's pitch on a grid
+/// fine enough that no phase is off by more than an eighth of a turn), scored against the
+/// current fit; `r` itself if it has none or none scores higher. The scan picks where the
+/// refit starts; whether the candidate is kept is decided as for any other.
+///
+/// [`Effect::shape_scan`]: mtcal_effects::Effect::shape_scan
+pub(super) fn scanned(
+    current: &Fitted,
+    r: Ranked,
+    options: &SearchOptions,
+) -> Result<Ranked, IdentifyError> {
+    let Candidate::Effect(e) = &r.candidate else {
+        return Ok(r);
+    };
+    let shapes = e.shape_scan(current.study.view());
+    if shapes.is_empty() {
+        return Ok(r);
+    }
+    let variants: Vec<Candidate> = shapes
+        .iter()
+        .filter_map(|s| e.with_shape(s))
+        .map(Candidate::Effect)
+        .collect();
+    let ranked = rank_with(
+        &current.study,
+        &current.solution,
+        variants,
+        options.alpha,
+        options.cache_bytes,
+    )?;
+    Ok(match ranked.into_iter().next() {
+        Some(mut best) if best.score.statistic > r.score.statistic => {
+            best.score.adjusted_p = r.score.adjusted_p;
+            best.score.significant = r.score.significant;
+            best
+        }
+        _ => r,
+    })
+}
+
+/// Adds `ranked`'s candidate to the current model, refits, and decides.
+pub(super) fn try_candidate(
+    current: &Fitted,
+    ranked: &Ranked,
+    options: &SearchOptions,
+) -> Result<(Trial, Option<Refitted>), IdentifyError> {
+    let mut changes: Changes = current.study.changes().clone();
+    let mut trial = Trial {
+        candidate: ranked.name(),
+        effect: ranked.candidate.class().to_string(),
+        statistic: ranked.score.statistic,
+        adjusted_p: ranked.score.adjusted_p,
+        absorbed: ranked.score.absorbed,
+        accepted: false,
+        why: String::new(),
+    };
+    match &ranked.candidate {
+        Candidate::Model(m) if m.extra_order == 0 => changes.estimate.push(m.param),
+        Candidate::Model(m) => changes.raise.push((m.param, m.extra_order)),
+        Candidate::Effect(e) => changes.effects.push(unique(e, &changes.effects)),
+    }
+    let mut study = current.study.rebuild(changes)?;
+    let mut x0 = carry_over(&current.study, &current.solution.x, &study);
+    let ladder = match &ranked.candidate {
+        Candidate::Effect(e) => e.prior_ladder(),
+        Candidate::Model(_) => Vec::new(),
+    };
+    if !ladder.is_empty() {
+        // A joint model with a ridge prior: fitted at its starting width, the width chosen by
+        // cross-validation over whole runs, refitted at it.
+        let first = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+            Ok(s) => s,
+            Err(e) => {
+                trial.why = format!("the refit failed: {e}");
+                return Ok((trial, None));
+            }
+        };
+        let k = choose_width(&study, &first, &ladder, options)?;
+        let mut changes = study.changes().clone();
+        changes.effects.pop();
+        changes.effects.push(unique(&ladder[k], &changes.effects));
+        study = study.rebuild(changes)?;
+        x0 = first.x;
+    } else if let Candidate::Effect(e) = &ranked.candidate {
+        // Start the new amplitudes where the score test put them.
+        let offset = study.layout().n_x() - e.params().len();
+        let mut a = ranked.score.amplitude.iter();
+        for (j, p) in e.params().iter().enumerate() {
+            if p.kind == mtcal_effects::ParamKind::Amplitude {
+                x0[offset + j] = a.next().copied().unwrap_or(0.0);
+            }
+        }
+    }
+    let solution = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+        Ok(s) => s,
+        Err(e) => {
+            trial.why = format!("the refit failed: {e}");
+            return Ok((trial, None));
+        }
+    };
+    // Refined together, a second thermal node's τ may slide onto the first one's, where the
+    // two amplitudes grow without bound in opposite directions: then the earlier effects keep
+    // the shapes they were found with and only the new one's is refined.
+    let solution = match implausible(current, &study, &solution) {
+        Some(_) if !current.study.layout().effects().is_empty() => {
+            let earlier: Vec<usize> = current
+                .study
+                .layout()
+                .effects()
+                .filter(|&i| {
+                    current
+                        .study
+                        .effect_param(i)
+                        .is_some_and(|p| p.kind == mtcal_effects::ParamKind::Shape)
+                })
+                .collect();
+            match crate::solve_holding(&study, &x0, &options.solver, &mut Silent, &earlier) {
+                Ok(held) if implausible(current, &study, &held).is_none() => held,
+                _ => solution,
+            }
+        }
+        _ => solution,
+    };
+    let before = &current.solution;
+    let drop = before.chi2 - solution.chi2;
+    let added = added_dof(current, &study, &solution);
+    let scale = solution.chi2_reduced.max(1.0);
+    let penalty = added * (solution.n_rows.max(2) as f64).ln();
+    if drop / scale <= penalty {
+        trial.why = format!(
+            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added:.1} parameters",
+            drop / scale
+        );
+        return Ok((trial, None));
+    }
+    if let Some(why) = implausible(current, &study, &solution) {
+        trial.why = why;
+        return Ok((trial, None));
+    }
+    let held = heldout(&study, &solution.x, options)?;
+    let gain = 1.0 - held.mean_square / current.heldout.mean_square;
+    if gain < options.min_heldout_gain {
+        trial.why = format!(
+            "held-out prediction did not improve enough: RMS {:.3} → {:.3} µm (mean square {:+.2} %)",
+            current.heldout.rms_um,
+            held.rms_um,
+            -100.0 * gain
+        );
+        return Ok((trial, None));
+    }
+    trial.accepted = true;
+    // Kept until the step's winner is chosen: without the lag series of its fit.
+    study.clear_view_caches();
+    trial.why = format!(
+        "χ² {:.1} → {:.1}; held-out RMS {:.3} → {:.3} µm (mean square {:+.2} %)",
+        before.chi2,
+        solution.chi2,
+        current.heldout.rms_um,
+        held.rms_um,
+        -100.0 * gain
+    );
+    Ok((
+        trial,
+        Some(Refitted {
+            study,
+            solution,
+            heldout: held,
+        }),
+    ))
+}
+
+/// Why a refit is not physics, if it is not: a parameter beyond its plausible range (a
+/// millimetre or milliradian of machine or set-up error, an effect's own: a metre per hour of
+/// set-up drift or a 96 % gain error fit numbers, not a machine), or an added parameter whose
+/// interval is wider than that range (not an identification). Parameters already beyond their
+/// range before the candidate was added are not its doing, nor are those in the null space
+/// (what the data cannot see has no value to judge).
+fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<String> {
+    let specs = param_specs(study);
+    let before: HashMap<String, f64> = (0..current.study.layout().n_x())
+        .map(|i| (current.study.param_info(i).name, current.solution.x[i]))
+        .collect();
+    for (i, spec) in specs.iter().enumerate() {
+        let Some(range) = spec.scale else { continue };
+        if !solution.identified[i] {
+            continue;
+        }
+        if spec.bounds.is_some() {
+            // A shape parameter (τ, pitch): its box says what is plausible.
+            continue;
+        }
+        if solution.sigma[i].is_none() {
+            // In the null space: the fit's value along it is arbitrary, not a claim.
+            continue;
+        }
+        let info = study.param_info(i);
+        let value = solution.x[i];
+        let was = before.get(&info.name).copied();
+        let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
+        // A parameter already in the model is blamed only when its whole interval lies
+        // beyond the range (one the data barely see may wander along a near-null direction);
+        // the candidate's own by its value.
+        let margin = match (was, solution.sigma[i]) {
+            (Some(_), Some(sigma)) => K95 * sigma,
+            _ => 0.0,
+        };
+        if value.abs() - margin > range && was.is_none_or(|w| w.abs() <= range) {
+            return Some(format!(
+                "not physics: the refit puts {} at {}, beyond its plausible range of ±{}",
+                info.name,
+                show(value),
+                show(range)
+            ));
+        }
+        if was.is_none()
+            && let Some(sigma) = solution.sigma[i]
+            && K95 * sigma > range
+        {
+            return Some(format!(
+                "not an identification: {} = {} ± {}, an interval wider than its plausible \
+                 range of ±{}",
+                info.name,
+                show(value),
+                show(K95 * sigma),
+                show(range)
+            ));
+        }
+    }
+    None
+}
+
+/// The degrees of freedom `study` (the current model with a candidate added) spends beyond
+/// `current`'s: one per new parameter, less for one under a prior (a ridge's column counts
+/// `1 − σ²_fit/σ²_prior`, the share of it the data rather than the prior decide); at least 1.
+fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
+    let mut dof = 0.0;
+    for i in current.study.layout().n_x()..study.layout().n_x() {
+        dof += match (
+            study.effect_param(i).and_then(|d| d.prior),
+            solution.sigma[i],
+        ) {
+            (Some(prior), Some(post)) => (1.0 - (post / prior).powi(2)).clamp(0.0, 1.0),
+            (Some(_), None) => 0.0,
+            (None, _) => 1.0,
+        };
+    }
+    dof.max(1.0)
+}
+
+/// A candidate's refit that passed the checks (its report is built only if it wins).
+pub(super) struct Refitted {
+    pub(super) study: Study,
+    pub(super) solution: Solution,
+    pub(super) heldout: Heldout,
+}
