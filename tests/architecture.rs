@@ -52,6 +52,7 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-ncprog",
         "mtcal-tolerance",
         "mtcal-report",
+        "mtcal-import",
     ],
     // The identification and the simulator, each on its own (the simulator needs the
     // plugins and the effects, so it cannot sit with them).

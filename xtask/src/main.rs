@@ -15,6 +15,7 @@ use std::process::ExitCode;
 
 mod compensate;
 mod identify;
+mod import;
 mod plan;
 mod scale;
 mod tolerance;
@@ -118,6 +119,9 @@ enum Command {
     },
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify(identify::IdentifyArgs),
+    /// Import an instrument's own export (ecmc ISO 230-2 .dat, API XD .pos, Renishaw .rtx)
+    /// as a laser run of a session: its CSV and its [[run]] in session.toml (crates/import).
+    Import(import::ImportArgs),
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
         /// The test plan (TOML; see crates/simulate/src/lib.rs).
@@ -226,6 +230,7 @@ fn run(cli: Cli) -> Result<()> {
             )?;
             Ok(())
         }
+        Command::Import(args) => import::run(args, &mut stdout),
         Command::Plan { planning, out } => plan::run(&planning, &out, &mut stdout),
         Command::Plugins => {
             let plugins = mtcal_plugins::plugins();

@@ -614,7 +614,9 @@ struct RunOut<'a> {
 }
 
 impl Manifest {
-    fn render(&self) -> Result<String, String> {
+    /// The text [`write_session`] writes (unchecked); `Err` names a run key in `extra` that
+    /// the manifest's own keys would clash with.
+    pub fn render(&self) -> Result<String, String> {
         let mut runs = Vec::with_capacity(self.runs.len());
         for r in &self.runs {
             if let Some(key) = r.extra.keys().find(|k| RUN_KEYS.contains(&k.as_str())) {

@@ -1,0 +1,169 @@
+//! Instrument exports to mtcal session runs (`cargo xtask import FORMAT FILE --session DIR`).
+//!
+//! Each reader turns one third-party file into a [`Recording`]: the deviations of one linear
+//! axis in the order they were recorded. [`import`] writes it as a run CSV of the session
+//! (`t`, every machine axis, the laser reading `d` in µm, context columns) and appends its
+//! `[[run]]` (instrument `laser`, its own set-up `mode = "linear"`, `direction` = the axis) to
+//! `session.toml` through `mtcal_session::write_session`, creating the session when it has no
+//! manifest yet (then a machine is required). Nothing is written unless everything was read
+//! and checked; a manifest that fails to write takes its new run file back out.
+//!
+//! Formats (what is read, the sign and unit conventions, what is assumed: docs/FORMATS.md,
+//! "Imports"):
+//! - [`Format::EcmcDat`] — the EPICS ecmc ISO 230-2 input table (`ecmc`);
+//! - [`Format::ApiPos`] — API XD laser linear data (`api_pos`);
+//! - [`Format::RenishawRtx`] — Renishaw CARTO dynamic capture (`rtx`).
+//!
+//! Errors name the file, the line and column (text) or the byte offset (binary) and what was
+//! expected; no reader panics or yields a non-finite number.
+
+mod api_pos;
+mod ecmc;
+mod recording;
+mod rtx;
+mod session;
+mod text;
+
+use std::path::{Path, PathBuf};
+
+pub use api_pos::read_pos;
+pub use ecmc::read_dat;
+pub use recording::Recording;
+pub use rtx::read_rtx;
+
+/// The instrument exports [`import`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// `ecmc-dat`: ISO 230-2 `KEY=VALUE` input tables of the EPICS ecmc test tools.
+    EcmcDat,
+    /// `api-pos`: API XD laser linear data `.pos` (tab-separated text).
+    ApiPos,
+    /// `renishaw-rtx`: Renishaw CARTO dynamic capture `.rtx` (binary samples).
+    RenishawRtx,
+}
+
+impl Format {
+    /// Every format, in the order the command line lists them.
+    pub const ALL: [Format; 3] = [Format::EcmcDat, Format::ApiPos, Format::RenishawRtx];
+
+    /// The name the command line uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::EcmcDat => "ecmc-dat",
+            Format::ApiPos => "api-pos",
+            Format::RenishawRtx => "renishaw-rtx",
+        }
+    }
+
+    /// Reads `file` in this format.
+    pub fn read(self, file: &Path) -> Result<Recording, ImportError> {
+        match self {
+            Format::EcmcDat => read_dat(file),
+            Format::ApiPos => read_pos(file),
+            Format::RenishawRtx => read_rtx(file),
+        }
+    }
+}
+
+/// Why an import wrote nothing.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// The text file could not be read, or is not UTF-8 (located).
+    #[error(transparent)]
+    Read(#[from] mtcal_located::ReadError),
+    /// A binary file could not be read.
+    #[error("{}: cannot read: {cause}", path.display())]
+    Io {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+    /// Text contents wrong at a line and column: what was expected, what was found.
+    #[error(transparent)]
+    Invalid(#[from] mtcal_located::Located),
+    /// Binary contents wrong at a byte offset (0-based).
+    #[error("{}: byte {offset}: {message}", path.display())]
+    Binary {
+        path: PathBuf,
+        offset: usize,
+        message: String,
+    },
+    /// The session could not be read or the run not written.
+    #[error(transparent)]
+    Session(#[from] mtcal_session::SessionError),
+    /// The machine the session names (or `--machine`) does not load.
+    #[error("cannot load machine `{machine}`: {cause}")]
+    Machine {
+        machine: String,
+        cause: mtcal_machine::LoadError,
+    },
+    /// The options do not fit the file or the session (an axis the machine lacks, a run
+    /// that exists, no machine for a new session).
+    #[error("{0}")]
+    Options(String),
+}
+
+/// What to import, and into which session.
+#[derive(Debug, Clone)]
+pub struct ImportOptions<'a> {
+    pub format: Format,
+    pub file: &'a Path,
+    /// The session folder; created with its manifest when it has no `session.toml`.
+    pub session: &'a Path,
+    /// A URDF path (relative to the current folder) or a topology code; required for a new
+    /// session, refused for an existing one (its manifest names the machine).
+    pub machine: Option<&'a str>,
+    /// The measured axis; default the axis the file names.
+    pub axis: Option<char>,
+    /// The run's name (and CSV file stem); default the input's file stem.
+    pub name: Option<&'a str>,
+    /// The other axes' positions, `Y=0,Z=-200` (mm / degrees; default 0); for a capture
+    /// without positions, also the measured axis' position.
+    pub hold: Option<&'a str>,
+}
+
+/// What [`import`] read and wrote.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub recording: Recording,
+    pub axis: char,
+    pub run_name: String,
+    pub run_file: PathBuf,
+    pub manifest: PathBuf,
+    /// Whether the session (its manifest) was created.
+    pub created: bool,
+    /// The `[[run]]` entry written, as TOML.
+    pub entry: String,
+}
+
+impl Imported {
+    /// A short summary for the command line: what was read and the entry written.
+    pub fn summary(&self) -> String {
+        let r = &self.recording;
+        let mut out = format!(
+            "read axis {}: {} targets, {} cycles, {} samples ({} in the file; written mm and um)\n",
+            self.axis,
+            r.targets,
+            r.cycles,
+            r.len(),
+            r.unit
+        );
+        let verb = if self.created {
+            "created"
+        } else {
+            "appended to"
+        };
+        out.push_str(&format!(
+            "wrote {} and {verb} {}:\n{}",
+            self.run_file.display(),
+            self.manifest.display(),
+            self.entry
+        ));
+        out
+    }
+}
+
+/// Reads `options.file` and writes it into the session as one laser linear run.
+pub fn import(options: &ImportOptions<'_>) -> Result<Imported, ImportError> {
+    let recording = options.format.read(options.file)?;
+    session::write(options, recording)
+}
