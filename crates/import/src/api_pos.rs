@@ -1,15 +1,16 @@
 //! `api-pos`: API XD laser linear data tables (`.pos`, tab-separated text).
 //!
 //! ```text
+//! (→ is a tab)
 //! API X-D Laser Measurement Linear Data Table (Company Name: )
-//! File Version:	5
-//! TestAxis: 	(X)
-//! Unit:	inch	0
-//! Length: 130	Increm: 5	RunNum: 1	NumofPos: 27
-//! NumofPoints:	27
-//!     Position	      LasRead	  LinearError	Status	AirTemp	AirPress	MatTemp	MatTemp2	MatTemp3
-//!      0.00000	     0.000055	    -0.000055	     0	68.00	29.92	68.00	-1.00	-1.00
-//! DecimalPoints:	4
+//! File Version:→5
+//! TestAxis: →(X)
+//! Unit:→inch→0
+//! Length: 130→Increm: 5→RunNum: 1→NumofPos: 27
+//! NumofPoints:→27
+//!     Position→      LasRead→  LinearError→Status→AirTemp→AirPress→MatTemp→MatTemp2→MatTemp3
+//!      0.00000→     0.000055→    -0.000055→     0→68.00→29.92→68.00→-1.00→-1.00
+//! DecimalPoints:→4
 //! … compensation, standard-deviation and ASME B5.54 analysis blocks (skipped)
 //! ```
 //!

@@ -94,7 +94,7 @@ pub enum ImportError {
     #[error("cannot load machine `{machine}`: {cause}")]
     Machine {
         machine: String,
-        cause: mtcal_machine::LoadError,
+        cause: Box<mtcal_machine::LoadError>,
     },
     /// The options do not fit the file or the session (an axis the machine lacks, a run
     /// that exists, no machine for a new session).

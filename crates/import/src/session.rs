@@ -25,7 +25,7 @@ pub fn write(options: &ImportOptions<'_>, recording: Recording) -> Result<Import
     let machine = mtcal_machine::load_machine(&target.machine_arg, Reading::FromWorkpiece)
         .map_err(|cause| ImportError::Machine {
             machine: target.machine_arg.clone(),
-            cause,
+            cause: Box::new(cause),
         })?
         .machine;
     let axis = axis(options, &recording, &machine)?;
