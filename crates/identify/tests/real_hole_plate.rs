@@ -32,15 +32,7 @@ const PLATES: [&str; 4] = ["8131", "8132", "8133", "8300"];
 const ORDINARY_D: f64 = 2.167;
 
 fn data_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("MTCAL_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let dir = base.join("cmm-hole-plate-sdss/testData");
-    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing file is a failure, not a skip.
-    if !dir.is_dir() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
-        panic!("{} not found: CI requires ../shared/data", dir.display());
-    }
-    dir.is_dir().then_some(dir)
+    mtcal_testkit::shared_data("cmm-hole-plate-sdss/testData")
 }
 
 /// A producer's fit file: key → numbers, and the data table rows.

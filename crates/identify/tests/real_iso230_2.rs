@@ -29,15 +29,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 fn data_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("MTCAL_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let dir = base.join("ecmc-iso230-2");
-    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing file is a failure, not a skip.
-    if !dir.is_dir() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
-        panic!("{} not found: CI requires ../shared/data", dir.display());
-    }
-    dir.is_dir().then_some(dir)
+    mtcal_testkit::shared_data("ecmc-iso230-2")
 }
 
 /// One `.dat` file: targets (mm) and reference readings per target and cycle (mm).

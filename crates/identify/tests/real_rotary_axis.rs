@@ -23,15 +23,7 @@ use nalgebra::{Matrix3, Vector3};
 use std::path::{Path, PathBuf};
 
 fn data_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("MTCAL_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let dir = base.join("robot-lasertracker-kinident");
-    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing file is a failure, not a skip.
-    if !dir.is_dir() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
-        panic!("{} not found: CI requires ../shared/data", dir.display());
-    }
-    dir.is_dir().then_some(dir)
+    mtcal_testkit::shared_data("robot-lasertracker-kinident")
 }
 
 fn numbers(file: &Path, sep: &[char]) -> Vec<Vec<f64>> {

@@ -30,14 +30,7 @@ const CYCLE_S: f64 = 28_800.0;
 const FIRST_START_S: f64 = 465.0;
 
 fn data_file() -> Option<PathBuf> {
-    let base = std::env::var_os("MTCAL_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let file = base.join("fl-thermal-spindle/data.csv");
-    if !file.is_file() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
-        panic!("{} not found: CI requires ../shared/data", file.display());
-    }
-    file.is_file().then_some(file)
+    mtcal_testkit::shared_data("fl-thermal-spindle/data.csv")
 }
 
 /// The recording's columns.

@@ -74,15 +74,7 @@ fn a_synthetic_table_round_trips_into_a_session_identify_fits() {
 }
 
 fn data_dir() -> Option<PathBuf> {
-    let base = std::env::var_os("MTCAL_SHARED_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    let dir = base.join("ecmc-iso230-2");
-    // In CI (`.ci/run` sets MTCAL_REQUIRE_SHARED_DATA) a missing folder is a failure, not a skip.
-    if !dir.is_dir() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
-        panic!("{} not found: CI requires ../shared/data", dir.display());
-    }
-    dir.is_dir().then_some(dir)
+    mtcal_testkit::shared_data("ecmc-iso230-2")
 }
 
 /// The README's table: case label → (R, E) printed with the ISO formula (mm).

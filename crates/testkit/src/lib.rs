@@ -1,5 +1,6 @@
 //! What the tests of several mtcal crates share, so that a fixture is written once: where the
-//! repository and its shipped files are ([`repo`], [`machine_file`]), the five-axis example's
+//! repository, its shipped files and the shared real recordings are ([`repo`],
+//! [`machine_file`], [`shared_data`]), the five-axis example's
 //! eleven errors and its truth ([`params`]), the simulation plans several identification tests
 //! fit ([`plans`]), seeded generators that need no crate ([`random`]) and the command line run
 //! in the repository ([`cli`]).
@@ -22,6 +23,21 @@ pub fn repo() -> PathBuf {
         .join("../..")
         .canonicalize()
         .expect("the repository root exists")
+}
+
+/// `path` inside the shared recordings, `../shared/data/<path>` beside the repository (or
+/// under `MTCAL_SHARED_DATA`), when it exists. In CI (`.ci/run` sets
+/// `MTCAL_REQUIRE_SHARED_DATA`) a missing one panics: a test on real recordings fails there
+/// instead of skipping.
+pub fn shared_data(path: &str) -> Option<PathBuf> {
+    let base = std::env::var_os("MTCAL_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join("../shared/data"));
+    let found = base.join(path);
+    if !found.exists() && std::env::var_os("MTCAL_REQUIRE_SHARED_DATA").is_some() {
+        panic!("{} not found: CI requires ../shared/data", found.display());
+    }
+    found.exists().then_some(found)
 }
 
 /// A shipped machine description, `machines/<name>` (`mcu630-cafyxz.urdf`).
