@@ -845,7 +845,7 @@ fn load_session_machine(session: &Session) -> Result<LoadedMachine, IdentifyErro
 
 /// Raises the order of component error `name` in `config` by `extra` (Legendre degree or
 /// Fourier harmonics).
-fn raise_order(
+pub(crate) fn raise_order(
     config: &mut [mtcal_kinematics::ParamConfig],
     name: &ParamName,
     extra: usize,

@@ -32,33 +32,7 @@ pub fn heldout(
     let (folds, assign) = fold_assignment(study, options);
     let specs = param_specs_from(study, x);
     let n = study.layout().n_x();
-    let problem = FitProblem::new(study);
-    let blocks = problem.n_blocks();
-    // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
-    // Each lane: its sums and a column-list buffer reused from block to block.
-    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
-        .map(|_| (FoldSums::new(folds, n), Vec::new()))
-        .collect();
-    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
-        let mut target = FoldTarget {
-            sums,
-            cols: std::mem::take(cols),
-            assign: &assign,
-        };
-        let res =
-            problem
-                .walk_rows(b, x, &mut target)
-                .map_err(|source| mtcal_solve::SolveError::Eval {
-                    block: b,
-                    cause: source,
-                });
-        *cols = target.cols;
-        res
-    })?;
-    let mut total = FoldSums::new(folds, n);
-    for (part, _) in &parts {
-        total.add(part);
-    }
+    let total = fold_sums(study, x, folds, &assign)?;
     let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
     for k in 0..folds {
         if total.count[k] == 0 {
@@ -383,6 +357,8 @@ fn fold_sums(
     let n = study.layout().n_x();
     let problem = FitProblem::new(study);
     let blocks = problem.n_blocks();
+    // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
+    // Each lane: its sums and a column-list buffer reused from block to block.
     let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
         .map(|_| (FoldSums::new(folds, n), Vec::new()))
         .collect();

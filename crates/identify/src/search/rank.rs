@@ -4,7 +4,7 @@
 //! the search; the step, the discoveries and the loop use its ranking.
 
 use crate::fit::{FitProblem, Row, RowTarget, SampleEval};
-use crate::study::Study;
+use crate::study::{Study, raise_order};
 use crate::{IdentifyError, param_specs};
 use mtcal_effects::{Candidate, Effect, Entry, PreparedEffects, SampleEffects};
 use mtcal_kinematics::{MachineModel, Workspace};
@@ -305,10 +305,10 @@ fn augmented(
     for &(name, extra) in &study.changes().raise {
         // Already in `study.model`'s configuration? The machine's config is the session's:
         // apply the study's own raises first.
-        raise(&mut config, &name, extra)?;
+        raise_leniently(&mut config, &name, extra);
     }
     for m in changes.iter().filter(|m| m.extra_order > 0) {
-        raise(&mut config, &m.param, m.extra_order)?;
+        raise_leniently(&mut config, &m.param, m.extra_order);
     }
     let model = MachineModel::new(study.machine.machine.clone(), &config).map_err(|e| {
         IdentifyError::Model {
@@ -332,29 +332,14 @@ fn augmented(
     Ok(Augmented { model, coeffs })
 }
 
-fn raise(
+/// [`raise_order`] for scoring: a parameter the configuration lacks, or a basis without an
+/// order, is scored as the model has it rather than refused.
+fn raise_leniently(
     config: &mut [mtcal_kinematics::ParamConfig],
     name: &mtcal_kinematics::ParamName,
     extra: usize,
-) -> Result<(), IdentifyError> {
-    use mtcal_kinematics::Basis;
-    let Some(entry) = config.iter_mut().find(|c| &c.name == name) else {
-        return Ok(());
-    };
-    entry.basis = match entry.basis.take() {
-        Some(Basis::Legendre {
-            lo,
-            hi,
-            min_degree,
-            max_degree,
-        }) => Basis::legendre(lo, hi, min_degree, max_degree + extra).ok(),
-        Some(Basis::Fourier {
-            min_harmonic,
-            max_harmonic,
-        }) => Basis::fourier(min_harmonic, max_harmonic + extra).ok(),
-        other => other,
-    };
-    Ok(())
+) {
+    let _ = raise_order(config, name, extra);
 }
 
 /// The augmented model's coefficients a model change adds: all of an omitted parameter's, or
