@@ -135,6 +135,7 @@
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
+mod card;
 mod grid;
 mod output;
 mod parameters;
@@ -142,6 +143,7 @@ mod pitch;
 mod text;
 mod trt;
 
+pub use card::{AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
 pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{

@@ -1,0 +1,178 @@
+//! The convention card: what the numbers of one compensation file mean, said the same way for
+//! every format so a user can check it against the control's documentation before loading.
+//!
+//! A mistake in a compensation file either silently does nothing or moves the machine the
+//! wrong way, and the usual mistakes are conventions, not arithmetic: a table of errors loaded
+//! where the control expects corrections, a squareness measured as "angle − 90°" read as
+//! "90° − angle", a rotary table in the opposite direction, the wrong axis number, µm read as
+//! the detection unit. The card names each of these for the file it comes with. Writers put it
+//! in the file as comments where the format has comments, the command line prints it beside the
+//! file, and the identification JSON and report carry [`ConventionCard::mtcal_parameters`].
+
+use mtcal_kinematics::Machine;
+use std::fmt::Write as _;
+
+/// What a file's values are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// The machine's error, actual − nominal; the control negates it itself.
+    Error,
+    /// The correction, `−error`: what the control adds to the command.
+    Correction,
+    /// Geometry the control's own model uses (pivot positions, axis vectors): nominal plus the
+    /// identified location errors.
+    Geometry,
+}
+
+impl Quantity {
+    /// In words, for the card.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Quantity::Error => "errors (actual − nominal); the control applies −error itself",
+            Quantity::Correction => "corrections (−error); the control adds them to the command",
+            Quantity::Geometry => "kinematic geometry (nominal + identified location errors)",
+        }
+    }
+}
+
+/// One axis of mtcal's model and what the control calls it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AxisMap {
+    /// mtcal's axis letter.
+    pub mtcal: char,
+    /// The control's name or index for it (e.g. `X`, `axis 1`, `AX1`).
+    pub control: String,
+}
+
+/// What one compensation file's numbers mean, and what the control will do with them.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ConventionCard {
+    /// The format, as its documentation names it.
+    pub format: String,
+    /// Errors, corrections or geometry.
+    pub quantity: Quantity,
+    /// How a positive value moves the machine, in the control's words.
+    pub sign: String,
+    /// The squareness definition, or that this file does not carry squareness.
+    pub squareness: String,
+    /// Positive rotation of rotary axes.
+    pub rotary_direction: String,
+    /// mtcal's axes and the control's names for them.
+    pub axis_mapping: Vec<AxisMap>,
+    /// Units of positions (arguments) and values.
+    pub units: String,
+    /// What the control will do with the file: how it applies it, how to activate it, what it
+    /// cannot hold. One sentence each.
+    pub control_will: Vec<String>,
+}
+
+/// mtcal's squareness definition (ISO 230-1 signs), shared by the cards of files that carry
+/// squareness as an error.
+pub const SQUARENESS_ISO: &str = "C0Y > 0 rotates Y's motion about +Z, opening the angle between \
+     +X and +Y beyond 90° (likewise B0Z about +Y for X–Z, A0Z about +X for Y–Z); µrad";
+
+/// mtcal's rotary direction (ISO 841: right-hand about the axis' positive direction).
+pub const ROTARY_RIGHT_HAND: &str =
+    "positive A, B, C turn right-handed about +X, +Y, +Z (ISO 841), as the tool sees the workpiece";
+
+impl ConventionCard {
+    /// The identity mapping of `machine`'s axes (the control names them as mtcal does).
+    pub fn same_letters(machine: &Machine) -> Vec<AxisMap> {
+        machine
+            .axes()
+            .iter()
+            .map(|a| AxisMap {
+                mtcal: a.letter().as_char(),
+                control: a.letter().as_char().to_string(),
+            })
+            .collect()
+    }
+
+    /// The card of mtcal's own parameters (identification JSON, report, parameter files).
+    pub fn mtcal_parameters(machine: &Machine) -> ConventionCard {
+        ConventionCard {
+            format: "mtcal ISO 230-1 error parameters".into(),
+            quantity: Quantity::Error,
+            sign: "ISO 230-1: a component error is the tool's deviation relative to the \
+                   workpiece caused by the axis, in machine X/Y/Z; a location error is the \
+                   deviation of an axis line or a squareness"
+                .into(),
+            squareness: SQUARENESS_ISO.into(),
+            rotary_direction: ROTARY_RIGHT_HAND.into(),
+            axis_mapping: Self::same_letters(machine),
+            units: "translations µm, rotations µrad; positions mm (linear) and degrees (rotary)"
+                .into(),
+            control_will: vec![
+                "not for a control directly: `cargo xtask compensate --format …` converts them \
+                 into the file a control reads"
+                    .into(),
+            ],
+        }
+    }
+
+    /// The card as lines of text, each starting with `prefix` (a comment marker, or "" for the
+    /// terminal).
+    pub fn lines(&self, prefix: &str) -> String {
+        let mapping: Vec<String> = self
+            .axis_mapping
+            .iter()
+            .map(|m| format!("{} → {}", m.mtcal, m.control))
+            .collect();
+        let mut rows = vec![
+            ("format", self.format.as_str()),
+            ("values are", self.quantity.describe()),
+            ("sign", &self.sign),
+            ("squareness", &self.squareness),
+            ("rotary direction", &self.rotary_direction),
+        ];
+        let mapping = mapping.join(", ");
+        rows.push(("axes (mtcal → control)", &mapping));
+        rows.push(("units", &self.units));
+        for (k, sentence) in self.control_will.iter().enumerate() {
+            rows.push((if k == 0 { "the control will" } else { "" }, sentence));
+        }
+        let mut text = String::new();
+        for (key, value) in rows {
+            let _ = writeln!(text, "{prefix}{key:<KEY_WIDTH$}{value}");
+        }
+        text
+    }
+}
+
+/// Width of the card's key column: the longest key and two spaces.
+const KEY_WIDTH: usize = 24;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mtcal_machine::topology::Reading;
+
+    #[test]
+    fn the_card_names_every_convention_on_its_own_line() {
+        let m = mtcal_machine::load_machine("ZFYX", Reading::FromWorkpiece).unwrap();
+        let mut card = ConventionCard::mtcal_parameters(&m.machine);
+        card.control_will.push("second sentence".into());
+        let text = card.lines("// ");
+        let keys = [
+            "format",
+            "values are",
+            "sign",
+            "squareness",
+            "rotary direction",
+            "axes (mtcal → control)",
+            "units",
+            "the control will",
+        ];
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), keys.len() + 1, "{text}");
+        for (line, key) in lines.iter().zip(keys) {
+            assert!(line.starts_with(&format!("// {key}")), "{line}");
+        }
+        for letter in ["X → X", "Y → Y", "Z → Z"] {
+            assert!(lines[5].contains(letter), "{}", lines[5]);
+        }
+        assert!(lines[8].trim_start_matches("// ").trim() == "second sentence");
+        assert!(lines[1].contains("errors (actual − nominal)"));
+    }
+}
