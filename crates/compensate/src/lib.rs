@@ -135,7 +135,6 @@
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
-mod card;
 mod grid;
 mod output;
 mod parameters;
@@ -143,8 +142,10 @@ mod pitch;
 mod text;
 mod trt;
 
-pub use card::{AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
+pub use mtcal_machine::card::{
+    AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
+};
 pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,

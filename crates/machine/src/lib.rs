@@ -6,6 +6,7 @@
 //! ([`axis_text`]) and a machine described for a reader ([`describe()`]).
 
 pub mod axis_text;
+pub mod card;
 pub mod config;
 mod describe;
 pub mod params;

@@ -146,11 +146,11 @@ const KEY_WIDTH: usize = 24;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mtcal_machine::topology::Reading;
+    use crate::topology::Reading;
 
     #[test]
     fn the_card_names_every_convention_on_its_own_line() {
-        let m = mtcal_machine::load_machine("ZFYX", Reading::FromWorkpiece).unwrap();
+        let m = crate::load_machine("ZFYX", Reading::FromWorkpiece).unwrap();
         let mut card = ConventionCard::mtcal_parameters(&m.machine);
         card.control_will.push("second sentence".into());
         let text = card.lines("// ");
