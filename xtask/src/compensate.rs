@@ -132,8 +132,16 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         reversal_um: args.reversal_um,
         hold_q,
     };
-    let written =
+    let exported =
         mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
-    writeln!(out, "wrote {} ({written})", args.out.display())?;
+    writeln!(out, "wrote {} ({})", args.out.display(), exported.written)?;
+    if let Some(beside) = &exported.card_file {
+        writeln!(
+            out,
+            "wrote {} (the convention card: the format takes no comments)",
+            beside.display()
+        )?;
+    }
+    write!(out, "{}", exported.card.lines("  "))?;
     Ok(())
 }

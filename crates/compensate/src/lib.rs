@@ -135,6 +135,7 @@
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
+mod cards;
 mod grid;
 mod output;
 mod parameters;
@@ -146,7 +147,7 @@ pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
 };
-pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
+pub use output::{Compensation, Exported, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
     read_error_parameters, write_error_parameters,

@@ -3,10 +3,11 @@
 //! `Display` is the sentence the command prints).
 
 use crate::parameters::{ParameterFormat, ParameterValue};
-use crate::{CompensateError, GridSpec};
+use crate::{CompensateError, GridSpec, cards};
 use mtcal_kinematics::MachineModel;
+use mtcal_machine::card::ConventionCard;
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Which compensation file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -131,58 +132,106 @@ impl fmt::Display for Written {
     }
 }
 
+/// What [`write_compensation`] wrote and what its numbers mean.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Exported {
+    pub written: Written,
+    /// The file's convention card (also written in the file where the format has comments).
+    pub card: ConventionCard,
+    /// Where the card was written when the format takes no comments (beside the file).
+    pub card_file: Option<PathBuf>,
+}
+
 /// Writes the compensation file `what` of `model` with coefficients `coeffs` to `path`
-/// (atomically); says what it wrote.
+/// (atomically), its convention card in it or beside it; says what it wrote.
 pub fn write_compensation(
     model: &MachineModel,
     coeffs: &[f64],
     path: &Path,
     what: Compensation,
     settings: &Settings,
-) -> Result<Written, CompensateError> {
-    match what {
+) -> Result<Exported, CompensateError> {
+    let machine = model.machine();
+    let mut card_file = None;
+    let (written, card) = match what {
         Compensation::PitchTable { axis, format } => {
-            write_pitch_table(model, coeffs, path, axis, format, settings)
+            let (written, card) = write_pitch_table(model, coeffs, path, axis, format, settings)?;
+            if format == PitchFormat::LinuxCnc {
+                card_file = Some(write_card_beside(path, &card)?);
+            }
+            (written, card)
         }
         Compensation::Grid => {
-            let mut spec = GridSpec::new(model.machine(), [settings.spacing_mm; 3]);
+            let mut spec = GridSpec::new(machine, [settings.spacing_mm; 3]);
             spec.hold_q = settings.hold_q.clone();
-            let grid = crate::error_grid(model, coeffs, &spec)?;
+            let mut grid = crate::error_grid(model, coeffs, &spec)?;
+            let card = cards::grid(machine);
+            append_card(&mut grid.note, &card);
             crate::write_grid_csv(path, &grid)?;
-            Ok(Written::Grid {
-                nodes: [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()],
-            })
+            let nodes = [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()];
+            (Written::Grid { nodes }, card)
         }
         Compensation::Parameters(format) => {
             let params =
                 crate::error_parameters(model, coeffs, settings.spacing_mm, settings.spacing_deg)?;
-            crate::write_error_parameters(path, model.machine(), &params, format)?;
+            crate::write_error_parameters(path, machine, &params, format)?;
             let tables = params
                 .params
                 .iter()
                 .filter(|p| matches!(p.value, ParameterValue::Table { .. }))
                 .count();
-            Ok(Written::Parameters {
+            let written = Written::Parameters {
                 format,
                 tables,
                 locations: params.params.len() - tables,
-            })
+            };
+            (written, cards::parameters(machine, format))
         }
         Compensation::TrtPivots => {
             let pivots = crate::trt_pivots_with_nominal(model, coeffs)?;
-            let text = crate::trt_hal_text(&pivots, model.machine().name());
+            let kinematics = pivots.kind.name();
+            let not_representable = pivots.not_representable.len();
+            let card = cards::trt(machine, kinematics, not_representable);
+            let mut text = crate::trt_hal_text(&pivots, machine.name());
+            text.push_str(&card.file_lines("# "));
             mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| {
                 CompensateError::Write {
                     path: path.to_path_buf(),
                     source,
                 }
             })?;
-            Ok(Written::TrtPivots {
-                kinematics: pivots.kind.name(),
-                not_representable: pivots.not_representable.len(),
-            })
+            let written = Written::TrtPivots {
+                kinematics,
+                not_representable,
+            };
+            (written, card)
         }
-    }
+    };
+    Ok(Exported {
+        written,
+        card,
+        card_file,
+    })
+}
+
+/// Adds `card` to a file's comment note (the writer prefixes each line).
+fn append_card(note: &mut String, card: &ConventionCard) {
+    note.push('\n');
+    note.push_str(card.file_lines("").trim_end());
+}
+
+/// Writes `card` beside `path` (`PATH.card.txt`) for a format that takes no comments.
+fn write_card_beside(path: &Path, card: &ConventionCard) -> Result<PathBuf, CompensateError> {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".card.txt");
+    let beside = PathBuf::from(name);
+    let text = format!(
+        "# convention card of {}\n{}",
+        path.display(),
+        card.file_lines("")
+    );
+    crate::write_file(&beside, &text)?;
+    Ok(beside)
 }
 
 fn write_pitch_table(
@@ -192,22 +241,28 @@ fn write_pitch_table(
     axis: char,
     format: PitchFormat,
     settings: &Settings,
-) -> Result<Written, CompensateError> {
+) -> Result<(Written, ConventionCard), CompensateError> {
     let mut table = crate::pitch_table(model, coeffs, axis, settings.spacing_mm, &settings.hold_q)?;
     if let Some(b) = settings.reversal_um {
         table = table.with_reversal_um(b);
     }
     table = table.shifted_mm(settings.joint_offset_mm);
+    let bidirectional = table.reverse_um.is_some();
+    let card = cards::pitch(format, axis, settings.joint_offset_mm, bidirectional);
     match format {
         PitchFormat::LinuxCnc => crate::write_linuxcnc_comp(path, &table)?,
-        PitchFormat::Csv => crate::write_pitch_csv(path, &table)?,
+        PitchFormat::Csv => {
+            append_card(&mut table.note, &card);
+            crate::write_pitch_csv(path, &table)?
+        }
     }
-    Ok(Written::PitchTable {
+    let written = Written::PitchTable {
         format,
         axis,
         nodes: table.len(),
-        bidirectional: table.reverse_um.is_some(),
-    })
+        bidirectional,
+    };
+    Ok((written, card))
 }
 
 #[cfg(test)]
@@ -231,6 +286,13 @@ mod tests {
             reversal_um: None,
             hold_q: crate::default_hold(model.machine()),
         }
+    }
+
+    /// The file at `path` is ASCII and holds the card line `line` (the readers skip it).
+    fn assert_card_in(path: &Path, line: &str) {
+        let text = std::fs::read_to_string(path).unwrap();
+        assert!(text.is_ascii(), "{text}");
+        assert!(text.lines().any(|l| l.starts_with(line)), "{line}\n{text}");
     }
 
     #[test]
@@ -277,8 +339,11 @@ mod tests {
             axis: 'X',
             format: PitchFormat::Csv,
         };
-        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let w = write_compensation(&model, &coeffs, &path, what, &s)
+            .unwrap()
+            .written;
         let table = crate::read_pitch_csv(&path, 'X').unwrap();
+        assert_card_in(&path, "# values are              corrections (-error)");
         assert_eq!(
             w,
             Written::PitchTable {
@@ -295,7 +360,14 @@ mod tests {
             axis: 'X',
             format: PitchFormat::LinuxCnc,
         };
-        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let exported = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let w = exported.written;
+        // LinuxCNC's file takes no comments: the card is beside it.
+        let beside = exported
+            .card_file
+            .expect("a card file beside the LinuxCNC file");
+        let card_text = std::fs::read_to_string(&beside).unwrap();
+        assert!(card_text.contains("COMP_FILE_TYPE = 1"), "{card_text}");
         assert!(
             matches!(
                 w,
@@ -309,8 +381,11 @@ mod tests {
         assert!(crate::read_linuxcnc_comp(&path, 'X').is_ok());
 
         let path = dir.path().join("g.csv");
-        let w = write_compensation(&model, &coeffs, &path, Compensation::Grid, &s).unwrap();
+        let w = write_compensation(&model, &coeffs, &path, Compensation::Grid, &s)
+            .unwrap()
+            .written;
         let grid = crate::read_grid_csv(&path).unwrap();
+        assert_card_in(&path, "# values are              errors (actual - nominal)");
         assert_eq!(
             w,
             Written::Grid {
@@ -320,8 +395,14 @@ mod tests {
 
         let path = dir.path().join("p.txt");
         let what = Compensation::Parameters(ParameterFormat::Etalon);
-        let w = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let w = write_compensation(&model, &coeffs, &path, what, &s)
+            .unwrap()
+            .written;
         let read = crate::read_error_parameters(&path, ParameterFormat::Etalon).unwrap();
+        assert_card_in(
+            &path,
+            "// squareness              C0Y > 0 rotates Y's motion",
+        );
         let Written::Parameters {
             tables, locations, ..
         } = w

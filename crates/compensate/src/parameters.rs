@@ -275,10 +275,11 @@ pub fn write_error_parameters(
             });
         }
     }
-    let text = match format {
+    let mut text = match format {
         ParameterFormat::IsgCsv => isg_text(machine, params),
         ParameterFormat::Etalon => etalon_text(machine, params),
     };
+    text.push_str(&crate::cards::parameters(machine, format).file_lines("// "));
     write_file(path, &text)
 }
 

@@ -186,6 +186,9 @@ pub struct Identification {
     /// repeating a run would do ([`crate::information`]); in the JSON when computed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub information: Option<crate::information::InformationAccount>,
+    /// What the parameters' numbers mean: errors, ISO 230-1 signs, the squareness definition,
+    /// rotary direction, units ([`mtcal_machine::card::ConventionCard::mtcal_parameters`]).
+    pub conventions: mtcal_machine::card::ConventionCard,
     /// The solution vector (SI), for predictions; not written to the JSON.
     #[serde(skip)]
     pub x: Vec<f64>,
@@ -295,6 +298,9 @@ impl Identification {
                 condition_number: solution.condition_number,
             },
             information: None,
+            conventions: mtcal_machine::card::ConventionCard::mtcal_parameters(
+                study.model.machine(),
+            ),
             x,
         };
         id.verdict = id.verdict();

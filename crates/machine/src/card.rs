@@ -126,8 +126,8 @@ impl ConventionCard {
             ("squareness", &self.squareness),
             ("rotary direction", &self.rotary_direction),
         ];
-        let mapping = mapping.join(", ");
-        rows.push(("axes (mtcal → control)", &mapping));
+        let mapping = format!("{} (mtcal → control)", mapping.join(", "));
+        rows.push(("axis mapping", &mapping));
         rows.push(("units", &self.units));
         for (k, sentence) in self.control_will.iter().enumerate() {
             rows.push((if k == 0 { "the control will" } else { "" }, sentence));
@@ -138,6 +138,39 @@ impl ConventionCard {
         }
         text
     }
+
+    /// The card as comment lines for a control's file, each starting with `prefix`, in ASCII
+    /// only (controls read their files as ASCII or a code page; `µ`, `°`, `→` would arrive
+    /// garbled).
+    pub fn file_lines(&self, prefix: &str) -> String {
+        ascii(&self.lines(prefix))
+    }
+}
+
+/// `text` with the card's non-ASCII signs spelled in ASCII and anything else left replaced
+/// by `?`.
+pub fn ascii(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '→' => out.push_str("->"),
+            'µ' | 'μ' => out.push('u'),
+            '°' => out.push_str(" deg"),
+            '−' | '–' | '—' => out.push('-'),
+            '≤' => out.push_str("<="),
+            '≥' => out.push_str(">="),
+            '×' => out.push('x'),
+            '·' => out.push('*'),
+            '±' => out.push_str("+/-"),
+            '≈' => out.push('~'),
+            '↑' => out.push_str("(+)"),
+            '↓' => out.push_str("(-)"),
+            '²' => out.push_str("^2"),
+            c if c.is_ascii() => out.push(c),
+            _ => out.push('?'),
+        }
+    }
+    out
 }
 
 /// Width of the card's key column: the longest key and two spaces.
@@ -160,7 +193,7 @@ mod tests {
             "sign",
             "squareness",
             "rotary direction",
-            "axes (mtcal → control)",
+            "axis mapping",
             "units",
             "the control will",
         ];
@@ -171,8 +204,13 @@ mod tests {
         }
         for letter in ["X → X", "Y → Y", "Z → Z"] {
             assert!(lines[5].contains(letter), "{}", lines[5]);
+            assert!(lines[5].ends_with("(mtcal → control)"), "{}", lines[5]);
         }
         assert!(lines[8].trim_start_matches("// ").trim() == "second sentence");
         assert!(lines[1].contains("errors (actual − nominal)"));
+        let ascii_text = card.file_lines("; ");
+        assert!(ascii_text.is_ascii(), "{ascii_text}");
+        assert!(ascii_text.contains("X -> X") && ascii_text.contains("translations um"));
+        assert_eq!(ascii_text.lines().count(), lines.len());
     }
 }
