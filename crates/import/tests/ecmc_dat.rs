@@ -176,3 +176,53 @@ fn real_tables_import_to_the_iso_230_2_values_of_the_standard() {
         }
     }
 }
+
+/// A second import into an existing session adds its run and manifest entry beside the first:
+/// the session keeps both, names the machine once, refuses a second `--machine`, and fits both
+/// axes' runs.
+#[test]
+fn a_second_import_appends_to_the_session() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (text, _) = synthetic_dat();
+    let x_file = tmp.path().join("x_ISO230.dat");
+    std::fs::write(&x_file, &text).unwrap();
+    let y_file = tmp.path().join("y_ISO230.dat");
+    std::fs::write(&y_file, &text).unwrap();
+    let session = tmp.path().join("session");
+    let first = import_new(Format::EcmcDat, &x_file, &session, Some('X'));
+    assert!(first.created);
+    let options = |machine| mtcal_import::ImportOptions {
+        format: Format::EcmcDat,
+        file: &y_file,
+        session: &session,
+        machine,
+        axis: Some('Y'),
+        name: None,
+        hold: Some("X=0,Z=-200"),
+    };
+    let machine = common::three_axis_machine();
+    let refused = mtcal_import::import(&options(Some(machine.to_str().unwrap())));
+    assert!(refused.is_err(), "a second --machine must be refused");
+    let second = mtcal_import::import(&options(None)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(!second.created);
+    assert_eq!(second.manifest, first.manifest);
+    let manifest = std::fs::read_to_string(&first.manifest).unwrap();
+    assert_eq!(manifest.matches("[[run]]").count(), 2, "{manifest}");
+    assert_eq!(manifest.matches("machine =").count(), 1, "{manifest}");
+    let (_, id) = mtcal_identify::identify_session(&session).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = id.fit.runs.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, [first.run_name.as_str(), second.run_name.as_str()]);
+    for run in &id.fit.runs {
+        let b = run
+            .metrics
+            .iter()
+            .find(|m| m.name == "B (ISO 230-2)")
+            .unwrap();
+        assert!(
+            (b.value - 4.0).abs() < 1e-6,
+            "{}: B = {}",
+            run.name,
+            b.value
+        );
+    }
+}
