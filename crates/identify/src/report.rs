@@ -79,6 +79,11 @@ pub const WEAK_CORRELATION: f64 = 0.9999;
 /// reported as weakly determined.
 pub const WEAK_SHARE_OF_RANGE: f64 = 0.1;
 
+/// A parameter whose standard uncertainty is more than this share of its prior's was not
+/// narrowed by the runs (they take less than 10 % off its prior's width): its interval is the
+/// prior's, and it is reported as weakly determined whatever the prior's width.
+pub const PRIOR_ONLY: f64 = 0.9;
+
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct ChannelFit {
     pub name: String,
@@ -721,11 +726,31 @@ fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined
             continue;
         };
         let u95 = K95 * sigma;
+        let info = study.param_info(i);
+        let prior = specs[i].prior.map(|(_, s)| s);
+        // Held machine parameters have their own section ([`crate::base`]).
+        let held = info.machine && study.changes().hold.contains(&info.name);
+        if let Some(p) = prior
+            && sigma > PRIOR_ONLY * p
+            && !held
+        {
+            // Whatever the prior's width, the runs did not narrow it: the value is the
+            // prior's centre and the interval its width, not an identification.
+            out.push(WeaklyDetermined {
+                parameters: vec![info.name],
+                why: format!(
+                    "its 95 % interval, ±{:.4} {unit}, is its prior's (±{:.4} {unit}): these \
+                     runs do not see it",
+                    u95 * info.per_si,
+                    K95 * p * info.per_si,
+                    unit = info.unit,
+                ),
+            });
+            continue;
+        }
         if u95 <= WEAK_SHARE_OF_RANGE * scale {
             continue;
         }
-        let info = study.param_info(i);
-        let prior = specs[i].prior.map(|(_, s)| s);
         let why = match prior {
             // The user's own prior within the plausible range: the interval is what they said.
             Some(p) if K95 * p <= scale => continue,
