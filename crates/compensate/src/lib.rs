@@ -140,6 +140,7 @@ mod grid;
 mod output;
 mod parameters;
 mod pitch;
+mod siemens;
 mod text;
 mod trt;
 
@@ -155,6 +156,14 @@ pub use parameters::{
 pub use pitch::{
     LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
     travel_direction, write_linuxcnc_comp, write_pitch_csv,
+};
+pub use siemens::{
+    CEC_FILE_NAME, CecDirection, CecTable, EEC_FILE_NAME, EecTable, SIEMENS_DEFAULT_CEC_TABLES,
+    SIEMENS_DEFAULT_MAX_VALUE, SIEMENS_DEFAULT_POINTS, SiemensError, SiemensLimits, cec_card,
+    eec_card, eec_from_pitch, equidistant_nodes_mm, read_siemens_cec, read_siemens_cec_str,
+    read_siemens_eec, read_siemens_eec_str, siemens_axis_names, siemens_cec_table,
+    siemens_cec_tables, siemens_cec_text, siemens_eec_table, siemens_eec_tables, siemens_eec_text,
+    siemens_note, write_siemens_cec, write_siemens_eec,
 };
 pub use trt::{TrtKind, TrtPivots, trt_hal_text, trt_pivots, trt_pivots_with_nominal};
 
@@ -213,6 +222,9 @@ pub enum CompensateError {
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
     Parse { at: Location, message: String },
+    /// A SINUMERIK table the control would refuse or misread (see [`SiemensError`]).
+    #[error(transparent)]
+    Siemens(#[from] SiemensError),
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
