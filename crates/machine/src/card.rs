@@ -166,6 +166,9 @@ pub fn ascii(text: &str) -> String {
             '↑' => out.push_str("(+)"),
             '↓' => out.push_str("(-)"),
             '²' => out.push_str("^2"),
+            '’' | '‘' => out.push('\''),
+            '“' | '”' => out.push('"'),
+            '…' => out.push_str("..."),
             c if c.is_ascii() => out.push(c),
             _ => out.push('?'),
         }

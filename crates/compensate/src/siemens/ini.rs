@@ -3,6 +3,7 @@
 
 use crate::text::{Field, Source};
 use crate::{CompensateError, ConventionCard};
+use mtcal_machine::card::ascii;
 use std::fmt::Write as _;
 
 /// A place in the file: 1-based line and column.
@@ -311,29 +312,6 @@ pub(super) fn comment(out: &mut String, text: &str) {
         line.push_str(word);
     }
     let _ = writeln!(out, "{}", line.trim_end());
-}
-
-/// `text` in ASCII: the symbols mtcal's cards use spelled out, anything else as `?`.
-fn ascii(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            c if c.is_ascii() => out.push(c),
-            '→' => out.push_str("->"),
-            '−' | '–' | '—' => out.push('-'),
-            'µ' | 'μ' => out.push('u'),
-            '°' => out.push_str(" deg"),
-            '×' | '·' => out.push('*'),
-            '≥' => out.push_str(">="),
-            '≤' => out.push_str("<="),
-            '±' => out.push_str("+/-"),
-            '’' | '‘' => out.push('\''),
-            '“' | '”' => out.push('"'),
-            '…' => out.push_str("..."),
-            _ => out.push('?'),
-        }
-    }
-    out
 }
 
 #[cfg(test)]
