@@ -140,6 +140,7 @@ mod grid;
 mod output;
 mod parameters;
 mod pitch;
+mod siemens_carr;
 mod text;
 mod trt;
 
@@ -153,6 +154,10 @@ pub use parameters::{
 pub use pitch::{
     LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
     travel_direction, write_linuxcnc_comp, write_pitch_csv,
+};
+pub use siemens_carr::{
+    CARR_CHAIN_TOL_MM, CARR_MAX_NAME, CARR_MAX_OFFSET_MM, CarrData, CarrError, CarrKind, carr_card,
+    carr_data, carr_text, read_carr, write_carr,
 };
 pub use trt::{TrtKind, TrtPivots, trt_hal_text, trt_pivots, trt_pivots_with_nominal};
 
@@ -214,6 +219,15 @@ pub enum CompensateError {
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
+    /// A control's kinematic model cannot describe the machine (`format` names the model).
+    #[error("{format} cannot describe this machine: {message}")]
+    CannotDescribe {
+        format: &'static str,
+        message: String,
+    },
+    /// A CYCLE800 swivel data record the control would refuse or misread.
+    #[error(transparent)]
+    Carr(#[from] CarrError),
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.
