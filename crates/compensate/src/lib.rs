@@ -141,6 +141,7 @@ mod output;
 mod parameters;
 mod pitch;
 mod siemens;
+mod siemens_carr;
 mod text;
 mod trt;
 
@@ -164,6 +165,10 @@ pub use siemens::{
     read_siemens_eec, read_siemens_eec_str, siemens_axis_names, siemens_cec_table,
     siemens_cec_tables, siemens_cec_text, siemens_eec_table, siemens_eec_tables, siemens_eec_text,
     siemens_note, write_siemens_cec, write_siemens_eec,
+};
+pub use siemens_carr::{
+    CARR_CHAIN_TOL_MM, CARR_MAX_NAME, CARR_MAX_OFFSET_MM, CarrData, CarrError, CarrKind, carr_card,
+    carr_data, carr_text, read_carr, write_carr,
 };
 pub use trt::{TrtKind, TrtPivots, trt_hal_text, trt_pivots, trt_pivots_with_nominal};
 
@@ -228,6 +233,15 @@ pub enum CompensateError {
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
+    /// A control's kinematic model cannot describe the machine (`format` names the model).
+    #[error("{format} cannot describe this machine: {message}")]
+    CannotDescribe {
+        format: &'static str,
+        message: String,
+    },
+    /// A CYCLE800 swivel data record the control would refuse or misread.
+    #[error(transparent)]
+    Carr(#[from] CarrError),
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.
