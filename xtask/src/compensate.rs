@@ -27,7 +27,10 @@ pub(crate) struct CompensateArgs {
     spacing_mm: f64,
     /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
     /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
-    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics).
+    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
+    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every linear axis), `siemens-cec`
+    /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
+    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine).
     #[arg(long, default_value = "csv", value_parser = FormatParser)]
     format: Format,
     /// Error parameters: node spacing of rotary axes' tables, degrees.
@@ -45,6 +48,13 @@ pub(crate) struct CompensateArgs {
     /// mid-stroke, rotary axes 0).
     #[arg(long)]
     hold: Option<String>,
+    /// SINUMERIK: most interpolation points per table, the machine's MD38000 (EEC) and
+    /// MD18342 (CEC) (default 200, the smallest documented).
+    #[arg(long)]
+    max_points: Option<usize>,
+    /// SINUMERIK CEC: how many tables the control provides (default 8).
+    #[arg(long)]
+    cec_tables: Option<usize>,
 }
 
 /// `--format`.
@@ -55,6 +65,9 @@ enum Format {
     Isg,
     Etalon,
     LinuxcncTrt,
+    SiemensEec,
+    SiemensCec,
+    SiemensCarr,
 }
 
 impl Format {
@@ -71,6 +84,9 @@ impl Format {
         let pitch = |format| axis.map(|axis| Compensation::PitchTable { axis, format });
         match self {
             Format::LinuxcncTrt => Ok(Compensation::TrtPivots),
+            Format::SiemensEec => Ok(Compensation::SiemensEec { axis }),
+            Format::SiemensCec => Ok(Compensation::SiemensCec { input: axis }),
+            Format::SiemensCarr => Ok(Compensation::SiemensCarr),
             Format::Isg => parameters(ParameterFormat::IsgCsv),
             Format::Etalon => parameters(ParameterFormat::Etalon),
             Format::Csv => Ok(pitch(PitchFormat::Csv).unwrap_or(Compensation::Grid)),
@@ -103,7 +119,8 @@ impl TypedValueParser for FormatParser {
                 clap::Error::raw(
                     clap::error::ErrorKind::InvalidValue,
                     format!(
-                        "--format `{}`: expected linuxcnc, csv, isg, etalon or linuxcnc-trt\n",
+                        "--format `{}`: expected linuxcnc, csv, isg, etalon, linuxcnc-trt, \
+                         siemens-eec, siemens-cec or siemens-carr\n",
                         value.to_string_lossy()
                     ),
                 )
@@ -119,6 +136,19 @@ impl TypedValueParser for FormatParser {
     }
 }
 
+/// The SINUMERIK limits: the defaults with the user's machine data.
+fn siemens_limits(args: &CompensateArgs) -> mtcal_compensate::SiemensLimits {
+    let mut limits = mtcal_compensate::SiemensLimits::default();
+    if let Some(n) = args.max_points {
+        limits.enc_comp_max_points = n;
+        limits.cec_max_points = n;
+    }
+    if let Some(n) = args.cec_tables {
+        limits.cec_max_tables = n;
+    }
+    limits
+}
+
 pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params)?;
     let defaults = mtcal_compensate::default_hold(model.machine());
@@ -131,6 +161,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         joint_offset_mm: args.joint_offset_mm,
         reversal_um: args.reversal_um,
         hold_q,
+        siemens: siemens_limits(&args),
     };
     let exported =
         mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;

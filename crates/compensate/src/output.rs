@@ -20,6 +20,14 @@ pub enum Compensation {
     Parameters(ParameterFormat),
     /// HAL settings of the rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics.
     TrtPivots,
+    /// SINUMERIK 840D sl measuring-system error compensation (`%_N_AX_EEC_INI`): the table of
+    /// linear axis `axis`, or of every linear axis.
+    SiemensEec { axis: Option<char> },
+    /// SINUMERIK 840D sl sag / cross-axis compensation (`%_N_NC_CEC_INI`): a table for every
+    /// ordered pair of linear axes, or those whose input axis is `input`.
+    SiemensCec { input: Option<char> },
+    /// SINUMERIK 840D sl CYCLE800 swivel data (`$TC_CARR`) of a machine with two rotary axes.
+    SiemensCarr,
 }
 
 /// The file format of a pitch table.
@@ -65,6 +73,8 @@ pub struct Settings {
     /// Positions (SI) of the axes a pitch table or grid does not move ([`crate::default_hold`]
     /// with the user's changes).
     pub hold_q: Vec<f64>,
+    /// SINUMERIK tables: the control's limits (MD38000, MD18342).
+    pub siemens: crate::SiemensLimits,
 }
 
 /// What [`write_compensation`] wrote.
@@ -90,6 +100,21 @@ pub enum Written {
         /// The HAL component, e.g. `xyzac-trt-kins`.
         kinematics: &'static str,
         /// Identified errors these kinematics cannot hold (listed in the file).
+        not_representable: usize,
+    },
+    /// Interpolation tables of a control (SINUMERIK EEC or CEC).
+    ControlTables {
+        /// The file's name on the control, e.g. `%_N_AX_EEC_INI`.
+        file: &'static str,
+        tables: usize,
+        /// Interpolation points in all tables.
+        points: usize,
+    },
+    /// A CYCLE800 swivel data record.
+    SiemensCarr {
+        /// The kinematics type letter (`T`, `P`, `M`).
+        kind: char,
+        /// Identified errors `$TC_CARR` cannot hold (listed in the file).
         not_representable: usize,
     },
 }
@@ -127,6 +152,19 @@ impl fmt::Display for Written {
                 f,
                 "HAL settings of LinuxCNC's {kinematics}; {not_representable} identified errors \
                  it cannot hold are listed in it"
+            ),
+            Written::ControlTables {
+                file,
+                tables,
+                points,
+            } => write!(f, "{file}: {tables} tables, {points} points"),
+            Written::SiemensCarr {
+                kind,
+                not_representable,
+            } => write!(
+                f,
+                "CYCLE800 swivel data, kinematics type {kind}; {not_representable} identified \
+                 errors $TC_CARR cannot hold are listed in it"
             ),
         }
     }
@@ -206,12 +244,88 @@ pub fn write_compensation(
             };
             (written, card)
         }
+        Compensation::SiemensEec { axis } => {
+            write_siemens_eec(model, coeffs, path, axis, settings)?
+        }
+        Compensation::SiemensCec { input } => {
+            write_siemens_cec(model, coeffs, path, input, settings)?
+        }
+        Compensation::SiemensCarr => {
+            let name: String = machine.name().chars().take(crate::CARR_MAX_NAME).collect();
+            let data = crate::carr_data(model, coeffs, 1, &name)?;
+            crate::write_carr(path, &data, machine.name())?;
+            let written = Written::SiemensCarr {
+                kind: data.kind.letter(),
+                not_representable: data.not_representable.len(),
+            };
+            (written, crate::carr_card(&data))
+        }
     };
     Ok(Exported {
         written,
         card,
         card_file,
     })
+}
+
+/// The SINUMERIK EEC file of linear axis `axis` or of every linear axis.
+fn write_siemens_eec(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    axis: Option<char>,
+    settings: &Settings,
+) -> Result<(Written, ConventionCard), CompensateError> {
+    let machine = model.machine();
+    let names = crate::siemens_axis_names(machine);
+    let (spacing, hold) = (settings.spacing_mm, &settings.hold_q);
+    let tables = match axis {
+        Some(a) => vec![crate::siemens_eec_table(
+            model, coeffs, a, spacing, hold, &names,
+        )?],
+        None => crate::siemens_eec_tables(model, coeffs, spacing, hold, &names)?,
+    };
+    let card = crate::eec_card(&tables, &names);
+    let note = crate::siemens_note(machine, hold);
+    crate::write_siemens_eec(path, &tables, &card, &note, &settings.siemens)?;
+    let written = Written::ControlTables {
+        file: crate::EEC_FILE_NAME,
+        tables: tables.len(),
+        points: tables.iter().map(|t| t.positions.len()).sum(),
+    };
+    Ok((written, card))
+}
+
+/// The SINUMERIK CEC file: every ordered pair of linear axes, or those with input `input`,
+/// numbered from 0.
+fn write_siemens_cec(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    input: Option<char>,
+    settings: &Settings,
+) -> Result<(Written, ConventionCard), CompensateError> {
+    let machine = model.machine();
+    let names = crate::siemens_axis_names(machine);
+    let hold = &settings.hold_q;
+    let mut tables = crate::siemens_cec_tables(model, coeffs, settings.spacing_mm, hold, &names)?;
+    if let Some(letter) = input {
+        crate::linear_axis(machine, letter)?;
+        let control = format!("{letter}1");
+        tables.retain(|t| t.input_axis == control);
+        for (k, t) in tables.iter_mut().enumerate() {
+            t.index = k;
+        }
+    }
+    let card = crate::cec_card(&tables, &names);
+    let note = crate::siemens_note(machine, hold);
+    crate::write_siemens_cec(path, &tables, &card, &note, &settings.siemens)?;
+    let written = Written::ControlTables {
+        file: crate::CEC_FILE_NAME,
+        tables: tables.len(),
+        points: tables.iter().map(|t| t.positions.len()).sum(),
+    };
+    Ok((written, card))
 }
 
 /// Adds `card` to a file's comment note (the writer prefixes each line).
@@ -285,6 +399,7 @@ mod tests {
             joint_offset_mm: 0.0,
             reversal_um: None,
             hold_q: crate::default_hold(model.machine()),
+            siemens: crate::SiemensLimits::default(),
         }
     }
 
@@ -411,6 +526,64 @@ mod tests {
         };
         assert_eq!(tables + locations, read.params.len());
         assert!(tables > 0);
+    }
+
+    #[test]
+    fn siemens_files_hold_every_axis_or_the_one_asked_for() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("ZFYX");
+        let s = settings(&model);
+        let path = dir.path().join("eec.ini");
+        let what = Compensation::SiemensEec { axis: None };
+        let exported = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let eec = crate::read_siemens_eec(&path, &s.siemens).unwrap();
+        let names: Vec<&str> = eec.iter().map(|t| t.axis.as_str()).collect();
+        assert_eq!(names, ["X1", "Y1", "Z1"]);
+        let expected = Written::ControlTables {
+            file: crate::EEC_FILE_NAME,
+            tables: 3,
+            points: eec.iter().map(|t| t.positions.len()).sum(),
+        };
+        assert_eq!(exported.written, expected);
+        assert_card_in(&path, "; values are");
+
+        let path = dir.path().join("cec.ini");
+        let what = Compensation::SiemensCec { input: Some('Y') };
+        let exported = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let cec = crate::read_siemens_cec(&path, &s.siemens).unwrap();
+        let inputs: Vec<(usize, &str)> = cec
+            .iter()
+            .map(|t| (t.index, t.input_axis.as_str()))
+            .collect();
+        assert_eq!(inputs, [(0, "Y1"), (1, "Y1")]);
+        assert!(matches!(
+            exported.written,
+            Written::ControlTables { tables: 2, .. }
+        ));
+    }
+
+    #[test]
+    fn a_five_axis_machine_gets_its_swivel_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("CAFYXZ");
+        let path = dir.path().join("carr.mpf");
+        let exported = write_compensation(
+            &model,
+            &coeffs,
+            &path,
+            Compensation::SiemensCarr,
+            &settings(&model),
+        )
+        .unwrap();
+        let data = crate::read_carr(&path).unwrap();
+        assert_eq!(
+            exported.written,
+            Written::SiemensCarr {
+                kind: data.kind.letter(),
+                not_representable: 0
+            }
+        );
+        assert_eq!(exported.card.quantity, crate::Quantity::Geometry);
     }
 
     #[test]
