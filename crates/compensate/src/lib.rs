@@ -136,14 +136,22 @@
 //! expected; nothing here panics on bad input.
 
 mod card;
+mod fanuc;
 mod grid;
 mod output;
 mod parameters;
 mod pitch;
+mod rotary;
 mod text;
 mod trt;
 
 pub use card::{AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
+pub use fanuc::{
+    FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout, FanucRequest, FanucReverse,
+    FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export, fanuc_from_pitch,
+    fanuc_from_rotary, fanuc_parameter_text, fanuc_pitch_table, fanuc_values_csv,
+    read_fanuc_parameters, validate_fanuc, write_fanuc,
+};
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
 pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{
@@ -154,6 +162,7 @@ pub use pitch::{
     LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
     travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
+pub use rotary::{RotaryTable, rotary_table, rotation_direction};
 pub use trt::{TrtKind, TrtPivots, trt_hal_text, trt_pivots, trt_pivots_with_nominal};
 
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};
@@ -174,6 +183,8 @@ pub enum CompensateError {
     NoSuchAxis { letter: char, letters: String },
     #[error("axis {letter} is rotary; pitch tables and grids are for linear axes")]
     NotLinear { letter: char },
+    #[error("axis {letter} is linear; a rotary positioning table is for rotary axes")]
+    NotRotary { letter: char },
     #[error(
         "the node spacing must be finite and positive, got {spacing_mm} (mm, or degrees for rotary axes)"
     )]
@@ -211,6 +222,9 @@ pub enum CompensateError {
     /// The file's contents are wrong at `at`; `message` says what was expected.
     #[error("{at}: {message}")]
     Parse { at: Location, message: String },
+    /// A Fanuc pitch error compensation table the control would refuse or misread.
+    #[error(transparent)]
+    Fanuc(#[from] FanucError),
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
