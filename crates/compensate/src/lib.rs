@@ -136,15 +136,23 @@
 //! expected; nothing here panics on bad input.
 
 mod cards;
+mod fanuc;
 mod grid;
 mod output;
 mod parameters;
 mod pitch;
+mod rotary;
 mod siemens;
 mod siemens_carr;
 mod text;
 mod trt;
 
+pub use fanuc::{
+    FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout, FanucRequest, FanucReverse,
+    FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export, fanuc_from_pitch,
+    fanuc_from_rotary, fanuc_parameter_text, fanuc_pitch_table, fanuc_values_csv,
+    read_fanuc_parameters, validate_fanuc, write_fanuc,
+};
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
@@ -158,6 +166,7 @@ pub use pitch::{
     LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
     travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
+pub use rotary::{RotaryTable, rotary_table, rotation_direction};
 pub use siemens::{
     CEC_FILE_NAME, CecDirection, CecTable, EEC_FILE_NAME, EecTable, SIEMENS_DEFAULT_CEC_TABLES,
     SIEMENS_DEFAULT_MAX_VALUE, SIEMENS_DEFAULT_POINTS, SiemensError, SiemensLimits, cec_card,
@@ -190,6 +199,8 @@ pub enum CompensateError {
     NoSuchAxis { letter: char, letters: String },
     #[error("axis {letter} is rotary; pitch tables and grids are for linear axes")]
     NotLinear { letter: char },
+    #[error("axis {letter} is linear; a rotary positioning table is for rotary axes")]
+    NotRotary { letter: char },
     #[error(
         "the node spacing must be finite and positive, got {spacing_mm} (mm, or degrees for rotary axes)"
     )]
@@ -230,6 +241,9 @@ pub enum CompensateError {
     /// A SINUMERIK table the control would refuse or misread (see [`SiemensError`]).
     #[error(transparent)]
     Siemens(#[from] SiemensError),
+    /// A Fanuc pitch error compensation table the control would refuse or misread.
+    #[error(transparent)]
+    Fanuc(#[from] FanucError),
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
