@@ -30,7 +30,9 @@ pub(crate) struct CompensateArgs {
     /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
     /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every linear axis), `siemens-cec`
     /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
-    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine).
+    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
+    /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a
+    /// values table FILE.values.csv).
     #[arg(long, default_value = "csv", value_parser = FormatParser)]
     format: Format,
     /// Error parameters: node spacing of rotary axes' tables, degrees.
@@ -55,6 +57,29 @@ pub(crate) struct CompensateArgs {
     /// SINUMERIK CEC: how many tables the control provides (default 8).
     #[arg(long)]
     cec_tables: Option<usize>,
+    /// Fanuc: the control series, `30i` (0i-D/F, 30i/31i/32i) or `16` (0i-A/B/C, 16/18,
+    /// 16i/18i/21i).
+    #[arg(long, default_value = "30i")]
+    fanuc_series: FanucSeriesArg,
+    /// Fanuc: the increment system, `is-b` (0.001 mm) or `is-c` (0.0001 mm).
+    #[arg(long, default_value = "is-b")]
+    increment: IncrementArg,
+}
+
+/// `--fanuc-series`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FanucSeriesArg {
+    #[value(name = "30i")]
+    Series30i,
+    #[value(name = "16")]
+    Series16,
+}
+
+/// `--increment`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum IncrementArg {
+    IsB,
+    IsC,
 }
 
 /// `--format`.
@@ -68,6 +93,7 @@ enum Format {
     SiemensEec,
     SiemensCec,
     SiemensCarr,
+    Fanuc,
 }
 
 impl Format {
@@ -87,6 +113,7 @@ impl Format {
             Format::SiemensEec => Ok(Compensation::SiemensEec { axis }),
             Format::SiemensCec => Ok(Compensation::SiemensCec { input: axis }),
             Format::SiemensCarr => Ok(Compensation::SiemensCarr),
+            Format::Fanuc => Ok(Compensation::Fanuc { axis }),
             Format::Isg => parameters(ParameterFormat::IsgCsv),
             Format::Etalon => parameters(ParameterFormat::Etalon),
             Format::Csv => Ok(pitch(PitchFormat::Csv).unwrap_or(Compensation::Grid)),
@@ -120,7 +147,7 @@ impl TypedValueParser for FormatParser {
                     clap::error::ErrorKind::InvalidValue,
                     format!(
                         "--format `{}`: expected linuxcnc, csv, isg, etalon, linuxcnc-trt, \
-                         siemens-eec, siemens-cec or siemens-carr\n",
+                         siemens-eec, siemens-cec, siemens-carr or fanuc\n",
                         value.to_string_lossy()
                     ),
                 )
@@ -149,6 +176,20 @@ fn siemens_limits(args: &CompensateArgs) -> mtcal_compensate::SiemensLimits {
     limits
 }
 
+/// The Fanuc control of `--fanuc-series` and `--increment`, with its series' limits.
+fn fanuc_control(args: &CompensateArgs) -> mtcal_compensate::FanucControl {
+    use mtcal_compensate::{FanucSeries, IncrementSystem};
+    let series = match args.fanuc_series {
+        FanucSeriesArg::Series30i => FanucSeries::Series30i,
+        FanucSeriesArg::Series16 => FanucSeries::Series16,
+    };
+    let increment = match args.increment {
+        IncrementArg::IsB => IncrementSystem::IsB,
+        IncrementArg::IsC => IncrementSystem::IsC,
+    };
+    mtcal_compensate::FanucControl::new(series, increment)
+}
+
 pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params)?;
     let defaults = mtcal_compensate::default_hold(model.machine());
@@ -162,16 +203,13 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         reversal_um: args.reversal_um,
         hold_q,
         siemens: siemens_limits(&args),
+        fanuc: fanuc_control(&args),
     };
     let exported =
         mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
     writeln!(out, "wrote {} ({})", args.out.display(), exported.written)?;
-    if let Some(beside) = &exported.card_file {
-        writeln!(
-            out,
-            "wrote {} (the convention card: the format takes no comments)",
-            beside.display()
-        )?;
+    if let Some((beside, what)) = &exported.beside {
+        writeln!(out, "wrote {} ({what})", beside.display())?;
     }
     write!(out, "{}", exported.card.lines("  "))?;
     Ok(())

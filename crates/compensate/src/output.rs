@@ -28,6 +28,9 @@ pub enum Compensation {
     SiemensCec { input: Option<char> },
     /// SINUMERIK 840D sl CYCLE800 swivel data (`$TC_CARR`) of a machine with two rotary axes.
     SiemensCarr,
+    /// Fanuc pitch error compensation (3620–3627 and the pitch data) of axis `axis` or of every
+    /// axis, with the values table beside it (`FILE.values.csv`, which holds the card).
+    Fanuc { axis: Option<char> },
 }
 
 /// The file format of a pitch table.
@@ -75,6 +78,8 @@ pub struct Settings {
     pub hold_q: Vec<f64>,
     /// SINUMERIK tables: the control's limits (MD38000, MD18342).
     pub siemens: crate::SiemensLimits,
+    /// Fanuc pitch error compensation: the series, increment system and limits.
+    pub fanuc: crate::FanucControl,
 }
 
 /// What [`write_compensation`] wrote.
@@ -176,8 +181,9 @@ pub struct Exported {
     pub written: Written,
     /// The file's convention card (also written in the file where the format has comments).
     pub card: ConventionCard,
-    /// Where the card was written when the format takes no comments (beside the file).
-    pub card_file: Option<PathBuf>,
+    /// A second file written beside the first when the format takes no comments: where, and
+    /// what it holds (the card, with the values table for Fanuc).
+    pub beside: Option<(PathBuf, &'static str)>,
 }
 
 /// Writes the compensation file `what` of `model` with coefficients `coeffs` to `path`
@@ -190,12 +196,13 @@ pub fn write_compensation(
     settings: &Settings,
 ) -> Result<Exported, CompensateError> {
     let machine = model.machine();
-    let mut card_file = None;
+    let mut beside = None;
     let (written, card) = match what {
         Compensation::PitchTable { axis, format } => {
             let (written, card) = write_pitch_table(model, coeffs, path, axis, format, settings)?;
             if format == PitchFormat::LinuxCnc {
-                card_file = Some(write_card_beside(path, &card)?);
+                let what = "the convention card: the file takes no comments";
+                beside = Some((write_card_beside(path, &card)?, what));
             }
             (written, card)
         }
@@ -260,11 +267,17 @@ pub fn write_compensation(
             };
             (written, crate::carr_card(&data))
         }
+        Compensation::Fanuc { axis } => {
+            let (written, card, values) = write_fanuc(model, coeffs, path, axis, settings)?;
+            let what = "the values table and the convention card: the record takes no comments";
+            beside = Some((values, what));
+            (written, card)
+        }
     };
     Ok(Exported {
         written,
         card,
-        card_file,
+        beside,
     })
 }
 
@@ -326,6 +339,61 @@ fn write_siemens_cec(
         points: tables.iter().map(|t| t.positions.len()).sum(),
     };
     Ok((written, card))
+}
+
+/// The Fanuc record of axis `axis` or of every axis (numbered X, Y, Z, A, B, C as present),
+/// and its values table beside it.
+fn write_fanuc(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    axis: Option<char>,
+    settings: &Settings,
+) -> Result<(Written, ConventionCard, PathBuf), CompensateError> {
+    let machine = model.machine();
+    if let Some(letter) = axis
+        && machine.axis_index(letter).is_none()
+    {
+        return Err(CompensateError::NoSuchAxis {
+            letter,
+            letters: machine.letters(),
+        });
+    }
+    let mut letters: Vec<(char, bool)> = machine
+        .axes()
+        .iter()
+        .map(|a| (a.letter().as_char(), a.letter().is_rotary()))
+        .collect();
+    letters.sort_by_key(|&(c, rotary)| (rotary, c));
+    let requests: Vec<crate::FanucRequest> = (1u32..)
+        .zip(letters)
+        .filter(|(_, (c, _))| axis.is_none_or(|a| a == *c))
+        .map(|(number, (letter, rotary))| crate::FanucRequest {
+            axis: crate::FanucAxis::new(letter, number, rotary),
+            interval: if rotary {
+                settings.spacing_deg
+            } else {
+                settings.spacing_mm
+            },
+            layout: crate::FanucLayout::default(),
+            reversal_um: settings.reversal_um.filter(|_| !rotary),
+        })
+        .collect();
+    let conversions =
+        crate::fanuc_export(model, coeffs, &requests, &settings.fanuc, &settings.hold_q)?;
+    let mut name = path.as_os_str().to_owned();
+    name.push(".values.csv");
+    let values = PathBuf::from(name);
+    let card = crate::write_fanuc(path, &values, &settings.fanuc, &conversions)?;
+    let written = Written::ControlTables {
+        file: "Fanuc pitch error compensation record",
+        tables: conversions.len(),
+        points: conversions
+            .iter()
+            .map(|c| c.table.node_points().count())
+            .sum(),
+    };
+    Ok((written, card, values))
 }
 
 /// Adds `card` to a file's comment note (the writer prefixes each line).
@@ -400,6 +468,10 @@ mod tests {
             reversal_um: None,
             hold_q: crate::default_hold(model.machine()),
             siemens: crate::SiemensLimits::default(),
+            fanuc: crate::FanucControl::new(
+                crate::FanucSeries::Series30i,
+                crate::IncrementSystem::IsC,
+            ),
         }
     }
 
@@ -584,6 +656,35 @@ mod tests {
             }
         );
         assert_eq!(exported.card.quantity, crate::Quantity::Geometry);
+    }
+
+    #[test]
+    fn a_fanuc_record_holds_every_axis_numbered_x_y_z_then_rotary() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("CAFYXZ");
+        let s = settings(&model);
+        let path = dir.path().join("pitch.txt");
+        let what = Compensation::Fanuc { axis: None };
+        let exported = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let axes: Vec<crate::FanucAxis> = [('X', false), ('Y', false), ('Z', false)]
+            .into_iter()
+            .chain([('A', true), ('C', true)])
+            .zip(1..)
+            .map(|((letter, rotary), n)| crate::FanucAxis::new(letter, n, rotary))
+            .collect();
+        let tables = crate::read_fanuc_parameters(&path, &s.fanuc, &axes).unwrap();
+        assert_eq!(tables.len(), 5);
+        let (values, _) = exported.beside.unwrap();
+        assert_card_in(&values, "# values are");
+        let Written::ControlTables { tables: n, .. } = exported.written else {
+            panic!("{:?}", exported.written)
+        };
+        assert_eq!(n, 5);
+        // One axis alone keeps its number.
+        let what = Compensation::Fanuc { axis: Some('Z') };
+        write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let z = crate::read_fanuc_parameters(&path, &s.fanuc, &axes[2..3]).unwrap();
+        assert_eq!(z[0].axis.number, 3);
     }
 
     #[test]
