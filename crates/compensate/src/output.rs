@@ -550,8 +550,8 @@ mod tests {
         let exported = write_compensation(&model, &coeffs, &path, what, &s).unwrap();
         let w = exported.written;
         // LinuxCNC's file takes no comments: the card is beside it.
-        let beside = exported
-            .card_file
+        let (beside, _) = exported
+            .beside
             .expect("a card file beside the LinuxCNC file");
         let card_text = std::fs::read_to_string(&beside).unwrap();
         assert!(card_text.contains("COMP_FILE_TYPE = 1"), "{card_text}");
