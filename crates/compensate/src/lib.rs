@@ -137,6 +137,7 @@
 
 mod card;
 mod grid;
+mod heidenhain;
 mod output;
 mod parameters;
 mod pitch;
@@ -145,6 +146,13 @@ mod trt;
 
 pub use card::{AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
+pub use heidenhain::{
+    COM_RESOLUTION_MM, ComLimits, ComSet, ComTable, HeidenhainLimit, KcEntry, KcKey, KcLimits,
+    KcTable, KcValue, KinematicsComp, SpacingRule, card_path, heidenhain_com_card,
+    heidenhain_com_set, kinematics_comp, kinematics_comp_card, read_com_table, read_heidenhain_com,
+    read_kinematics_comp, validate_heidenhain_com, validate_kinematics_comp, write_heidenhain_com,
+    write_kinematics_comp,
+};
 pub use output::{Compensation, PitchFormat, Settings, Written, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
@@ -214,6 +222,9 @@ pub enum CompensateError {
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },
+    /// A Heidenhain control would refuse or misread the tables (its limits).
+    #[error(transparent)]
+    Heidenhain(#[from] HeidenhainLimit),
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.
