@@ -138,6 +138,7 @@
 mod cards;
 mod fanuc;
 mod grid;
+mod heidenhain;
 mod output;
 mod parameters;
 mod pitch;
@@ -154,6 +155,13 @@ pub use fanuc::{
     read_fanuc_parameters, validate_fanuc, write_fanuc,
 };
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
+pub use heidenhain::{
+    COM_RESOLUTION_MM, ComLimits, ComSet, ComTable, HeidenhainLimit, KcEntry, KcKey, KcLimits,
+    KcTable, KcValue, KinematicsComp, SpacingRule, card_path, heidenhain_com_card,
+    heidenhain_com_set, kinematics_comp, kinematics_comp_card, read_com_table, read_heidenhain_com,
+    read_kinematics_comp, validate_heidenhain_com, validate_kinematics_comp, write_heidenhain_com,
+    write_kinematics_comp,
+};
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
 };
@@ -256,6 +264,9 @@ pub enum CompensateError {
     /// A CYCLE800 swivel data record the control would refuse or misread.
     #[error(transparent)]
     Carr(#[from] CarrError),
+    /// A Heidenhain control would refuse or misread the tables (its limits).
+    #[error(transparent)]
+    Heidenhain(#[from] HeidenhainLimit),
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.
