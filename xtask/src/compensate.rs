@@ -32,7 +32,9 @@ pub(crate) struct CompensateArgs {
     /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
     /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
     /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a
-    /// values table FILE.values.csv).
+    /// values table FILE.values.csv), `heidenhain-com` (nonlinear axis error tables: the .CMA
+    /// file and its .COM tables beside it), `heidenhain-kinematicscomp` (the ISO 230-1 errors
+    /// as KinematicsComp's listing .TAB and its tables).
     #[arg(long, default_value = "csv", value_parser = FormatParser)]
     format: Format,
     /// Error parameters: node spacing of rotary axes' tables, degrees.
@@ -64,6 +66,17 @@ pub(crate) struct CompensateArgs {
     /// Fanuc: the increment system, `is-b` (0.001 mm) or `is-c` (0.0001 mm).
     #[arg(long, default_value = "is-b")]
     increment: IncrementArg,
+    /// Heidenhain .COM tables: the control, `tnc4xx` (≤ 256 entries, spacing a power of two
+    /// of 0.1 µm) or `manualplus620`.
+    #[arg(long, default_value = "tnc4xx")]
+    heidenhain_control: HeidenhainArg,
+}
+
+/// `--heidenhain-control`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum HeidenhainArg {
+    Tnc4xx,
+    Manualplus620,
 }
 
 /// `--fanuc-series`.
@@ -94,6 +107,8 @@ enum Format {
     SiemensCec,
     SiemensCarr,
     Fanuc,
+    HeidenhainCom,
+    HeidenhainKinematicscomp,
 }
 
 impl Format {
@@ -114,6 +129,8 @@ impl Format {
             Format::SiemensCec => Ok(Compensation::SiemensCec { input: axis }),
             Format::SiemensCarr => Ok(Compensation::SiemensCarr),
             Format::Fanuc => Ok(Compensation::Fanuc { axis }),
+            Format::HeidenhainCom => Ok(Compensation::HeidenhainCom),
+            Format::HeidenhainKinematicscomp => Ok(Compensation::HeidenhainKinematicsComp),
             Format::Isg => parameters(ParameterFormat::IsgCsv),
             Format::Etalon => parameters(ParameterFormat::Etalon),
             Format::Csv => Ok(pitch(PitchFormat::Csv).unwrap_or(Compensation::Grid)),
@@ -147,7 +164,8 @@ impl TypedValueParser for FormatParser {
                     clap::error::ErrorKind::InvalidValue,
                     format!(
                         "--format `{}`: expected linuxcnc, csv, isg, etalon, linuxcnc-trt, \
-                         siemens-eec, siemens-cec, siemens-carr or fanuc\n",
+                         siemens-eec, siemens-cec, siemens-carr, fanuc, heidenhain-com or \
+                         heidenhain-kinematicscomp\n",
                         value.to_string_lossy()
                     ),
                 )
@@ -204,11 +222,15 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         hold_q,
         siemens: siemens_limits(&args),
         fanuc: fanuc_control(&args),
+        heidenhain: match args.heidenhain_control {
+            HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
+            HeidenhainArg::Manualplus620 => mtcal_compensate::ComLimits::manualplus_620(),
+        },
     };
     let exported =
         mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
     writeln!(out, "wrote {} ({})", args.out.display(), exported.written)?;
-    if let Some((beside, what)) = &exported.beside {
+    for (beside, what) in &exported.beside {
         writeln!(out, "wrote {} ({what})", beside.display())?;
     }
     write!(out, "{}", exported.card.lines("  "))?;

@@ -31,6 +31,11 @@ pub enum Compensation {
     /// Fanuc pitch error compensation (3620–3627 and the pitch data) of axis `axis` or of every
     /// axis, with the values table beside it (`FILE.values.csv`, which holds the card).
     Fanuc { axis: Option<char> },
+    /// Heidenhain nonlinear axis error compensation: the `.CMA` file at the path and its
+    /// `.COM` tables beside it.
+    HeidenhainCom,
+    /// Heidenhain KinematicsComp: the listing (`.TAB`) at the path and its `.COM` tables.
+    HeidenhainKinematicsComp,
 }
 
 /// The file format of a pitch table.
@@ -80,6 +85,8 @@ pub struct Settings {
     pub siemens: crate::SiemensLimits,
     /// Fanuc pitch error compensation: the series, increment system and limits.
     pub fanuc: crate::FanucControl,
+    /// Heidenhain `.COM` tables: the control's limits (TNC 4xx or MANUALplus 620).
+    pub heidenhain: crate::ComLimits,
 }
 
 /// What [`write_compensation`] wrote.
@@ -113,6 +120,14 @@ pub enum Written {
         file: &'static str,
         tables: usize,
         /// Interpolation points in all tables.
+        points: usize,
+    },
+    /// A set of files: a control's assignment or listing file and its tables.
+    ControlFiles {
+        what: &'static str,
+        /// Files written, the card's included.
+        files: usize,
+        tables: usize,
         points: usize,
     },
     /// A CYCLE800 swivel data record.
@@ -163,6 +178,12 @@ impl fmt::Display for Written {
                 tables,
                 points,
             } => write!(f, "{file}: {tables} tables, {points} points"),
+            Written::ControlFiles {
+                what,
+                files,
+                tables,
+                points,
+            } => write!(f, "{what}: {files} files, {tables} tables, {points} points"),
             Written::SiemensCarr {
                 kind,
                 not_representable,
@@ -181,9 +202,9 @@ pub struct Exported {
     pub written: Written,
     /// The file's convention card (also written in the file where the format has comments).
     pub card: ConventionCard,
-    /// A second file written beside the first when the format takes no comments: where, and
-    /// what it holds (the card, with the values table for Fanuc).
-    pub beside: Option<(PathBuf, &'static str)>,
+    /// Files written beside the first (tables, or the card when the format takes no
+    /// comments): where, and what each holds.
+    pub beside: Vec<(PathBuf, &'static str)>,
 }
 
 /// Writes the compensation file `what` of `model` with coefficients `coeffs` to `path`
@@ -196,13 +217,13 @@ pub fn write_compensation(
     settings: &Settings,
 ) -> Result<Exported, CompensateError> {
     let machine = model.machine();
-    let mut beside = None;
+    let mut beside = Vec::new();
     let (written, card) = match what {
         Compensation::PitchTable { axis, format } => {
             let (written, card) = write_pitch_table(model, coeffs, path, axis, format, settings)?;
             if format == PitchFormat::LinuxCnc {
                 let what = "the convention card: the file takes no comments";
-                beside = Some((write_card_beside(path, &card)?, what));
+                beside.push((write_card_beside(path, &card)?, what));
             }
             (written, card)
         }
@@ -270,8 +291,39 @@ pub fn write_compensation(
         Compensation::Fanuc { axis } => {
             let (written, card, values) = write_fanuc(model, coeffs, path, axis, settings)?;
             let what = "the values table and the convention card: the record takes no comments";
-            beside = Some((values, what));
+            beside.push((values, what));
             (written, card)
+        }
+        Compensation::HeidenhainCom => {
+            let set = crate::heidenhain_com_set(
+                model,
+                coeffs,
+                settings.spacing_mm,
+                &settings.hold_q,
+                &settings.heidenhain,
+            )?;
+            let files = crate::write_heidenhain_com(path, &set, &settings.heidenhain)?;
+            let written = Written::ControlFiles {
+                what: "Heidenhain .CMA and .COM tables",
+                files: files.len(),
+                tables: set.tables.len(),
+                points: set.total_points(),
+            };
+            beside.extend(heidenhain_beside(path, files));
+            (written, crate::heidenhain_com_card(&set))
+        }
+        Compensation::HeidenhainKinematicsComp => {
+            let (mm, deg) = (settings.spacing_mm, settings.spacing_deg);
+            let kc = crate::kinematics_comp(model, coeffs, mm, deg)?;
+            let files = crate::write_kinematics_comp(path, &kc, &crate::KcLimits::default())?;
+            let written = Written::ControlFiles {
+                what: "Heidenhain KinematicsComp listing and tables",
+                files: files.len(),
+                tables: kc.tables.len(),
+                points: kc.tables.iter().map(|t| t.positions.len()).sum(),
+            };
+            beside.extend(heidenhain_beside(path, files));
+            (written, crate::kinematics_comp_card(&kc))
         }
     };
     Ok(Exported {
@@ -396,6 +448,23 @@ fn write_fanuc(
     Ok((written, card, values))
 }
 
+/// The files a Heidenhain writer wrote besides `path`, each said: a table or the card.
+fn heidenhain_beside(path: &Path, files: Vec<PathBuf>) -> Vec<(PathBuf, &'static str)> {
+    let card = crate::card_path(path);
+    files
+        .into_iter()
+        .filter(|f| f != path)
+        .map(|f| {
+            let what = if f == card {
+                "the convention card: Heidenhain tables take no comments"
+            } else {
+                "a table the first file names"
+            };
+            (f, what)
+        })
+        .collect()
+}
+
 /// Adds `card` to a file's comment note (the writer prefixes each line).
 fn append_card(note: &mut String, card: &ConventionCard) {
     note.push('\n');
@@ -472,6 +541,7 @@ mod tests {
                 crate::FanucSeries::Series30i,
                 crate::IncrementSystem::IsC,
             ),
+            heidenhain: crate::ComLimits::tnc_4xx(),
         }
     }
 
@@ -552,6 +622,8 @@ mod tests {
         // LinuxCNC's file takes no comments: the card is beside it.
         let (beside, _) = exported
             .beside
+            .first()
+            .cloned()
             .expect("a card file beside the LinuxCNC file");
         let card_text = std::fs::read_to_string(&beside).unwrap();
         assert!(card_text.contains("COMP_FILE_TYPE = 1"), "{card_text}");
@@ -674,7 +746,7 @@ mod tests {
             .collect();
         let tables = crate::read_fanuc_parameters(&path, &s.fanuc, &axes).unwrap();
         assert_eq!(tables.len(), 5);
-        let (values, _) = exported.beside.unwrap();
+        let (values, _) = exported.beside[0].clone();
         assert_card_in(&values, "# values are");
         let Written::ControlTables { tables: n, .. } = exported.written else {
             panic!("{:?}", exported.written)
@@ -685,6 +757,49 @@ mod tests {
         write_compensation(&model, &coeffs, &path, what, &s).unwrap();
         let z = crate::read_fanuc_parameters(&path, &s.fanuc, &axes[2..3]).unwrap();
         assert_eq!(z[0].axis.number, 3);
+    }
+
+    #[test]
+    fn heidenhain_files_come_as_a_set_with_their_card() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, coeffs) = model("ZFYX");
+        let s = settings(&model);
+        let path = dir.path().join("CONFIG.CMA");
+        let exported =
+            write_compensation(&model, &coeffs, &path, Compensation::HeidenhainCom, &s).unwrap();
+        let set = crate::read_heidenhain_com(&path).unwrap();
+        let names: Vec<String> = exported
+            .beside
+            .iter()
+            .map(|(p, _)| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["X.COM", "Y.COM", "Z.COM", "CONFIG.CMA.card.txt"]);
+        assert_eq!(
+            exported.written,
+            Written::ControlFiles {
+                what: "Heidenhain .CMA and .COM tables",
+                files: 5,
+                tables: set.tables.len(),
+                points: set.total_points()
+            }
+        );
+
+        let (five_axis, coeffs) = self::model("CAFYXZ");
+        let path = dir.path().join("KC.TAB");
+        let what = Compensation::HeidenhainKinematicsComp;
+        let s = settings(&five_axis);
+        let exported = write_compensation(&five_axis, &coeffs, &path, what, &s).unwrap();
+        let kc = crate::read_kinematics_comp(&path).unwrap();
+        let Written::ControlFiles { tables, .. } = exported.written else {
+            panic!("{:?}", exported.written)
+        };
+        assert_eq!(tables, kc.tables.len());
+        assert!(
+            exported
+                .beside
+                .iter()
+                .any(|(p, _)| p.ends_with("KC.TAB.card.txt"))
+        );
     }
 
     #[test]
