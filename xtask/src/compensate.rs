@@ -1,5 +1,7 @@
 //! `cargo xtask compensate`: one compensation file of an identified machine
 //! ([`mtcal_compensate::write_compensation`]); `--format` and `--axis` together say which.
+//! `cargo xtask check-compensation`: a compensation file read back and checked against the
+//! control's limits ([`mtcal_compensate::check_compensation`]).
 
 use anyhow::{Result, bail};
 use clap::ValueEnum;
@@ -19,24 +21,9 @@ pub(crate) struct CompensateArgs {
     /// The file to write.
     #[arg(long)]
     out: PathBuf,
-    /// A pitch table of this linear axis (positioning along its own direction).
-    #[arg(long)]
-    axis: Option<char>,
     /// Node spacing, mm.
     #[arg(long, default_value_t = 25.0)]
     spacing_mm: f64,
-    /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
-    /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
-    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
-    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every linear axis), `siemens-cec`
-    /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
-    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
-    /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a
-    /// values table FILE.values.csv), `heidenhain-com` (nonlinear axis error tables: the .CMA
-    /// file and its .COM tables beside it), `heidenhain-kinematicscomp` (the ISO 230-1 errors
-    /// as KinematicsComp's listing .TAB and its tables).
-    #[arg(long, default_value = "csv", value_parser = FormatParser)]
-    format: Format,
     /// Error parameters: node spacing of rotary axes' tables, degrees.
     #[arg(long, default_value_t = 10.0)]
     spacing_deg: f64,
@@ -52,6 +39,28 @@ pub(crate) struct CompensateArgs {
     /// mid-stroke, rotary axes 0).
     #[arg(long)]
     hold: Option<String>,
+    #[command(flatten)]
+    control: ControlArgs,
+}
+
+/// Which file, for which control: shared by `compensate` and `check-compensation`.
+#[derive(clap::Args)]
+pub(crate) struct ControlArgs {
+    /// A pitch table of this linear axis (positioning along its own direction).
+    #[arg(long)]
+    axis: Option<char>,
+    /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
+    /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
+    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
+    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every linear axis), `siemens-cec`
+    /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
+    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
+    /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a
+    /// values table FILE.values.csv), `heidenhain-com` (nonlinear axis error tables: the .CMA
+    /// file and its .COM tables beside it), `heidenhain-kinematicscomp` (the ISO 230-1 errors
+    /// as KinematicsComp's listing .TAB and its tables).
+    #[arg(long, default_value = "csv", value_parser = FormatParser)]
+    format: Format,
     /// SINUMERIK: most interpolation points per table, the machine's MD38000 (EEC) and
     /// MD18342 (CEC) (default 200, the smallest documented).
     #[arg(long)]
@@ -70,6 +79,17 @@ pub(crate) struct CompensateArgs {
     /// of 0.1 µm) or `manualplus620`.
     #[arg(long, default_value = "tnc4xx")]
     heidenhain_control: HeidenhainArg,
+}
+
+/// The arguments of `check-compensation`.
+#[derive(clap::Args)]
+pub(crate) struct CheckArgs {
+    #[command(flatten)]
+    machine: crate::MachineArg,
+    /// The compensation file to read and check (the .CMA or .TAB of a Heidenhain set).
+    file: PathBuf,
+    #[command(flatten)]
+    control: ControlArgs,
 }
 
 /// `--heidenhain-control`.
@@ -182,7 +202,7 @@ impl TypedValueParser for FormatParser {
 }
 
 /// The SINUMERIK limits: the defaults with the user's machine data.
-fn siemens_limits(args: &CompensateArgs) -> mtcal_compensate::SiemensLimits {
+fn siemens_limits(args: &ControlArgs) -> mtcal_compensate::SiemensLimits {
     let mut limits = mtcal_compensate::SiemensLimits::default();
     if let Some(n) = args.max_points {
         limits.enc_comp_max_points = n;
@@ -195,7 +215,7 @@ fn siemens_limits(args: &CompensateArgs) -> mtcal_compensate::SiemensLimits {
 }
 
 /// The Fanuc control of `--fanuc-series` and `--increment`, with its series' limits.
-fn fanuc_control(args: &CompensateArgs) -> mtcal_compensate::FanucControl {
+fn fanuc_control(args: &ControlArgs) -> mtcal_compensate::FanucControl {
     use mtcal_compensate::{FanucSeries, IncrementSystem};
     let series = match args.fanuc_series {
         FanucSeriesArg::Series30i => FanucSeries::Series30i,
@@ -208,24 +228,42 @@ fn fanuc_control(args: &CompensateArgs) -> mtcal_compensate::FanucControl {
     mtcal_compensate::FanucControl::new(series, increment)
 }
 
+impl ControlArgs {
+    /// The file `--format` and `--axis` name.
+    fn compensation(&self) -> Result<Compensation> {
+        self.format.compensation(self.axis)
+    }
+
+    /// The settings with the control's limits; the rest as given.
+    fn settings(&self, hold_q: Vec<f64>, spacing_mm: f64, spacing_deg: f64) -> Settings {
+        Settings {
+            spacing_mm,
+            spacing_deg,
+            joint_offset_mm: 0.0,
+            reversal_um: None,
+            hold_q,
+            siemens: siemens_limits(self),
+            fanuc: fanuc_control(self),
+            heidenhain: match self.heidenhain_control {
+                HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
+                HeidenhainArg::Manualplus620 => mtcal_compensate::ComLimits::manualplus_620(),
+            },
+        }
+    }
+}
+
 pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params)?;
     let defaults = mtcal_compensate::default_hold(model.machine());
     let hold = args.hold.as_deref().unwrap_or("");
     let hold_q = mtcal_machine::axis_text::held_positions(model.machine(), defaults, hold)?;
-    let what = args.format.compensation(args.axis)?;
+    let what = args.control.compensation()?;
     let settings = Settings {
-        spacing_mm: args.spacing_mm,
-        spacing_deg: args.spacing_deg,
         joint_offset_mm: args.joint_offset_mm,
         reversal_um: args.reversal_um,
-        hold_q,
-        siemens: siemens_limits(&args),
-        fanuc: fanuc_control(&args),
-        heidenhain: match args.heidenhain_control {
-            HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
-            HeidenhainArg::Manualplus620 => mtcal_compensate::ComLimits::manualplus_620(),
-        },
+        ..args
+            .control
+            .settings(hold_q, args.spacing_mm, args.spacing_deg)
     };
     let exported =
         mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
@@ -234,5 +272,24 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         writeln!(out, "wrote {} ({what})", beside.display())?;
     }
     write!(out, "{}", exported.card.lines("  "))?;
+    Ok(())
+}
+
+/// `check-compensation`: reads the file back, checks it against the control's limits and
+/// says what it holds.
+pub(crate) fn check(args: CheckArgs, out: &mut impl Write) -> Result<()> {
+    let loaded = args.machine.load()?;
+    let machine = &loaded.machine;
+    let what = args.control.compensation()?;
+    // The spacings only make tables; a check reads them from the file.
+    let settings = args
+        .control
+        .settings(mtcal_compensate::default_hold(machine), 1.0, 1.0);
+    let checked = mtcal_compensate::check_compensation(machine, what, &args.file, &settings)?;
+    writeln!(
+        out,
+        "{}: reads back and is within the control's limits: {checked}",
+        args.file.display()
+    )?;
     Ok(())
 }

@@ -59,12 +59,15 @@ enum Command {
         #[arg(long = "threshold", default_values_t = [5.0, 10.0, 20.0])]
         thresholds: Vec<f64>,
     },
-    /// Compensation files from identified parameters: a pitch table of one axis (`--axis`,
-    /// LinuxCNC `COMP_FILE_TYPE = 1` or CSV), the machine's ISO 230-1 error parameters for a
-    /// controller that models the machine (`--format isg` for Beckhoff TF5280 ISG_CSV, `etalon`
-    /// for the Etalon Exchange Format), or else a 3-D grid of tool-point error vectors (CSV).
-    /// Conventions and formats: crates/compensate (compensation = −error).
+    /// Compensation files from identified parameters, each with its convention card: pitch
+    /// tables (LinuxCNC, CSV, Fanuc 3620–3627, SINUMERIK EEC), cross and sag tables (SINUMERIK
+    /// CEC, Heidenhain .COM), error parameters for controls that model the machine (ISG, Etalon,
+    /// Heidenhain KinematicsComp), five-axis pivots (LinuxCNC trt, SINUMERIK $TC_CARR) or a 3-D
+    /// grid of tool-point errors (CSV). Conventions and formats: crates/compensate.
     Compensate(compensate::CompensateArgs),
+    /// Read a compensation file back and check it against the control's limits before loading
+    /// it (same --format, --axis and limit options as `compensate`).
+    CheckCompensation(compensate::CheckArgs),
     /// Correct an NC program for identified errors: every G0/G1 pose moved so the tool (point,
     /// and on five-axis machines its axis) lands where the program meant it (crates/ncprog).
     Correct {
@@ -280,6 +283,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Compensate(args) => compensate::run(args, &mut stdout),
+        Command::CheckCompensation(args) => compensate::check(args, &mut stdout),
         Command::Correct {
             machine,
             params,

@@ -46,7 +46,105 @@ fn pitch_tables_and_grids_are_written_and_read_back() {
     let g = mtcal_compensate::read_grid_csv(&grid).unwrap();
     assert!(g.len() > 100 && g.error_um.iter().any(|e| e[0].abs() > 0.5));
 
-    assert_compensate_refuses(dir.path(), "--axis X --format fanuc", "--format `fanuc`");
+    assert_compensate_refuses(dir.path(), "--axis X --format okuma", "--format `okuma`");
+}
+
+/// Every control format: `compensate` writes the file, names every file beside it, prints the
+/// convention card, and `check-compensation` reads the file back within the control's limits.
+/// A limit smaller than the file needs is refused by the check.
+#[test]
+fn control_files_are_written_with_their_card_and_pass_their_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "--format fanuc --spacing-mm 50",
+            "pitch.txt",
+            "pitch.txt.values.csv",
+        ),
+        (
+            "--format fanuc --axis Y --increment is-c",
+            "y.txt",
+            "y.txt.values.csv",
+        ),
+        ("--format siemens-eec --spacing-mm 50", "eec.ini", ""),
+        ("--format siemens-cec --spacing-mm 100", "cec.ini", ""),
+        (
+            "--format heidenhain-com --spacing-mm 100",
+            "CONFIG.CMA",
+            "X.COM",
+        ),
+        (
+            "--format heidenhain-kinematicscomp --spacing-mm 100",
+            "KC.TAB",
+            "KC_X.COM",
+        ),
+    ];
+    for (options, file, beside) in cases {
+        let out_path = dir.path().join(file);
+        let out = compensate(options, &out_path);
+        assert_success(&out);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            stdout.starts_with(&format!("wrote {}", out_path.display())),
+            "{stdout}"
+        );
+        for key in [
+            "format",
+            "values are",
+            "sign",
+            "squareness",
+            "axis mapping",
+            "units",
+        ] {
+            assert!(
+                stdout.contains(&format!("\n  {key} ")),
+                "{options}: no {key}\n{stdout}"
+            );
+        }
+        if !beside.is_empty() {
+            let beside = dir.path().join(beside);
+            assert!(
+                stdout.contains(&format!("wrote {}", beside.display())),
+                "{stdout}"
+            );
+            assert!(beside.exists());
+        }
+        let mut args = vec![
+            "check-compensation",
+            THREE_AXIS_MACHINE,
+            out_path.to_str().unwrap(),
+        ];
+        args.extend(
+            options
+                .split_whitespace()
+                .filter(|o| !o.starts_with("--spacing")),
+        );
+        args.retain(|a| a.parse::<f64>().is_err());
+        let checked = run_in_repo(env!("CARGO_BIN_EXE_mtcal"), &args);
+        assert_success(&checked);
+        let said = String::from_utf8_lossy(&checked.stdout);
+        assert!(
+            said.contains("reads back and is within the control's limits"),
+            "{said}"
+        );
+    }
+    let eec = dir.path().join("eec.ini");
+    let args = [
+        "check-compensation",
+        THREE_AXIS_MACHINE,
+        eec.to_str().unwrap(),
+        "--format",
+        "siemens-eec",
+        "--max-points",
+        "4",
+    ];
+    let refused = run_in_repo(env!("CARGO_BIN_EXE_mtcal"), &args);
+    assert_eq!(refused.status.code(), Some(2));
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        said.contains("MD38000") && said.contains("allows 4"),
+        "{said}"
+    );
 }
 
 /// `--format isg` / `etalon`: the machine's error parameters, which the library reads back into

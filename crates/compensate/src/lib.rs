@@ -136,6 +136,7 @@
 //! expected; nothing here panics on bad input.
 
 mod cards;
+mod check;
 mod fanuc;
 mod grid;
 mod heidenhain;
@@ -148,6 +149,7 @@ mod siemens_carr;
 mod text;
 mod trt;
 
+pub use check::{Checked, check_compensation};
 pub use fanuc::{
     FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout, FanucRequest, FanucReverse,
     FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export, fanuc_from_pitch,
@@ -252,6 +254,16 @@ pub enum CompensateError {
     /// A Fanuc pitch error compensation table the control would refuse or misread.
     #[error(transparent)]
     Fanuc(#[from] FanucError),
+    /// A file that reads but breaks a limit of its control (`cause` names what, without the
+    /// file).
+    #[error("{}: {cause}", file.display())]
+    Invalid {
+        file: PathBuf,
+        cause: Box<CompensateError>,
+    },
+    /// A format mtcal writes but has no reader for.
+    #[error("mtcal cannot read {format} files back")]
+    NoReader { format: &'static str },
     /// Parameters read from a file do not make a model of the machine.
     #[error("the parameters do not fit the machine: {message}")]
     Model { message: String },

@@ -4,7 +4,7 @@
 
 use crate::parameters::{ParameterFormat, ParameterValue};
 use crate::{CompensateError, GridSpec, cards};
-use mtcal_kinematics::MachineModel;
+use mtcal_kinematics::{Machine, MachineModel};
 use mtcal_machine::card::ConventionCard;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -393,16 +393,12 @@ fn write_siemens_cec(
     Ok((written, card))
 }
 
-/// The Fanuc record of axis `axis` or of every axis (numbered X, Y, Z, A, B, C as present),
-/// and its values table beside it.
-fn write_fanuc(
-    model: &MachineModel,
-    coeffs: &[f64],
-    path: &Path,
+/// The Fanuc axes of `machine` (numbered X, Y, Z, then A, B, C, as present): all, or `axis`
+/// alone with its number.
+pub(crate) fn fanuc_axes(
+    machine: &Machine,
     axis: Option<char>,
-    settings: &Settings,
-) -> Result<(Written, ConventionCard, PathBuf), CompensateError> {
-    let machine = model.machine();
+) -> Result<Vec<crate::FanucAxis>, CompensateError> {
     if let Some(letter) = axis
         && machine.axis_index(letter).is_none()
     {
@@ -417,18 +413,33 @@ fn write_fanuc(
         .map(|a| (a.letter().as_char(), a.letter().is_rotary()))
         .collect();
     letters.sort_by_key(|&(c, rotary)| (rotary, c));
-    let requests: Vec<crate::FanucRequest> = (1u32..)
+    Ok((1u32..)
         .zip(letters)
         .filter(|(_, (c, _))| axis.is_none_or(|a| a == *c))
-        .map(|(number, (letter, rotary))| crate::FanucRequest {
-            axis: crate::FanucAxis::new(letter, number, rotary),
-            interval: if rotary {
+        .map(|(number, (letter, rotary))| crate::FanucAxis::new(letter, number, rotary))
+        .collect())
+}
+
+/// The Fanuc record of axis `axis` or of every axis (numbered X, Y, Z, A, B, C as present),
+/// and its values table beside it.
+fn write_fanuc(
+    model: &MachineModel,
+    coeffs: &[f64],
+    path: &Path,
+    axis: Option<char>,
+    settings: &Settings,
+) -> Result<(Written, ConventionCard, PathBuf), CompensateError> {
+    let requests: Vec<crate::FanucRequest> = fanuc_axes(model.machine(), axis)?
+        .into_iter()
+        .map(|fanuc_axis| crate::FanucRequest {
+            axis: fanuc_axis,
+            interval: if fanuc_axis.rotary {
                 settings.spacing_deg
             } else {
                 settings.spacing_mm
             },
             layout: crate::FanucLayout::default(),
-            reversal_um: settings.reversal_um.filter(|_| !rotary),
+            reversal_um: settings.reversal_um.filter(|_| !fanuc_axis.rotary),
         })
         .collect();
     let conversions =

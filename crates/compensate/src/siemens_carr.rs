@@ -211,7 +211,7 @@ pub enum CarrError {
         field: u32,
     },
     #[error(
-        "kinematics {kind}: the offset chain does not close, {sum} = ({x_mm}, {y_mm}, {z_mm}) mm; \
+        "kinematics {kind}: the offset chain does not close, {sum} = ({x_mm:.6}, {y_mm:.6}, {z_mm:.6}) mm; \
          the manual (IM9 p. 508) closes it with {rule}"
     )]
     ChainOpen {

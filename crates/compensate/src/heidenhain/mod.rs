@@ -136,7 +136,7 @@ pub enum HeidenhainLimit {
         max: usize,
     },
     #[error(
-        "{table}: rows {row} and {next} are {step_mm} mm apart; the TNC 4xx needs 2^k × 0.1 µm \
+        "{table}: rows {row} and {next} are {step_mm:.4} mm apart; the TNC 4xx needs 2^k × 0.1 µm \
          (… 3.2768, 6.5536, 13.1072 … mm)"
     )]
     SpacingNotPowerOfTwo {
@@ -146,7 +146,7 @@ pub enum HeidenhainLimit {
         step_mm: f64,
     },
     #[error(
-        "{table}: rows {row} and {next} are {step_mm} mm apart, the first rows {expected_mm} mm; \
+        "{table}: rows {row} and {next} are {step_mm:.4} mm apart, the first rows {expected_mm:.4} mm; \
          the table must be equidistant"
     )]
     NotEquidistant {
