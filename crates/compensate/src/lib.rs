@@ -126,6 +126,25 @@
 //! identified errors these kinematics cannot hold (axis-line tilts, linear-axis errors) in
 //! comments. Conventions in the `trt` module's documentation.
 //!
+//! ## The controls' own formats
+//! Each in its module, whose documentation cites the manual pages it follows, says what the
+//! control does with the file and lists what mtcal had to assume where no public page says:
+//! - `fanuc`: Fanuc pitch error compensation (parameters 3620–3627 and the pitch data as a
+//!   parameter record, incremental corrections in detection units × magnification; the rotary
+//!   positioning table of `rotary` for rotary axes).
+//! - `siemens`: SINUMERIK 840D sl leadscrew/encoder compensation (`%_N_AX_EEC_INI`) and
+//!   sag/cross compensation (`%_N_NC_CEC_INI`), errors in mm at equidistant points.
+//! - `siemens_carr`: CYCLE800 swivel data (`$TC_CARR`) from the identified rotary-axis lines.
+//! - `heidenhain`: nonlinear axis error tables (`.COM` assigned by a `.CMA`) and
+//!   KinematicsComp's ISO 230-1 listing.
+//!
+//! Every file carries a convention card ([`ConventionCard`]: errors or corrections, sign,
+//! squareness, rotary direction, axis mapping, units, what the control will do), in its
+//! comments (ASCII) or, for formats without comments, in a file beside it. Every format but
+//! the HAL settings has a reader, and [`check_compensation`] reads a file back and checks it
+//! against its control's limits; the tests apply each control's file the way its documentation
+//! says the control does and find the modelled error cancelled at the nodes.
+//!
 //! # One file as the command line asks for it
 //! [`write_compensation`] writes any of these files ([`Compensation`]) with its
 //! [`Settings`] and says what it wrote ([`Written`]).
