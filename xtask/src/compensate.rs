@@ -52,7 +52,8 @@ pub(crate) struct ControlArgs {
     /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
     /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
     /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
-    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every linear axis), `siemens-cec`
+    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every axis, rotary axes without
+    /// limits as modulo tables), `siemens-cec`
     /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
     /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
     /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a

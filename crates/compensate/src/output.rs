@@ -4,7 +4,7 @@
 
 use crate::parameters::{ParameterFormat, ParameterValue};
 use crate::{CompensateError, GridSpec, cards};
-use mtcal_kinematics::{Machine, MachineModel};
+use mtcal_kinematics::{AxisKind, Machine, MachineModel};
 use mtcal_machine::card::ConventionCard;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -344,11 +344,31 @@ fn write_siemens_eec(
     let machine = model.machine();
     let names = crate::siemens_axis_names(machine);
     let (spacing, hold) = (settings.spacing_mm, &settings.hold_q);
+    let rotary = |a: char| {
+        let deg = settings.spacing_deg;
+        crate::siemens_eec_rotary_table(model, coeffs, a, deg, hold, &names)
+    };
+    let is_rotary = |a: char| {
+        machine
+            .axis_index(a)
+            .is_some_and(|i| machine.axes()[i].kind() == AxisKind::Rotary)
+    };
     let tables = match axis {
+        Some(a) if is_rotary(a) => vec![rotary(a)?],
         Some(a) => vec![crate::siemens_eec_table(
             model, coeffs, a, spacing, hold, &names,
         )?],
-        None => crate::siemens_eec_tables(model, coeffs, spacing, hold, &names)?,
+        None => {
+            let mut tables = crate::siemens_eec_tables(model, coeffs, spacing, hold, &names)?;
+            for a in machine
+                .axes()
+                .iter()
+                .filter(|a| a.kind() == AxisKind::Rotary)
+            {
+                tables.push(rotary(a.letter().as_char())?);
+            }
+            tables
+        }
     };
     let card = crate::eec_card(&tables, &names);
     let note = crate::siemens_note(machine, hold);
@@ -715,6 +735,40 @@ mod tests {
             exported.written,
             Written::ControlTables { tables: 2, .. }
         ));
+    }
+
+    /// A rotary axis without limits gets a modulo table over 0…360° whose ends are one value;
+    /// a limited one a plain table.
+    #[test]
+    fn siemens_rotary_axes_get_their_positioning_tables() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, mut coeffs) = model("CAFYXZ");
+        for (k, c) in coeffs.iter_mut().enumerate() {
+            *c = 2e-6 * ((k as f64) * 1.3).sin();
+        }
+        let mut s = settings(&model);
+        s.spacing_deg = 25.0;
+        let path = dir.path().join("eec.ini");
+        let what = Compensation::SiemensEec { axis: None };
+        write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let eec = crate::read_siemens_eec(&path, &s.siemens).unwrap();
+        let c = eec.iter().find(|t| t.axis == "C1").expect("a table of C");
+        assert!(c.is_modulo);
+        assert_eq!(c.positions.first(), Some(&0.0));
+        assert_eq!(c.positions.last(), Some(&360.0));
+        assert_eq!(c.values.first(), c.values.last());
+        assert!(c.values.iter().any(|v| v.abs() > 1e-6), "{:?}", c.values);
+        let a = eec.iter().find(|t| t.axis == "A1").expect("a table of A");
+        assert!(!a.is_modulo);
+        // The value is the error: the control's correction −value turns C onto the command.
+        let table = crate::rotary_table(&model, &coeffs, 'C', 360.0 / 15.0, &s.hold_q).unwrap();
+        for (p, v) in c.positions.iter().zip(&c.values) {
+            let expected_deg = (-table.correction_at_urad(*p) * 1e-6).to_degrees();
+            assert!(
+                (v - expected_deg).abs() < 1e-6,
+                "{p}: {v} vs {expected_deg}"
+            );
+        }
     }
 
     #[test]

@@ -134,6 +134,48 @@ pub fn siemens_eec_table(
     Ok(EecTable::new(control, positions, values, false))
 }
 
+/// The EEC table of rotary axis `axis`: its angular positioning error about its own positive
+/// turn direction (degrees; the error `−compensation` of [`crate::rotary_table`]) at equidistant
+/// points, the largest step not above `spacing_deg` that divides the range (0…360° for an axis
+/// without limits, then a modulo table whose end values are the same point's), the other axes
+/// at `hold_q`.
+pub fn siemens_eec_rotary_table(
+    model: &MachineModel,
+    coeffs: &[f64],
+    axis: char,
+    spacing_deg: f64,
+    hold_q: &[f64],
+    names: &[AxisMap],
+) -> Result<EecTable, CompensateError> {
+    check_inputs(model, coeffs, hold_q)?;
+    let (i, lo_deg, hi_deg, full_turn) = crate::rotary::rotary_axis(model.machine(), axis)?;
+    let control = control_name(names, axis)?;
+    if !(spacing_deg.is_finite() && spacing_deg > 0.0) {
+        return Err(CompensateError::BadSpacing {
+            spacing_mm: spacing_deg,
+        });
+    }
+    let steps = ((hi_deg - lo_deg) / spacing_deg - 1e-9).ceil().max(1.0) as usize;
+    let step = (hi_deg - lo_deg) / steps as f64;
+    let positions: Vec<f64> = (0..=steps).map(|k| lo_deg + step * k as f64).collect();
+    let table = crate::rotary::rotary_table_at(model, coeffs, i, positions, hold_q, full_turn);
+    let mut values: Vec<f64> = table
+        .compensation_urad
+        .iter()
+        .map(|c| (-c / crate::UM).to_degrees())
+        .collect();
+    if full_turn {
+        // 0° and 360° are one position: one value, so the modulo table closes exactly.
+        values[steps] = values[0];
+    }
+    Ok(EecTable::new(
+        control,
+        table.positions_deg,
+        values,
+        full_turn,
+    ))
+}
+
 /// [`siemens_eec_table`] of every linear axis, in the machine's axis order.
 pub fn siemens_eec_tables(
     model: &MachineModel,

@@ -85,7 +85,8 @@ pub use cec::{
 };
 pub use eec::{
     EEC_FILE_NAME, EecTable, eec_card, eec_from_pitch, read_siemens_eec, read_siemens_eec_str,
-    siemens_eec_table, siemens_eec_tables, siemens_eec_text, write_siemens_eec,
+    siemens_eec_rotary_table, siemens_eec_table, siemens_eec_tables, siemens_eec_text,
+    write_siemens_eec,
 };
 
 use crate::text::Source;
