@@ -369,7 +369,7 @@ fn com_validators_refuse_what_the_control_refuses() {
         "{e}"
     );
     let e = limit_error(&one(com_table("Y.COM", lattice(20, 5.0), 0.0)), &tnc);
-    assert!(e.contains("5 mm apart") && e.contains("2^k"), "{e}");
+    assert!(e.contains("5.0000 mm apart") && e.contains("2^k"), "{e}");
     validate_heidenhain_com(
         &one(com_table("Y.COM", lattice(20, 5.0), 0.0)),
         &ComLimits::manualplus_620(),
