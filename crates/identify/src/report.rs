@@ -719,7 +719,7 @@ fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined
         .filter(|&i| solution.identified[i] && solution.sigma[i].is_some_and(|s| s > 0.0))
         .collect();
     let specs = crate::param_specs_from(study, &solution.x);
-    let mut out = Vec::new();
+    let mut out: Vec<WeaklyDetermined> = Vec::new();
     // Machine and set-up parameters (an effect's shape is judged by the search).
     for &i in ids.iter().filter(|&&i| i < study.layout().effect_offset()) {
         let (Some(sigma), Some(scale)) = (solution.sigma[i], specs[i].scale) else {
@@ -735,17 +735,21 @@ fn weakly_determined(study: &Study, solution: &Solution) -> Vec<WeaklyDetermined
             && !held
         {
             // Whatever the prior's width, the runs did not narrow it: the value is the
-            // prior's centre and the interval its width, not an identification.
-            out.push(WeaklyDetermined {
-                parameters: vec![info.name],
-                why: format!(
-                    "its 95 % interval, ±{:.4} {unit}, is its prior's (±{:.4} {unit}): these \
-                     runs do not see it",
-                    u95 * info.per_si,
-                    K95 * p * info.per_si,
-                    unit = info.unit,
-                ),
-            });
+            // prior's centre and the interval its width, not an identification. One entry per
+            // prior width, so six beam tilts make one line.
+            let why = format!(
+                "their 95 % intervals are their prior's (±{:.4} {unit}): these runs do not see \
+                 them",
+                K95 * p * info.per_si,
+                unit = info.unit,
+            );
+            match out.iter_mut().find(|w| w.why == why) {
+                Some(w) => w.parameters.push(info.name),
+                None => out.push(WeaklyDetermined {
+                    parameters: vec![info.name],
+                    why,
+                }),
+            }
             continue;
         }
         if u95 <= WEAK_SHARE_OF_RANGE * scale {
