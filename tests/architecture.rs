@@ -53,6 +53,7 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-tolerance",
         "mtcal-report",
         "mtcal-import",
+        "mtcal-acceptance",
     ],
     // The identification and the simulator, each on its own (the simulator needs the
     // plugins and the effects, so it cannot sit with them).

@@ -1,5 +1,6 @@
 //! `cargo xtask identify`: a session's errors identified ([`mtcal_identify::pipeline`]) and
-//! printed, with the files asked for.
+//! printed, with the files asked for; with `--acceptance FILE`, checked against a tolerance
+//! file ([`mtcal_acceptance`]).
 
 use anyhow::Result;
 use mtcal_identify::pipeline::{PipelineOptions, Prepared};
@@ -45,17 +46,30 @@ pub(crate) struct IdentifyArgs {
     /// URDF): the parameters they determine, without those they cannot.
     #[arg(long, value_name = "FILE")]
     suggest_model: Option<PathBuf>,
+    /// Check the result against a tolerance file (mtcal.acceptance/1, docs/ACCEPTANCE.md):
+    /// ISO 230-2 values per axis, ISO 230-4 G per plane, identified parameters; each value
+    /// ± U decided by ISO 14253-1 (pass, fail or cannot decide), on the screen, in the JSON
+    /// (`acceptance`) and in the report.
+    #[arg(long, value_name = "FILE")]
+    acceptance: Option<PathBuf>,
 }
 
 /// `identify`: what was loaded, then (after the fit or the search) the summary and the
 /// information account, what another session would add, and the files asked for.
 pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
+    // The tolerance file first: a mistake in it is told before the session is read.
+    let acceptance = args
+        .acceptance
+        .as_deref()
+        .map(mtcal_acceptance::Tolerances::read)
+        .transpose()?;
     let options = PipelineOptions {
         solver: mtcal_solve::Options {
             threads: args.threads,
             ..Default::default()
         },
         search: args.search,
+        acceptance,
     };
     let prepared = Prepared::load(&args.session, options)?;
     write!(out, "{}", prepared.header())?;

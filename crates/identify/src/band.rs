@@ -127,6 +127,7 @@ impl crate::report::Identification {
                 name: "95 % prediction band (mean, model uncertainty)".into(),
                 value: mean * per_si,
                 unit: channels[0].unit.as_str().to_string(),
+                ..Default::default()
             });
             if run.readings.is_some() {
                 // RMS of (measured − predicted)/σ over every channel.
@@ -145,6 +146,7 @@ impl crate::report::Identification {
                     name: "prediction error over the stated noise (rms)".into(),
                     value: ratio,
                     unit: "".into(),
+                    ..Default::default()
                 });
             }
         }

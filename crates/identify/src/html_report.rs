@@ -59,7 +59,31 @@ pub fn report(
         parameters: parameters(study, solution, id),
         identifiability: identifiability(id),
         search: search(id),
+        acceptance: id.acceptance.as_ref().map(acceptance),
     })
+}
+
+/// The verdicts against the tolerance file, as the page's table.
+fn acceptance(a: &mtcal_acceptance::Acceptance) -> rep::AcceptanceSection {
+    rep::AcceptanceSection {
+        file: a.file.clone(),
+        rule: a.rule_text(),
+        verdict: a.verdict.as_str().to_string(),
+        rows: a
+            .checks
+            .iter()
+            .map(|c| rep::AcceptanceRow {
+                item: c.item.clone(),
+                run: c.run.clone().unwrap_or_default(),
+                value: c.value,
+                uncertainty: c.uncertainty,
+                tolerance: c.zone_text(),
+                unit: c.unit.clone(),
+                verdict: c.verdict.as_str().to_string(),
+                note: c.note.clone().unwrap_or_default(),
+            })
+            .collect(),
+    }
 }
 
 fn session_name(session: &Path) -> String {

@@ -22,6 +22,7 @@
 //!   cannot determine stay in the fit with this prior standard deviation about their start
 //!   ([`base`]).
 
+pub mod acceptance;
 pub mod band;
 pub mod base;
 mod blocks;
@@ -118,6 +119,9 @@ pub enum IdentifyError {
     MapGrid(#[source] mtcal_kinematics::volmap::GridError),
     #[error("cannot write the report")]
     Report(#[source] mtcal_report::ReportError),
+    /// The tolerance file of `--acceptance` (unreadable, or wrong at a place in it).
+    #[error(transparent)]
+    Acceptance(#[from] mtcal_acceptance::AcceptanceError),
 }
 
 // Written out, not `#[from]`: the message shows the cause, so it is not also the source.

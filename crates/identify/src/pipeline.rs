@@ -1,7 +1,8 @@
 //! The identification as `mtcal identify` runs it, from the session folder to everything the
 //! command prints and writes: the parameters the runs cannot determine held ([`crate::base`]),
 //! the fit or the physics search ([`crate::search`]), prediction bands, the information account
-//! ([`crate::information`]); then, on request, what another session's runs would add, the
+//! ([`crate::information`]); the verdicts against a tolerance file when one is given
+//! ([`crate::acceptance`]); then, on request, what another session's runs would add, the
 //! suggested error model, the JSON, the validation runs' predictions and the HTML report
 //! ([`crate::html_report`]).
 //!
@@ -92,6 +93,10 @@ pub struct PipelineOptions {
     pub solver: Options,
     /// Run the physics search after the fit: the effects the model left out.
     pub search: bool,
+    /// Check the result against these tolerances (`--acceptance FILE`): its `[parameters]`
+    /// names are checked against the session's model at [`Prepared::load`], the verdicts
+    /// computed at the end of [`Prepared::run`].
+    pub acceptance: Option<mtcal_acceptance::Tolerances>,
 }
 
 /// A session loaded and reduced to the parameters its runs can determine (without
@@ -106,9 +111,14 @@ pub struct Prepared {
 }
 
 impl Prepared {
-    /// Loads `session` and holds what its runs cannot determine ([`identifiable_study`]).
+    /// Loads `session` and holds what its runs cannot determine ([`identifiable_study`]);
+    /// the tolerances' parameter names must be the model's.
     pub fn load(session: &Path, options: PipelineOptions) -> Result<Self, IdentifyError> {
         let (study, base) = identifiable_study(Study::load(session)?, &options.solver)?;
+        if let Some(tolerances) = &options.acceptance {
+            let units = crate::acceptance::model_units(&study, base.as_ref());
+            tolerances.check_parameters(&|name| units.get(name).cloned())?;
+        }
         Ok(Self {
             session: session.to_path_buf(),
             study,
@@ -173,6 +183,10 @@ impl Prepared {
                 .retain(|p| !base.held.iter().any(|h| h.name == p.name));
         }
         identification.information = Some(account);
+        if let Some(tolerances) = &options.acceptance {
+            let evidence = crate::acceptance::evidence(&study, &solution, &identification);
+            identification.acceptance = Some(mtcal_acceptance::evaluate(tolerances, &evidence));
+        }
         Ok(Outcome {
             session,
             study,

@@ -106,11 +106,19 @@ pub struct RunFit {
     pub metrics: Vec<MetricValue>,
 }
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
 pub struct MetricValue {
     pub name: String,
     pub value: f64,
     pub unit: String,
+    /// The instrument's expanded uncertainty of `value` (k = 2, in `unit`), if it gives one;
+    /// not in the JSON's run metrics (acceptance shows it with its verdicts).
+    #[serde(skip)]
+    pub u95: Option<f64>,
+    /// What the value is about (an axis letter, a plane; `mtcal_instrument::Metric::subject`);
+    /// not in the JSON.
+    #[serde(skip)]
+    pub subject: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -194,6 +202,10 @@ pub struct Identification {
     /// What the parameters' numbers mean: errors, ISO 230-1 signs, the squareness definition,
     /// rotary direction, units ([`mtcal_machine::card::ConventionCard::mtcal_parameters`]).
     pub conventions: mtcal_machine::card::ConventionCard,
+    /// The verdicts against a tolerance file (`identify --acceptance FILE`,
+    /// [`mtcal_acceptance`]); in the JSON, last, only then.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub acceptance: Option<mtcal_acceptance::Acceptance>,
     /// The solution vector (SI), for predictions; not written to the JSON.
     #[serde(skip)]
     pub x: Vec<f64>,
@@ -306,6 +318,7 @@ impl Identification {
             conventions: mtcal_machine::card::ConventionCard::mtcal_parameters(
                 study.model.machine(),
             ),
+            acceptance: None,
             x,
         };
         id.verdict = id.verdict();
@@ -509,6 +522,9 @@ impl Identification {
             for w in &self.weakly_determined {
                 let _ = writeln!(s, "  {}: {}", w.parameters.join(", "), w.why);
             }
+        }
+        if let Some(acceptance) = &self.acceptance {
+            s.push_str(&acceptance.summary());
         }
         if self.mismatch.detected {
             let _ = writeln!(
@@ -866,6 +882,8 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
             name: m.name,
             value: m.value * m.unit.per_si(),
             unit: m.unit.as_str().to_string(),
+            u95: m.u95.map(|u| u * m.unit.per_si()),
+            subject: m.subject,
         })
         .collect();
     RunFit {
@@ -878,8 +896,18 @@ fn run_fit(study: &Study, r: usize, pred: &[f64]) -> RunFit {
 }
 
 /// Curves of the estimated multi-coefficient component errors whose coefficients are all
-/// identified, with 95 % bands from the covariance.
+/// identified, with 95 % bands from the covariance, at [`CURVE_SAMPLES`] positions.
 fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
+    component_curves_sampled(study, solution, CURVE_SAMPLES)
+}
+
+/// [`component_curves`] at `samples` (≥ 2) positions evenly over each stroke, its ends
+/// included.
+pub(crate) fn component_curves_sampled(
+    study: &Study,
+    solution: &Solution,
+    samples: usize,
+) -> Vec<ComponentCurve> {
     let model = &study.model;
     let pos: Vec<Option<usize>> = {
         let mut p = vec![None; model.n_coeffs()];
@@ -903,9 +931,9 @@ fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
             .unwrap_or_else(|| mtcal_kinematics::model::default_stroke(model.machine(), *axis));
         let rotary = model.machine().axes()[*axis].kind() == mtcal_kinematics::AxisKind::Rotary;
         let mut phi = vec![0.0; param.len];
-        let mut samples = Vec::with_capacity(CURVE_SAMPLES);
-        for s in 0..CURVE_SAMPLES {
-            let q = lo + (hi - lo) * s as f64 / (CURVE_SAMPLES - 1) as f64;
+        let mut points = Vec::with_capacity(samples);
+        for s in 0..samples {
+            let q = lo + (hi - lo) * s as f64 / (samples - 1) as f64;
             basis.eval(q, &mut phi);
             let value: f64 = phi
                 .iter()
@@ -919,11 +947,11 @@ fn component_curves(study: &Study, solution: &Solution) -> Vec<ComponentCurve> {
                 }
             }
             let position = if rotary { q.to_degrees() } else { q * 1e3 };
-            samples.push([position, value * 1e6, K95 * var.max(0.0).sqrt() * 1e6]);
+            points.push([position, value * 1e6, K95 * var.max(0.0).sqrt() * 1e6]);
         }
         out.push(ComponentCurve {
             name: param.name.to_string(),
-            samples,
+            samples: points,
         });
     }
     out

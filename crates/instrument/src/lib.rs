@@ -378,6 +378,39 @@ pub struct Metric {
     /// SI.
     pub value: f64,
     pub unit: Unit,
+    /// The expanded uncertainty `U = k·u` of `value` with coverage factor `k = 2` (about 95 %),
+    /// SI, from the instrument's own uncertainty budget (its crate doc says which terms);
+    /// `None` when the instrument gives none (acceptance then falls back to the simple rule).
+    pub u95: Option<f64>,
+    /// What the value is about, for acceptance against a standard's tolerances: the axis
+    /// letter of an ISO 230-2 evaluation (`X`), the plane of an ISO 230-4 circle (`XY`);
+    /// `None` when it is about nothing a tolerance names (a diagonal, a plate).
+    pub subject: Option<String>,
+}
+
+impl Metric {
+    /// A metric without uncertainty or subject.
+    pub fn new(name: impl Into<String>, value: f64, unit: Unit) -> Self {
+        Self {
+            name: name.into(),
+            value,
+            unit,
+            u95: None,
+            subject: None,
+        }
+    }
+
+    /// With the expanded uncertainty `u95` (k = 2, SI).
+    pub fn with_u95(mut self, u95: f64) -> Self {
+        self.u95 = Some(u95);
+        self
+    }
+
+    /// About `subject` (an axis letter, a plane).
+    pub fn about(mut self, subject: impl Into<String>) -> Self {
+        self.subject = Some(subject.into());
+        self
+    }
 }
 
 inventory::collect!(InstrumentPlugin);

@@ -14,6 +14,9 @@
 //! lays out the text itself).
 //! - `summary` — session, machine, fit statistics, and every run's RMS (before and after the
 //!   physics search when it ran).
+//! - `acceptance` — only when the identification was checked against a tolerance file: the
+//!   decision rule, the overall verdict and a table of every check (value ± U, tolerance,
+//!   verdict, why); absent otherwise, so the page is as before.
 //! - `ballbar` — one polar plot per ball-bar circle run: the bar-length deviation `dr` around the
 //!   commanded angle, measured and as the identified model predicts it (and the model before the
 //!   search), magnified about a reference circle; the ISO 230-4 results in the caption.
@@ -77,6 +80,41 @@ pub struct Report {
     pub identifiability: Identifiability,
     /// `None` when the physics search did not run.
     pub search: Option<SearchOutcome>,
+    /// `None` without a tolerance file: the page then has no acceptance section.
+    pub acceptance: Option<AcceptanceSection>,
+}
+
+/// The verdicts against a tolerance file.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AcceptanceSection {
+    /// The tolerance file as the user named it.
+    pub file: String,
+    /// The decision rule in words.
+    pub rule: String,
+    /// `pass`, `fail` or `cannot decide`.
+    pub verdict: String,
+    pub rows: Vec<AcceptanceRow>,
+}
+
+/// One check of an [`AcceptanceSection`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AcceptanceRow {
+    /// What is checked, e.g. `E (ISO 230-2) X`.
+    pub item: String,
+    /// The run it was measured in (empty for a parameter).
+    pub run: String,
+    /// `None` when there is no value (the data cannot separate it, no run measured it).
+    pub value: Option<f64>,
+    /// The expanded uncertainty the rule used.
+    pub uncertainty: Option<f64>,
+    /// The tolerance zone without its unit, e.g. `≤ 12`, `|·| ≤ 20`.
+    pub tolerance: String,
+    /// `um`, `urad`.
+    pub unit: String,
+    /// `pass`, `fail` or `cannot decide`.
+    pub verdict: String,
+    /// Why, where, or which rule (may be empty).
+    pub note: String,
 }
 
 /// The header facts and the run table.

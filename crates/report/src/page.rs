@@ -66,6 +66,10 @@ const READY: &str = "
 })();
 ";
 
+/// The acceptance section's id and heading; on the page after the summary, only when the
+/// report has one.
+pub(crate) const ACCEPTANCE: (&str, &str) = ("acceptance", "Acceptance");
+
 pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
     let bodies = [
         summary(r),
@@ -91,11 +95,15 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
         escape(&r.summary.session),
         escape(&r.summary.machine),
     );
-    for (id, heading) in SECTIONS {
+    let mut sections: Vec<((&str, &str), String)> = SECTIONS.into_iter().zip(bodies).collect();
+    if let Some(a) = &r.acceptance {
+        sections.insert(1, (ACCEPTANCE, acceptance(a)));
+    }
+    for ((id, heading), _) in &sections {
         let _ = write!(h, "<a href=\"#{id}\">{heading}</a>");
     }
     h.push_str("</nav>\n<main>\n");
-    for ((id, heading), body) in SECTIONS.iter().zip(bodies) {
+    for ((id, heading), body) in sections {
         let _ = write!(
             h,
             "<section id=\"{id}\">\n<h2>{heading}</h2>\n{body}</section>\n"
@@ -165,6 +173,58 @@ fn summary(r: &Report) -> String {
     }
     h.push_str("</table>\n");
     h
+}
+
+fn acceptance(a: &crate::AcceptanceSection) -> String {
+    let mut h = format!(
+        "<p>Against <code>{}</code> ({}): <b class=\"verdict\" data-verdict=\"{}\" \
+         style=\"color:{}\">{}</b>.</p>\n",
+        escape(&a.file),
+        escape(&a.rule),
+        escape(&a.verdict),
+        verdict_colour(&a.verdict),
+        escape(&a.verdict.to_uppercase())
+    );
+    if a.rows.is_empty() {
+        return h;
+    }
+    h.push_str(
+        "<table id=\"acceptance-table\">\n<tr><th>checked</th><th>run</th><th>value</th>\
+         <th>± U</th><th>tolerance</th><th>verdict</th><th>why</th></tr>\n",
+    );
+    for row in &a.rows {
+        let value = match (row.value, row.uncertainty) {
+            (Some(v), Some(u)) => {
+                let (v, u) = with_interval(v, u);
+                format!("<td class=\"n\">{v}</td><td class=\"n\">{u}</td>")
+            }
+            (Some(v), None) => format!("<td class=\"n\">{}</td><td></td>", num(v, 3)),
+            (None, _) => "<td class=\"nid\" colspan=\"2\">no value</td>".to_string(),
+        };
+        let _ = writeln!(
+            h,
+            "<tr data-verdict=\"{verdict}\"><td>{}</td><td>{}</td>{value}<td>{} {}</td>\
+             <td class=\"verdict\" style=\"color:{}\">{verdict}</td><td>{}</td></tr>",
+            escape(&row.item),
+            escape(&row.run),
+            escape(&row.tolerance),
+            escape(display_unit(&row.unit)),
+            verdict_colour(&row.verdict),
+            escape(&row.note),
+            verdict = escape(&row.verdict),
+        );
+    }
+    h.push_str("</table>\n");
+    h
+}
+
+/// Green for a pass, red for a fail, amber for what cannot be decided.
+fn verdict_colour(verdict: &str) -> &'static str {
+    match verdict {
+        "pass" => "#1a7f37",
+        "fail" => "#b00020",
+        _ => "#9a6700",
+    }
 }
 
 fn ballbar(r: &Report) -> Result<String, ReportError> {

@@ -194,7 +194,75 @@ fn sample() -> Report {
             }],
             not_kept: vec!["servo-lag X: another candidate predicts better".into()],
         }),
+        acceptance: None,
     }
+}
+
+fn acceptance_section() -> AcceptanceSection {
+    let row =
+        |item: &str, run: &str, value: Option<f64>, verdict: &str, note: &str| AcceptanceRow {
+            item: item.into(),
+            run: run.into(),
+            value,
+            uncertainty: value.map(|_| 1.0234),
+            tolerance: "≤ 12".into(),
+            unit: "um".into(),
+            verdict: verdict.into(),
+            note: note.into(),
+        };
+    AcceptanceSection {
+        file: "acc <1>.toml".into(),
+        rule: "ISO 14253-1".into(),
+        verdict: "fail".into(),
+        rows: vec![
+            row("E (ISO 230-2) X", "laser-x", Some(8.6391), "pass", ""),
+            row("G (ISO 230-4) XY", "bb", Some(14.5), "fail", ""),
+            row(
+                "EZ0A",
+                "",
+                None,
+                "cannot decide",
+                "only their sum is observed <z>",
+            ),
+        ],
+    }
+}
+
+#[test]
+fn the_acceptance_section_is_there_only_with_a_tolerance_file() {
+    let plain = render(&sample()).unwrap();
+    assert!(!plain.contains("id=\"acceptance\"") && !plain.contains("#acceptance"));
+    let mut r = sample();
+    r.acceptance = Some(acceptance_section());
+    let page = render(&r).unwrap();
+    // After the summary, before the ball-bar circles, in the contents too.
+    let at = |id: &str| page.find(&format!("<section id=\"{id}\">")).unwrap();
+    assert!(at("summary") < at("acceptance") && at("acceptance") < at("ballbar"));
+    assert!(page.contains("<a href=\"#acceptance\">Acceptance</a>"));
+    let s = section(&page, "acceptance");
+    assert!(s.contains("<code>acc &lt;1&gt;.toml</code>"), "{s}");
+    assert!(
+        s.contains("data-verdict=\"fail\" style=\"color:#b00020\">FAIL</b>"),
+        "{s}"
+    );
+    assert_eq!(s.matches("<tr data-verdict=").count(), 3);
+    // Values rounded to U's second significant digit; no number where there is no value.
+    assert!(
+        s.contains("<td class=\"n\">8.6</td><td class=\"n\">1.0</td>"),
+        "{s}"
+    );
+    assert!(
+        s.contains("<td class=\"nid\" colspan=\"2\">no value</td>"),
+        "{s}"
+    );
+    assert!(s.contains("<td>≤ 12 µm</td>"), "{s}");
+    assert!(s.contains("only their sum is observed &lt;z&gt;"), "{s}");
+    // Everything else is as without it.
+    let start = at("acceptance");
+    let end = start + page[start..].find("</section>\n").unwrap() + "</section>\n".len();
+    let without = format!("{}{}", &page[..start], &page[end..])
+        .replace("<a href=\"#acceptance\">Acceptance</a>", "");
+    assert_eq!(without, plain);
 }
 
 /// The text between `<section id="id">` and its `</section>`.

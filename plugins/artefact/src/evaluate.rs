@@ -65,11 +65,7 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
             .iter()
             .map(|r| r[0].hypot(r[1]))
             .fold(0.0, f64::max);
-        let metric = |what: &str, value: f64, unit: Unit| Metric {
-            name: name(what),
-            value,
-            unit,
-        };
+        let metric = |what: &str, value: f64, unit: Unit| Metric::new(name(what), value, unit);
         out.push(metric(
             "similarity-fit RMS deviation",
             sim.fit.radial_rms(None, 0) * 1e-3,

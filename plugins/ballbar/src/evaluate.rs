@@ -42,29 +42,112 @@ pub fn circular_deviation(angles_rad: &[f64], dr_m: &[f64]) -> CircularDeviation
             radius_offset: 0.0,
         };
     }
-    let mut ata = Matrix3::zeros();
-    let mut atb = Vector3::zeros();
-    for (&phi, &dr) in angles_rad.iter().zip(dr_m) {
-        let row = Vector3::new(1.0, phi.cos(), phi.sin());
-        ata += row * row.transpose();
-        atb += row * dr;
-    }
-    let n = angles_rad.len() as f64;
-    let fit = (angles_rad.len() >= 3 && ata.determinant() > 1e-9 * n * n * n)
-        .then(|| ata.cholesky().map(|c| c.solve(&atb)))
-        .flatten()
-        .unwrap_or_else(|| Vector3::new(dr_m.iter().sum::<f64>() / n, 0.0, 0.0));
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (&phi, &dr) in angles_rad.iter().zip(dr_m) {
-        let e = dr - fit[0] - fit[1] * phi.cos() - fit[2] * phi.sin();
-        lo = lo.min(e);
-        hi = hi.max(e);
-    }
+    let circle = LeastSquaresCircle::fit(angles_rad, dr_m);
+    let (lo, hi) = circle.extremes(angles_rad, dr_m);
     CircularDeviation {
-        g: hi - lo,
-        centre_a: fit[1],
-        centre_b: fit[2],
-        radius_offset: fit[0],
+        g: hi.1 - lo.1,
+        centre_a: circle.fit[1],
+        centre_b: circle.fit[2],
+        radius_offset: circle.fit[0],
+    }
+}
+
+/// The expanded uncertainty (k = 2) of the circular deviation G of [`circular_deviation`],
+/// each reading having the independent noise `sigma_m` (m; the set-up's `sigma_um`).
+///
+/// G is the difference of two residuals `e_hi − e_lo` of the least-squares circle, so its
+/// variance is `σ²·((1 − h_hh) + (1 − h_ll) + 2·h_hl)` with `h` the hat matrix of the circle
+/// fit (`h_ab = x_aᵀ (XᵀX)⁻¹ x_b`, `x = (1, cos φ, sin φ)`; for a full circle of `n` evenly
+/// spaced readings with the extremes opposite, `2 − 8/n`). One revolution has no repeated
+/// readings, so the repeatability of the machine cannot be separated from its circular
+/// deviation: σ is the only random term. Which two readings are the extremes is taken as found
+/// (docs/ACCEPTANCE.md: where several are within the noise of the extreme, G is biased high).
+///
+/// # Panics
+/// If the slices differ in length.
+pub fn circular_deviation_uncertainty(angles_rad: &[f64], dr_m: &[f64], sigma_m: f64) -> f64 {
+    assert_eq!(angles_rad.len(), dr_m.len(), "one reading per angle");
+    if angles_rad.is_empty() {
+        return 0.0;
+    }
+    let circle = LeastSquaresCircle::fit(angles_rad, dr_m);
+    let ((lo, _), (hi, _)) = circle.extremes(angles_rad, dr_m);
+    if lo == hi {
+        // Every residual equal: G is zero whatever the noise moves them by together.
+        return 0.0;
+    }
+    let h = |a: usize, b: usize| circle.hat(angles_rad, a, b);
+    let variance = (1.0 - h(hi, hi)) + (1.0 - h(lo, lo)) + 2.0 * h(hi, lo);
+    2.0 * sigma_m * variance.max(0.0).sqrt()
+}
+
+/// The linearised least-squares circle `dr ≈ R + a·cos φ + b·sin φ` of [`circular_deviation`].
+struct LeastSquaresCircle {
+    /// `(R, a, b)`.
+    fit: Vector3<f64>,
+    /// `(XᵀX)⁻¹` when the centre was fitted; `None` when only the mean was (too few or
+    /// degenerate angles).
+    inverse: Option<Matrix3<f64>>,
+    n: usize,
+}
+
+impl LeastSquaresCircle {
+    fn fit(angles_rad: &[f64], dr_m: &[f64]) -> Self {
+        let mut ata = Matrix3::zeros();
+        let mut atb = Vector3::zeros();
+        for (&phi, &dr) in angles_rad.iter().zip(dr_m) {
+            let row = Vector3::new(1.0, phi.cos(), phi.sin());
+            ata += row * row.transpose();
+            atb += row * dr;
+        }
+        let count = angles_rad.len();
+        let n = count as f64;
+        let cholesky = (count >= 3 && ata.determinant() > 1e-9 * n * n * n)
+            .then(|| ata.cholesky())
+            .flatten();
+        match cholesky {
+            Some(c) => Self {
+                fit: c.solve(&atb),
+                inverse: Some(c.inverse()),
+                n: count,
+            },
+            None => Self {
+                fit: Vector3::new(dr_m.iter().sum::<f64>() / n, 0.0, 0.0),
+                inverse: None,
+                n: count,
+            },
+        }
+    }
+
+    fn residual(&self, phi: f64, dr: f64) -> f64 {
+        dr - self.fit[0] - self.fit[1] * phi.cos() - self.fit[2] * phi.sin()
+    }
+
+    /// The smallest and largest residual with their indices (the first on ties).
+    fn extremes(&self, angles_rad: &[f64], dr_m: &[f64]) -> ((usize, f64), (usize, f64)) {
+        let mut lo = (0, f64::INFINITY);
+        let mut hi = (0, f64::NEG_INFINITY);
+        for (k, (&phi, &dr)) in angles_rad.iter().zip(dr_m).enumerate() {
+            let e = self.residual(phi, dr);
+            if e < lo.1 {
+                lo = (k, e);
+            }
+            if e > hi.1 {
+                hi = (k, e);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The hat matrix element `h_ab` of the fit.
+    fn hat(&self, angles_rad: &[f64], a: usize, b: usize) -> f64 {
+        match &self.inverse {
+            Some(inv) => {
+                let x = |k: usize| Vector3::new(1.0, angles_rad[k].cos(), angles_rad[k].sin());
+                x(a).dot(&(inv * x(b)))
+            }
+            None => 1.0 / self.n as f64,
+        }
     }
 }
 
@@ -166,9 +249,11 @@ fn wrap_pi(x: f64) -> f64 {
     if w > std::f64::consts::PI { w - TAU } else { w }
 }
 
-/// The plugin's `evaluate`: for a circle run, `circular deviation G (ISO 230-4)`, the fitted
-/// centre offsets along the plane's two axes and the radius offset (all µm); for any other run
-/// (rotary tests, unreadable set-up) nothing.
+/// The plugin's `evaluate`: for a circle run, `circular deviation G (ISO 230-4)` with its
+/// expanded uncertainty ([`circular_deviation_uncertainty`], the set-up's `sigma_um`), the
+/// fitted centre offsets along the plane's two axes and the radius offset (all µm), each about
+/// the circle's plane (`XY`, [`Metric::subject`]); for any other run (rotary tests, unreadable
+/// set-up) nothing.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
     let Ok(config) = BallbarConfig::from_table(ev.setup) else {
         return Vec::new();
@@ -188,15 +273,12 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
         .map(|&k| ev.readings[k * channels])
         .collect();
     let cd = circular_deviation(&angles, &dr);
+    let g_u95 = circular_deviation_uncertainty(&angles, &dr, config.sigma_um * 1e-6);
     let name = run.plane.name();
     let (a, b) = (&name[..1], &name[1..]);
-    let um = |name: String, value: f64| Metric {
-        name,
-        value,
-        unit: Unit::Um,
-    };
+    let um = |what: String, value: f64| Metric::new(what, value, Unit::Um).about(name);
     vec![
-        um("circular deviation G (ISO 230-4)".into(), cd.g),
+        um("circular deviation G (ISO 230-4)".into(), cd.g).with_u95(g_u95),
         um(
             format!("centre offset {a} (least-squares circle)"),
             cd.centre_a,

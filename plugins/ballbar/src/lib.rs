@@ -66,7 +66,9 @@
 //! # Evaluation
 //! [`evaluate()`] recognises circle runs from their commanded positions and reports the ISO
 //! 230-4 circular deviation G after least-squares centre removal
-//! ([`circular_deviation`]), with the fitted centre offsets and radius offset. Rotary runs get
+//! ([`circular_deviation`]), with the fitted centre offsets and radius offset, all about the
+//! circle's plane (the metric's `subject`, `XY`), and G's expanded uncertainty (k = 2) from the
+//! reading noise `sigma_um` ([`circular_deviation_uncertainty`]). Rotary runs get
 //! no evaluation. [`bidirectional_circular_deviation`] gives G(b) from a ccw and a cw run.
 //! [`polar_view()`] gives the report a circle run's plane, radius and commanded angles, so it
 //! draws the run as a polar plot.
@@ -78,7 +80,7 @@ mod setup;
 
 pub use evaluate::{
     Bidirectional, CircleRun, CircularDeviation, bidirectional_circular_deviation,
-    circular_deviation, evaluate, polar_view, recognise_circle,
+    circular_deviation, circular_deviation_uncertainty, evaluate, polar_view, recognise_circle,
 };
 pub use fixture::fixture;
 pub use path::{

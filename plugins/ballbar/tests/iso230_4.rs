@@ -3,8 +3,11 @@
 
 use mtcal_ballbar::{
     BallbarConfig, BallbarSetup, bidirectional_circular_deviation, circular_deviation,
+    circular_deviation_uncertainty,
 };
 use mtcal_instrument::{Setup, SetupFormat, Unit};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
 
 /// `n` evenly spaced angles over one revolution, without repeating the start.
 fn angles(n: usize) -> Vec<f64> {
@@ -54,6 +57,53 @@ fn centre_and_radius_are_removed_exactly() {
     let p2v = fine.iter().copied().fold(f64::MIN, f64::max)
         - fine.iter().copied().fold(f64::MAX, f64::min);
     assert!(a.g <= p2v + 1e-15 && a.g > 0.95 * p2v, "{} vs {p2v}", a.g);
+}
+
+/// A circle with one reading 5 µm out and the opposite one 5 µm in: the extremes of the
+/// residuals are those two, whatever 0.5 µm of noise does to the others.
+fn two_spikes(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let phi = angles(n);
+    let mut dr = vec![0.0; n];
+    dr[0] = 5e-6;
+    dr[n / 2] = -5e-6;
+    (phi, dr)
+}
+
+#[test]
+fn the_uncertainty_of_g_is_that_of_two_residuals_of_the_circle_fit() {
+    // Evenly spaced over the circle, XᵀX = diag(n, n/2, n/2), so h_ab = (1 + 2 cos(φa − φb))/n:
+    // h = 3/n on the diagonal and −1/n for opposite readings; Var G = σ² (2 − 6/n − 2/n).
+    let n = 36;
+    let (phi, dr) = two_spikes(n);
+    let sigma = 0.5e-6;
+    let want = 2.0 * sigma * (2.0 - 8.0 / n as f64).sqrt();
+    let got = circular_deviation_uncertainty(&phi, &dr, sigma);
+    assert!((got - want).abs() < 1e-15, "{got} vs {want}");
+    // No readings, no uncertainty; without noise, none either.
+    assert_eq!(circular_deviation_uncertainty(&[], &[], sigma), 0.0);
+    assert_eq!(circular_deviation_uncertainty(&phi, &dr, 0.0), 0.0);
+}
+
+#[test]
+fn the_uncertainty_of_g_matches_the_spread_of_repeated_circles() {
+    let n = 36;
+    let (phi, truth) = two_spikes(n);
+    let sigma = 0.5e-6;
+    let noise = Normal::new(0.0, sigma).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2304);
+    let (mut g, mut half_u) = (Vec::new(), Vec::new());
+    for _ in 0..3000 {
+        let dr: Vec<f64> = truth.iter().map(|t| t + noise.sample(&mut rng)).collect();
+        g.push(circular_deviation(&phi, &dr).g);
+        half_u.push(circular_deviation_uncertainty(&phi, &dr, sigma) / 2.0);
+    }
+    let mean = g.iter().sum::<f64>() / g.len() as f64;
+    let spread = (g.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (g.len() - 1) as f64).sqrt();
+    let ratio = half_u.iter().sum::<f64>() / half_u.len() as f64 / spread;
+    assert!(
+        (0.95..=1.05).contains(&ratio),
+        "U/2 over the spread of G: {ratio}"
+    );
 }
 
 #[test]

@@ -361,6 +361,27 @@ fn evaluation_reports_g_for_circles_only() {
     );
     assert!((get("centre offset X (least-squares circle)") - 2e-6).abs() < 1e-12);
     assert!((get("centre offset Y (least-squares circle)") + 1e-6).abs() < 1e-12);
+    // Every value is about the plane; G has its uncertainty from the set-up's reading noise,
+    // the others none.
+    assert!(metrics.iter().all(|m| m.subject.as_deref() == Some("XY")));
+    let g = &metrics[0];
+    let config = mtcal_ballbar::BallbarConfig::from_table(&setup).unwrap();
+    let evaluated: Vec<usize> = (10..370).collect();
+    let angles: Vec<f64> = evaluated
+        .iter()
+        .map(|&k| {
+            let rel = ball(&m, &poses[k]) - pivot;
+            rel.y.atan2(rel.x)
+        })
+        .collect();
+    let kept: Vec<f64> = evaluated.iter().map(|&k| dr[k]).collect();
+    let want =
+        mtcal_ballbar::circular_deviation_uncertainty(&angles, &kept, config.sigma_um * 1e-6);
+    assert!(
+        want > 0.0 && (g.u95.unwrap() - want).abs() < 1e-15,
+        "{g:?} vs {want}"
+    );
+    assert!(metrics[1..].iter().all(|m| m.u95.is_none()));
     // A rotary test gets no evaluation.
     let rot = (3..40).find_map(|seed| {
         let f = fixture(&m, seed)?;

@@ -47,10 +47,12 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
         .iter()
         .zip(drift(ev.readings, channels))
         .filter_map(|(s, d)| {
-            d.map(|value| Metric {
-                name: format!("thermal drift d_{} (ISO 230-3)", s.name()),
-                value,
-                unit: Unit::Um,
+            d.map(|value| {
+                Metric::new(
+                    format!("thermal drift d_{} (ISO 230-3)", s.name()),
+                    value,
+                    Unit::Um,
+                )
             })
         })
         .collect()

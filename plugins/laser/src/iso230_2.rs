@@ -1,9 +1,29 @@
 //! ISO 230-2:2014 evaluation of bidirectional positioning runs: a pure function on a table of
-//! deviations per target and approach direction ([`iso230_2`]), the grouping of a run's
-//! samples into that table by the motion ([`approach_table`]) and the plugin's `evaluate`.
+//! deviations per target and approach direction ([`iso230_2`]), the expanded uncertainty of
+//! its values ([`Iso230_2::uncertainty`]), the grouping of a run's samples into that table by
+//! the motion ([`approach_table`]) and the plugin's `evaluate`.
+//!
+//! # The uncertainty budget
+//! In the spirit of ISO 230-2:2014 Annex A and ISO/TR 230-9 (GUM propagation, `U = k·u` with
+//! `k = 2`), with the terms mtcal knows from the run itself (docs/ACCEPTANCE.md lists what is
+//! left out: the device's calibration, the environment, misalignment):
+//! - each mean `x̄` of `n` approaches has the standard uncertainty `σ_eff/√n`, and each
+//!   standard deviation `s` the uncertainty `σ_eff/√(2(n − 1))` (GUM, the dispersion of an
+//!   experimental standard deviation of a normal sample), with `σ_eff = max(s, σ)`: the
+//!   repeatability `s` of that target and direction, but never less than the reading noise `σ`
+//!   the set-up declares (`sigma_um`), since two to five approaches may scatter less than the
+//!   instrument by chance. The reading noise is part of the scatter `s`, so it is not added a
+//!   second time;
+//! - every axis value is, near the data, a linear function of a few means and standard
+//!   deviations: a range `max − min` of the two extreme ones (E, M, A), a largest one (R, B) or
+//!   all of them (B̄). Its variance is the sum of their squared sensitivities times their
+//!   variances (different targets and directions are independent samples; a mean and a
+//!   standard deviation of one normal sample are independent). Which target is the extreme is
+//!   taken as found: where two means are within about their uncertainty of each other the
+//!   range is biased high by the noise and the budget does not say so.
 
 use crate::setup::{Mode, load};
-use mtcal_instrument::{Evaluation, Metric, SetupContext, Unit};
+use mtcal_instrument::{Evaluation, Metric, Setup as _, SetupContext, Unit};
 
 /// Commanded positions closer than this (m) are the same target.
 pub const TARGET_TOL: f64 = 1e-7;
@@ -30,6 +50,9 @@ pub struct TargetStats {
     /// s↑_i, s↓_i: estimators of the unidirectional standard uncertainty (n − 1).
     pub s_up: f64,
     pub s_down: f64,
+    /// n↑_i, n↓_i: the number of approaches in each direction.
+    pub n_up: usize,
+    pub n_down: usize,
     /// B_i = x̄↑_i − x̄↓_i: reversal value.
     pub reversal: f64,
     /// R↑_i = 4 s↑_i, R↓_i = 4 s↓_i: unidirectional repeatability.
@@ -139,6 +162,8 @@ pub fn iso230_2(table: &Approaches) -> Result<Iso230_2, Iso230_2Error> {
             mean: 0.5 * (mu + md),
             s_up: su,
             s_down: sd,
+            n_up: up.len(),
+            n_down: down.len(),
             reversal: b,
             r_up: ru,
             r_down: rd,
@@ -167,11 +192,74 @@ pub fn iso230_2(table: &Approaches) -> Result<Iso230_2, Iso230_2Error> {
     })
 }
 
+/// The coverage factor of [`Iso230_2Uncertainty`]: `U = 2·u`.
+pub const COVERAGE: f64 = 2.0;
+
+/// The expanded uncertainties `U = 2·u` of the axis values of an [`Iso230_2`], field by field
+/// (the table's unit); the budget is the module doc's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Iso230_2Uncertainty {
+    pub a_up: f64,
+    pub a_down: f64,
+    pub a: f64,
+    pub e_up: f64,
+    pub e_down: f64,
+    pub e: f64,
+    pub m: f64,
+    pub r_up: f64,
+    pub r_down: f64,
+    pub r: f64,
+    pub b: f64,
+    pub b_mean: f64,
+}
+
+/// How an axis value moves with the mean and the standard deviation of one target and
+/// direction: the sensitivity coefficients of the budget.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Sensitivity {
+    target: usize,
+    up: bool,
+    to_mean: f64,
+    to_s: f64,
+}
+
+const BOTH: [bool; 2] = [true, false];
+
+impl TargetStats {
+    /// (x̄, s, n) of one direction.
+    fn direction(&self, up: bool) -> (f64, f64, usize) {
+        if up {
+            (self.mean_up, self.s_up, self.n_up)
+        } else {
+            (self.mean_down, self.s_down, self.n_down)
+        }
+    }
+}
+
 impl Iso230_2 {
     /// The axis values as metrics, `scale` from the table's unit to SI (1e-6 for µm, 1e-3
     /// for mm, 1 for m), reported in µm: `A↑ (ISO 230-2)`, `A↓`, `A`, `E↑`, `E↓`, `E`, `M`,
-    /// `R↑`, `R↓`, `R`, `B`, `B̄` (mean reversal, signed).
+    /// `R↑`, `R↓`, `R`, `B`, `B̄` (mean reversal, signed). No uncertainty: see
+    /// [`Self::metrics_with_uncertainty`].
     pub fn metrics(&self, scale: f64) -> Vec<Metric> {
+        self.named()
+            .into_iter()
+            .map(|(name, v)| Metric::new(format!("{name} (ISO 230-2)"), v * scale, Unit::Um))
+            .collect()
+    }
+
+    /// [`Self::metrics`], each with its expanded uncertainty from `u` (the same unit as the
+    /// table, scaled alike).
+    pub fn metrics_with_uncertainty(&self, scale: f64, u: &Iso230_2Uncertainty) -> Vec<Metric> {
+        let mut metrics = self.metrics(scale);
+        for (m, u) in metrics.iter_mut().zip(u.in_order()) {
+            m.u95 = Some(u * scale);
+        }
+        metrics
+    }
+
+    /// The values in the order of [`Self::metrics`], with their symbols.
+    fn named(&self) -> [(&'static str, f64); 12] {
         [
             ("A↑", self.a_up),
             ("A↓", self.a_down),
@@ -186,13 +274,214 @@ impl Iso230_2 {
             ("B", self.b),
             ("B̄", self.b_mean),
         ]
-        .into_iter()
-        .map(|(name, v)| Metric {
-            name: format!("{name} (ISO 230-2)"),
-            value: v * scale,
-            unit: Unit::Um,
-        })
-        .collect()
+    }
+
+    /// The expanded uncertainty (k = [`COVERAGE`]) of every axis value, the readings' noise
+    /// being `reading_sigma` (standard deviation of one reading, the table's unit): the budget
+    /// of the module doc.
+    pub fn uncertainty(&self, reading_sigma: f64) -> Iso230_2Uncertainty {
+        let u = |terms: Vec<Sensitivity>| COVERAGE * self.variance(&terms, reading_sigma).sqrt();
+        let mean = |t: &TargetStats, up: bool| t.direction(up).0;
+        let top = |t: &TargetStats, up: bool| t.direction(up).0 + 2.0 * t.direction(up).1;
+        let bottom = |t: &TargetStats, up: bool| t.direction(up).0 - 2.0 * t.direction(up).1;
+        // E: max x̄ − min x̄; A: max(x̄ + 2s) − min(x̄ − 2s), so each end moves with 2s.
+        let e = |dirs: &[bool]| self.range_terms(dirs, &mean, &mean, 0.0);
+        let a = |dirs: &[bool]| self.range_terms(dirs, &top, &bottom, 2.0);
+        Iso230_2Uncertainty {
+            a_up: u(a(&[true])),
+            a_down: u(a(&[false])),
+            a: u(a(&BOTH)),
+            e_up: u(e(&[true])),
+            e_down: u(e(&[false])),
+            e: u(e(&BOTH)),
+            m: u(self.m_terms()),
+            r_up: u(self.largest_s_terms(true)),
+            r_down: u(self.largest_s_terms(false)),
+            r: u(self.r_terms()),
+            b: u(self.b_terms()),
+            b_mean: u(self.b_mean_terms()),
+        }
+    }
+
+    /// `max hi − min lo` over the targets in directions `dirs`, each end moving with its
+    /// sample's standard deviation by `to_s`.
+    fn range_terms(
+        &self,
+        dirs: &[bool],
+        hi: &dyn Fn(&TargetStats, bool) -> f64,
+        lo: &dyn Fn(&TargetStats, bool) -> f64,
+        to_s: f64,
+    ) -> Vec<Sensitivity> {
+        let (i, ui) = self.extreme(dirs, true, hi);
+        let (j, uj) = self.extreme(dirs, false, lo);
+        vec![
+            Sensitivity {
+                target: i,
+                up: ui,
+                to_mean: 1.0,
+                to_s,
+            },
+            Sensitivity {
+                target: j,
+                up: uj,
+                to_mean: -1.0,
+                to_s,
+            },
+        ]
+    }
+
+    /// R↑ = 4 s↑ at the largest (R↓ likewise).
+    fn largest_s_terms(&self, up: bool) -> Vec<Sensitivity> {
+        let spread = |t: &TargetStats, up: bool| t.direction(up).1;
+        let (target, _) = self.extreme(&[up], true, &spread);
+        vec![Sensitivity {
+            target,
+            up,
+            to_mean: 0.0,
+            to_s: 4.0,
+        }]
+    }
+
+    /// The (target, direction) among `dirs` where `f` is largest (`largest`) or smallest; the
+    /// first such in table order on ties.
+    fn extreme(
+        &self,
+        dirs: &[bool],
+        largest: bool,
+        f: &dyn Fn(&TargetStats, bool) -> f64,
+    ) -> (usize, bool) {
+        let mut best: Option<(usize, bool, f64)> = None;
+        for (i, t) in self.targets.iter().enumerate() {
+            for &up in dirs {
+                let v = f(t, up);
+                let better = best.is_none_or(|(_, _, b)| if largest { v > b } else { v < b });
+                if better {
+                    best = Some((i, up, v));
+                }
+            }
+        }
+        best.map_or((0, true), |(i, up, _)| (i, up))
+    }
+
+    /// M = x̄_i − x̄_j with x̄ = (x̄↑ + x̄↓)/2 at the largest and smallest.
+    fn m_terms(&self) -> Vec<Sensitivity> {
+        let bidirectional = |t: &TargetStats, _: bool| t.mean;
+        let (i, _) = self.extreme(&[true], true, &bidirectional);
+        let (j, _) = self.extreme(&[true], false, &bidirectional);
+        [(i, 0.5), (j, -0.5)]
+            .into_iter()
+            .flat_map(|(target, c)| {
+                BOTH.map(|up| Sensitivity {
+                    target,
+                    up,
+                    to_mean: c,
+                    to_s: 0.0,
+                })
+            })
+            .collect()
+    }
+
+    /// R = R_i at the largest, by the branch of its maximum that gave it.
+    fn r_terms(&self) -> Vec<Sensitivity> {
+        let r = |t: &TargetStats, _: bool| t.r;
+        let (i, _) = self.extreme(&[true], true, &r);
+        let t = &self.targets[i];
+        let one = |up: bool, to_mean: f64, to_s: f64| Sensitivity {
+            target: i,
+            up,
+            to_mean,
+            to_s,
+        };
+        let sign = if t.reversal < 0.0 { -1.0 } else { 1.0 };
+        if t.r == 2.0 * t.s_up + 2.0 * t.s_down + t.reversal.abs() {
+            vec![one(true, sign, 2.0), one(false, -sign, 2.0)]
+        } else if t.r == t.r_up {
+            vec![one(true, 0.0, 4.0)]
+        } else {
+            vec![one(false, 0.0, 4.0)]
+        }
+    }
+
+    /// B = |B_i| at the largest.
+    fn b_terms(&self) -> Vec<Sensitivity> {
+        let b = |t: &TargetStats, _: bool| t.reversal.abs();
+        let (i, _) = self.extreme(&[true], true, &b);
+        let sign = if self.targets[i].reversal < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        BOTH.into_iter()
+            .map(|up| Sensitivity {
+                target: i,
+                up,
+                to_mean: if up { sign } else { -sign },
+                to_s: 0.0,
+            })
+            .collect()
+    }
+
+    /// B̄ = Σ (x̄↑_i − x̄↓_i) / m.
+    fn b_mean_terms(&self) -> Vec<Sensitivity> {
+        let w = 1.0 / self.targets.len() as f64;
+        (0..self.targets.len())
+            .flat_map(|target| {
+                BOTH.map(|up| Sensitivity {
+                    target,
+                    up,
+                    to_mean: if up { w } else { -w },
+                    to_s: 0.0,
+                })
+            })
+            .collect()
+    }
+
+    /// Σ (c_x̄² σ_eff²/n + c_s² σ_eff²/(2(n − 1))) over the distinct (target, direction) of
+    /// `terms`, their coefficients summed first (A = 4s when the top and the bottom are the
+    /// same sample: its mean cancels).
+    fn variance(&self, terms: &[Sensitivity], reading_sigma: f64) -> f64 {
+        let mut merged: Vec<Sensitivity> = Vec::with_capacity(terms.len());
+        for t in terms {
+            match merged
+                .iter_mut()
+                .find(|m| m.target == t.target && m.up == t.up)
+            {
+                Some(m) => {
+                    m.to_mean += t.to_mean;
+                    m.to_s += t.to_s;
+                }
+                None => merged.push(*t),
+            }
+        }
+        merged
+            .iter()
+            .map(|t| {
+                let (_, s, n) = self.targets[t.target].direction(t.up);
+                let sigma2 = s.max(reading_sigma).powi(2);
+                let n = n as f64;
+                t.to_mean.powi(2) * sigma2 / n + t.to_s.powi(2) * sigma2 / (2.0 * (n - 1.0))
+            })
+            .sum()
+    }
+}
+
+impl Iso230_2Uncertainty {
+    /// The uncertainties in the order of [`Iso230_2::metrics`].
+    fn in_order(&self) -> [f64; 12] {
+        [
+            self.a_up,
+            self.a_down,
+            self.a,
+            self.e_up,
+            self.e_down,
+            self.e,
+            self.m,
+            self.r_up,
+            self.r_down,
+            self.r,
+            self.b,
+            self.b_mean,
+        ]
     }
 }
 
@@ -308,6 +597,10 @@ pub fn straightness(travel: &[f64], deviation: &[f64]) -> Option<f64> {
 /// `direction`, the reading as the deviation. Directions come from the motion
 /// ([`approach_directions`]). Nothing for other modes, a set-up that does not load, or a run
 /// without a target approached twice from each side.
+///
+/// Every ISO 230-2 value carries its expanded uncertainty ([`Iso230_2::uncertainty`], the
+/// reading noise being the set-up's `sigma_um`); a run evaluated along an axis says which
+/// ([`Metric::subject`]: its letter), a diagonal is about no axis.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
     let Ok(setup) = load(
         ev.setup,
@@ -328,11 +621,11 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
             let travel: Vec<f64> = rows().map(|q| setup.travel(q)).collect();
             return straightness(&travel, ev.readings)
                 .map(|value| {
-                    vec![Metric {
-                        name: "straightness deviation (ISO 230-1)".into(),
+                    vec![Metric::new(
+                        "straightness deviation (ISO 230-1)",
                         value,
-                        unit: Unit::Um,
-                    }]
+                        Unit::Um,
+                    )]
                 })
                 .unwrap_or_default();
         }
@@ -344,11 +637,11 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
                     (l.min(v), h.max(v))
                 });
             return if lo <= hi {
-                vec![Metric {
-                    name: "angular deviation (ISO 230-1)".into(),
-                    value: hi - lo,
-                    unit: Unit::Urad,
-                }]
+                vec![Metric::new(
+                    "angular deviation (ISO 230-1)",
+                    hi - lo,
+                    Unit::Urad,
+                )]
             } else {
                 Vec::new()
             };
@@ -385,5 +678,16 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
         ),
     };
     let table = approach_table(&travel, &deviation, TARGET_TOL);
-    iso230_2(&table).map(|r| r.metrics(1.0)).unwrap_or_default()
+    let Ok(values) = iso230_2(&table) else {
+        return Vec::new();
+    };
+    let reading_sigma = setup.channels().first().map_or(0.0, |c| c.sigma);
+    let metrics = values.metrics_with_uncertainty(1.0, &values.uncertainty(reading_sigma));
+    match along_axis {
+        Some((i, _)) => {
+            let letter = ev.machine.axes()[i].letter().as_char().to_string();
+            metrics.into_iter().map(|m| m.about(&letter)).collect()
+        }
+        None => metrics,
+    }
 }

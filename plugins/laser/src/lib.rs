@@ -162,7 +162,12 @@
 //! (↑ = the travel increasing along `direction`). Approach directions come from the motion
 //! ([`approach_directions`]), whatever any label says; targets are the positions approached at
 //! least twice from each side ([`approach_table`]). [`approach_table`] and [`iso230_2()`] are
-//! public for any bidirectional target/cycle table.
+//! public for any bidirectional target/cycle table. Each value carries its expanded
+//! uncertainty `U` (k = 2; [`Iso230_2::uncertainty`]: the repeatability of each mean, never
+//! below the set-up's reading noise `sigma_um`, propagated through the range or maximum that
+//! defines the value; what it leaves out is in docs/ACCEPTANCE.md), and a run evaluated along
+//! an axis names it (the metric's `subject`), so acceptance can check it against that axis'
+//! tolerances.
 //!
 //! A `straightness` run reports `straightness deviation (ISO 230-1)`: the range of its
 //! readings about their least-squares line over the travel ([`straightness()`], µm); an
@@ -181,8 +186,8 @@ pub use env::{
 };
 pub use fixture::fixture;
 pub use iso230_2::{
-    Approaches, Iso230_2, Iso230_2Error, TARGET_TOL, TargetStats, approach_directions,
-    approach_table, evaluate, iso230_2, straightness,
+    Approaches, COVERAGE, Iso230_2, Iso230_2Error, Iso230_2Uncertainty, TARGET_TOL, TargetStats,
+    approach_directions, approach_table, evaluate, iso230_2, straightness,
 };
 pub use path::{ALIGN_TOL, AXIS_PATH_KEYS, DEFAULT_POINTS, DIAGONAL_PATH_KEYS, path};
 pub use setup::{

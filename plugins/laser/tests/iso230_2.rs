@@ -1,11 +1,14 @@
-//! The ISO 230-2:2014 evaluation against a small example computed by hand, the approach
-//! directions from the motion, and the plugin's `evaluate` on a run.
+//! The ISO 230-2:2014 evaluation against a small example computed by hand, the uncertainty
+//! budget by hand and against a Monte Carlo of repeated runs, the approach directions from the
+//! motion, and the plugin's `evaluate` on a run.
 
 use mtcal_instrument::Evaluation;
 use mtcal_laser::{
     Approaches, Iso230_2Error, approach_directions, approach_table, evaluate, iso230_2,
     straightness,
 };
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
 
 /// Two targets, three approaches each way (µm):
 /// target 0: ↑ 1, 2, 3 (x̄ 2, s 1); ↓ −1, 0, 1 (x̄ 0, s 1); B = 2, R = max(2+2+2, 4, 4) = 6
@@ -48,6 +51,120 @@ fn the_axis_values_are_those_computed_by_hand() {
     };
     assert!((get("R") - 6e-6).abs() < 1e-18 && (get("B̄") + 0.5e-6).abs() < 1e-18);
     assert_eq!(m.len(), 12);
+}
+
+#[test]
+fn the_uncertainties_are_those_computed_by_hand() {
+    // Reading noise 0.5: σ_eff = max(s, 0.5) is s everywhere but at target 1 ↑ (s = 0 → 0.5).
+    // Each mean's variance σ_eff²/3, each s's σ_eff²/(2·2).
+    let r = iso230_2(&example()).unwrap();
+    let u = r.uncertainty(0.5);
+    let (v1, v05) = (1.0 / 3.0, 0.25 / 3.0);
+    let close = |got: f64, var: f64, what: &str| {
+        let want = 2.0 * var.sqrt();
+        assert!((got - want).abs() < 1e-12, "{what}: {got} vs {want}");
+    };
+    // E = x̄↓_1 − x̄↓_0; E↑ = x̄↑_1 − x̄↑_0; E↓ = x̄↓_1 − x̄↓_0.
+    close(u.e, v1 + v1, "E");
+    close(u.e_up, v05 + v1, "E↑");
+    close(u.e_down, v1 + v1, "E↓");
+    // M = x̄_1 − x̄_0, each x̄ half of two means.
+    close(u.m, 0.25 * (v05 + v1) + 0.25 * (v1 + v1), "M");
+    // R = R_0 = 2 s↑_0 + 2 s↓_0 + (x̄↑_0 − x̄↓_0): each side a mean (±1) and an s (×2).
+    close(u.r, 2.0 * (v1 + 4.0 * 0.25), "R");
+    // R↑ = 4 s↑_0 (s↑_1 = 0); R↓ = 4 s↓_0 (the first of two equal ones).
+    close(u.r_up, 16.0 * 0.25, "R↑");
+    close(u.r_down, 16.0 * 0.25, "R↓");
+    // A = (x̄↓_1 + 2 s↓_1) − (x̄↓_0 − 2 s↓_0).
+    close(u.a, 2.0 * (v1 + 4.0 * 0.25), "A");
+    // A↑ = (x̄↑_0 + 2 s↑_0) − (x̄↑_0 − 2 s↑_0) = 4 s↑_0: one sample, the mean cancels.
+    close(u.a_up, 16.0 * 0.25, "A↑");
+    // B = |x̄↑_1 − x̄↓_1|; B̄ = (B_0 + B_1)/2 over all four means.
+    close(u.b, v05 + v1, "B");
+    close(u.b_mean, 0.25 * (v1 + v1 + v05 + v1), "B̄");
+    // As metrics: the uncertainty scaled with the value.
+    let m = r.metrics_with_uncertainty(1e-6, &u);
+    let e = m.iter().find(|x| x.name == "E (ISO 230-2)").unwrap();
+    assert!((e.u95.unwrap() - u.e * 1e-6).abs() < 1e-18);
+    assert!(r.metrics(1e-6).iter().all(|x| x.u95.is_none()));
+}
+
+/// One simulated bidirectional table: `cycles` approaches each way at `targets` with the
+/// systematic deviation `truth(x, up)` and reading noise `sigma` (µm).
+fn simulated(
+    rng: &mut rand_chacha::ChaCha8Rng,
+    targets: &[f64],
+    cycles: usize,
+    sigma: f64,
+    truth: &dyn Fn(f64, bool) -> f64,
+) -> Approaches {
+    let noise = Normal::new(0.0, sigma).unwrap();
+    let mut draw = |x: f64, up: bool| -> Vec<f64> {
+        (0..cycles)
+            .map(|_| truth(x, up) + noise.sample(rng))
+            .collect()
+    };
+    Approaches {
+        targets: targets.to_vec(),
+        up: targets.iter().map(|&x| draw(x, true)).collect(),
+        down: targets.iter().map(|&x| draw(x, false)).collect(),
+    }
+}
+
+fn std_dev(x: &[f64]) -> f64 {
+    let m = x.iter().sum::<f64>() / x.len() as f64;
+    (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
+}
+
+fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+/// Repeated runs of one axis with known reading noise: the spread of E (and of the other values
+/// that are linear in the means) over the runs is what U/2 says. With the declared noise far
+/// below the real one, U comes from each run's own repeatability and matches within the Monte
+/// Carlo's error; with the real noise declared, the floor max(s, σ) makes U larger by what the
+/// floor adds (a few approaches scatter less than σ about half the time), never smaller.
+#[test]
+fn the_uncertainty_of_e_matches_the_spread_of_repeated_runs() {
+    let sigma = 0.5;
+    let targets: Vec<f64> = (0..11).map(|i| 60.0 * i as f64).collect();
+    // A pitch error of 10 µm over the stroke with a bow, and 1.5 µm of reversal: the extreme
+    // means are well apart (≥ 1 µm, five standard uncertainties of a mean).
+    let truth =
+        |x: f64, up: bool| 10.0 * x / 600.0 + 0.8 * (x / 150.0).sin() - if up { 0.0 } else { 1.5 };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2302);
+    let runs = 4000;
+    let mut values: Vec<[f64; 4]> = Vec::with_capacity(runs);
+    let mut half_u_own: Vec<[f64; 4]> = Vec::with_capacity(runs);
+    let mut half_u_floor: Vec<[f64; 4]> = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let r = iso230_2(&simulated(&mut rng, &targets, 5, sigma, &truth)).unwrap();
+        values.push([r.e, r.e_up, r.m, r.b_mean]);
+        let pick = |u: mtcal_laser::Iso230_2Uncertainty| {
+            [u.e / 2.0, u.e_up / 2.0, u.m / 2.0, u.b_mean / 2.0]
+        };
+        half_u_own.push(pick(r.uncertainty(0.01 * sigma)));
+        half_u_floor.push(pick(r.uncertainty(sigma)));
+    }
+    for (k, name) in ["E", "E↑", "M", "B̄"].iter().enumerate() {
+        let column = |rows: &[[f64; 4]]| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+        let spread = std_dev(&column(&values));
+        let own = rms(&column(&half_u_own)) / spread;
+        let floor = rms(&column(&half_u_floor)) / spread;
+        assert!(
+            (0.94..=1.06).contains(&own),
+            "{name}: U/2 over the spread {own}"
+        );
+        assert!(
+            (1.0..=1.25).contains(&floor),
+            "{name}: with the floor {floor}"
+        );
+    }
+    // E's spread is that of the difference of two means of five: σ·√(2/5).
+    let spread_e = std_dev(&values.iter().map(|r| r[0]).collect::<Vec<_>>());
+    let want = sigma * (2.0f64 / 5.0).sqrt();
+    assert!((spread_e / want - 1.0).abs() < 0.05, "{spread_e} vs {want}");
 }
 
 #[test]
@@ -144,6 +261,11 @@ fn the_plugin_evaluates_a_linear_run_by_its_motion() {
             labels: &[],
         });
         assert_eq!(got.len(), want.len());
+        // Along X, with the default reading noise 0.5 µm in the budget.
+        let u = iso230_2(&example()).unwrap().uncertainty(0.5);
+        let e = got.iter().find(|m| m.name == "E (ISO 230-2)").unwrap();
+        assert_eq!(e.subject.as_deref(), Some("X"));
+        assert!((e.u95.unwrap() - u.e * 1e-6).abs() < 1e-18, "{e:?}");
         for (g, w) in got.iter().zip(&want) {
             assert_eq!(g.name, w.name);
             assert!(
