@@ -358,9 +358,32 @@ fn a_report_without_the_search_shows_component_curves_with_bands() {
         return;
     }
     let tmp = tempfile::tempdir().expect("temporary folder");
-    let (page, json, _) = identify(&["examples/three-axis/session"], tmp.path());
+    let acceptance = ["--acceptance", "examples/acceptance/three-axis.toml"];
+    let (page, json, _) = identify(
+        &["examples/three-axis/session", acceptance[0], acceptance[1]],
+        tmp.path(),
+    );
     let dom = render(&page, tmp.path());
     check_page(&dom);
+    // The acceptance section: the overall verdict and one row per check of the JSON, each with
+    // its verdict.
+    let verdicts = section(&dom, "acceptance");
+    let checks = json["acceptance"]["checks"].as_array().expect("checks");
+    let overall = json["acceptance"]["verdict"].as_str().expect("verdict");
+    assert!(
+        verdicts.contains(&format!("data-verdict=\"{overall}\"")),
+        "{verdicts}"
+    );
+    assert_eq!(
+        verdicts.matches("<tr").count(),
+        checks.len() + 1,
+        "{verdicts}"
+    );
+    // What the numbers mean, under the parameter table.
+    let card = section(&dom, "parameters");
+    for key in ["values are", "squareness", "rotary direction", "units"] {
+        assert!(card.contains(&format!("<th>{key}</th>")), "{key}");
+    }
     let curves = json["component_errors"].as_array().expect("curves");
     assert!(!curves.is_empty());
     let components = section(&dom, "components");

@@ -60,6 +60,12 @@ pub fn report(
         identifiability: identifiability(id),
         search: search(id),
         acceptance: id.acceptance.as_ref().map(acceptance),
+        conventions: id
+            .conventions
+            .rows()
+            .into_iter()
+            .map(|(key, value)| (key.to_string(), value))
+            .collect(),
     })
 }
 

@@ -114,29 +114,40 @@ impl ConventionCard {
     /// The card as lines of text, each starting with `prefix` (a comment marker, or "" for the
     /// terminal).
     pub fn lines(&self, prefix: &str) -> String {
+        let mut text = String::new();
+        for (key, value) in self.rows() {
+            let _ = writeln!(text, "{prefix}{key:<KEY_WIDTH$}{value}");
+        }
+        text
+    }
+
+    /// The card as (key, value) rows, in the order of [`Self::lines`]; the sentences after the
+    /// first of `control_will` have an empty key.
+    pub fn rows(&self) -> Vec<(&'static str, String)> {
         let mapping: Vec<String> = self
             .axis_mapping
             .iter()
             .map(|m| format!("{} → {}", m.mtcal, m.control))
             .collect();
         let mut rows = vec![
-            ("format", self.format.as_str()),
-            ("values are", self.quantity.describe()),
-            ("sign", &self.sign),
-            ("squareness", &self.squareness),
-            ("rotary direction", &self.rotary_direction),
+            ("format", self.format.clone()),
+            ("values are", self.quantity.describe().to_string()),
+            ("sign", self.sign.clone()),
+            ("squareness", self.squareness.clone()),
+            ("rotary direction", self.rotary_direction.clone()),
+            (
+                "axis mapping",
+                format!("{} (mtcal → control)", mapping.join(", ")),
+            ),
+            ("units", self.units.clone()),
         ];
-        let mapping = format!("{} (mtcal → control)", mapping.join(", "));
-        rows.push(("axis mapping", &mapping));
-        rows.push(("units", &self.units));
         for (k, sentence) in self.control_will.iter().enumerate() {
-            rows.push((if k == 0 { "the control will" } else { "" }, sentence));
+            rows.push((
+                if k == 0 { "the control will" } else { "" },
+                sentence.clone(),
+            ));
         }
-        let mut text = String::new();
-        for (key, value) in rows {
-            let _ = writeln!(text, "{prefix}{key:<KEY_WIDTH$}{value}");
-        }
-        text
+        rows
     }
 
     /// The card as comment lines for a control's file, each starting with `prefix`, in ASCII

@@ -80,6 +80,9 @@ pub struct Report {
     pub identifiability: Identifiability,
     /// `None` when the physics search did not run.
     pub search: Option<SearchOutcome>,
+    /// What the parameters' numbers mean (the convention card: errors, signs, squareness,
+    /// rotary direction, units), key and value per row; shown under the parameter table.
+    pub conventions: Vec<(String, String)>,
     /// `None` without a tolerance file: the page then has no acceptance section.
     pub acceptance: Option<AcceptanceSection>,
 }

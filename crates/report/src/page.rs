@@ -397,6 +397,25 @@ fn parameters(r: &Report) -> String {
         );
     }
     h.push_str("</table>\n");
+    h.push_str(&conventions(&r.conventions));
+    h
+}
+
+/// The convention card under the parameter table: what the numbers mean.
+fn conventions(rows: &[(String, String)]) -> String {
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut h = String::from("<h3>What the numbers mean</h3>\n<table id=\"conventions\">\n");
+    for (key, value) in rows {
+        let _ = writeln!(
+            h,
+            "<tr><th>{}</th><td>{}</td></tr>",
+            escape(key),
+            escape(value)
+        );
+    }
+    h.push_str("</table>\n");
     h
 }
 

@@ -195,6 +195,13 @@ fn sample() -> Report {
             not_kept: vec!["servo-lag X: another candidate predicts better".into()],
         }),
         acceptance: None,
+        conventions: vec![
+            ("values are".into(), "errors (actual − nominal)".into()),
+            (
+                "squareness".into(),
+                "C0Y > 0 opens the angle <X, Y> beyond 90°".into(),
+            ),
+        ],
     }
 }
 
@@ -566,4 +573,12 @@ fn a_path_plot_has_one_vertex_per_point_and_a_tilt_panel_when_given() {
         1
     );
     assert!(path_error_svg("p", &flat[..1]).is_err());
+}
+
+#[test]
+fn the_convention_card_is_under_the_parameter_table_escaped() {
+    let page = crate::render(&sample()).unwrap();
+    let at = page.find("<table id=\"conventions\">").expect("the card");
+    assert!(at > page.find("<table id=\"parameter-table\">").unwrap());
+    assert!(page[at..].contains("<th>squareness</th><td>C0Y &gt; 0 opens the angle &lt;X, Y&gt;"));
 }
