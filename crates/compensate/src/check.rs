@@ -3,7 +3,8 @@
 //! malformed (file, line, column); its validator refuses what the control would refuse or
 //! misread ([`check_compensation`]).
 
-use crate::output::{Compensation, PitchFormat, Settings};
+use crate::output::{Compensation, Settings};
+use crate::pitch::PitchFormat;
 use crate::{CompensateError, LINUXCNC_MAX_TRIPLETS, ParameterValue};
 use mtcal_kinematics::Machine;
 use std::fmt;

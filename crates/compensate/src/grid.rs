@@ -6,6 +6,7 @@ use crate::{
     read_file, write_file,
 };
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};
+use mtcal_machine::card::{ConventionCard, Quantity, ROTARY_RIGHT_HAND};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -336,4 +337,28 @@ fn assemble(
         return Err(src.error(line, 1, msg));
     }
     Ok(grid)
+}
+
+/// The card of the 3-D error grid.
+pub(crate) fn card(machine: &Machine) -> ConventionCard {
+    ConventionCard {
+        format: "mtcal CSV 3-D error grid".into(),
+        quantity: Quantity::Error,
+        sign: "dx_um, dy_um, dz_um = actual − nominal tool point relative to the workpiece, \
+               workpiece frame; the control subtracts them"
+            .into(),
+        squareness: "included: the grid holds the tool-point error every error causes, \
+                     squareness too"
+            .into(),
+        rotary_direction: ROTARY_RIGHT_HAND.into(),
+        axis_mapping: ConventionCard::same_letters(machine),
+        units: "positions mm, errors µm, orientation errors µrad".into(),
+        control_will: vec![
+            "interpolate trilinearly between the 8 nodes around a point and hold the edge values \
+             outside the grid"
+                .into(),
+            "correct the tool point only; the rotary axes were held where the file's comment says"
+                .into(),
+        ],
+    }
 }

@@ -154,7 +154,6 @@
 //! [`CompensateError::Parse`] naming the file, line and column (1-based) and what was
 //! expected; nothing here panics on bad input.
 
-mod cards;
 mod check;
 mod fanuc;
 mod grid;
@@ -186,14 +185,14 @@ pub use heidenhain::{
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
 };
-pub use output::{Compensation, Exported, PitchFormat, Settings, Written, write_compensation};
+pub use output::{Compensation, Exported, Settings, Written, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
     read_error_parameters, write_error_parameters,
 };
 pub use pitch::{
-    LINUXCNC_MAX_TRIPLETS, PitchTable, Travel, pitch_table, read_linuxcnc_comp, read_pitch_csv,
-    travel_direction, write_linuxcnc_comp, write_pitch_csv,
+    LINUXCNC_MAX_TRIPLETS, PitchFormat, PitchTable, Travel, pitch_table, read_linuxcnc_comp,
+    read_pitch_csv, travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
 pub use rotary::{RotaryTable, rotary_table, rotation_direction};
 pub use siemens::{

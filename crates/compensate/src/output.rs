@@ -3,7 +3,7 @@
 //! `Display` is the sentence the command prints).
 
 use crate::parameters::{ParameterFormat, ParameterValue};
-use crate::{CompensateError, GridSpec, cards};
+use crate::{CompensateError, GridSpec, PitchFormat};
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};
 use mtcal_machine::card::ConventionCard;
 use std::fmt;
@@ -36,35 +36,6 @@ pub enum Compensation {
     HeidenhainCom,
     /// Heidenhain KinematicsComp: the listing (`.TAB`) at the path and its `.COM` tables.
     HeidenhainKinematicsComp,
-}
-
-/// The file format of a pitch table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PitchFormat {
-    /// LinuxCNC's `COMP_FILE_TYPE = 1` ([`crate::write_linuxcnc_comp`]).
-    LinuxCnc,
-    /// The CSV pitch table ([`crate::write_pitch_csv`]).
-    Csv,
-}
-
-impl PitchFormat {
-    /// Its name on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            PitchFormat::LinuxCnc => "linuxcnc",
-            PitchFormat::Csv => "csv",
-        }
-    }
-}
-
-impl ParameterFormat {
-    /// Its name on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            ParameterFormat::IsgCsv => "isg",
-            ParameterFormat::Etalon => "etalon",
-        }
-    }
 }
 
 /// The settings of a compensation file; each kind uses those it needs.
@@ -231,7 +202,7 @@ pub fn write_compensation(
             let mut spec = GridSpec::new(machine, [settings.spacing_mm; 3]);
             spec.hold_q = settings.hold_q.clone();
             let mut grid = crate::error_grid(model, coeffs, &spec)?;
-            let card = cards::grid(machine);
+            let card = crate::grid::card(machine);
             append_card(&mut grid.note, &card);
             crate::write_grid_csv(path, &grid)?;
             let nodes = [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()];
@@ -251,13 +222,13 @@ pub fn write_compensation(
                 tables,
                 locations: params.params.len() - tables,
             };
-            (written, cards::parameters(machine, format))
+            (written, crate::parameters::card(machine, format))
         }
         Compensation::TrtPivots => {
             let pivots = crate::trt_pivots_with_nominal(model, coeffs)?;
             let kinematics = pivots.kind.name();
             let not_representable = pivots.not_representable.len();
-            let card = cards::trt(machine, kinematics, not_representable);
+            let card = crate::trt::card(machine, kinematics, not_representable);
             let mut text = crate::trt_hal_text(&pivots, machine.name());
             text.push_str(&card.file_lines("# "));
             mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| {
@@ -530,7 +501,7 @@ fn write_pitch_table(
     }
     table = table.shifted_mm(settings.joint_offset_mm);
     let bidirectional = table.reverse_um.is_some();
-    let card = cards::pitch(format, axis, settings.joint_offset_mm, bidirectional);
+    let card = crate::pitch::card(format, axis, settings.joint_offset_mm, bidirectional);
     match format {
         PitchFormat::LinuxCnc => crate::write_linuxcnc_comp(path, &table)?,
         PitchFormat::Csv => {

@@ -14,6 +14,7 @@ use crate::{CompensateError, MM, read_file, write_file};
 use mtcal_kinematics::model::Role;
 use mtcal_kinematics::model::default_stroke;
 use mtcal_kinematics::{AxisKind, Basis, Machine, MachineModel, ParamConfig, ParamName};
+use mtcal_machine::card::{ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -279,7 +280,7 @@ pub fn write_error_parameters(
         ParameterFormat::IsgCsv => isg_text(machine, params),
         ParameterFormat::Etalon => etalon_text(machine, params),
     };
-    text.push_str(&crate::cards::parameters(machine, format).file_lines("// "));
+    text.push_str(&card(machine, format).file_lines("// "));
     write_file(path, &text)
 }
 
@@ -703,5 +704,40 @@ mod tests {
         for bad in ["P0X", "PXA", "VXX", "EX", "EXOC", "TOOL_DX", "X0"] {
             assert!(parse_file_name(bad).is_none(), "{bad}");
         }
+    }
+}
+
+impl ParameterFormat {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParameterFormat::IsgCsv => "isg",
+            ParameterFormat::Etalon => "etalon",
+        }
+    }
+}
+
+/// The card of the ISG CSV or Etalon error parameters.
+pub(crate) fn card(machine: &Machine, format: ParameterFormat) -> ConventionCard {
+    let name = match format {
+        ParameterFormat::IsgCsv => "Beckhoff TF5280 / ISG volumetric compensation, ISG_CSV",
+        ParameterFormat::Etalon => "Etalon Exchange Format (Vendor), ETALON_EXCHANGE",
+    };
+    ConventionCard {
+        format: name.into(),
+        quantity: Quantity::Error,
+        sign: "ISO 230-1: functional errors of the tool relative to the workpiece in machine \
+               X/Y/Z; leave the controller's `negate` empty"
+            .into(),
+        squareness: SQUARENESS_ISO.replace("; µrad", "; rad in this file"),
+        rotary_direction: ROTARY_RIGHT_HAND.into(),
+        axis_mapping: ConventionCard::same_letters(machine),
+        units: "values mm and rad; table arguments mm (linear) and degrees (rotary)".into(),
+        control_will: vec![
+            "build its own error model from the tables (linear between nodes) and apply −error"
+                .into(),
+            "need the list file's workpiece_axes and chain to match the header's axis sides".into(),
+            "correct the tool point only, unless its orientation compensation is configured".into(),
+        ],
     }
 }

@@ -6,6 +6,7 @@ use crate::{
     write_file,
 };
 use mtcal_kinematics::{Machine, MachineModel};
+use mtcal_machine::card::{AxisMap, ConventionCard, Quantity};
 use nalgebra::Vector3;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -303,4 +304,90 @@ impl Rows {
             note: String::new(),
         })
     }
+}
+
+/// The file format of a pitch table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PitchFormat {
+    /// LinuxCNC's `COMP_FILE_TYPE = 1` ([`crate::write_linuxcnc_comp`]).
+    LinuxCnc,
+    /// The CSV pitch table ([`crate::write_pitch_csv`]).
+    Csv,
+}
+
+impl PitchFormat {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            PitchFormat::LinuxCnc => "linuxcnc",
+            PitchFormat::Csv => "csv",
+        }
+    }
+}
+
+const LINEAR_ONLY: &str = "not applicable: a linear axis' table";
+const NO_SQUARENESS: &str = "not held: a pitch table holds positioning along its own axis only (use the grid or the error \
+     parameters for squareness)";
+
+/// The card of a pitch table of `axis`.
+pub(crate) fn card(
+    format: PitchFormat,
+    axis: char,
+    joint_offset_mm: f64,
+    bidirectional: bool,
+) -> ConventionCard {
+    let control = if joint_offset_mm == 0.0 {
+        format!("{axis} (same zero)")
+    } else {
+        format!("{axis} (joint position = axis position {joint_offset_mm:+} mm)")
+    };
+    let mut card = ConventionCard {
+        format: String::new(),
+        quantity: Quantity::Correction,
+        sign: String::new(),
+        squareness: NO_SQUARENESS.into(),
+        rotary_direction: LINEAR_ONLY.into(),
+        axis_mapping: vec![AxisMap {
+            mtcal: axis,
+            control,
+        }],
+        units: String::new(),
+        control_will: Vec::new(),
+    };
+    match format {
+        PitchFormat::Csv => {
+            card.format = "mtcal CSV pitch table".into();
+            card.sign = "compensation = −(positioning error along the axis): added to the \
+                         command, the tool lands where it was commanded"
+                .into();
+            card.units = "positions mm, compensations µm".into();
+            card.control_will
+                .push("interpolate linearly between nodes and hold the end values outside".into());
+        }
+        PitchFormat::LinuxCnc => {
+            card.format = "LinuxCNC axis compensation file, COMP_FILE_TYPE = 1".into();
+            card.sign = "LinuxCNC adds the trim to the commanded joint position: column 2 while \
+                         the joint moves forward, column 3 in reverse"
+                .into();
+            card.units = "machine units: positions and trims in mm (LINEAR_UNITS = mm)".into();
+            card.control_will.extend([
+                "read it from [JOINT_n] COMP_FILE with COMP_FILE_TYPE = 1 after a restart; \
+                 remove BACKLASH (the file replaces it)"
+                    .into(),
+                "interpolate linearly between the ≤ 256 triplets and hold the end values outside"
+                    .into(),
+                "stop reading at the first line that is not a triplet, so this card is written \
+                 beside the file (FILE.card.txt), not in it"
+                    .into(),
+            ]);
+        }
+    }
+    if bidirectional {
+        card.control_will.push(
+            "use the forward values while the axis moves in +, the reverse values in −: \
+             reverse = forward + B (ISO 230-2 reversal value)"
+                .into(),
+        );
+    }
+    card
 }

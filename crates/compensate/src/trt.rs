@@ -24,6 +24,7 @@
 
 use crate::CompensateError;
 use mtcal_kinematics::{AxisKind, MachineModel, Side};
+use mtcal_machine::card::{ConventionCard, Quantity};
 use nalgebra::Vector3;
 use std::fmt::Write as _;
 
@@ -302,5 +303,30 @@ mod tests {
         let c = circle_centre([[3.0, 2.0], [1.0, 4.0], [-1.0, 2.0]]).unwrap();
         assert!((c[0] - 1.0).abs() < 1e-12 && (c[1] - 2.0).abs() < 1e-12);
         assert!(circle_centre([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]).is_none());
+    }
+}
+
+/// The card of LinuxCNC's table-table pivots.
+pub(crate) fn card(
+    machine: &mtcal_kinematics::Machine,
+    kinematics: &str,
+    not_representable: usize,
+) -> ConventionCard {
+    ConventionCard {
+        format: format!("LinuxCNC HAL settings of {kinematics}"),
+        quantity: Quantity::Geometry,
+        sign: "pivot points of the actual rotary axis lines in joint coordinates".into(),
+        squareness: "not held: the kinematics have no squareness".into(),
+        rotary_direction: "LinuxCNC's trt kinematics turn A/B and C the other way from ISO 841"
+            .into(),
+        axis_mapping: ConventionCard::same_letters(machine),
+        units: "mm".into(),
+        control_will: vec![
+            "take the setp lines after the kinematics component is loaded in the HAL file".into(),
+            format!(
+                "ignore the {not_representable} identified errors these kinematics cannot hold \
+                 (listed in the file)"
+            ),
+        ],
     }
 }
