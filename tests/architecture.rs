@@ -21,15 +21,17 @@ use std::path::{Path, PathBuf};
 
 /// The layers, lowest first. A crate may depend on crates of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    // Numerics, the serial chain, located file reading: no mtcal dependency. The test kit too:
-    // it is lowest so that every crate's tests can use it (a kit above a crate would be a cycle
-    // through its tests), and `DEV_ONLY` keeps it out of every library and binary.
+    // Numerics, the serial chain, located file reading, history trends: no mtcal dependency.
+    // The test kit too: it is lowest so that every crate's tests can use it (a kit above a crate
+    // would be a cycle through its tests), and `DEV_ONLY` keeps it out of every library and
+    // binary.
     &[
         "mtcal-kinematics",
         "mtcal-solve",
         "mtcal-mismatch",
         "mtcal-located",
         "mtcal-testkit",
+        "mtcal-trend",
     ],
     // The machine and the instrument contract.
     &["mtcal-machine", "mtcal-instrument"],
