@@ -685,28 +685,6 @@ fn check_unique(src: &Source<'_>, params: &[Located]) -> Result<(), CompensateEr
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_are_spelled_as_the_controllers_spell_them() {
-        for (text, back) in [
-            ("EXY", "EXY"),
-            ("C0Y", "EC0Y"),
-            ("X0C", "EX0C"),
-            ("ECC", "ECC"),
-        ] {
-            let name = parse_file_name(text).unwrap();
-            assert_eq!(name.to_string(), back);
-            assert_eq!(file_name(&name), text);
-        }
-        for bad in ["P0X", "PXA", "VXX", "EX", "EXOC", "TOOL_DX", "X0"] {
-            assert!(parse_file_name(bad).is_none(), "{bad}");
-        }
-    }
-}
-
 impl ParameterFormat {
     /// Its name on the command line.
     pub fn name(self) -> &'static str {
@@ -739,5 +717,27 @@ pub(crate) fn card(machine: &Machine, format: ParameterFormat) -> ConventionCard
             "need the list file's workpiece_axes and chain to match the header's axis sides".into(),
             "correct the tool point only, unless its orientation compensation is configured".into(),
         ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_spelled_as_the_controllers_spell_them() {
+        for (text, back) in [
+            ("EXY", "EXY"),
+            ("C0Y", "EC0Y"),
+            ("X0C", "EX0C"),
+            ("ECC", "ECC"),
+        ] {
+            let name = parse_file_name(text).unwrap();
+            assert_eq!(name.to_string(), back);
+            assert_eq!(file_name(&name), text);
+        }
+        for bad in ["P0X", "PXA", "VXX", "EX", "EXOC", "TOOL_DX", "X0"] {
+            assert!(parse_file_name(bad).is_none(), "{bad}");
+        }
     }
 }

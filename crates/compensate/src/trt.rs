@@ -294,18 +294,6 @@ pub fn trt_hal_text(p: &TrtPivots, machine_name: &str) -> String {
     t
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn circle_centre_of_three_points() {
-        let c = circle_centre([[3.0, 2.0], [1.0, 4.0], [-1.0, 2.0]]).unwrap();
-        assert!((c[0] - 1.0).abs() < 1e-12 && (c[1] - 2.0).abs() < 1e-12);
-        assert!(circle_centre([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]).is_none());
-    }
-}
-
 /// The card of LinuxCNC's table-table pivots.
 pub(crate) fn card(
     machine: &mtcal_kinematics::Machine,
@@ -328,5 +316,17 @@ pub(crate) fn card(
                  (listed in the file)"
             ),
         ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn circle_centre_of_three_points() {
+        let c = circle_centre([[3.0, 2.0], [1.0, 4.0], [-1.0, 2.0]]).unwrap();
+        assert!((c[0] - 1.0).abs() < 1e-12 && (c[1] - 2.0).abs() < 1e-12);
+        assert!(circle_centre([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]).is_none());
     }
 }
