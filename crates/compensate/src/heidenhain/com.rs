@@ -2,7 +2,7 @@
 //! to their input axis by a `.CMA` file. Conventions in the module documentation of
 //! `heidenhain`.
 
-use super::table::{TableIn, TableOut, parse_table, table_text};
+use super::table::{TableIn, TableOut, axis_positions, parse_table, table_text};
 use super::{HeidenhainLimit, card_path};
 use crate::pitch::travel_direction;
 use crate::text::Source;
@@ -602,37 +602,12 @@ fn com_from(
     if value_columns.is_empty() {
         return Err(src.error(hn, 1, "expected at least one axis column of values"));
     }
-    let mut positions_mm: Vec<f64> = Vec::with_capacity(table.rows.len());
+    let positions_mm = axis_positions(src, table, nr, pos)?;
     let mut columns: Vec<(char, Vec<f64>)> = value_columns
         .iter()
         .map(|&(_, a)| (a, Vec::new()))
         .collect();
-    for (r, row) in table.rows.iter().enumerate() {
-        if let Some(nr) = nr {
-            let cell = row.cells[nr];
-            if cell.text.parse::<usize>() != Ok(r) {
-                return Err(src.error(
-                    row.line,
-                    cell.column,
-                    format!(
-                        "expected NR {r} (rows numbered from 0), found `{}`",
-                        cell.text
-                    ),
-                ));
-            }
-        }
-        let cell = row.cells[pos];
-        let p = src.number(row.line, cell)?;
-        if let Some(&prev) = positions_mm.last()
-            && p <= prev
-        {
-            return Err(src.error(
-                row.line,
-                cell.column,
-                format!("AXISPOS must ascend: {p} follows {prev}"),
-            ));
-        }
-        positions_mm.push(p);
+    for row in &table.rows {
         for (col, &(k, _)) in columns.iter_mut().zip(&value_columns) {
             col.1.push(src.number(row.line, row.cells[k])?);
         }

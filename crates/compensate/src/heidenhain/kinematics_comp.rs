@@ -3,7 +3,7 @@
 //! per axis, location errors as COORD values. Conventions in the module documentation of
 //! `heidenhain`.
 
-use super::table::{TableIn, TableOut, parse_table, table_text};
+use super::table::{TableIn, TableOut, axis_positions, parse_table, table_text};
 use super::{HeidenhainLimit, card_path};
 use crate::parameters::{ParameterValue, error_parameters};
 use crate::text::{Field, Source};
@@ -865,34 +865,9 @@ fn kc_table_from(
         *c = need(&format!("C{}", k + 1))?;
     }
     let nr = table.column("NR");
-    let mut positions: Vec<f64> = Vec::with_capacity(table.rows.len());
+    let positions = axis_positions(src, table, nr, pos)?;
     let mut columns: [Vec<f64>; 6] = Default::default();
-    for (r, row) in table.rows.iter().enumerate() {
-        if let Some(nr) = nr {
-            let cell = row.cells[nr];
-            if cell.text.parse::<usize>() != Ok(r) {
-                return Err(src.error(
-                    row.line,
-                    cell.column,
-                    format!(
-                        "expected NR {r} (rows numbered from 0), found `{}`",
-                        cell.text
-                    ),
-                ));
-            }
-        }
-        let cell = row.cells[pos];
-        let p = src.number(row.line, cell)?;
-        if let Some(&prev) = positions.last()
-            && p <= prev
-        {
-            return Err(src.error(
-                row.line,
-                cell.column,
-                format!("AXISPOS must ascend: {p} follows {prev}"),
-            ));
-        }
-        positions.push(p);
+    for row in &table.rows {
         for (k, &c) in cols.iter().enumerate() {
             columns[k].push(src.number(row.line, row.cells[c])?);
         }

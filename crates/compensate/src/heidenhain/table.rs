@@ -72,6 +72,39 @@ impl<'a> TableIn<'a> {
     }
 }
 
+/// The positions of `table`'s column `pos` (`AXISPOS`), checked row by row: rows numbered
+/// from 0 in column `nr` when the table has one, positions ascending.
+pub(super) fn axis_positions(
+    src: &Source<'_>,
+    table: &TableIn<'_>,
+    nr: Option<usize>,
+    pos: usize,
+) -> Result<Vec<f64>, CompensateError> {
+    let mut positions: Vec<f64> = Vec::with_capacity(table.rows.len());
+    for (r, row) in table.rows.iter().enumerate() {
+        if let Some(nr) = nr {
+            let cell = row.cells[nr];
+            if cell.text.parse::<usize>() != Ok(r) {
+                let found = format!(
+                    "expected NR {r} (rows numbered from 0), found `{}`",
+                    cell.text
+                );
+                return Err(src.error(row.line, cell.column, found));
+            }
+        }
+        let cell = row.cells[pos];
+        let p = src.number(row.line, cell)?;
+        if let Some(&prev) = positions.last()
+            && p <= prev
+        {
+            let msg = format!("AXISPOS must ascend: {p} follows {prev}");
+            return Err(src.error(row.line, cell.column, msg));
+        }
+        positions.push(p);
+    }
+    Ok(positions)
+}
+
 /// Lines with their 1-based numbers, `\r` removed.
 fn numbered(text: &str) -> impl Iterator<Item = (usize, &str)> {
     text.lines()
