@@ -32,6 +32,9 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-located",
         "mtcal-testkit",
         "mtcal-trend",
+        // The machine history: storage of identified campaigns, read from identify's JSON,
+        // no mtcal dependency (lowest, so the report and the command line can both use it).
+        "mtcal-history",
     ],
     // The machine and the instrument contract.
     &["mtcal-machine", "mtcal-instrument"],
