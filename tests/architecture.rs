@@ -32,12 +32,12 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-located",
         "mtcal-testkit",
         "mtcal-trend",
-        // The machine history: storage of identified campaigns, read from identify's JSON,
-        // no mtcal dependency (lowest, so the report and the command line can both use it).
-        "mtcal-history",
     ],
     // The machine and the instrument contract.
-    &["mtcal-machine", "mtcal-instrument"],
+    // The machine history (storage of identified campaigns, read from identify's JSON, and
+    // what their series say through mtcal-trend) sits here so the command line and anything
+    // above can use it.
+    &["mtcal-machine", "mtcal-instrument", "mtcal-history"],
     // Session files and the instrument plugins (one crate each), their conformance kit.
     &[
         "mtcal-session",

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod compensate;
+mod history;
 mod identify;
 mod import;
 mod plan;
@@ -125,6 +126,10 @@ enum Command {
     /// Import an instrument's own export (ecmc ISO 230-2 .dat, API XD .pos, Renishaw .rtx)
     /// as a laser run of a session: its CSV and its [[run]] in session.toml (crates/import).
     Import(import::ImportArgs),
+    /// The machine history: add a campaign (a session or an identify JSON), list machines,
+    /// show a machine's campaigns, the trend of a parameter (drift, step, tolerance, next
+    /// check), the fleet against its tolerances (SQLite file or PostgreSQL, crates/history).
+    History(history::HistoryArgs),
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
         /// The test plan (TOML; see crates/simulate/src/lib.rs).
@@ -234,6 +239,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Import(args) => import::run(args, &mut stdout),
+        Command::History(args) => history::run(args, &mut stdout),
         Command::Plan { planning, out } => plan::run(&planning, &out, &mut stdout),
         Command::Plugins => {
             let plugins = mtcal_plugins::plugins();

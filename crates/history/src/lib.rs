@@ -47,6 +47,12 @@
 //! [`Store::series`] of one machine's parameter 1.3 ms, [`Store::machines`] 77 ms,
 //! [`Store::open`] 0.2 ms.
 //!
+//! # What the history says
+//! [`trend_view`] picks one parameter's series out of the store and asks `mtcal-trend` what it
+//! says (changes between campaigns, drift, step, tolerance, next check); [`fleet_view`] sets
+//! every machine's latest campaign against the parameter tolerances. Both serialise for
+//! `--json` and print for a person.
+//!
 //! # Append-only
 //! A campaign is written once, in one transaction with all its rows ([`Store::add`]: a crash
 //! leaves nothing partial) and never changed: there is no update path, and from schema 2 on the
@@ -56,20 +62,24 @@
 mod campaign;
 mod date;
 mod db;
+mod digest;
 mod identify_json;
 mod query;
 mod schema;
 mod store;
+mod view;
 
 pub use campaign::{
     Campaign, DiscoverySummary, FitSummary, MachineIdentity, Parameter, ParameterStatus,
     ValidationRun,
 };
 pub use date::parse_date;
+pub use digest::{DigestError, digest_files, digest_text};
 pub use jiff::Timestamp;
 pub use query::{CampaignRecord, CampaignRow, FleetRow, MachineSummary, SeriesPoint, Supersession};
 pub use schema::SCHEMA_VERSION;
 pub use store::{BUSY_TIMEOUT, Backend, Store};
+pub use view::{FleetLine, Limits, TrendView, fleet_text, fleet_view, trend_view};
 
 use serde::{Deserialize, Serialize};
 

@@ -1,0 +1,328 @@
+//! `cargo xtask history`: every calibration of a machine kept ([`mtcal_history::Store`]) and
+//! what the series say ([`mtcal_history::trend_view`], [`mtcal_history::fleet_view`]).
+
+use anyhow::{Context, Result, bail};
+use mtcal_history::{Campaign, CampaignId, Limits, Store, Timestamp};
+use mtcal_identify::pipeline::{PipelineOptions, Prepared};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The history file when neither `--db` nor `MTCAL_HISTORY` names one.
+const DEFAULT_DB: &str = "mtcal-history.sqlite";
+
+/// The arguments of `history`.
+#[derive(clap::Args)]
+pub(crate) struct HistoryArgs {
+    /// The history: an SQLite file (created when absent) or a postgres://… URL (default:
+    /// $MTCAL_HISTORY, else ./mtcal-history.sqlite).
+    #[arg(long, global = true)]
+    db: Option<String>,
+    /// JSON instead of text.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: HistoryCommand,
+}
+
+#[derive(clap::Subcommand)]
+enum HistoryCommand {
+    /// Add a campaign: a session folder (identified now) or an identify JSON result.
+    Add {
+        /// The session folder (or its session.toml), or a RESULT.json of `identify --json`.
+        input: PathBuf,
+        /// The machine's name in the history (yours: `mill-3`, a serial number…).
+        #[arg(long)]
+        machine: String,
+        /// When the machine was measured, e.g. 2026-03-01 or 2026-03-01T14:30:00Z (default:
+        /// the newest modification time of the session's files, or of the JSON).
+        #[arg(long)]
+        date: Option<String>,
+        /// The machine's temperature during the campaign, °C.
+        #[arg(long)]
+        temperature_c: Option<f64>,
+        /// A note kept with the campaign.
+        #[arg(long)]
+        note: Option<String>,
+    },
+    /// The machines and how many campaigns each has.
+    List,
+    /// A machine's campaigns.
+    Show { machine: String },
+    /// What a parameter's series says: changes between campaigns (E_n), drift rate, step,
+    /// tolerance and next check; without --param, one line per parameter.
+    Trend {
+        machine: String,
+        /// The parameter, e.g. EX0C or EXX.P1.
+        #[arg(long)]
+        param: Option<String>,
+        /// Tolerances on parameters: the [parameters] table of an acceptance file
+        /// (docs/ACCEPTANCE.md).
+        #[arg(long)]
+        tolerances: Option<PathBuf>,
+        /// The longest interval between checks, days.
+        #[arg(long, default_value_t = 365.0)]
+        max_interval_days: f64,
+    },
+    /// Every machine's latest campaign and the parameters beyond their tolerances.
+    Fleet {
+        #[arg(long)]
+        tolerances: Option<PathBuf>,
+    },
+    /// Mark a campaign superseded by a later one of the same machine (both are kept).
+    Supersede {
+        id: i64,
+        #[arg(long)]
+        by: i64,
+        #[arg(long)]
+        reason: String,
+    },
+}
+
+pub(crate) fn run(args: HistoryArgs, out: &mut impl Write) -> Result<()> {
+    let db = args
+        .db
+        .or_else(|| std::env::var("MTCAL_HISTORY").ok())
+        .unwrap_or_else(|| DEFAULT_DB.to_string());
+    let json = args.json;
+    match args.command {
+        HistoryCommand::Add {
+            input,
+            machine,
+            date,
+            temperature_c,
+            note,
+        } => {
+            // The date and the campaign first: a mistake in either opens no database.
+            let date = date.map(|d| mtcal_history::parse_date(&d)).transpose()?;
+            let mut campaign = campaign_of(&input, &machine, date)?;
+            campaign.temperature_c = temperature_c;
+            campaign.note = note;
+            let mut store = Store::open(&db)?;
+            let id = store.add(&campaign)?;
+            if json {
+                writeln!(out, "{}", serde_json::json!({ "added": id.0 }))?;
+            } else {
+                writeln!(
+                    out,
+                    "added campaign {} of {machine} ({}) to {}",
+                    id.0,
+                    campaign.date.strftime("%Y-%m-%d %H:%M:%S UTC"),
+                    store.location()
+                )?;
+            }
+        }
+        HistoryCommand::List => {
+            let machines = Store::open(&db)?.machines()?;
+            if json {
+                print_json(out, &machines)?;
+            } else {
+                writeln!(
+                    out,
+                    "{:<24} {:>9}  first       last",
+                    "machine", "campaigns"
+                )?;
+                for m in &machines {
+                    writeln!(
+                        out,
+                        "{:<24} {:>9}  {}  {}",
+                        m.name,
+                        m.campaigns,
+                        m.first_date.strftime("%Y-%m-%d"),
+                        m.last_date.strftime("%Y-%m-%d")
+                    )?;
+                }
+            }
+        }
+        HistoryCommand::Show { machine } => show(&Store::open(&db)?, &machine, json, out)?,
+        HistoryCommand::Trend {
+            machine,
+            param,
+            tolerances,
+            max_interval_days,
+        } => {
+            let store = Store::open(&db)?;
+            let limits = limits(tolerances.as_deref())?;
+            trend(
+                &store,
+                &machine,
+                param.as_deref(),
+                &limits,
+                max_interval_days,
+                json,
+                out,
+            )?
+        }
+        HistoryCommand::Fleet { tolerances } => {
+            let lines =
+                mtcal_history::fleet_view(&Store::open(&db)?, &limits(tolerances.as_deref())?)?;
+            if json {
+                print_json(out, &lines)?;
+            } else {
+                write!(out, "{}", mtcal_history::fleet_text(&lines))?;
+            }
+        }
+        HistoryCommand::Supersede { id, by, reason } => {
+            let mut store = Store::open(&db)?;
+            store.supersede(CampaignId(id), CampaignId(by), &reason)?;
+            writeln!(
+                out,
+                "campaign {id} is superseded by campaign {by}: {reason}"
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn print_json(out: &mut impl Write, value: &impl serde::Serialize) -> Result<()> {
+    writeln!(out, "{}", serde_json::to_string_pretty(value)?)?;
+    Ok(())
+}
+
+/// The campaign of `input`: a session identified now (its files digested), or an identify
+/// JSON (whose machine and session files the history cannot know).
+fn campaign_of(input: &Path, machine: &str, date: Option<Timestamp>) -> Result<Campaign> {
+    let is_json = input.extension().is_some_and(|e| e == "json");
+    if is_json {
+        let text = std::fs::read_to_string(input)
+            .with_context(|| format!("cannot read {}", input.display()))?;
+        let date = campaign_date(date, &[input])?;
+        return Ok(Campaign::from_identify_json(&text, machine, date)?);
+    }
+    let outcome =
+        Prepared::load(input, PipelineOptions::default())?.run(&mut mtcal_solve::Silent)?;
+    let study = &outcome.study;
+    let run_files: Vec<&Path> = study
+        .session
+        .runs
+        .iter()
+        .map(|r| r.file.as_path())
+        .collect();
+    let mut session_files = vec![study.session.manifest.as_path()];
+    session_files.extend(&run_files);
+    let date = campaign_date(date, &session_files)?;
+    let json = outcome.identification.to_json();
+    let mut campaign = Campaign::from_identify_json(&json, machine, date)?;
+    campaign.session_digest = Some(mtcal_history::digest_files(&session_files)?);
+    campaign.machine.urdf_digest = Some(source_digest(&study.machine.source)?);
+    campaign.machine.error_model_digest = Some(source_digest(&study.machine.config_source)?);
+    campaign.mtcal_version = Some(env!("CARGO_PKG_VERSION").to_string());
+    Ok(campaign)
+}
+
+/// The digest of a machine or error-model source: the file's when it is one, else of the text
+/// that names it (a topology code, "full ISO model").
+fn source_digest(source: &str) -> Result<String> {
+    let path = Path::new(source);
+    Ok(if path.is_file() {
+        mtcal_history::digest_files(&[path])?
+    } else {
+        mtcal_history::digest_text(source)
+    })
+}
+
+/// `--date`, or the newest modification time of `files` (when the recordings were written).
+fn campaign_date(date: Option<Timestamp>, files: &[&Path]) -> Result<Timestamp> {
+    if let Some(date) = date {
+        return Ok(date);
+    }
+    let mut newest = None;
+    for f in files {
+        let modified = std::fs::metadata(f)
+            .and_then(|m| m.modified())
+            .with_context(|| format!("cannot read the date of {} (give --date)", f.display()))?;
+        newest = newest.max(Some(modified));
+    }
+    let Some(newest) = newest else {
+        bail!("no file to date the campaign by: give --date");
+    };
+    Ok(Timestamp::try_from(newest).context("a file's date is out of range: give --date")?)
+}
+
+/// The parameter limits of an acceptance file's `[parameters]` table.
+fn limits(tolerances: Option<&Path>) -> Result<Limits> {
+    let Some(path) = tolerances else {
+        return Ok(Limits::default());
+    };
+    let t = mtcal_acceptance::Tolerances::read(path)?;
+    Ok(Limits {
+        limits: t
+            .parameters
+            .iter()
+            .map(|p| (p.name.clone(), p.limit))
+            .collect(),
+        guard_band: t.rule == mtcal_acceptance::DecisionRule::Iso14253_1,
+    })
+}
+
+fn show(store: &Store, machine: &str, json: bool, out: &mut impl Write) -> Result<()> {
+    let campaigns = store.campaigns(machine)?;
+    if campaigns.is_empty() {
+        bail!("the history has no machine `{machine}` (`history list` names them)");
+    }
+    if json {
+        return print_json(out, &campaigns);
+    }
+    writeln!(out, "{machine}: {} campaigns", campaigns.len())?;
+    for c in &campaigns {
+        let superseded = c
+            .superseded
+            .as_ref()
+            .map(|s| format!("  superseded by {}: {}", s.by.0, s.reason))
+            .unwrap_or_default();
+        let converged = if c.fit.converged {
+            ""
+        } else {
+            ", DID NOT CONVERGE"
+        };
+        writeln!(
+            out,
+            "  {:<5} {}  rms {:.3} um{converged}{superseded}",
+            c.id.0,
+            c.date.strftime("%Y-%m-%d %H:%M"),
+            c.fit.rms_um,
+        )?;
+    }
+    Ok(())
+}
+
+fn trend(
+    store: &Store,
+    machine: &str,
+    param: Option<&str>,
+    limits: &Limits,
+    max_interval_days: f64,
+    json: bool,
+    out: &mut impl Write,
+) -> Result<()> {
+    let names: Vec<String> = match param {
+        Some(p) => vec![p.to_string()],
+        None => {
+            let fleet = store.fleet()?;
+            let Some(row) = fleet.into_iter().find(|r| r.machine == machine) else {
+                bail!("the history has no machine `{machine}` (`history list` names them)");
+            };
+            row.parameters.into_iter().map(|p| p.name).collect()
+        }
+    };
+    let mut views = Vec::with_capacity(names.len());
+    for name in &names {
+        views.push(mtcal_history::trend_view(
+            store,
+            machine,
+            name,
+            limits,
+            max_interval_days,
+        )?);
+    }
+    if json {
+        return print_json(out, &views);
+    }
+    if param.is_some() {
+        write!(out, "{}", views[0])?;
+    } else {
+        for v in &views {
+            writeln!(out, "{}", v.one_line())?;
+        }
+    }
+    Ok(())
+}
