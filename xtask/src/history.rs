@@ -235,7 +235,7 @@ fn campaign_date(date: Option<Timestamp>, files: &[&Path]) -> Result<Timestamp> 
     let Some(newest) = newest else {
         bail!("no file to date the campaign by: give --date");
     };
-    Ok(Timestamp::try_from(newest).context("a file's date is out of range: give --date")?)
+    Timestamp::try_from(newest).context("a file's date is out of range: give --date")
 }
 
 /// The parameter limits of an acceptance file's `[parameters]` table.
