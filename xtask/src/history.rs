@@ -63,6 +63,18 @@ enum HistoryCommand {
         #[arg(long, default_value_t = 365.0)]
         max_interval_days: f64,
     },
+    /// The checks of one day as a warm-up trajectory (source 000): per parameter the time
+    /// constant, the change still to come and the settled value, each ± u95, and with
+    /// recorded temperatures (`add --temperature-c`) the sensitivity per kelvin.
+    Thermal {
+        machine: String,
+        /// The parameter, e.g. EX0C (default: every parameter of the day's checks).
+        #[arg(long)]
+        param: Option<String>,
+        /// The day, YYYY-MM-DD in UTC (default: the day of the latest campaign).
+        #[arg(long)]
+        day: Option<String>,
+    },
     /// Every machine's latest campaign and the parameters beyond their tolerances.
     Fleet {
         #[arg(long)]
@@ -151,6 +163,33 @@ pub(crate) fn run(args: HistoryArgs, out: &mut impl Write) -> Result<()> {
                 json,
                 out,
             )?
+        }
+        HistoryCommand::Thermal {
+            machine,
+            param,
+            day,
+        } => {
+            let store = Store::open(&db)?;
+            let names = match param {
+                Some(p) => vec![p],
+                None => parameter_names(&store, &machine)?,
+            };
+            let mut views = Vec::with_capacity(names.len());
+            for name in &names {
+                views.push(mtcal_history::thermal_view(
+                    &store,
+                    &machine,
+                    name,
+                    day.as_deref(),
+                )?);
+            }
+            if json {
+                print_json(out, &views)?;
+            } else {
+                for v in &views {
+                    writeln!(out, "{v}")?;
+                }
+            }
         }
         HistoryCommand::Fleet { tolerances } => {
             let lines =
@@ -254,6 +293,15 @@ fn limits(tolerances: Option<&Path>) -> Result<Limits> {
     })
 }
 
+/// The parameters of `machine`'s latest campaign.
+fn parameter_names(store: &Store, machine: &str) -> Result<Vec<String>> {
+    let fleet = store.fleet()?;
+    let Some(row) = fleet.into_iter().find(|r| r.machine == machine) else {
+        bail!("the history has no machine `{machine}` (`history list` names them)");
+    };
+    Ok(row.parameters.into_iter().map(|p| p.name).collect())
+}
+
 fn show(store: &Store, machine: &str, json: bool, out: &mut impl Write) -> Result<()> {
     let campaigns = store.campaigns(machine)?;
     if campaigns.is_empty() {
@@ -296,13 +344,7 @@ fn trend(
 ) -> Result<()> {
     let names: Vec<String> = match param {
         Some(p) => vec![p.to_string()],
-        None => {
-            let fleet = store.fleet()?;
-            let Some(row) = fleet.into_iter().find(|r| r.machine == machine) else {
-                bail!("the history has no machine `{machine}` (`history list` names them)");
-            };
-            row.parameters.into_iter().map(|p| p.name).collect()
-        }
+        None => parameter_names(store, machine)?,
     };
     let mut views = Vec::with_capacity(names.len());
     for name in &names {

@@ -134,6 +134,13 @@ fn campaigns_are_kept_listed_trended_and_set_against_tolerances() {
         "{text}"
     );
 
+    // One check on its day is no warm-up trajectory, and says why.
+    let thermal = json(&db, &["thermal", "mill-3", "--param", "EC0Y"]);
+    assert_eq!(thermal[0]["day"], "2026-07-01");
+    assert_eq!(thermal[0]["checks"], 1);
+    let why = thermal[0]["not_determined"].as_str().unwrap();
+    assert!(why.contains("1 checks"), "{why}");
+
     // Superseding keeps both and says so.
     assert_success(&mtcal(&[
         "history",

@@ -79,7 +79,9 @@ pub use jiff::Timestamp;
 pub use query::{CampaignRecord, CampaignRow, FleetRow, MachineSummary, SeriesPoint, Supersession};
 pub use schema::SCHEMA_VERSION;
 pub use store::{BUSY_TIMEOUT, Backend, Store};
-pub use view::{FleetLine, Limits, TrendView, fleet_text, fleet_view, trend_view};
+pub use view::{
+    FleetLine, Limits, ThermalView, TrendView, fleet_text, fleet_view, thermal_view, trend_view,
+};
 
 use serde::{Deserialize, Serialize};
 

@@ -337,3 +337,115 @@ pub fn fleet_text(lines: &[FleetLine]) -> String {
     }
     s
 }
+
+/// One parameter over the checks of one day (source 000: repeated quick R-tests while the
+/// machine warms up): the first-order trajectory and, with recorded temperatures, the
+/// parameter's sensitivity to temperature.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ThermalView {
+    pub machine: String,
+    pub parameter: String,
+    pub unit: Option<String>,
+    /// The day, `2026-03-01` (UTC).
+    pub day: String,
+    /// The checks of that day that count (identified, not superseded), in time order.
+    pub checks: usize,
+    pub trajectory: Option<mtcal_trend::Trajectory>,
+    /// Why there is no trajectory.
+    pub not_determined: Option<String>,
+    pub sensitivity: Option<mtcal_trend::Sensitivity>,
+}
+
+/// The same-day trajectory of `parameter` of `machine` on `day` (`YYYY-MM-DD`, UTC; default
+/// the day of its latest campaign).
+pub fn thermal_view(
+    store: &Store,
+    machine: &str,
+    parameter: &str,
+    day: Option<&str>,
+) -> Result<ThermalView, Error> {
+    let series = store.series(machine, parameter)?;
+    let temperatures: BTreeMap<i64, f64> = store
+        .campaigns(machine)?
+        .iter()
+        .filter_map(|c| c.temperature_c.map(|t| (c.id.0, t)))
+        .collect();
+    let day = match day {
+        Some(d) => d.to_string(),
+        None => series
+            .last()
+            .map_or_else(String::new, |p| self::day(p.date)),
+    };
+    let points: Vec<Point> = series
+        .iter()
+        .filter(|p| !p.superseded && self::day(p.date) == day)
+        .filter_map(|p| match (p.value, p.u95) {
+            (Some(v), Some(u)) if u > 0.0 => {
+                let point = Point::new(p.date.as_second() as f64, v, u);
+                Some(match temperatures.get(&p.campaign.0) {
+                    Some(&t) => point.with_temperature_c(t),
+                    None => point,
+                })
+            }
+            _ => None,
+        })
+        .collect();
+    let (trajectory, not_determined) =
+        match mtcal_trend::fit_thermal(&points, &mtcal_trend::ThermalOptions::default()) {
+            Ok(mtcal_trend::ThermalFit::Determined(t)) => (Some(t), None),
+            Ok(mtcal_trend::ThermalFit::NotDetermined(why)) => (None, Some(why.to_string())),
+            Err(e) => (None, Some(e.to_string())),
+        };
+    let all_have_temperature =
+        !points.is_empty() && points.iter().all(|p| p.temperature_c.is_some());
+    let sensitivity = if all_have_temperature {
+        mtcal_trend::temperature_sensitivity(&points).ok().flatten()
+    } else {
+        None
+    };
+    Ok(ThermalView {
+        machine: machine.to_string(),
+        parameter: parameter.to_string(),
+        unit: series.iter().find_map(|p| p.unit.clone()),
+        day,
+        checks: points.len(),
+        trajectory,
+        not_determined,
+        sensitivity,
+    })
+}
+
+impl fmt::Display for ThermalView {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let unit = self.unit.as_deref().unwrap_or("");
+        write!(
+            f,
+            "{} of {} on {}: {} checks",
+            self.parameter, self.machine, self.day, self.checks
+        )?;
+        match (&self.trajectory, &self.not_determined) {
+            (Some(t), _) => write!(
+                f,
+                "; time constant {:.1} min ({:.1}…{:.1}), still to come at the first check \
+                 {:+.3} ± {:.3} {unit}, settles at {:.3} ± {:.3} {unit}",
+                t.tau_min,
+                t.tau_low_min,
+                t.tau_high_min,
+                t.amplitude,
+                t.amplitude_u95,
+                t.settled_value,
+                t.settled_value_u95
+            )?,
+            (None, Some(why)) => write!(f, "; {why}")?,
+            (None, None) => {}
+        }
+        if let Some(s) = &self.sensitivity {
+            write!(
+                f,
+                "; {:+.3} ± {:.3} {unit}/K with the recorded temperature",
+                s.per_kelvin, s.u95_per_kelvin
+            )?;
+        }
+        Ok(())
+    }
+}
