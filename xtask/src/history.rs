@@ -80,6 +80,27 @@ enum HistoryCommand {
         #[arg(long)]
         tolerances: Option<PathBuf>,
     },
+    /// The history page (OUT/index.html, self-contained): a machine's trend plots (values ±
+    /// u95, drift line and band, tolerance lines) and its fleet row, or with --fleet the fleet
+    /// table with the drift rates of the toleranced parameters.
+    Report {
+        /// The machine (omit with --fleet).
+        machine: Option<String>,
+        /// The whole fleet instead of one machine.
+        #[arg(long, conflicts_with = "machine")]
+        fleet: bool,
+        /// The folder to write index.html into.
+        #[arg(long)]
+        out: PathBuf,
+        /// Only these parameters (repeatable; default every parameter of the latest campaign,
+        /// or with --fleet those the tolerances name).
+        #[arg(long = "param")]
+        params: Vec<String>,
+        #[arg(long)]
+        tolerances: Option<PathBuf>,
+        #[arg(long, default_value_t = 365.0)]
+        max_interval_days: f64,
+    },
     /// Mark a campaign superseded by a later one of the same machine (both are kept).
     Supersede {
         id: i64,
@@ -200,6 +221,24 @@ pub(crate) fn run(args: HistoryArgs, out: &mut impl Write) -> Result<()> {
                 write!(out, "{}", mtcal_history::fleet_text(&lines))?;
             }
         }
+        HistoryCommand::Report {
+            machine,
+            fleet,
+            out: dir,
+            params,
+            tolerances,
+            max_interval_days,
+        } => {
+            let store = Store::open(&db)?;
+            let limits = limits(tolerances.as_deref())?;
+            let page = match (machine, fleet) {
+                (Some(m), false) => machine_page(&store, &m, params, &limits, max_interval_days)?,
+                (None, true) => fleet_page(&store, params, &limits, max_interval_days)?,
+                _ => bail!("history report: name a machine, or give --fleet"),
+            };
+            let path = mtcal_report::write_history(&dir, &page)?;
+            writeln!(out, "wrote {}", path.display())?;
+        }
         HistoryCommand::Supersede { id, by, reason } => {
             let mut store = Store::open(&db)?;
             store.supersede(CampaignId(id), CampaignId(by), &reason)?;
@@ -290,6 +329,95 @@ fn limits(tolerances: Option<&Path>) -> Result<Limits> {
             .map(|p| (p.name.clone(), p.limit))
             .collect(),
         guard_band: t.rule == mtcal_acceptance::DecisionRule::Iso14253_1,
+    })
+}
+
+/// One machine's page: its fleet row and a trend plot per parameter.
+fn machine_page(
+    store: &Store,
+    machine: &str,
+    params: Vec<String>,
+    limits: &Limits,
+    max_interval_days: f64,
+) -> Result<mtcal_report::HistoryPage> {
+    let names = if params.is_empty() {
+        parameter_names(store, machine)?
+    } else {
+        params
+    };
+    let mut trends = Vec::with_capacity(names.len());
+    for name in &names {
+        let view = mtcal_history::trend_view(store, machine, name, limits, max_interval_days)?;
+        if view.points.iter().any(|p| p.value.is_some()) {
+            trends.push(view);
+        }
+    }
+    let fleet = mtcal_history::fleet_view(store, limits)?
+        .into_iter()
+        .filter(|l| l.machine == machine)
+        .collect();
+    Ok(mtcal_report::HistoryPage {
+        title: format!("mtcal history — {machine}"),
+        source: store.location().to_string(),
+        fleet,
+        drifts: Vec::new(),
+        trends,
+    })
+}
+
+/// The fleet page: every machine's row with the drift rates of `params` (default: the
+/// parameters the tolerances name).
+fn fleet_page(
+    store: &Store,
+    params: Vec<String>,
+    limits: &Limits,
+    max_interval_days: f64,
+) -> Result<mtcal_report::HistoryPage> {
+    let names: Vec<String> = if params.is_empty() {
+        limits.limits.keys().cloned().collect()
+    } else {
+        params
+    };
+    let fleet = mtcal_history::fleet_view(store, limits)?;
+    let mut drifts = Vec::with_capacity(fleet.len());
+    for line in &fleet {
+        let mut rates = Vec::new();
+        for name in &names {
+            // A tolerance may name a parameter this machine's model does not have.
+            let view = match mtcal_history::trend_view(
+                store,
+                &line.machine,
+                name,
+                limits,
+                max_interval_days,
+            ) {
+                Err(mtcal_history::Error::UnknownParameter { .. }) => continue,
+                view => view?,
+            };
+            if let Some(t) = &view.trend {
+                let unit = view.unit.as_deref().unwrap_or("");
+                let significant = if t.drift.significant {
+                    " (significant)"
+                } else {
+                    ""
+                };
+                rates.push((
+                    name.clone(),
+                    format!(
+                        "{:+.4} ± {:.4} {unit}/day{significant}",
+                        t.drift.rate_per_day, t.drift.rate_u95_per_day
+                    ),
+                ));
+            }
+        }
+        drifts.push((line.machine.clone(), rates));
+    }
+    Ok(mtcal_report::HistoryPage {
+        title: "mtcal history — fleet".to_string(),
+        source: store.location().to_string(),
+        fleet,
+        drifts,
+        trends: Vec::new(),
     })
 }
 

@@ -402,3 +402,82 @@ fn a_report_without_the_search_shows_component_curves_with_bands() {
     assert!(!section(&dom, "residuals").contains("before the physics search"));
     check_parameters(&dom, &json);
 }
+
+/// `history report`: a machine's page in Chromium: the scripts ran, the fleet row is there, one
+/// trend plot per parameter asked for with the tolerance lines, and the page counted them.
+#[test]
+fn the_history_page_shows_the_trends_and_the_fleet() {
+    if !have_chromium() {
+        return;
+    }
+    let tmp = tempfile::tempdir().expect("temporary folder");
+    let db = tmp.path().join("history.sqlite");
+    let result = tmp.path().join("result.json");
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+            .args(args)
+            .current_dir(repo())
+            .output()
+            .expect("mtcal runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let (db, result) = (db.to_str().unwrap(), result.to_str().unwrap());
+    run(&[
+        "identify",
+        "examples/three-axis/session",
+        "--quiet",
+        "--json",
+        result,
+    ]);
+    for date in ["2026-01-10", "2026-04-10", "2026-07-01"] {
+        run(&[
+            "history",
+            "add",
+            result,
+            "--machine",
+            "mill <3>",
+            "--date",
+            date,
+            "--db",
+            db,
+        ]);
+    }
+    let out_dir = tmp.path().join("history page");
+    run(&[
+        "history",
+        "report",
+        "mill <3>",
+        "--param",
+        "EC0Y",
+        "--param",
+        "EXX.P1",
+        "--tolerances",
+        "examples/acceptance/three-axis.toml",
+        "--db",
+        db,
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let dom = render(&out_dir.join("index.html"), tmp.path());
+    assert!(
+        dom.contains("data-report-ready=\"yes\""),
+        "the closing script did not run"
+    );
+    assert!(dom.contains("id=\"script-errors\" hidden"), "script errors");
+    let fleet = section(&dom, "fleet");
+    assert!(fleet.contains("<td>mill &lt;3&gt;</td>"), "{fleet}");
+    let trends = section(&dom, "trends");
+    assert_eq!(svgs(trends), 2);
+    assert!(dom.contains("data-plots=\"2\""));
+    // EC0Y has a tolerance (20 µrad): its plot draws the two limit lines in the limit colour.
+    let ec0y = &trends[trends.find("data-name=\"EC0Y\"").expect("EC0Y's plot")..];
+    let ec0y = &ec0y[..ec0y.find("</figure>").expect("figure closes")];
+    assert!(
+        ec0y.to_ascii_uppercase().matches("#C02020").count() >= 2,
+        "no limit lines"
+    );
+}

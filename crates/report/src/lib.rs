@@ -41,10 +41,12 @@
 //! browser can see that the page ran cleanly.
 
 mod escape;
+mod history;
 mod page;
 mod plots;
 
 pub use escape::escape;
+pub use history::{HistoryPage, render_history, write_history};
 
 use std::path::{Path, PathBuf};
 
@@ -330,6 +332,11 @@ pub fn render(report: &Report) -> Result<String, ReportError> {
 /// Rendering finishes before anything is written, and the file is replaced atomically.
 pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, ReportError> {
     let html = render(report)?;
+    write_page(dir, &html)
+}
+
+/// Writes `html` to `dir/index.html` (creating `dir`), atomically; returns that path.
+fn write_page(dir: &Path, html: &str) -> Result<PathBuf, ReportError> {
     std::fs::create_dir_all(dir).map_err(|source| ReportError::CreateDir {
         dir: dir.to_path_buf(),
         cause: source,

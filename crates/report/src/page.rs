@@ -18,7 +18,7 @@ pub(crate) const SECTIONS: [(&str, &str); 8] = [
     ("discoveries", "Discoveries"),
 ];
 
-const STYLE: &str = "
+pub(crate) const STYLE: &str = "
 body{font:15px/1.45 system-ui,-apple-system,'Segoe UI',sans-serif;color:#222;margin:0;background:#fafafa}
 header,main,nav{max-width:1100px;margin:0 auto;padding:0 20px}
 header{padding-top:18px}h1{font-size:26px;margin:0 0 4px}h2{border-bottom:2px solid #1F77B4;padding-bottom:3px;margin-top:34px}
@@ -37,7 +37,7 @@ td.n{text-align:right;font-variant-numeric:tabular-nums}td.nid{font-style:italic
 ";
 
 /// Records every script error into `#script-errors` (or a queue until the body exists).
-const ERROR_RECORDER: &str = "
+pub(crate) const ERROR_RECORDER: &str = "
 window.__reportErrors = [];
 window.onerror = function (message, source, line) {
   var text = String(message) + (line ? ' (line ' + line + ')' : '');
@@ -49,7 +49,7 @@ window.onerror = function (message, source, line) {
 ";
 
 /// Flushes queued errors, counts each section's plots into the contents, marks the page ready.
-const READY: &str = "
+pub(crate) const READY: &str = "
 (function () {
   var box = document.getElementById('script-errors');
   for (var i = 0; i < window.__reportErrors.length; i++) {
@@ -115,7 +115,7 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
 
 /// `<figure class="plot">` around an SVG, as wide as the SVG says (at most the page's width),
 /// so its caption wraps under the plot.
-fn figure(kind: &str, name: &str, svg: &str, caption: &str) -> String {
+pub(crate) fn figure(kind: &str, name: &str, svg: &str, caption: &str) -> String {
     let width = svg
         .split("width=\"")
         .nth(1)
@@ -135,7 +135,7 @@ fn key(color: plotters::style::RGBColor, label: &str) -> String {
     )
 }
 
-fn none(text: &str) -> String {
+pub(crate) fn none(text: &str) -> String {
     format!("<p class=\"none\">{}</p>\n", escape(text))
 }
 

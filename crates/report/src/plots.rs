@@ -493,3 +493,79 @@ pub(crate) fn map_slice(s: &MapSlice, vmax: f64) -> Result<String, ReportError> 
         Ok(())
     })
 }
+
+/// Tolerance lines on trend plots.
+const LIMIT: RGBColor = RGBColor(0xC0, 0x20, 0x20);
+
+/// One parameter's history: each campaign's value with its 95 % interval (superseded ones
+/// grey), the drift line with its 95 % band, and the tolerance lines ±limit; days since the
+/// first campaign along x.
+pub(crate) fn trend(v: &mtcal_history::TrendView) -> Result<String, ReportError> {
+    let valued: Vec<(f64, f64, f64, bool)> = v
+        .points
+        .iter()
+        .filter_map(|p| match (p.value, p.u95) {
+            (Some(value), Some(u95)) => {
+                Some((p.date.as_second() as f64, value, u95.abs(), p.superseded))
+            }
+            _ => None,
+        })
+        .filter(|(t, value, u95, _)| t.is_finite() && value.is_finite() && u95.is_finite())
+        .collect();
+    if valued.is_empty() {
+        return Err(invalid(&v.parameter, "no campaign has a value".into()));
+    }
+    let t0 = valued[0].0;
+    let day = |t: f64| (t - t0) / 86_400.0;
+    let (x0, x1) = span(valued.iter().map(|p| day(p.0)));
+    let limit = v.limit.filter(|l| l.is_finite());
+    let ys = valued
+        .iter()
+        .flat_map(|p| [p.1 - p.2, p.1 + p.2])
+        .chain(limit.into_iter().flat_map(|l| [l, -l]));
+    let (y0, y1) = span(ys);
+    let unit = display_unit(v.unit.as_deref().unwrap_or(""));
+    let y_desc = format!("{} ({unit})", v.parameter);
+    let title = format!("{} of {}", v.parameter, v.machine);
+    svg((460, 300), &v.parameter, |root| {
+        root.fill(&WHITE)?;
+        let mut chart = xy_chart(root, &title, (x0..x1, y0..y1), ("days", &y_desc))?;
+        if let Some(t) = &v.trend {
+            let line: Vec<(f64, f64, f64)> = (0..=40)
+                .map(|k| t0 + (x0 + (x1 - x0) * f64::from(k) / 40.0) * 86_400.0)
+                .map(|t_s| {
+                    let (value, u95) = t.drift.value_at(t_s);
+                    (day(t_s), value, u95)
+                })
+                .collect();
+            let band: Vec<(f64, f64)> = line
+                .iter()
+                .map(|p| (p.0, p.1 + p.2))
+                .chain(line.iter().rev().map(|p| (p.0, p.1 - p.2)))
+                .collect();
+            chart.draw_series(std::iter::once(Polygon::new(
+                band,
+                MODEL.mix(0.15).filled(),
+            )))?;
+            chart.draw_series(LineSeries::new(
+                line.iter().map(|p| (p.0, p.1)),
+                MODEL.stroke_width(2),
+            ))?;
+        }
+        if let Some(l) = limit {
+            for y in [l, -l] {
+                chart.draw_series(LineSeries::new([(x0, y), (x1, y)], LIMIT.stroke_width(2)))?;
+            }
+        }
+        for &(t, value, u95, superseded) in &valued {
+            let colour = if superseded { GRID } else { MEASURED };
+            let x = day(t);
+            chart.draw_series(LineSeries::new(
+                [(x, value - u95), (x, value + u95)],
+                colour.stroke_width(1),
+            ))?;
+            chart.draw_series(std::iter::once(Circle::new((x, value), 3, colour.filled())))?;
+        }
+        Ok(())
+    })
+}
