@@ -2,8 +2,8 @@
 //! to their input axis by a `.CMA` file. Conventions in the module documentation of
 //! `heidenhain`.
 
+use super::HeidenhainLimit;
 use super::table::{TableIn, TableOut, axis_positions, parse_table, table_text};
-use super::{HeidenhainLimit, card_path};
 use crate::pitch::travel_direction;
 use crate::text::Source;
 use crate::{CompensateError, MAX_NODES, MM, check_inputs, read_file, write_file};
@@ -477,15 +477,12 @@ pub fn write_heidenhain_com(
     }
     write_file(cma_path, &cma_text(&cma_name, set))?;
     written.push(cma_path.to_path_buf());
-    let card = card_path(cma_path);
-    let text = format!(
-        "Convention card of {cma_name} and its tables (Heidenhain tables have no comments)\n{}\n\
-         made from: {}\n",
-        heidenhain_com_card(set).file_lines(""),
-        set.note
-    );
-    write_file(&card, &text)?;
-    written.push(card);
+    written.push(super::write_card(
+        cma_path,
+        &cma_name,
+        &heidenhain_com_card(set),
+        &set.note,
+    )?);
     Ok(written)
 }
 

@@ -3,8 +3,8 @@
 //! per axis, location errors as COORD values. Conventions in the module documentation of
 //! `heidenhain`.
 
+use super::HeidenhainLimit;
 use super::table::{TableIn, TableOut, axis_positions, parse_table, table_text};
-use super::{HeidenhainLimit, card_path};
 use crate::parameters::{ParameterValue, error_parameters};
 use crate::text::{Field, Source};
 use crate::{CompensateError, MM, read_file, write_file};
@@ -591,15 +591,12 @@ pub fn write_kinematics_comp(
     }
     write_file(path, &listing_text(&name, kc))?;
     written.push(path.to_path_buf());
-    let card = card_path(path);
-    let text = format!(
-        "Convention card of {name} and its tables (Heidenhain tables have no comments)\n{}\n\
-         made from: {}\n",
-        kinematics_comp_card(kc).file_lines(""),
-        kc.note
-    );
-    write_file(&card, &text)?;
-    written.push(card);
+    written.push(super::write_card(
+        path,
+        &name,
+        &kinematics_comp_card(kc),
+        &kc.note,
+    )?);
     Ok(written)
 }
 

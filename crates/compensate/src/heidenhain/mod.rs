@@ -218,3 +218,21 @@ pub fn card_path(path: &Path) -> PathBuf {
     name.push(".card.txt");
     path.with_file_name(name)
 }
+
+/// Writes the convention card of the set `name` (its assignment or listing file at `path`)
+/// beside it ([`card_path`]), with the note of where the numbers came from; returns the path.
+fn write_card(
+    path: &Path,
+    name: &str,
+    card: &mtcal_machine::card::ConventionCard,
+    note: &str,
+) -> Result<PathBuf, crate::CompensateError> {
+    let card_file = card_path(path);
+    let text = format!(
+        "Convention card of {name} and its tables (Heidenhain tables have no comments)\n{}\n\
+         made from: {note}\n",
+        card.file_lines("")
+    );
+    crate::write_file(&card_file, &text)?;
+    Ok(card_file)
+}
