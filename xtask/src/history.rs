@@ -193,7 +193,7 @@ pub(crate) fn run(args: HistoryArgs, out: &mut impl Write) -> Result<()> {
             let store = Store::open(&db)?;
             let names = match param {
                 Some(p) => vec![p],
-                None => parameter_names(&store, &machine)?,
+                None => mtcal_history::latest_parameters(&store, &machine)?,
             };
             let mut views = Vec::with_capacity(names.len());
             for name in &names {
@@ -232,8 +232,8 @@ pub(crate) fn run(args: HistoryArgs, out: &mut impl Write) -> Result<()> {
             let store = Store::open(&db)?;
             let limits = limits(tolerances.as_deref())?;
             let page = match (machine, fleet) {
-                (Some(m), false) => machine_page(&store, &m, params, &limits, max_interval_days)?,
-                (None, true) => fleet_page(&store, params, &limits, max_interval_days)?,
+                (Some(m), false) => machine_page(&store, &m, &params, &limits, max_interval_days)?,
+                (None, true) => fleet_page(&store, &params, &limits, max_interval_days)?,
                 _ => bail!("history report: name a machine, or give --fleet"),
             };
             let path = mtcal_report::write_history(&dir, &page)?;
@@ -259,61 +259,32 @@ fn print_json(out: &mut impl Write, value: &impl serde::Serialize) -> Result<()>
 /// The campaign of `input`: a session identified now (its files digested), or an identify
 /// JSON (whose machine and session files the history cannot know).
 fn campaign_of(input: &Path, machine: &str, date: Option<Timestamp>) -> Result<Campaign> {
-    let is_json = input.extension().is_some_and(|e| e == "json");
-    if is_json {
+    if input.extension().is_some_and(|e| e == "json") {
         let text = std::fs::read_to_string(input)
             .with_context(|| format!("cannot read {}", input.display()))?;
-        let date = campaign_date(date, &[input])?;
+        let date = match date {
+            Some(date) => date,
+            None => mtcal_history::newest_modification(&[input])?,
+        };
         return Ok(Campaign::from_identify_json(&text, machine, date)?);
     }
     let outcome =
         Prepared::load(input, PipelineOptions::default())?.run(&mut mtcal_solve::Silent)?;
-    let study = &outcome.study;
-    let run_files: Vec<&Path> = study
-        .session
-        .runs
-        .iter()
-        .map(|r| r.file.as_path())
-        .collect();
-    let mut session_files = vec![study.session.manifest.as_path()];
-    session_files.extend(&run_files);
-    let date = campaign_date(date, &session_files)?;
-    let json = outcome.identification.to_json();
-    let mut campaign = Campaign::from_identify_json(&json, machine, date)?;
-    campaign.session_digest = Some(mtcal_history::digest_files(&session_files)?);
-    campaign.machine.urdf_digest = Some(source_digest(&study.machine.source)?);
-    campaign.machine.error_model_digest = Some(source_digest(&study.machine.config_source)?);
-    campaign.mtcal_version = Some(env!("CARGO_PKG_VERSION").to_string());
-    Ok(campaign)
-}
-
-/// The digest of a machine or error-model source: the file's when it is one, else of the text
-/// that names it (a topology code, "full ISO model").
-fn source_digest(source: &str) -> Result<String> {
-    let path = Path::new(source);
-    Ok(if path.is_file() {
-        mtcal_history::digest_files(&[path])?
-    } else {
-        mtcal_history::digest_text(source)
-    })
-}
-
-/// `--date`, or the newest modification time of `files` (when the recordings were written).
-fn campaign_date(date: Option<Timestamp>, files: &[&Path]) -> Result<Timestamp> {
-    if let Some(date) = date {
-        return Ok(date);
-    }
-    let mut newest = None;
-    for f in files {
-        let modified = std::fs::metadata(f)
-            .and_then(|m| m.modified())
-            .with_context(|| format!("cannot read the date of {} (give --date)", f.display()))?;
-        newest = newest.max(Some(modified));
-    }
-    let Some(newest) = newest else {
-        bail!("no file to date the campaign by: give --date");
+    let session = &outcome.study.session;
+    let mut session_files = vec![session.manifest.as_path()];
+    session_files.extend(session.runs.iter().map(|r| r.file.as_path()));
+    let provenance = mtcal_history::Provenance {
+        session_files: &session_files,
+        machine_source: &outcome.study.machine.source,
+        error_model_source: &outcome.study.machine.config_source,
+        mtcal_version: env!("CARGO_PKG_VERSION"),
     };
-    Timestamp::try_from(newest).context("a file's date is out of range: give --date")
+    Ok(Campaign::from_identified_session(
+        &outcome.identification.to_json(),
+        machine,
+        date,
+        &provenance,
+    )?)
 }
 
 /// The parameter limits of an acceptance file's `[parameters]` table.
@@ -336,32 +307,19 @@ fn limits(tolerances: Option<&Path>) -> Result<Limits> {
 fn machine_page(
     store: &Store,
     machine: &str,
-    params: Vec<String>,
+    params: &[String],
     limits: &Limits,
     max_interval_days: f64,
 ) -> Result<mtcal_report::HistoryPage> {
-    let names = if params.is_empty() {
-        parameter_names(store, machine)?
-    } else {
-        params
-    };
-    let mut trends = Vec::with_capacity(names.len());
-    for name in &names {
-        let view = mtcal_history::trend_view(store, machine, name, limits, max_interval_days)?;
-        if view.points.iter().any(|p| p.value.is_some()) {
-            trends.push(view);
-        }
-    }
-    let fleet = mtcal_history::fleet_view(store, limits)?
-        .into_iter()
-        .filter(|l| l.machine == machine)
-        .collect();
     Ok(mtcal_report::HistoryPage {
         title: format!("mtcal history — {machine}"),
         source: store.location().to_string(),
-        fleet,
+        trends: mtcal_history::machine_trends(store, machine, params, limits, max_interval_days)?,
+        fleet: mtcal_history::fleet_view(store, limits)?
+            .into_iter()
+            .filter(|l| l.machine == machine)
+            .collect(),
         drifts: Vec::new(),
-        trends,
     })
 }
 
@@ -369,65 +327,18 @@ fn machine_page(
 /// parameters the tolerances name).
 fn fleet_page(
     store: &Store,
-    params: Vec<String>,
+    params: &[String],
     limits: &Limits,
     max_interval_days: f64,
 ) -> Result<mtcal_report::HistoryPage> {
-    let names: Vec<String> = if params.is_empty() {
-        limits.limits.keys().cloned().collect()
-    } else {
-        params
-    };
     let fleet = mtcal_history::fleet_view(store, limits)?;
-    let mut drifts = Vec::with_capacity(fleet.len());
-    for line in &fleet {
-        let mut rates = Vec::new();
-        for name in &names {
-            // A tolerance may name a parameter this machine's model does not have.
-            let view = match mtcal_history::trend_view(
-                store,
-                &line.machine,
-                name,
-                limits,
-                max_interval_days,
-            ) {
-                Err(mtcal_history::Error::UnknownParameter { .. }) => continue,
-                view => view?,
-            };
-            if let Some(t) = &view.trend {
-                let unit = view.unit.as_deref().unwrap_or("");
-                let significant = if t.drift.significant {
-                    " (significant)"
-                } else {
-                    ""
-                };
-                rates.push((
-                    name.clone(),
-                    format!(
-                        "{:+.4} ± {:.4} {unit}/day{significant}",
-                        t.drift.rate_per_day, t.drift.rate_u95_per_day
-                    ),
-                ));
-            }
-        }
-        drifts.push((line.machine.clone(), rates));
-    }
     Ok(mtcal_report::HistoryPage {
         title: "mtcal history — fleet".to_string(),
         source: store.location().to_string(),
+        drifts: mtcal_history::fleet_drift_rates(store, &fleet, params, limits, max_interval_days)?,
         fleet,
-        drifts,
         trends: Vec::new(),
     })
-}
-
-/// The parameters of `machine`'s latest campaign.
-fn parameter_names(store: &Store, machine: &str) -> Result<Vec<String>> {
-    let fleet = store.fleet()?;
-    let Some(row) = fleet.into_iter().find(|r| r.machine == machine) else {
-        bail!("the history has no machine `{machine}` (`history list` names them)");
-    };
-    Ok(row.parameters.into_iter().map(|p| p.name).collect())
 }
 
 fn show(store: &Store, machine: &str, json: bool, out: &mut impl Write) -> Result<()> {
@@ -472,7 +383,7 @@ fn trend(
 ) -> Result<()> {
     let names: Vec<String> = match param {
         Some(p) => vec![p.to_string()],
-        None => parameter_names(store, machine)?,
+        None => mtcal_history::latest_parameters(store, machine)?,
     };
     let mut views = Vec::with_capacity(names.len());
     for name in &names {

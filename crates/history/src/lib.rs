@@ -64,6 +64,7 @@ mod date;
 mod db;
 mod digest;
 mod identify_json;
+mod provenance;
 mod query;
 mod schema;
 mod store;
@@ -76,11 +77,13 @@ pub use campaign::{
 pub use date::parse_date;
 pub use digest::{DigestError, digest_files, digest_text};
 pub use jiff::Timestamp;
+pub use provenance::{Provenance, newest_modification};
 pub use query::{CampaignRecord, CampaignRow, FleetRow, MachineSummary, SeriesPoint, Supersession};
 pub use schema::SCHEMA_VERSION;
 pub use store::{BUSY_TIMEOUT, Backend, Store};
 pub use view::{
-    FleetLine, Limits, ThermalView, TrendView, fleet_text, fleet_view, thermal_view, trend_view,
+    FleetLine, Limits, MachineDrifts, ThermalView, TrendView, fleet_drift_rates, fleet_text,
+    fleet_view, latest_parameters, machine_trends, thermal_view, trend_view,
 };
 
 use serde::{Deserialize, Serialize};
@@ -121,6 +124,10 @@ pub enum Error {
     IdentifyJson(String),
     #[error("invalid campaign: {0}")]
     InvalidCampaign(String),
+    #[error(transparent)]
+    Digest(#[from] DigestError),
+    #[error("{detail}")]
+    FileDate { detail: String },
     #[error("invalid date {text:?}: {detail}")]
     Date { text: String, detail: String },
     #[error("{location}: no machine named {name:?}")]

@@ -25,6 +25,93 @@ impl Limits {
     }
 }
 
+/// The parameters of `machine`'s latest campaign, in its order.
+pub fn latest_parameters(store: &Store, machine: &str) -> Result<Vec<String>, Error> {
+    let row = store
+        .fleet()?
+        .into_iter()
+        .find(|r| r.machine == machine)
+        .ok_or_else(|| Error::UnknownMachine {
+            location: store.location().to_string(),
+            name: machine.to_string(),
+        })?;
+    Ok(row.parameters.into_iter().map(|p| p.name).collect())
+}
+
+/// The trends of `machine`'s `parameters` (none: those of its latest campaign) that have a
+/// value in some campaign: what a machine's history page plots.
+pub fn machine_trends(
+    store: &Store,
+    machine: &str,
+    parameters: &[String],
+    limits: &Limits,
+    max_interval_days: f64,
+) -> Result<Vec<TrendView>, Error> {
+    let names = if parameters.is_empty() {
+        latest_parameters(store, machine)?
+    } else {
+        parameters.to_vec()
+    };
+    let mut trends = Vec::with_capacity(names.len());
+    for name in &names {
+        let view = trend_view(store, machine, name, limits, max_interval_days)?;
+        if view.points.iter().any(|p| p.value.is_some()) {
+            trends.push(view);
+        }
+    }
+    Ok(trends)
+}
+
+/// A machine and its drift rates as text: `(machine, [(parameter, rate)])`.
+pub type MachineDrifts = (String, Vec<(String, String)>);
+
+/// Per machine of `fleet`, the drift rate of each of `parameters` (none: those `limits`
+/// names) as a line of text, `+0.0120 ± 0.0040 um/day (significant)`; a parameter a machine's
+/// model does not have is left out of its list.
+pub fn fleet_drift_rates(
+    store: &Store,
+    fleet: &[FleetLine],
+    parameters: &[String],
+    limits: &Limits,
+    max_interval_days: f64,
+) -> Result<Vec<MachineDrifts>, Error> {
+    let names: Vec<String> = if parameters.is_empty() {
+        limits.limits.keys().cloned().collect()
+    } else {
+        parameters.to_vec()
+    };
+    let mut drifts = Vec::with_capacity(fleet.len());
+    for line in fleet {
+        let mut rates = Vec::new();
+        for name in &names {
+            let view = match trend_view(store, &line.machine, name, limits, max_interval_days) {
+                Err(Error::UnknownParameter { .. }) => continue,
+                view => view?,
+            };
+            if let Some(t) = &view.trend {
+                rates.push((name.clone(), drift_text(t, view.unit.as_deref())));
+            }
+        }
+        drifts.push((line.machine.clone(), rates));
+    }
+    Ok(drifts)
+}
+
+/// A drift rate with its interval, per day, and whether it is significant.
+fn drift_text(t: &Trend, unit: Option<&str>) -> String {
+    let significant = if t.drift.significant {
+        " (significant)"
+    } else {
+        ""
+    };
+    format!(
+        "{:+.4} ± {:.4} {}/day{significant}",
+        t.drift.rate_per_day,
+        t.drift.rate_u95_per_day,
+        unit.unwrap_or("")
+    )
+}
+
 /// One parameter of one machine over its campaigns.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TrendView {

@@ -8,7 +8,10 @@
 mod common;
 
 use common::{Kind, TestDb, sample};
-use mtcal_history::{Limits, Parameter, Timestamp, fleet_view, thermal_view, trend_view};
+use mtcal_history::{
+    Limits, Parameter, Timestamp, fleet_drift_rates, fleet_view, latest_parameters, machine_trends,
+    thermal_view, trend_view,
+};
 
 /// Deterministic noise in [−1, 1] (a fixed sequence: the test must not depend on a seed).
 fn noise(k: usize) -> f64 {
@@ -113,4 +116,28 @@ fn a_warm_up_day_gives_its_time_constant_and_a_year_its_drift() {
             ("mill-7", &["EX0C".to_string()][..])
         ]
     );
+
+    // What the history pages show: a machine's parameters with a value (EZ0A never had one),
+    // and per machine the drift rate of each parameter the tolerances name.
+    let latest = latest_parameters(&store, "mill-7").unwrap();
+    assert_eq!(latest, ["EX0C", "laser-x.tilt_1", "EC0Y", "EZ0A"]);
+    let trends = machine_trends(&store, "mill-7", &[], &limits, 365.0).unwrap();
+    let plotted: Vec<&str> = trends.iter().map(|t| t.parameter.as_str()).collect();
+    assert_eq!(plotted, ["EX0C", "laser-x.tilt_1", "EC0Y"]);
+    let e = latest_parameters(&store, "mill-9").unwrap_err().to_string();
+    assert!(e.contains("no machine named \"mill-9\""), "{e}");
+    let rates = fleet_drift_rates(&store, &fleet, &[], &limits, 365.0).unwrap();
+    assert_eq!(rates.len(), 2);
+    let (machine, mill7) = &rates[1];
+    assert_eq!(machine, "mill-7");
+    assert_eq!(mill7.len(), 1);
+    assert_eq!(mill7[0].0, "EX0C");
+    let want = format!(
+        "{:+.4} ± {:.4} um/day (significant)",
+        d.rate_per_day, d.rate_u95_per_day
+    );
+    assert_eq!(mill7[0].1, want);
+    // A parameter a machine's model does not have is left out, not an error.
+    let other = fleet_drift_rates(&store, &fleet, &["EQ0Q".into()], &limits, 365.0).unwrap();
+    assert!(other.iter().all(|(_, r)| r.is_empty()), "{other:?}");
 }
