@@ -17,6 +17,9 @@ pub enum Feature {
     Hours,
     /// Hours since set-up `s` was first used; zero in other set-ups' runs.
     SetupHours(usize),
+    /// `1 − exp(−(t − t_s)/τ)`, `t_s` when set-up `s` was first used: the set-up settling after
+    /// it was mounted (a magnetic base, a clamp); zero in other set-ups' runs. Shape: τ (s).
+    SetupSettling(usize),
     /// The input itself (static coupling): `T − T₀` in K, or `S/1000 rpm`.
     Static(Input),
     /// First-order lag of the input (a thermal node driven by it). Shape: τ (s).
@@ -121,7 +124,9 @@ impl Basic {
         let rotary_shape = unit.unit == "urad";
         let tau = || shape_def("tau_s", "s", 1.0, 1.0, 1e8);
         let params = match &feature {
-            Feature::Saturating => vec![amp(&format!("amplitude_{u}"), u.clone(), k), tau()],
+            Feature::Saturating | Feature::SetupSettling(_) => {
+                vec![amp(&format!("amplitude_{u}"), u.clone(), k), tau()]
+            }
             Feature::Hours | Feature::SetupHours(_) => {
                 vec![amp(&format!("rate_{u}_per_h"), format!("{u}/h"), k)]
             }
@@ -232,7 +237,7 @@ impl Effect for Basic {
             _ => None,
         };
         let setup_start = match self.feature {
-            Feature::SetupHours(s) => view
+            Feature::SetupHours(s) | Feature::SetupSettling(s) => view
                 .runs_in_time_order()
                 .iter()
                 .find(|&&r| view.runs[r].setup == s)
@@ -320,6 +325,11 @@ impl Effect for Basic {
             ),
             Feature::Hours => format!("a steady drift of {target} of {}", p(0)),
             Feature::SetupHours(_) => format!("a drift of {target} of {}", p(0)),
+            Feature::SetupSettling(_) => format!(
+                "a settling of {target} from the set-up's first use with τ = {} and {} amplitude",
+                tau(1),
+                p(0)
+            ),
             Feature::Static(Input::Context(name)) => {
                 format!(
                     "a coupling of {target} to the temperature {name} of {}",
@@ -467,6 +477,18 @@ impl Features for BasicFeatures {
                     (run.t.get(i) - self.setup_start) / 3600.0
                 } else {
                     0.0
+                }
+            }
+            Feature::SetupSettling(s) => {
+                if run.setup == *s {
+                    let t = (run.t.get(i) - self.setup_start).max(0.0);
+                    let tau = self.shape;
+                    let e = (-t / tau).exp();
+                    f[0] = 1.0 - e;
+                    df[0] = -e * t / (tau * tau);
+                } else {
+                    f[0] = 0.0;
+                    df[0] = 0.0;
                 }
             }
             Feature::Static(_) => {

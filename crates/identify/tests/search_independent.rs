@@ -2,7 +2,8 @@
 //! (`mtcal-indsim`: its own 4 × 4 kinematics, effects planted by their physics — lost motion as
 //! a dead band, a spindle head warming through two thermal nodes and cooling, a screw error of
 //! several harmonics at a pitch not in the candidates' grid, a scale expanding with a recorded
-//! temperature, a twist, a sag, a ball bar growing with its own temperature), realistic noise
+//! temperature, a twist, a sag, a ball bar growing with its own temperature, X's position loop
+//! lagging, an R-test ball or a ball-bar pivot settling on the table), realistic noise
 //! (AR(1) with φ = 0.6, σ 0.3 µm stated as 0.24, readings quantised to 0.1 µm, time jitter,
 //! set-ups 20 µm off the manifest), identified as a user would: a bare URDF (the default full
 //! ISO 230-1 model), no `[identify]` table, `search` as `identify --search` runs it.
@@ -175,6 +176,26 @@ fn bar(rise_k: f64, drift_k_per_h: f64) -> Effect {
     }
 }
 
+/// The fixed element of `setup` (the R-test ball or the ball bar's pivot on the table) settling
+/// by `settle_um` (workpiece frame) with τ = 10 min from its first use: an instrument set-up's
+/// drift, the look-alike of a machine's.
+fn creep(setup: &str, settle_um: [f64; 3]) -> Effect {
+    Effect::SetupCreep {
+        setup: setup.into(),
+        settle: settle_um.map(|v| v * 1e-6),
+        tau_s: 600.0,
+    }
+}
+
+/// X trailing its command by `ms` (its position loop slower than the others'): the following
+/// error of a gain mismatch, a look-alike of lost motion (both turn with the direction).
+fn servo(ms: f64) -> Effect {
+    Effect::ServoLag {
+        axis: 'X',
+        lag_s: ms * 1e-3,
+    }
+}
+
 const REVERSAL: Named = Named {
     class: "reversal",
     on: "X",
@@ -198,6 +219,18 @@ const EXPANSION: Named = Named {
 const BAR: Named = Named {
     class: "temperature-coupling",
     on: "bar1.length",
+};
+const SERVO: Named = Named {
+    class: "servo-lag",
+    on: "X",
+};
+const CREEP_BALL: Named = Named {
+    class: "setup-drift",
+    on: "ball1.ball_x",
+};
+const CREEP_PIVOT: Named = Named {
+    class: "setup-drift",
+    on: "bar1.pivot_x",
 };
 const TWIST: Named = Named {
     class: "cross-coupling",
@@ -278,6 +311,39 @@ fn cases() -> Vec<Case> {
             "screw and scale",
             vec![screw(1.0, 7.0), scale(1.5)],
             vec![CYCLIC, EXPANSION],
+        ),
+        // An instrument's set-up settling, the look-alike of a machine drift: only its own
+        // set-up's runs see it.
+        case(
+            "ball creep below the noise",
+            vec![creep("ball1", [0.8, 0.0, 0.0])],
+            vec![CREEP_BALL],
+        ),
+        case(
+            "ball creep",
+            vec![creep("ball1", [3.0, 0.0, 0.0])],
+            vec![CREEP_BALL],
+        ),
+        case(
+            "pivot creep",
+            vec![creep("bar1", [2.0, 0.0, 0.0])],
+            vec![CREEP_PIVOT],
+        ),
+        case(
+            "ball creep masked by a drift",
+            vec![creep("ball1", [2.0, 0.0, 0.0]), thermal(6.0, 6.0)],
+            vec![CREEP_BALL, DRIFT],
+        ),
+        // X's position loop lagging (a gain mismatch), alone and beside lost motion, which also
+        // turns with the direction of motion. Only the ball bar's circles both ways tell it
+        // from the location errors (an R-test run turns C one way: X's velocity follows Y's
+        // position), and there its ellipse is T·v/2: 0.17 µm at 0.15 ms, below the noise.
+        case("servo lag below the noise", vec![servo(0.15)], vec![SERVO]),
+        case("servo lag absorbed", vec![servo(0.3)], vec![SERVO]),
+        case(
+            "servo lag masked by lost motion",
+            vec![servo(0.15), backlash(4.0)],
+            vec![SERVO, REVERSAL],
         ),
         // Inside the full model: explained by it, nothing claimed.
         case("twist in the full model", vec![twist(4.0)], vec![]),

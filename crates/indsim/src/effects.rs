@@ -1,6 +1,6 @@
-//! Effects a geometric error model leaves out, planted by their physics: lost motion, thermal
-//! growth of the spindle head, screw pitch errors, scale expansion, table twist, sag, and the
-//! ball bar's own expansion.
+//! Effects a geometric error model leaves out, planted by their physics: lost motion, a servo
+//! lag, thermal growth of the spindle head, screw pitch errors, scale expansion, table twist,
+//! sag, the ball bar's own expansion and a set-up settling.
 //!
 //! Formulated here from the physics of each effect, not from mtcal's effect formulas. Every
 //! value is SI inside (m, rad, s, K); a field whose unit is not SI says so in its name.
@@ -10,7 +10,7 @@
 //! time order), each sample at the time its `t` column says, state carried from one run into the
 //! next (the lost motion of the last sample of a run is where the next run starts from).
 //! Validation runs get the same physics as fitted runs. At each sample:
-//! 1. **axis effects** ([`Effect::Backlash`], [`Effect::ScrewError`],
+//! 1. **axis effects** ([`Effect::Backlash`], [`Effect::ServoLag`], [`Effect::ScrewError`],
 //!    [`Effect::ThermalScale`]) move an axis' *actual* position `a` away from its command `c`;
 //!    several on one axis add, each evaluated at the command (`a = c + Σ δ_i(c)`; the error of an
 //!    error is left out). The written axis columns stay the commands;
@@ -24,8 +24,9 @@
 //!
 //! Every instrument reads that actual pose, so the effects reach the R-test (both mounts), the
 //! ball bar, every laser mode, the tracer, displacement sensors and artefact plates alike. The
-//! one exception is [`Effect::BallBarThermal`], the instrument's own expansion, which only the
-//! ball bar of its set-up reads. Laser and tracer readings stay zeroed at the run's first sample,
+//! exceptions are the instrument's own: [`Effect::BallBarThermal`], the bar's expansion, and
+//! [`Effect::SetupCreep`], a set-up's fixed element settling, which only the readings of their
+//! set-up see. Laser and tracer readings stay zeroed at the run's first sample,
 //! so they see an effect's change within the run.
 //!
 //! # Context columns
@@ -172,6 +173,23 @@ pub enum Effect {
         temperature: TemperatureProgramme,
         column: Option<String>,
     },
+    /// The axis' position loop trails its command by `lag_s` (s): the actual position is the
+    /// command as it was `lag_s` earlier, `a(t) = c(t − T)`, interpolated linearly between the
+    /// run's commands (before a run's first sample the axis stood at its first command). A
+    /// following error `T·v` along the motion; one axis lagging more than another (a gain
+    /// mismatch) draws the ball bar's ellipse at 45° that turns with the direction.
+    ServoLag { axis: char, lag_s: f64 },
+    /// The set-up's fixed element — the R-test's ball (or nest) on the table, the ball bar's
+    /// table pivot — settles after it is mounted, as a magnetic base or a clamp does: it moves
+    /// in the workpiece frame by `settle·(1 − e^{−(t − t_s)/τ})`, `t_s` the time of the set-up's
+    /// first sample in the session (when it was mounted), `settle` m, `tau_s` s. Only that
+    /// set-up's readings see it. An R-test or a ball bar (the laser and the tracer re-zero every
+    /// run, the others are refused).
+    SetupCreep {
+        setup: String,
+        settle: [f64; 3],
+        tau_s: f64,
+    },
     /// The spindle turns at `rpm` (a [`Programme::Steps`] of rpm); written as the context column
     /// `S` in every run. Moves nothing by itself: heat sources with
     /// [`Programme::SpindleKrpm`] follow it.
@@ -306,8 +324,20 @@ pub(crate) struct Resolved {
     /// `(axis index, machine direction 0..3, k)`.
     sag: Vec<(usize, usize, f64)>,
     bars: Vec<Bar>,
+    creeps: Vec<Creep>,
+    /// `(axis index, lag s)`.
+    lags: Vec<(usize, f64)>,
     spindle_rpm: Option<Vec<(f64, f64)>>,
     columns: Vec<Column>,
+}
+
+/// A set-up's fixed element settling ([`Effect::SetupCreep`]).
+#[derive(Clone, Debug)]
+struct Creep {
+    setup: String,
+    /// Where it ends up, m (workpiece frame).
+    settle: Vector3<f64>,
+    tau_s: f64,
 }
 
 /// A context column of one run: its name, the true values and whether a sensor reads it (a
@@ -435,6 +465,16 @@ impl Resolved {
                 temperature,
                 column,
             } => self.add_bar(setups, setup, *ppm_per_k, temperature, column)?,
+            Effect::SetupCreep {
+                setup,
+                settle,
+                tau_s,
+            } => self.add_creep(setups, setup, settle, *tau_s)?,
+            Effect::ServoLag { axis, lag_s } => {
+                let i = axis_index(machine, *axis)?;
+                finite_at_least("lag_s", *lag_s, 0.0)?;
+                self.lags.push((i, *lag_s));
+            }
             Effect::SpindleSpeed { .. } => self.columns.push(Column {
                 name: "S".into(),
                 shows: Shows::Spindle,
@@ -485,6 +525,41 @@ impl Resolved {
         Ok(())
     }
 
+    fn add_creep(
+        &mut self,
+        setups: &[SetupPlan],
+        setup: &str,
+        settle: &[f64; 3],
+        tau_s: f64,
+    ) -> Result<(), String> {
+        for v in settle {
+            finite("settle", *v)?;
+        }
+        positive("tau_s", tau_s)?;
+        match setups.iter().find(|s| s.name == setup) {
+            Some(SetupPlan {
+                instrument: Instrument::RTest { .. } | Instrument::BallBar { .. },
+                ..
+            }) => {}
+            Some(s) => {
+                return Err(format!(
+                    "set-up {setup} is a {}; a set-up creep is planted on an R-test or a ball bar",
+                    s.instrument.plugin_name()
+                ));
+            }
+            None => return Err(format!("no set-up {setup}")),
+        }
+        if self.creeps.iter().any(|c| c.setup == setup) {
+            return Err(format!("set-up {setup} already creeps"));
+        }
+        self.creeps.push(Creep {
+            setup: setup.to_string(),
+            settle: Vector3::from(*settle),
+            tau_s,
+        });
+        Ok(())
+    }
+
     fn nodes(&self, sources: &[HeatSource]) -> Result<Vec<Node>, String> {
         sources
             .iter()
@@ -527,6 +602,7 @@ impl Resolved {
     /// spindle speed do not).
     fn moves_the_machine(&self) -> bool {
         !(self.backlash.is_empty()
+            && self.lags.is_empty()
             && self.screws.is_empty()
             && self.scales.is_empty()
             && self.growth.is_empty()
@@ -542,6 +618,23 @@ impl Resolved {
             times
                 .iter()
                 .map(|&t| -bar.m_per_k * bar.temperature.rise(t))
+                .collect(),
+        )
+    }
+
+    /// How far the fixed element of `setup` has moved (m, workpiece frame) at each of `times`,
+    /// the set-up mounted at `mounted_s`; `None` where it does not creep.
+    pub(crate) fn setup_shift(
+        &self,
+        setup: &str,
+        mounted_s: f64,
+        times: &[f64],
+    ) -> Option<Vec<Vector3<f64>>> {
+        let c = self.creeps.iter().find(|c| c.setup == setup)?;
+        Some(
+            times
+                .iter()
+                .map(|&t| c.settle * -(-(t - mounted_s).max(0.0) / c.tau_s).exp_m1())
                 .collect(),
         )
     }
@@ -596,6 +689,8 @@ fn kind_name(e: &Effect) -> &'static str {
         Effect::Twist { .. } => "twist",
         Effect::Sag { .. } => "sag",
         Effect::BallBarThermal { .. } => "ballbar-thermal",
+        Effect::SetupCreep { .. } => "setup-creep",
+        Effect::ServoLag { .. } => "servo-lag",
         Effect::SpindleSpeed { .. } => "spindle-speed",
     }
 }
@@ -673,6 +768,8 @@ pub(crate) struct SampleState<'a> {
     effects: &'a Resolved,
     /// Per backlash effect: actual minus commanded position, as the dead band left it here.
     lost: Vec<f64>,
+    /// Per servo lag: the command `T` earlier minus the command now.
+    trail: Vec<f64>,
     /// Per thermal scale: `α·(T(t) − T(0))`.
     strain: Vec<f64>,
     /// The spindle head's thermal growth, machine frame, m.
@@ -687,6 +784,9 @@ impl SampleState<'_> {
         let mut a = q.to_vec();
         for (&(i, _), lost) in e.backlash.iter().zip(&self.lost) {
             a[i] += lost;
+        }
+        for (&(i, _), trail) in e.lags.iter().zip(&self.trail) {
+            a[i] += trail;
         }
         for s in &e.screws {
             a[s.axis] += s.error(q[s.axis]);
@@ -773,14 +873,20 @@ impl<'a> Timeline<'a> {
     /// The states of the next run's samples: its commands `poses` (SI, as the machine moves
     /// there) at `times` (s).
     pub(crate) fn run(&mut self, poses: &[Vec<f64>], times: &[f64]) -> Vec<SampleState<'a>> {
-        poses
-            .iter()
-            .zip(times)
-            .map(|(q, &t)| self.sample(q, t))
+        (0..poses.len())
+            .map(|k| {
+                let trail = self
+                    .effects
+                    .lags
+                    .iter()
+                    .map(|&(i, lag)| command_at(poses, times, k, i, times[k] - lag) - poses[k][i])
+                    .collect();
+                self.sample(&poses[k], times[k], trail)
+            })
             .collect()
     }
 
-    fn sample(&mut self, q: &[f64], t: f64) -> SampleState<'a> {
+    fn sample(&mut self, q: &[f64], t: f64, trail: Vec<f64>) -> SampleState<'a> {
         let e = self.effects;
         let lost = e
             .backlash
@@ -805,10 +911,26 @@ impl<'a> Timeline<'a> {
         SampleState {
             effects: e,
             lost,
+            trail,
             strain,
             growth,
         }
     }
+}
+
+/// Axis `i`'s command at time `at` (s), linear between the run's samples up to sample `k`;
+/// before the run's first sample, its first command (the axis stood there).
+fn command_at(poses: &[Vec<f64>], times: &[f64], k: usize, i: usize, at: f64) -> f64 {
+    let mut j = k;
+    while j > 0 && times[j - 1] > at {
+        j -= 1;
+    }
+    if j == 0 || times[j] <= at {
+        return poses[j][i];
+    }
+    let (t0, t1) = (times[j - 1], times[j]);
+    let w = (at - t0) / (t1 - t0);
+    poses[j - 1][i] + w * (poses[j][i] - poses[j - 1][i])
 }
 
 /// The dead band: where an axis with lost motion `b` ends up when the command moves to `c`
@@ -934,6 +1056,19 @@ fn effect_table(machine: &Machine, e: &Effect) -> toml::Table {
                 put("column", c.clone().into());
             }
             put("temperature", temperature_value(temperature));
+        }
+        Effect::ServoLag { axis, lag_s } => {
+            put("axis", axis.to_string().into());
+            put("lag_ms", (lag_s * 1e3).into());
+        }
+        Effect::SetupCreep {
+            setup,
+            settle,
+            tau_s,
+        } => {
+            put("setup", setup.clone().into());
+            put("settle_um", floats(&settle.map(|v| v * 1e6)));
+            put("tau_s", (*tau_s).into());
         }
         Effect::SpindleSpeed { rpm } => put("rpm", programme_value(rpm)),
     }

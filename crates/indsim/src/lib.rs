@@ -76,13 +76,14 @@
 //!   - on an axis' actual position (the written commands stay the commands): lost motion
 //!     ([`Effect::Backlash`], a dead band along the commanded sequence), a periodic screw
 //!     error ([`Effect::ScrewError`]), scale expansion about a reference with its temperature
-//!     ([`Effect::ThermalScale`]);
+//!     ([`Effect::ThermalScale`]), a position loop trailing its command ([`Effect::ServoLag`]);
 //!   - as a translation of the tool point relative to the workpiece in machine directions,
 //!     `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)` at the actual axis positions `a`: the
 //!     spindle head's thermal growth from first-order nodes integrated exactly
 //!     ([`Effect::Thermal`], [`HeatSource`], [`Programme`]), a table twist `k·x·y` along Z
 //!     ([`Effect::Twist`]), a sag `k·q²` ([`Effect::Sag`]);
-//!   - on the instrument alone: the ball bar's own expansion ([`Effect::BallBarThermal`]).
+//!   - on the instrument alone: the ball bar's own expansion ([`Effect::BallBarThermal`]), a
+//!     set-up's fixed element settling after it was mounted ([`Effect::SetupCreep`]).
 //!
 //!   Every instrument reads the same actual pose. Context columns (after the readings and
 //!   labels): a scale's temperature `T_<name>` (°C) in every run, the bar's in its set-up's

@@ -191,6 +191,7 @@ pub fn write_session(
     let mut timeline = Timeline::new(&effects);
     let mut t0 = 0.0;
     let mut runs = Vec::new();
+    let mut mounted: std::collections::HashMap<&str, f64> = std::collections::HashMap::new();
     for run in &plan.runs {
         let setup_index = plan
             .setups
@@ -219,7 +220,20 @@ pub fn write_session(
         let commanded = to_si(machine, &to_file_units(machine, &run.poses, realism));
         let states = timeline.run(&commanded, &times);
 
-        let measured = measure(machine, truth, instrument, off, run, &states, realism);
+        // A set-up is mounted when its first sample is taken.
+        let mounted_s = *mounted
+            .entry(run.setup.as_str())
+            .or_insert(times.first().copied().unwrap_or(0.0));
+        let creep = effects.setup_shift(&run.setup, mounted_s, &times);
+        let measured = measure(
+            machine,
+            truth,
+            instrument,
+            (off, creep.as_deref()),
+            run,
+            &states,
+            realism,
+        );
         let mut clean_si = measured.readings;
         if let Some(own) = effects.instrument_own(&run.setup, &times) {
             for (r, d) in clean_si.iter_mut().zip(own) {
@@ -408,11 +422,13 @@ struct Measured {
     readings: Vec<Vec<f64>>,
 }
 
+/// The readings of `run`, its set-up `off` its stated one and, where it creeps, shifted by
+/// `creep` at each sample ([`crate::effects::Effect::SetupCreep`]).
 fn measure(
     machine: &Machine,
     truth: &Truth,
     instrument: &Instrument,
-    off: &SetupOffsets,
+    (off, creep): (&SetupOffsets, Option<&[Vector3<f64>]>),
     run: &RunPlan,
     states: &[SampleState<'_>],
     realism: &Realism,
@@ -423,7 +439,21 @@ fn measure(
     // The readings at the positions as written, read back (rounding included).
     let positions = to_file_units(machine, &recorded, realism);
     let si = to_si(machine, &positions);
-    let readings = instrument.readings(machine, truth, &si, &run.labels, off, states);
+    let readings = match creep {
+        None => instrument.readings(machine, truth, &si, &run.labels, off, states),
+        // The set-up is another at every sample: each read on its own (only R-tests and ball
+        // bars creep, and they read each sample absolutely).
+        Some(shift) => (0..si.len())
+            .map(|k| {
+                let moved = SetupOffsets {
+                    position: off.position + shift[k],
+                    ..*off
+                };
+                let one = &states[k..=k];
+                instrument.readings(machine, truth, &si[k..=k], &[], &moved, one)[0].clone()
+            })
+            .collect(),
+    };
     Measured {
         positions,
         readings,

@@ -421,3 +421,136 @@ fn trunnion_thermal_check_interleaves_its_runs_and_repeats_the_first_at_the_end(
         .collect();
     assert_eq!(validate_at, [4, 8, 10, 11]);
 }
+
+/// A set-up creep ([`Effect::SetupCreep`]): the R-test ball `ball1` on the table settles by
+/// `s·(1 − e^{−(t − t_s)/τ})` from its first sample on. Its readings move by that vector seen
+/// from the nest (`Rᵀ·Δ`, R the tool's rotation in the workpiece frame); every other set-up
+/// reads as without it.
+#[test]
+fn a_creeping_setup_moves_its_own_readings_only() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = "mcu630-cafyxz.urdf";
+    let machine = Machine::from_urdf_file(&shipped_machine(file)).unwrap();
+    let truth = truth_of(file, 5);
+    let settle_m = [3e-6, 0.0, -2e-6];
+    let tau_s = 600.0;
+    let creep = Effect::SetupCreep {
+        setup: "ball1".into(),
+        settle: settle_m,
+        tau_s,
+    };
+    let write = |name: &str, effects: &[Effect]| {
+        Campaign::trunnion_thermal_check(&tmp.path().join(name), &truth, effects, &Realism::ideal())
+            .unwrap()
+    };
+    let moved = write("creep", &[creep]);
+    let still = write("still", &[]);
+    let mounted_s = moved.runs.iter().find(|r| r.setup == "ball1").unwrap().t[0];
+    let (mut ball1_samples, mut worst_um) = (0, 0.0_f64);
+    for (a, b) in moved.runs.iter().zip(&still.runs) {
+        assert_eq!((&a.name, &a.t), (&b.name, &b.t));
+        if a.setup != "ball1" {
+            assert_eq!(a.clean_um, b.clean_um, "{}", a.name);
+            continue;
+        }
+        for (k, pos) in a.positions.iter().enumerate() {
+            let q: Vec<f64> = pos
+                .iter()
+                .zip(&machine.joints)
+                .map(|(v, j)| match j.kind {
+                    mtcal_indsim::JointKind::Linear => v * 1e-3,
+                    mtcal_indsim::JointKind::Rotary => v.to_radians(),
+                })
+                .collect();
+            let rotation = machine
+                .tool_in_workpiece(&q, Some(&truth))
+                .fixed_view::<3, 3>(0, 0)
+                .into_owned();
+            let shift =
+                nalgebra::Vector3::from(settle_m) * (1.0 - (-(a.t[k] - mounted_s) / tau_s).exp());
+            let expected_um = rotation.transpose() * shift * 1e6;
+            for c in 0..3 {
+                let d = a.clean_um[k][c] - b.clean_um[k][c];
+                worst_um = worst_um.max((d - expected_um[c]).abs());
+            }
+            ball1_samples += 1;
+        }
+    }
+    assert!(ball1_samples > 500, "{ball1_samples}");
+    assert!(worst_um < 1e-9, "{worst_um} µm");
+    // The effect is written down with its parameters.
+    let effects = std::fs::read_to_string(moved.dir.join("truth/effects.toml")).unwrap();
+    assert!(
+        effects.contains("setup-creep") && effects.contains("settle_um"),
+        "{effects}"
+    );
+}
+
+/// A creep on a set-up the plan does not have is refused, naming the effect and the set-up.
+#[test]
+fn a_creep_is_refused_on_an_unknown_setup() {
+    let tmp = tempfile::tempdir().unwrap();
+    let truth = truth_of("mcu630-cafyxz.urdf", 5);
+    let creep = Effect::SetupCreep {
+        setup: "ball9".into(),
+        settle: [1e-6, 0.0, 0.0],
+        tau_s: 600.0,
+    };
+    let err = Campaign::trunnion_thermal_check(tmp.path(), &truth, &[creep], &Realism::ideal())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("setup-creep") && err.contains("no set-up ball9"),
+        "{err}"
+    );
+}
+
+/// A servo lag of X ([`Effect::ServoLag`]): X stands where it was commanded `T` earlier. The
+/// ball bar reads that along the bar, `u_x·(c_x(t − T) − c_x(t))` to first order, `u` the unit
+/// vector from the pivot to the tool ball: the 45° ellipse of a gain mismatch, turning with the
+/// direction of the circle.
+#[test]
+fn a_servo_lag_moves_the_axis_by_its_following_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = "mcu630-cafyxz.urdf";
+    let truth = truth_of(file, 5);
+    let lag_s = 2e-3;
+    let write = |name: &str, effects: &[Effect]| {
+        Campaign::trunnion_thermal_check(&tmp.path().join(name), &truth, effects, &Realism::ideal())
+            .unwrap()
+    };
+    let lagging = write("lag", &[Effect::ServoLag { axis: 'X', lag_s }]);
+    let still = write("still", &[]);
+    let (mut worst_um, mut largest_um, mut samples) = (0.0_f64, 0.0_f64, 0);
+    for (a, b) in lagging.runs.iter().zip(&still.runs) {
+        if a.setup != "bar1" {
+            continue;
+        }
+        // Run positions (mm), X first; the pivot at [0, 0, 200] mm in the workpiece frame and
+        // the circle in XY, so the bar's direction in XY is the position over its length.
+        for k in 1..a.positions.len() {
+            let (x, y) = (a.positions[k][0], a.positions[k][1]);
+            let ux = x / x.hypot(y);
+            let dt = a.t[k] - a.t[k - 1];
+            let vx_mm_s = (a.positions[k][0] - a.positions[k - 1][0]) / dt;
+            let expected_um = -ux * vx_mm_s * lag_s * 1e3;
+            let d = a.clean_um[k][0] - b.clean_um[k][0];
+            worst_um = worst_um.max((d - expected_um).abs());
+            largest_um = largest_um.max(d.abs());
+            samples += 1;
+        }
+    }
+    assert!(samples > 1000, "{samples}");
+    // A bar 2 ms behind at about 2.3 mm/s: microns; the first-order reading holds to within
+    // the geometric errors' share of it.
+    assert!(largest_um > 1.0, "{largest_um} µm");
+    assert!(
+        worst_um < 0.02 * largest_um,
+        "{worst_um} of {largest_um} µm"
+    );
+    let effects = std::fs::read_to_string(lagging.dir.join("truth/effects.toml")).unwrap();
+    assert!(
+        effects.contains("servo-lag") && effects.contains("lag_ms"),
+        "{effects}"
+    );
+}

@@ -1,28 +1,35 @@
 //! Effects of the measuring set-up and the instrument.
 //!
 //! - **`setup-drift`**: a set-up parameter (the R-test head, the ball-bar pivot, a sensor's
-//!   zero) creeps steadily from the set-up's first use, `rate·(t − t_s)`; driver `t`. Plant
-//!   keys `setup`, `nuisance`, `rate_um_per_h`.
+//!   zero) creeps steadily from the set-up's first use, `rate·(t − t_s)` (driver `t`), or
+//!   settles, `a·(1 − e^{−(t − t_s)/τ})` (driver `t, settling`). Plant keys `setup`,
+//!   `nuisance`, and `rate_um_per_h` or `amplitude_um` and `tau_s`.
 //! - **`instrument-scale`**: a reading channel's gain is off, `g·reading` (an R-test sensor's
 //!   scale, a laser's wavelength compensation, a ball-bar transducer); shared by every set-up
 //!   of that instrument. Plant keys `instrument` (optional when unambiguous), `channel`,
 //!   `gain_ppm`.
 
-use super::{channel_aim, nuisance_aim, plant_aim, plant_values};
+use super::{channel_aim, nuisance_aim, number, plant_aim, plant_values};
 use crate::basic::{AmplitudeUnit, Basic, Feature};
 use crate::view::SessionView;
 use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
 use std::sync::Arc;
 
-fn drift(view: &SessionView, s: usize, index: usize) -> Basic {
+/// A set-up parameter's drift: steady (`settling_tau_s` none) or settling with that time
+/// constant from the set-up's first use.
+fn drift(view: &SessionView, s: usize, index: usize, settling_tau_s: Option<f64>) -> Basic {
     let aim = nuisance_aim(view, s, index);
+    let (driver, feature) = match settling_tau_s {
+        None => ("t", Feature::SetupHours(s)),
+        Some(_) => ("t, settling", Feature::SetupSettling(s)),
+    };
     Basic::new(
-        aim.info("setup-drift", Some("t".into())),
-        Feature::SetupHours(s),
+        aim.info("setup-drift", Some(driver.into())),
+        feature,
         aim.target,
         aim.words,
         aim.unit,
-        None,
+        settling_tau_s,
     )
 }
 
@@ -42,9 +49,17 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
         if span.is_nan() || span <= 0.0 {
             continue;
         }
+        // A settling starts from a quarter of the set-up's use; the refit refines τ.
+        let settling_tau_s = (0.25 * span).max(5.0 * view.median_interval());
         for (j, n) in setup.nuisance.iter().enumerate() {
             if n.unit == mtcal_instrument::Unit::Um {
-                out.push(Candidate::Effect(Arc::new(drift(view, s, j))));
+                out.push(Candidate::Effect(Arc::new(drift(view, s, j, None))));
+                out.push(Candidate::Effect(Arc::new(drift(
+                    view,
+                    s,
+                    j,
+                    Some(settling_tau_s),
+                ))));
             }
         }
     }
@@ -58,7 +73,7 @@ fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Plant
             "a set-up drift acts on a set-up parameter: give `setup` and `nuisance`".into(),
         );
     };
-    let e = drift(view, setup, index);
+    let e = drift(view, setup, index, number(table, "tau_s", 1.0)?);
     let v = plant_values(&e, table, &[])?;
     Ok((Arc::new(e), v))
 }

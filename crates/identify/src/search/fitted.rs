@@ -1,6 +1,6 @@
 //! One fitted model of the search ([`Fitted`]: study, solution, report, held-out score) and the
 //! helpers every phase fits with: [`fit`] (fit and cross-validate), [`with_noise`] (refit on the
-//! noise the residuals show, step 0), [`bic`], [`carry_over`] and [`machine_values`]. Uses the
+//! noise the residuals show, step 0), [`carry_over`] and [`machine_values`]. Uses the
 //! settings and the cross-validation (`heldout`); the step, the discoveries and the loop use it.
 
 use super::heldout::heldout;
@@ -60,12 +60,6 @@ pub(super) fn fit(
         id,
         heldout,
     })
-}
-
-/// The Bayesian information criterion of a fit with known noise: `χ² + k·ln n`, `k` the
-/// identified parameters.
-pub(super) fn bic(solution: &Solution) -> f64 {
-    solution.chi2 + solution.rank as f64 * (solution.n_rows.max(2) as f64).ln()
 }
 
 /// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at

@@ -94,7 +94,7 @@ use crate::IdentifyError;
 use crate::report::Identification;
 use crate::study::Study;
 use discovery::{concealed, discovery, telling_apart};
-use fitted::{Fitted, bic, fit, machine_values, with_noise};
+use fitted::{Fitted, fit, machine_values, with_noise};
 use mtcal_solve::Solution;
 use rank::rank_with;
 use settings::with_session_options;
@@ -180,17 +180,17 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         let winner = passed
             .iter()
             .enumerate()
-            .min_by(|a, b| bic(&a.1.2.solution).total_cmp(&bic(&b.1.2.solution)))
+            .min_by(|a, b| a.1.2.criterion().total_cmp(&b.1.2.criterion()))
             .map(|(k, _)| k);
         let mut lookalikes = Vec::new();
         if let Some(w) = winner {
             let (wk, wr, wf) = &passed[w];
-            let best = bic(&wf.solution);
+            let best = wf.criterion();
             for (k, r, f) in &passed {
                 if k == wk {
                     continue;
                 }
-                let delta = (bic(&f.solution) - best) / scale;
+                let delta = (f.criterion() - best) / scale;
                 let t = &mut trials[*k];
                 t.accepted = false;
                 if delta < LOOKALIKE_BIC && r.candidate.label() != wr.candidate.label() {
@@ -208,7 +208,11 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
                         measurement: telling_apart(&wr.candidate, &r.candidate),
                     });
                 } else {
-                    t.why = format!("passed, but another candidate predicts better; {}", t.why);
+                    t.why = format!(
+                        "passed, but another candidate predicts better (information criterion \
+                         {delta:+.1}); {}",
+                        t.why
+                    );
                 }
             }
         }

@@ -241,6 +241,7 @@ pub(super) fn try_candidate(
             study,
             solution,
             heldout: held,
+            added_dof: added,
         }),
     ))
 }
@@ -261,8 +262,21 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         if !solution.identified[i] {
             continue;
         }
-        if spec.bounds.is_some() {
-            // A shape parameter (τ, pitch): its box says what is plausible.
+        if let Some((lo, hi)) = spec.bounds {
+            // A shape parameter (τ, pitch): its box says what is plausible, and a candidate's
+            // shape pinned at an edge of it found no optimum inside (a settling "faster" than
+            // its 1 s floor is a step on the first samples, not a time constant).
+            let info = study.param_info(i);
+            let value = solution.x[i];
+            let pinned = |edge: f64| (value - edge).abs() <= 1e-3 * edge.abs();
+            if !before.contains_key(&info.name) && (pinned(lo) || pinned(hi)) {
+                return Some(format!(
+                    "not physics: the refit pins {} at the edge of its range, {:.4} {}",
+                    info.name,
+                    value * info.per_si,
+                    info.unit
+                ));
+            }
             continue;
         }
         if solution.sigma[i].is_none() {
@@ -328,4 +342,16 @@ pub(super) struct Refitted {
     pub(super) study: Study,
     pub(super) solution: Solution,
     pub(super) heldout: Heldout,
+    /// The parameters the candidate added, as the information criterion counts them.
+    pub(super) added_dof: f64,
+}
+
+impl Refitted {
+    /// The information criterion the candidates of a step are compared by: χ² plus the
+    /// parameters each added (its own, a prior's share discounted) times ln n. Not the refit's
+    /// numerical rank: in a model with null directions, a candidate that leans on them would
+    /// get a parameter for free and win over an equal fit.
+    pub(super) fn criterion(&self) -> f64 {
+        self.solution.chi2 + self.added_dof * (self.solution.n_rows.max(2) as f64).ln()
+    }
 }
