@@ -247,6 +247,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         } = fitted;
         stages.push(Stage {
             lookalikes,
+            dropped: Vec::new(),
             ranked: ranked_ok,
             before_id: current.id,
             before_solution: current.solution,
@@ -279,6 +280,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     if let Some(stage) = stages.last_mut() {
         stage.confirm_lookalikes(&last_ranking);
     }
+    step::restore_lookalikes(&mut stages);
     report.concealed = concealed(&last_ranking);
     report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
     let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();

@@ -26,6 +26,9 @@ pub(super) struct Stage {
     ///
     /// [`LOOKALIKE_BIC`]: super::LOOKALIKE_BIC
     pub(super) lookalikes: Vec<LookAlike>,
+    /// Look-alikes dropped because they were still significant with this stage's effect in
+    /// the model; restored by [`restore_lookalikes`] when a later stage names them again.
+    pub(super) dropped: Vec<LookAlike>,
     pub(super) ranked: Ranked,
     pub(super) before_id: Identification,
     pub(super) before_solution: Solution,
@@ -40,11 +43,45 @@ impl Stage {
     /// Keeps the look-alikes that `ranking` (with this stage's effect in the model) no longer
     /// finds significant: they explained the same thing.
     pub(super) fn confirm_lookalikes(&mut self, ranking: &[Ranked]) {
-        self.lookalikes.retain(|l| {
-            !ranking
-                .iter()
-                .any(|r| r.score.significant && r.candidate.label() == l.label)
-        });
+        let (kept, dropped) = std::mem::take(&mut self.lookalikes)
+            .into_iter()
+            .partition(|l| {
+                !ranking
+                    .iter()
+                    .any(|r| r.score.significant && r.candidate.label() == l.label)
+            });
+        self.lookalikes = kept;
+        self.dropped.extend(dropped);
+    }
+}
+
+/// The class and target of a look-alike, `thermal-drift Z` of `thermal-drift Z (t), from
+/// tau_s = 120 s`: what stays when the driver and the starting shape are left out.
+fn class_and_target(label: &str) -> &str {
+    label.split(" (").next().unwrap_or(label)
+}
+
+/// A look-alike dropped at one stage (it still explained something once the stage's effect was
+/// in) is restored when a later stage adds one of its class and target or names one among its
+/// look-alikes: what it went on to explain was taken by the same kind of explanation, so the
+/// data did not tell the stage's effect apart from it.
+pub(super) fn restore_lookalikes(stages: &mut [Stage]) {
+    for i in 0..stages.len() {
+        let later: Vec<String> = stages[i + 1..]
+            .iter()
+            .flat_map(|s| {
+                std::iter::once(s.ranked.candidate.label())
+                    .chain(s.lookalikes.iter().map(|l| l.label.clone()))
+            })
+            .map(|label| class_and_target(&label).to_string())
+            .collect();
+        let stage = &mut stages[i];
+        let (restored, still): (Vec<LookAlike>, Vec<LookAlike>) =
+            std::mem::take(&mut stage.dropped)
+                .into_iter()
+                .partition(|l| later.iter().any(|t| t == class_and_target(&l.label)));
+        stage.lookalikes.extend(restored);
+        stage.dropped = still;
     }
 }
 
