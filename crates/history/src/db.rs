@@ -74,6 +74,9 @@ pub(crate) enum FailureKind {
     NotADatabase,
     Corrupt,
     CannotOpen,
+    /// Another connection holds a lock SQLite will not wait for (it returns at once where
+    /// waiting could deadlock, as when two processes make a new file a history together).
+    Busy,
     Other,
 }
 
@@ -92,6 +95,7 @@ fn sqlite_failure(error: rusqlite::Error) -> Failure {
         Some(ErrorCode::NotADatabase) => FailureKind::NotADatabase,
         Some(ErrorCode::DatabaseCorrupt) => FailureKind::Corrupt,
         Some(ErrorCode::CannotOpen) => FailureKind::CannotOpen,
+        Some(ErrorCode::DatabaseBusy | ErrorCode::DatabaseLocked) => FailureKind::Busy,
         _ => FailureKind::Other,
     };
     Failure {
@@ -261,6 +265,7 @@ impl Db {
             },
             FailureKind::Corrupt => Error::Corrupt { location, detail },
             FailureKind::CannotOpen => Error::Open { location, detail },
+            FailureKind::Busy => Error::Busy { location, detail },
             FailureKind::Other => Error::Database { location, detail },
         }
     }

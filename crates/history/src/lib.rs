@@ -120,6 +120,8 @@ pub enum Error {
     },
     #[error("{location}: {detail}")]
     Database { location: String, detail: String },
+    #[error("{location} is in use by another process, which did not let go ({detail})")]
+    Busy { location: String, detail: String },
     #[error("identify JSON: {0}")]
     IdentifyJson(String),
     #[error("invalid campaign: {0}")]

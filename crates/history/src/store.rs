@@ -38,8 +38,18 @@ impl Store {
     #[doc(hidden)]
     pub fn open_at_version(url_or_path: &str, version: i64) -> Result<Store, Error> {
         let db = connect(url_or_path)?;
-        schema::prepare(&db, version)?;
-        Ok(Store { db })
+        // Two processes making a new SQLite file a history at once: where waiting could
+        // deadlock SQLite says "busy" at once instead of waiting, so the open is tried again
+        // (the migration is one transaction, and the second process finds it done).
+        let started = std::time::Instant::now();
+        loop {
+            match schema::prepare(&db, version) {
+                Err(Error::Busy { .. }) if started.elapsed() < BUSY_TIMEOUT => {
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                result => return result.map(|()| Store { db }),
+            }
+        }
     }
 
     /// The file path, or the URL without its password.
