@@ -493,18 +493,14 @@ impl Resolved {
         column: &Option<String>,
     ) -> Result<(), String> {
         finite("ppm_per_k", ppm_per_k)?;
-        let length_mm = match setups.iter().find(|s| s.name == setup) {
-            Some(SetupPlan {
-                instrument: Instrument::BallBar { length_mm, .. },
-                ..
-            }) => *length_mm,
-            Some(s) => {
+        let length_mm = match instrument_of(setups, setup)? {
+            Instrument::BallBar { length_mm, .. } => *length_mm,
+            other => {
                 return Err(format!(
                     "set-up {setup} is not a ball bar (its instrument is {})",
-                    s.instrument.plugin_name()
+                    other.plugin_name()
                 ));
             }
-            None => return Err(format!("no set-up {setup}")),
         };
         if self.bars.iter().any(|b| b.setup == setup) {
             return Err(format!("set-up {setup} already has a bar temperature"));
@@ -536,18 +532,14 @@ impl Resolved {
             finite("settle", *v)?;
         }
         positive("tau_s", tau_s)?;
-        match setups.iter().find(|s| s.name == setup) {
-            Some(SetupPlan {
-                instrument: Instrument::RTest { .. } | Instrument::BallBar { .. },
-                ..
-            }) => {}
-            Some(s) => {
+        match instrument_of(setups, setup)? {
+            Instrument::RTest { .. } | Instrument::BallBar { .. } => {}
+            other => {
                 return Err(format!(
                     "set-up {setup} is a {}; a set-up creep is planted on an R-test or a ball bar",
-                    s.instrument.plugin_name()
+                    other.plugin_name()
                 ));
             }
-            None => return Err(format!("no set-up {setup}")),
         }
         if self.creeps.iter().any(|c| c.setup == setup) {
             return Err(format!("set-up {setup} already creeps"));
@@ -693,6 +685,15 @@ fn kind_name(e: &Effect) -> &'static str {
         Effect::ServoLag { .. } => "servo-lag",
         Effect::SpindleSpeed { .. } => "spindle-speed",
     }
+}
+
+/// The instrument of the plan's set-up `name`.
+fn instrument_of<'p>(setups: &'p [SetupPlan], name: &str) -> Result<&'p Instrument, String> {
+    setups
+        .iter()
+        .find(|s| s.name == name)
+        .map(|s| &s.instrument)
+        .ok_or_else(|| format!("no set-up {name}"))
 }
 
 fn axis_index(machine: &Machine, letter: char) -> Result<usize, String> {

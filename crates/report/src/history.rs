@@ -7,7 +7,7 @@
 
 use crate::ReportError;
 use crate::escape::{display_unit, escape};
-use crate::page::{ERROR_RECORDER, READY, STYLE, figure, none};
+use crate::page::{READY, figure, head, none};
 use mtcal_history::{FleetLine, TrendView};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -28,17 +28,11 @@ pub struct HistoryPage {
 
 /// The page's HTML.
 pub fn render_history(p: &HistoryPage) -> Result<String, ReportError> {
-    let title = escape(&p.title);
     let mut h = String::with_capacity(1 << 18);
+    head(&mut h, &p.title);
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
-         style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n\
-         <title>{title}</title>\n<style>{STYLE}</style>\n<script>{ERROR_RECORDER}</script>\n\
-         </head>\n<body>\n<pre id=\"script-errors\" hidden></pre>\n<header><h1>{title}</h1>\n\
-         <p>history <code>{}</code></p></header>\n<nav><a href=\"#fleet\">Fleet</a>\
+        "<p>history <code>{}</code></p></header>\n<nav><a href=\"#fleet\">Fleet</a>\
          <a href=\"#trends\">Trends</a></nav>\n<main>\n",
         escape(&p.source)
     );

@@ -81,17 +81,11 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
         identifiability(r),
         discoveries(r),
     ];
-    let title = escape(&r.title);
     let mut h = String::with_capacity(1 << 20);
+    head(&mut h, &r.title);
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
-         style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n\
-         <title>{title}</title>\n<style>{STYLE}</style>\n<script>{ERROR_RECORDER}</script>\n\
-         </head>\n<body>\n<pre id=\"script-errors\" hidden></pre>\n<header><h1>{title}</h1>\n\
-         <p>session <code>{}</code> · machine {}</p></header>\n<nav>",
+        "<p>session <code>{}</code> · machine {}</p></header>\n<nav>",
         escape(&r.summary.session),
         escape(&r.summary.machine),
     );
@@ -525,4 +519,19 @@ fn discoveries(r: &Report) -> String {
         h.push_str("</ul></details>\n");
     }
     h
+}
+
+/// The start of a page up to its title heading: the document head (style, the script-error
+/// recorder, a policy that allows nothing from outside) and `<header><h1>title</h1>`.
+pub(crate) fn head(h: &mut String, title: &str) {
+    let title = escape(title);
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
+         style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n\
+         <title>{title}</title>\n<style>{STYLE}</style>\n<script>{ERROR_RECORDER}</script>\n\
+         </head>\n<body>\n<pre id=\"script-errors\" hidden></pre>\n<header><h1>{title}</h1>\n"
+    );
 }
