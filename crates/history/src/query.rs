@@ -58,6 +58,21 @@ pub struct SeriesPoint {
     pub u95: Option<f64>,
     pub unit: Option<String>,
     pub superseded: bool,
+    /// Why the campaign's fit is not a calibration (it did not converge, or the model does not
+    /// explain the recordings): its value is shown, never counted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<String>,
+}
+
+impl SeriesPoint {
+    /// Whether the value counts in the analyses: a number with an interval, from a fit that is
+    /// a calibration, of a campaign not superseded.
+    pub fn counts(&self) -> bool {
+        !self.superseded
+            && self.verdict.is_none()
+            && self.value.is_some()
+            && self.u95.is_some_and(|u| u > 0.0)
+    }
 }
 
 /// A machine of the fleet: its latest campaign that is not superseded, and its parameters.
@@ -162,7 +177,7 @@ impl Store {
         let machine_id = self.machine_id(machine)?;
         let points = self.db.query(
             "SELECT c.id, c.date_utc, p.status, p.value, p.u95, d.unit, \
-                    CAST(CASE WHEN s.campaign_id IS NULL THEN 0 ELSE 1 END AS BIGINT) \
+                    CAST(CASE WHEN s.campaign_id IS NULL THEN 0 ELSE 1 END AS BIGINT), c.verdict \
              FROM campaigns c \
              JOIN parameters p ON p.campaign_id = c.id \
              JOIN parameter_defs d ON d.id = p.def_id \
@@ -389,6 +404,7 @@ fn series_point(r: &dyn Row) -> Result<SeriesPoint, Failure> {
         u95: r.real(4)?,
         unit: known(r.required_text(5)?),
         superseded: r.int(6)? != 0,
+        verdict: r.text(7)?,
     })
 }
 

@@ -167,7 +167,7 @@ impl TrendView {
             .points
             .iter()
             .rev()
-            .find(|p| !p.superseded)
+            .find(|p| !p.superseded && p.verdict.is_none())
             .map_or_else(
                 || "no campaign".to_string(),
                 |p| match (p.value, p.u95) {
@@ -194,15 +194,13 @@ impl TrendView {
     }
 }
 
-/// The values that count: identified (a value and a positive u95), not superseded.
+/// The values that count ([`SeriesPoint::counts`]): identified, from a fit that is a
+/// calibration, not superseded.
 fn counted_points(points: &[SeriesPoint]) -> Vec<Point> {
     points
         .iter()
-        .filter(|p| !p.superseded)
-        .filter_map(|p| match (p.value, p.u95) {
-            (Some(v), Some(u)) if u > 0.0 => Some(Point::new(p.date.as_second() as f64, v, u)),
-            _ => None,
-        })
+        .filter(|p| p.counts())
+        .filter_map(|p| Some(Point::new(p.date.as_second() as f64, p.value?, p.u95?)))
         .collect()
 }
 
@@ -217,6 +215,14 @@ impl fmt::Display for TrendView {
             self.points.len(),
             self.points.iter().filter(|p| p.value.is_some()).count()
         )?;
+        let not_calibrations = self.points.iter().filter(|p| p.verdict.is_some()).count();
+        if not_calibrations > 0 {
+            writeln!(
+                f,
+                "{not_calibrations} campaign(s) not counted: their fit is not a calibration \
+                 (did not converge, or the model does not explain the recordings)"
+            )?;
+        }
         if let Some(t) = &self.trend {
             writeln!(f, "{}", verdict_text(t, unit))?;
         }
@@ -236,7 +242,7 @@ impl fmt::Display for TrendView {
         let mut next_significant = significant.next();
         let mut counted = 0;
         for p in &self.points {
-            let counts = !p.superseded && p.value.is_some();
+            let counts = p.counts();
             let mark = if counts && next_significant == Some(counted) {
                 next_significant = significant.next();
                 "  changed from the one before (E_n > 1)"
@@ -259,8 +265,13 @@ fn point_text(p: &SeriesPoint, unit: &str) -> String {
         (status, _, _) => format!("{:>10}", status_words(status)),
     };
     let superseded = if p.superseded { "  (superseded)" } else { "" };
+    let not_counted = if p.verdict.is_some() {
+        "  (not counted: the fit is not a calibration)"
+    } else {
+        ""
+    };
     format!(
-        "{}  campaign {:<5} {value}{superseded}",
+        "{}  campaign {:<5} {value}{superseded}{not_counted}",
         day(p.date),
         p.campaign.0
     )
@@ -465,16 +476,13 @@ pub fn thermal_view(
     };
     let points: Vec<Point> = series
         .iter()
-        .filter(|p| !p.superseded && self::day(p.date) == day)
-        .filter_map(|p| match (p.value, p.u95) {
-            (Some(v), Some(u)) if u > 0.0 => {
-                let point = Point::new(p.date.as_second() as f64, v, u);
-                Some(match temperatures.get(&p.campaign.0) {
-                    Some(&t) => point.with_temperature_c(t),
-                    None => point,
-                })
-            }
-            _ => None,
+        .filter(|p| p.counts() && self::day(p.date) == day)
+        .filter_map(|p| {
+            let point = Point::new(p.date.as_second() as f64, p.value?, p.u95?);
+            Some(match temperatures.get(&p.campaign.0) {
+                Some(&t) => point.with_temperature_c(t),
+                None => point,
+            })
         })
         .collect();
     let (trajectory, not_determined) =

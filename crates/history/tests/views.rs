@@ -141,3 +141,59 @@ fn a_warm_up_day_gives_its_time_constant_and_a_year_its_drift() {
     let other = fleet_drift_rates(&store, &fleet, &["EQ0Q".into()], &limits, 365.0).unwrap();
     assert!(other.iter().all(|(_, r)| r.is_empty()), "{other:?}");
 }
+
+/// A campaign whose fit is not a calibration (identify's verdict: it did not converge, or the
+/// model does not explain the recordings) is listed with its number but never counted: not in
+/// the drift, not in the same-day thermal fit, not the "latest" value.
+#[test]
+fn a_fit_that_is_not_a_calibration_is_shown_and_not_counted() {
+    let Some(db) = TestDb::new(Kind::Sqlite) else {
+        return;
+    };
+    let mut store = db.store();
+    let jan = mtcal_history::parse_date("2026-01-05").unwrap();
+    let date = |days: i64| Timestamp::from_second(jan.as_second() + days * 86_400).unwrap();
+    // Steady at 5 µm, ± 0.3: monthly campaigns, and on day 100 and at the end a fit that did
+    // not converge, its last iterate 40 µm off.
+    for k in 0..8 {
+        let c = campaign(
+            "mill-5",
+            date(30 * k),
+            5.0 + 0.1 * noise(k as usize),
+            0.5,
+            20.0,
+        );
+        store.add(&c).unwrap();
+    }
+    for days in [100, 240] {
+        let mut c = campaign("mill-5", date(days), 45.0, 0.5, 20.0);
+        c.fit.converged = false;
+        c.fit.verdict = Some("NOT CONVERGED (MaxIterations) after 100 iterations".into());
+        store.add(&c).unwrap();
+    }
+    let view = trend_view(&store, "mill-5", "EX0C", &Limits::default(), 365.0).unwrap();
+    assert_eq!(view.points.len(), 10);
+    assert_eq!(view.points.iter().filter(|p| p.counts()).count(), 8);
+    let trend = view.trend.as_ref().expect("analysed");
+    assert_eq!(trend.drift.n, 8);
+    assert_eq!(trend.verdict, mtcal_trend::Verdict::NoChange, "{view}");
+    let said = view.to_string();
+    assert!(
+        said.contains("2 campaign(s) not counted: their fit is not a calibration"),
+        "{said}"
+    );
+    assert_eq!(
+        said.matches("(not counted: the fit is not a calibration)")
+            .count(),
+        2,
+        "{said}"
+    );
+    // The latest value is the last calibration's, not the unconverged one of day 240.
+    let line = view.one_line();
+    assert!(!line.contains("45.000"), "{line}");
+    let last = 5.0 + 0.1 * noise(7);
+    assert!(
+        line.contains(&format!("latest {last:.3} ± 0.500")),
+        "{line}"
+    );
+}

@@ -381,8 +381,7 @@ impl Identification {
     /// below 1 + 5 standard deviations of χ²/dof. A σ stated 20 % off or mildly coloured noise
     /// stays inside; readings in the wrong frame (χ²/dof of 50) do not.
     pub fn model_explains_recordings(&self) -> bool {
-        let limit = (1.0 + 5.0 * chi2_spread(self.fit.dof)).max(2.0);
-        self.fit.chi2_reduced <= limit
+        chi2_within_noise(self.fit.chi2_reduced, self.fit.dof)
     }
 
     /// A plain-text summary for the terminal (a long parameter table summarised).
@@ -612,6 +611,13 @@ fn given_held(u95: Option<f64>, full: f64) -> String {
         Some(u) if u < 0.8 * full => format!("  (± {u:.4} if the undetermined are zero)"),
         _ => String::new(),
     }
+}
+
+/// Whether χ²/dof (against the stated σ) lies within what noise could give, a σ stated 20 %
+/// off or mildly coloured included: below twice, and below 1 + 5 standard deviations of χ²/dof
+/// ([`Identification::model_explains_recordings`]).
+pub fn chi2_within_noise(chi2_reduced: f64, dof: usize) -> bool {
+    chi2_reduced <= (1.0 + 5.0 * chi2_spread(dof)).max(2.0)
 }
 
 /// One standard deviation of χ²/dof for pure noise: `√(2/dof)`.

@@ -60,7 +60,10 @@
 //! by less than `tolerance` relative (or by less than `tolerance` standard deviations when the
 //! fit is exact); or when three accepted steps in a row lower the cost by less than 10⁻⁹ of it
 //! (a direction observed only to second order keeps promising a linear-model drop it never
-//! delivers, and a model that cannot explain the data creeps along it).
+//! delivers, and a model that cannot explain the data creeps along it). On residuals of the
+//! size of their noise, three accepted steps in a row that each lower χ² by less than 0.02 end
+//! it as [`Termination::Settled`]: settled to statistical precision, although such a creep
+//! would go on for thousands of steps.
 //!
 //! # Chord steps: checking a point without a new factor
 //!
@@ -310,6 +313,11 @@ impl Observer for Silent {}
 pub enum Termination {
     /// The Gauss–Newton step from the final point is negligible.
     Converged,
+    /// The cost settled to statistical precision (three accepted steps in a row each lowered
+    /// χ² by less than 0.02) while the iteration still crept along a direction the data see
+    /// only to second order. Counts as converged: the parameters reported with an interval
+    /// are within a fraction of their σ of the optimum (see `SETTLED_DROP` in the solver).
+    Settled,
     /// `max_iterations` steps were taken without converging.
     MaxIterations,
     /// No step along the computed direction lowers the cost, even heavily damped.
