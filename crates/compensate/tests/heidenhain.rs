@@ -185,7 +185,9 @@ fn check_com_cancels(name: &str, draws: &[f64]) {
     write_heidenhain_com(&cma, &set, &ComLimits::tnc_4xx()).unwrap();
     let (comp, norm, largest) = com_residuals(&model, &coeffs, &cma, &hold);
     // Values are written to 0.1 µm, so each component is off by at most half of it (one
-    // rounding per component) plus the model's change over the correction (nm).
+    // rounding per component) plus the model's change over the correction: the error's slope
+    // (up to ~1e-4 on these draws) times the correction (up to ~50 µm), a few nm. A draw found
+    // 2.03 nm on the trunnion (kept in heidenhain.proptest-regressions); the bound is 10 nm.
     let half_resolution_um = 0.5 * COM_RESOLUTION_MM * 1e3;
     eprintln!(
         "{name}: largest error {largest:.2} µm, residual {comp:.4} µm per component, {norm:.4} µm"
@@ -195,7 +197,7 @@ fn check_com_cancels(name: &str, draws: &[f64]) {
         "{name}: errors of {largest} µm are too small to test"
     );
     assert!(
-        comp <= half_resolution_um + 2e-3,
+        comp <= half_resolution_um + 1e-2,
         "{name}: component residual {comp} µm"
     );
     assert!(norm < TOL_UM, "{name}: residual {norm} µm");
