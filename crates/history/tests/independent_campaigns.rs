@@ -19,6 +19,9 @@
 //!   that is coloured and larger than stated: 139 and 140 of 144. Before the fit weighed by
 //!   the noise its residuals show, it held in 87 and 85 of 144 (60 %, the worst 3.7 u95 off).
 //!
+//! - Every campaign's fit is a calibration (converged or settled: no creep to
+//!   `max_iterations`).
+//!
 //! Bounds are binomial at 99 %, so each check can fail. mtcal's own simulator gives the trend
 //! checks with many more seeds in `crates/trend/tests/simulated_campaigns.rs`. Here the seeds
 //! are fewer, because each campaign is a whole session (about 2,200 samples).
@@ -147,8 +150,13 @@ fn check_identification(measured: &[Measured]) {
             Some((value - m.truth_um).abs() / u95)
         })
         .collect();
-    println!(
-        "{} of {} campaigns not a calibration (not counted)",
+    // Every fit is a calibration. Before the solver settled (`Termination::Settled`), 64 of
+    // 144 crept along a direction the eleven errors see only to second order until
+    // `max_iterations`, and were not counted.
+    assert_eq!(
+        errors.len(),
+        measured.len(),
+        "{} of {} campaigns not a calibration",
         measured.len() - errors.len(),
         measured.len()
     );

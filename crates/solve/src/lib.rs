@@ -235,6 +235,12 @@ pub struct Options {
     /// the last factor while the metric of the data is unchanged (see the module doc). `false`
     /// builds a new factor at every trial point.
     pub chord: bool,
+    /// End a creep along a direction the data see only to second order as
+    /// [`Termination::Settled`] once the cost has settled to statistical precision (see the
+    /// module doc). `false` lets it creep on until it converges or reaches `max_iterations`:
+    /// for fits whose χ² is compared with another's to a fraction of a unit (the physics
+    /// search), where the few units a creep still promises would read as evidence.
+    pub settle: bool,
 }
 
 impl Default for Options {
@@ -246,6 +252,7 @@ impl Default for Options {
             rank_tolerance: 1e-9,
             threads: 0,
             chord: true,
+            settle: true,
         }
     }
 }

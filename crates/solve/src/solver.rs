@@ -512,7 +512,7 @@ pub fn solve<P: Problem>(
         if stalled >= STALLED_STEPS {
             break Termination::Converged;
         }
-        if settled >= STALLED_STEPS {
+        if options.settle && settled >= STALLED_STEPS {
             break Termination::Settled;
         }
         chord &= an.rank >= last_rank;

@@ -79,6 +79,10 @@ pub(super) fn with_session_options(
     options: &SearchOptions,
 ) -> Result<SearchOptions, IdentifyError> {
     let mut out = options.clone();
+    // Candidates are judged by χ² differences of a unit or less: every fit runs to its
+    // optimum, never stopping where a creep along a second-order direction still promises a
+    // few units (which a candidate's refit would then "explain").
+    out.solver.settle = false;
     let bad = |key: &str, m: String| IdentifyError::Options {
         at: study.session.identify_location(key),
         key: key.into(),
