@@ -17,7 +17,7 @@
 //! - On every campaign of both, the identified EY0A lies within its `u95` of that campaign's
 //!   truth in about 95 % of the campaigns. The identification's intervals are honest on noise
 //!   that is coloured and larger than stated: 139 and 140 of 144. Before the fit weighed by
-//!   the noise its residuals show, it held in 87 and 85 of 144 (60 %, the worst 3.7 u95 off).
+//!   the noise its residuals show, it held in 87 of 144 and 85 of 143 (60 %, the worst 3.7 u95 off).
 //!
 //! - Every campaign's fit is a calibration (converged or settled: no creep to
 //!   `max_iterations`).
