@@ -34,10 +34,12 @@
 //! data more), and both are kept at the stated, white noise unless the residuals say
 //! otherwise beyond their own sampling scatter.
 
+use crate::IdentifyError;
 use crate::fit::predict_run;
-use crate::study::Study;
+use crate::study::{Changes, Study};
 pub use crate::whiten::{ChannelNoise, NoiseModel};
 use std::fmt::Write as _;
+use std::sync::Arc;
 
 /// Fewer differences than this: the channel keeps the stated, white noise.
 const MIN_DIFFERENCES: usize = 30;
@@ -88,6 +90,25 @@ impl NoiseModel {
         }
         out
     }
+}
+
+/// `study` rebuilt on the noise its residuals at `x` show ([`estimate`]), or `None` when that
+/// is the noise it already assumes (the stated, white noise when it assumes none). The plain
+/// fit and every step of the physics search refit on it.
+pub fn rebuilt_on_estimate(study: &Study, x: &[f64]) -> Result<Option<Study>, IdentifyError> {
+    let noise = estimate(study, x);
+    let same = match study.changes().noise.as_deref() {
+        Some(now) => *now == noise,
+        None => noise.is_stated(),
+    };
+    if same {
+        return Ok(None);
+    }
+    let changes = Changes {
+        noise: (!noise.is_stated()).then(|| Arc::new(noise)),
+        ..study.changes().clone()
+    };
+    study.rebuild(changes).map(Some)
 }
 
 /// The noise model the residuals of `study` at `x` show (stated σ, white where they show

@@ -87,18 +87,12 @@ fn fit_on_its_noise(
     // A model that does not explain the recordings keeps the stated σ, so that its verdict
     // stands: re-weighing by residuals that are structure would hide it.
     let explains = crate::report::chi2_within_noise(solution.chi2_reduced, solution.dof);
-    if study.changes().noise.is_some() || !explains {
+    if !explains {
         return Ok((study, solution));
     }
-    let noise = crate::noise::estimate(&study, &solution.x);
-    if noise.is_stated() {
+    let Some(study) = crate::noise::rebuilt_on_estimate(&study, &solution.x)? else {
         return Ok((study, solution));
-    }
-    let changes = crate::study::Changes {
-        noise: Some(std::sync::Arc::new(noise)),
-        ..study.changes().clone()
     };
-    let study = study.rebuild(changes)?;
     let specs = crate::param_specs_from(&study, &solution.x);
     let solution = mtcal_solve::solve(&crate::FitProblem::new(&study), &specs, options, observer)?;
     Ok((study, solution))

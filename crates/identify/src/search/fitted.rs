@@ -8,10 +8,9 @@ use super::settings::SearchOptions;
 use crate::IdentifyError;
 use crate::findings::Heldout;
 use crate::report::Identification;
-use crate::study::{Changes, Study};
+use crate::study::Study;
 use mtcal_solve::{Silent, Solution};
 use std::collections::HashMap;
-use std::sync::Arc;
 
 /// One fitted model.
 pub(super) struct Fitted {
@@ -27,21 +26,10 @@ pub(super) struct Fitted {
 /// (a cycle of a few samples reads as noise), and once it is in the model the smaller ones
 /// need the noise it leaves. Within a step every candidate is compared on one metric.
 pub(super) fn with_noise(fitted: Fitted, options: &SearchOptions) -> Result<Fitted, IdentifyError> {
-    let noise = crate::noise::estimate(&fitted.study, &fitted.solution.x);
-    let now = fitted.study.changes().noise.as_deref();
-    let same = match now {
-        Some(n) => *n == noise,
-        None => noise.is_stated(),
-    };
-    if same {
-        return Ok(fitted);
+    match crate::noise::rebuilt_on_estimate(&fitted.study, &fitted.solution.x)? {
+        None => Ok(fitted),
+        Some(study) => fit(study, Some(fitted.solution.x), options),
     }
-    let changes = Changes {
-        noise: (!noise.is_stated()).then(|| Arc::new(noise)),
-        ..fitted.study.changes().clone()
-    };
-    let study = fitted.study.rebuild(changes)?;
-    fit(study, Some(fitted.solution.x), options)
 }
 
 /// Fits `study` (from `x0` or its own start) and cross-validates it.
