@@ -25,14 +25,37 @@ pub enum Feature {
     /// First-order lag of the input (a thermal node driven by it). Shape: τ (s).
     Lag(Input),
     /// Minus half the direction of the last motion of axis `a` (∓½): a backlash `B` leaves the
-    /// axis `B/2` behind its command, on the side it came from.
+    /// axis `B/2` behind its command, on the side it came from. 0 before the axis first moves
+    /// in a run (the side it arrived from is unknown: the mean of `±B/2`;
+    /// [`crate::view::AxisMotion`]).
     Reversal(usize),
+    /// Backlash that changes along axis `a`'s stroke: two terms on the axis, `−½·s` and
+    /// `−½·s·û` (`s` the direction as for [`Feature::Reversal`], `û` the position normalised
+    /// to `[−1, 1]` over the stroke): the lost motion at the middle of the stroke and its
+    /// change from there to the stroke's positive end.
+    ReversalAlong(usize),
+    /// `−½·s` of axis `a` (as [`Feature::Reversal`]) acting on another axis: a straightness
+    /// step that flips with `a`'s direction (lateral play of the carriage in its guides).
+    LateralPlay(usize),
+    /// `w·s·exp(−Δt/τ)` of axis `a`: direction `s` (±1) and time `Δt` since the axis left its
+    /// last turning point; `w = 1` after a reversal within the run, `½` on the run's first
+    /// motion (whether the axis turned where the run starts is unknown: the mean of a spike
+    /// and none), 0 before it. Shape: τ (s).
+    ReversalSpike(usize),
+    /// A compact bump in axis `a`'s position: the cubic B-spline on the uniform knots
+    /// `c − w, c − w/2, c, c + w/2, c + w`, scaled to 1 at its centre (`1 − 6σ² + 6σ³` for
+    /// `σ = |q − c|/w ≤ ½`, `2(1 − σ)³` up to 1, 0 beyond; twice continuously
+    /// differentiable). Shapes: the centre `c` and the half-width `w` (m), in that order:
+    /// give them with [`Basic::with_shapes`].
+    LocalBump(usize),
     /// `sin(2π q/p)` and `cos(2π q/p)` of axis `a`'s position: two terms. Shape: the pitch `p`
     /// (m or rad).
     Cyclic(usize),
     /// `−v` of axis `a` (SI per second): the amplitude is a lag time (s).
     Velocity(usize),
-    /// `s · exp(−d/λ)` of axis `a`: direction `s` (±1) and travel `d` since the last reversal.
+    /// `w · s · exp(−d/λ)` of axis `a`: direction `s` (±1) and travel `d` since the last
+    /// reversal; `w = 1` after a reversal within the run, `½` on the run's first motion (the
+    /// turn may have been where the run starts, or not: the mean of both), 0 before it.
     /// Shape: λ (m or rad).
     StickSlip(usize),
     /// `û_a · û_b`, positions normalised to `[−1, 1]` over their strokes.
@@ -58,6 +81,9 @@ pub struct Basic {
     feature: Feature,
     /// How the target is named in words (`Z`, `channel d_ch1`, `ball-low's ball_x`).
     target_words: String,
+    /// Whether every term carries the same feature (one amplitude acting on several
+    /// targets: [`Basic::shared`]).
+    shared: bool,
 }
 
 /// The unit of an amplitude on a target, and its factor from SI.
@@ -143,6 +169,25 @@ impl Basic {
                 p
             }
             Feature::Reversal(_) => vec![amp(&format!("backlash_{u}"), u.clone(), k)],
+            Feature::ReversalAlong(_) => vec![
+                amp(&format!("backlash_{u}"), u.clone(), k),
+                amp(&format!("backlash_change_{u}"), u.clone(), k),
+            ],
+            Feature::LateralPlay(_) => vec![amp(&format!("play_{u}"), u.clone(), k)],
+            Feature::ReversalSpike(_) => {
+                // Beyond half a minute a decay in time is a reversal error held over the next
+                // stretch of the path, the simpler explanation.
+                vec![
+                    amp(&format!("height_{u}"), u.clone(), k),
+                    shape_def("tau_s", "s", 1.0, 1e-3, 30.0),
+                ]
+            }
+            Feature::LocalBump(_) => vec![
+                amp(&format!("amplitude_{u}"), u.clone(), k),
+                // Placeholders until `with_shapes` gives the session's ranges.
+                shape_def("centre_mm", "mm", 1e3, -10.0, 10.0),
+                shape_def("half_width_mm", "mm", 1e3, 1e-6, 10.0),
+            ],
             Feature::Cyclic(_) => {
                 let pitch = if rotary_shape {
                     shape_def("period_deg", "deg", 180.0 / std::f64::consts::PI, 1e-3, 7.0)
@@ -182,7 +227,7 @@ impl Basic {
             }
         };
         let terms = match &feature {
-            Feature::Cyclic(_) => vec![
+            Feature::Cyclic(_) | Feature::ReversalAlong(_) => vec![
                 Term {
                     amplitude: 0,
                     target: target.clone(),
@@ -203,12 +248,73 @@ impl Basic {
             terms,
             feature,
             target_words,
+            shared: false,
         }
+    }
+
+    /// An effect of a one-term `feature` acting with one amplitude on every target of
+    /// `targets` (the spindle growing: the tool length of every set-up at once). The unit is
+    /// the targets' (they share it).
+    pub fn shared(
+        info: EffectInfo,
+        feature: Feature,
+        targets: Vec<Target>,
+        target_words: String,
+        unit: AmplitudeUnit,
+        shape: Option<f64>,
+    ) -> Self {
+        assert!(
+            !matches!(
+                feature,
+                Feature::Cyclic(_) | Feature::ReversalAlong(_) | Feature::LocalBump(_)
+            ),
+            "a shared effect's feature has one term and at most one shape"
+        );
+        let first = targets
+            .first()
+            .cloned()
+            .expect("a shared effect has targets");
+        let mut e = Self::new(info, feature, first, target_words, unit, shape);
+        e.terms = targets
+            .into_iter()
+            .map(|target| Term {
+                amplitude: 0,
+                target,
+            })
+            .collect();
+        e.shared = true;
+        e
+    }
+
+    /// The effect with its shape parameters (in their order) starting at `initial`, boxed in
+    /// `bounds` (SI), with `scale` their plausible sizes (what moving them by that much means
+    /// to the solver).
+    pub fn with_shapes(mut self, shapes: &[ShapeStart]) -> Self {
+        let mut given = shapes.iter();
+        for p in self
+            .params
+            .iter_mut()
+            .filter(|p| p.kind == ParamKind::Shape)
+        {
+            let Some(g) = given.next() else { break };
+            p.initial = g.initial;
+            p.bounds = Some(g.bounds);
+            p.scale = g.scale;
+        }
+        self
     }
 
     pub fn feature(&self) -> &Feature {
         &self.feature
     }
+}
+
+/// A shape parameter's start, box (SI) and plausible size ([`Basic::with_shapes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapeStart {
+    pub initial: f64,
+    pub bounds: (f64, f64),
+    pub scale: f64,
 }
 
 impl Effect for Basic {
@@ -226,6 +332,7 @@ impl Effect for Basic {
 
     fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
         let shape_value = shape.first().copied().unwrap_or(0.0);
+        let second = shape.get(1).copied().unwrap_or(0.0);
         let lag = match &self.feature {
             Feature::Lag(input) | Feature::LaggedExpansion(input, _) => {
                 Some(view.lag(input, shape_value))
@@ -249,6 +356,9 @@ impl Effect for Basic {
             view: Arc::clone(view),
             feature: self.feature.clone(),
             shape: shape_value,
+            second,
+            copies: if self.shared { self.terms.len() } else { 1 },
+            n_shapes: shape.len(),
             lag,
             input,
             setup_start,
@@ -256,6 +366,9 @@ impl Effect for Basic {
     }
 
     fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {
+        if let Feature::LocalBump(_) = self.feature {
+            return self.centre_scan();
+        }
         let Feature::Cyclic(a) = self.feature else {
             return Vec::new();
         };
@@ -289,9 +402,14 @@ impl Effect for Basic {
     fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
         let mut e = self.clone();
         let mut values = shape.iter();
+        // A bump's centre and width keep the sizes the session gave them (a centre near 0 is
+        // no smaller a parameter).
+        let keep_scale = matches!(self.feature, Feature::LocalBump(_));
         for p in e.params.iter_mut().filter(|p| p.kind == ParamKind::Shape) {
             p.initial = *values.next()?;
-            p.scale = p.initial.abs().max(p.bounds.map_or(0.0, |b| b.0));
+            if !keep_scale {
+                p.scale = p.initial.abs().max(p.bounds.map_or(0.0, |b| b.0));
+            }
         }
         Some(Arc::new(e))
     }
@@ -350,6 +468,26 @@ impl Effect for Basic {
                 )
             }
             Feature::Reversal(_) => format!("a reversal error (backlash) of {target} of {}", p(0)),
+            Feature::ReversalAlong(_) => format!(
+                "a reversal error (backlash) of {target} of {} at the middle of its stroke, changing by {} from there to the stroke's positive end",
+                p(0),
+                p(1)
+            ),
+            Feature::LateralPlay(_) => format!(
+                "a lateral play: {target}, a step of {} that flips with the direction of motion",
+                p(0)
+            ),
+            Feature::ReversalSpike(_) => format!(
+                "a reversal spike of {target}: {} after each reversal, decaying in time with τ = {}",
+                p(0),
+                tau(1)
+            ),
+            Feature::LocalBump(_) => format!(
+                "a local error of {target}: a bump of {} centred at {} with a half-width of {}",
+                p(0),
+                p(1),
+                p(2)
+            ),
             Feature::Cyclic(_) => {
                 let amplitude = v[0].hypot(v[1]) * self.params[0].per_si;
                 format!(
@@ -450,10 +588,66 @@ fn from_mid(view: &SessionView, r: usize, i: usize, a: usize) -> f64 {
     view.q(r, i, a) - 0.5 * (lo + hi)
 }
 
+/// The cubic B-spline bump of [`Feature::LocalBump`] at `σ = |q − c|/w`, and its derivative
+/// by `σ`.
+fn bump(sigma: f64) -> (f64, f64) {
+    if sigma < 0.5 {
+        (
+            1.0 - 6.0 * sigma * sigma + 6.0 * sigma.powi(3),
+            -12.0 * sigma + 18.0 * sigma * sigma,
+        )
+    } else if sigma < 1.0 {
+        let u = 1.0 - sigma;
+        (2.0 * u.powi(3), -6.0 * u * u)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// How much of a transient after a reversal the feature holds at sample `i` of run `r`:
+/// 1 after a reversal within the run, ½ on the run's first motion, 0 before it; with the
+/// direction.
+fn after_reversal(view: &SessionView, r: usize, a: usize, i: usize) -> f64 {
+    let s = f64::from(view.direction(r, a, i));
+    if view.reversed(r, a, i) { s } else { 0.5 * s }
+}
+
+impl Basic {
+    /// Centres a bump's refit may start from: over its box, a quarter of its half-width
+    /// apart (its width kept).
+    fn centre_scan(&self) -> Vec<Vec<f64>> {
+        let shapes: Vec<&ParamDef> = self
+            .params
+            .iter()
+            .filter(|p| p.kind == ParamKind::Shape)
+            .collect();
+        let [c, w] = shapes[..] else {
+            return Vec::new();
+        };
+        let Some((lo, hi)) = c.bounds else {
+            return Vec::new();
+        };
+        let step = 0.25 * w.initial;
+        let usable = step > 0.0 && hi > lo && (hi - lo).is_finite();
+        if !usable {
+            return Vec::new();
+        }
+        let n = (((hi - lo) / step).floor() as usize + 1).min(SCAN_MAX);
+        (0..n)
+            .map(|k| vec![lo + k as f64 * step, w.initial])
+            .collect()
+    }
+}
+
 struct BasicFeatures {
     view: Arc<SessionView>,
     feature: Feature,
     shape: f64,
+    /// The second shape parameter ([`Feature::LocalBump`]'s half-width).
+    second: f64,
+    /// Terms that carry the feature (several for a shared effect).
+    copies: usize,
+    n_shapes: usize,
     lag: Option<Arc<crate::lag::LagSeries>>,
     input: Option<Arc<Vec<f64>>>,
     setup_start: f64,
@@ -504,7 +698,32 @@ impl Features for BasicFeatures {
                 f[0] = lag.y[k];
                 df[0] = lag.dy_dtau[k];
             }
-            Feature::Reversal(a) => f[0] = -0.5 * f64::from(view.direction(r, *a, i)),
+            Feature::Reversal(a) | Feature::LateralPlay(a) => {
+                f[0] = -0.5 * f64::from(view.direction(r, *a, i));
+            }
+            Feature::ReversalAlong(a) => {
+                let (lo, hi) = view.axes[*a].stroke;
+                let u = (2.0 * view.q(r, i, *a) - lo - hi) / (hi - lo);
+                f[0] = -0.5 * f64::from(view.direction(r, *a, i));
+                f[1] = f[0] * u;
+            }
+            Feature::ReversalSpike(a) => {
+                let w = after_reversal(view, r, *a, i);
+                let dt = view.since_turn(r, *a, i);
+                let tau = self.shape;
+                let e = w * (-dt / tau).exp();
+                f[0] = e;
+                df[0] = e * dt / (tau * tau);
+            }
+            Feature::LocalBump(a) => {
+                let (c, w) = (self.shape, self.second);
+                let d = view.q(r, i, *a) - c;
+                let sigma = d.abs() / w;
+                let (g, dg) = bump(sigma);
+                f[0] = g;
+                df[0] = -dg * d.signum() / w;
+                df[1] = -dg * sigma / w;
+            }
             Feature::Cyclic(a) => {
                 let q = view.q(r, i, *a);
                 let p = self.shape;
@@ -544,6 +763,14 @@ impl Features for BasicFeatures {
                 let q = from_mid(view, r, i, *a);
                 f[0] = lag.y[k] * q;
                 df[0] = lag.dy_dtau[k] * q;
+            }
+        }
+        // A shared effect: every term carries the first term's feature.
+        let ns = self.n_shapes;
+        for k in 1..self.copies {
+            f[k] = f[0];
+            for s in 0..ns {
+                df[k * ns + s] = df[s];
             }
         }
     }

@@ -227,15 +227,27 @@ impl Input {
 }
 
 /// How one axis moves during one run. Its per-sample series ([`SessionView::direction`],
-/// [`SessionView::velocity`], [`SessionView::travel`]) follow from the samples where it
-/// reverses: kept per sample they would take 17 bytes a sample and axis.
+/// [`SessionView::velocity`], [`SessionView::travel`], [`SessionView::since_turn`]) follow from
+/// the samples where it reverses: kept per sample they would take 17 bytes a sample and axis.
+///
+/// # The state before a run's first motion
+/// A run's file holds no approach move, so the side an axis arrived from is a guess: a linear
+/// axis is taken to have come straight from where the previous run (in time) left it (the
+/// controller's positioning move between two runs), or — if it did not move between them — to
+/// keep the direction it last moved in. A rotary axis may have gone either way round between
+/// runs (a controller unwinds or takes the short way), and the session's first run has no
+/// previous one: there the direction is 0 (unknown: the mean of the two sides, a backlash
+/// `±B/2` reads 0) until the axis first moves. Where the guess is wrong the run's first samples
+/// carry the difference, which the residuals show.
 #[derive(Clone, Debug, Default)]
 pub struct AxisMotion {
-    /// Direction of motion at the run's first sample, ±1 (0 while the axis has neither moved
-    /// in the run nor arrived from a known side): the side the axis arrived from
-    /// ([`SessionView::new`]: a linear axis from the previous run's last position; otherwise
-    /// the side of its first motion).
-    initial: i8,
+    /// The side the axis arrived from ±1 (0: unknown; see above).
+    arrived: i8,
+    /// Direction of the axis' first motion in the run, ±1 (0 if it never moves).
+    first_direction: i8,
+    /// The sample of the first step (`step_direction` ≠ 0); the run's length if it never
+    /// moves. Before it the direction is unknown (0).
+    first_motion: usize,
     /// The samples at which the axis reverses, increasing: the direction flips there, and the
     /// travel counts from the sample before (the turning point).
     reversals: Vec<usize>,
@@ -255,24 +267,37 @@ impl AxisMotion {
         self.reversals.partition_point(|&j| j <= i)
     }
 
-    /// Direction of the last motion at sample `i`, ±1 (0 while the axis has neither moved in
-    /// the run nor arrived from a known side); before the first motion, the side it arrived
-    /// from.
+    /// Direction of the last motion at sample `i`, ±1; before the axis' first motion in the
+    /// run, the side it arrived from (0 if unknown).
     pub fn direction(&self, i: usize) -> i8 {
-        // Every reversal flips a known direction (a motion against 0 is the first motion,
-        // not a reversal).
-        if self.reversals_to(i) % 2 == 0 {
-            self.initial
+        let start = if self.arrived != 0 {
+            self.arrived
         } else {
-            -self.initial
+            self.first_direction
+        };
+        if i < self.first_motion && self.arrived == 0 {
+            0
+        } else if self.reversals_to(i) % 2 == 0 {
+            start
+        } else {
+            -start
         }
     }
 
+    /// Whether the direction at sample `i` was reached by a reversal within the run (`false`
+    /// before the first reversal: on the first motion, whether the axis turned where the run
+    /// starts is unknown).
+    pub fn reversed(&self, i: usize) -> bool {
+        self.reversals_to(i) > 0
+    }
+
     /// The sample the travel at sample `i` counts from: the turning point of the last
-    /// reversal, or the run's first sample.
+    /// reversal; on the run's first motion, the last sample before it (where the axis stood);
+    /// before any motion, `i` itself.
     fn anchor(&self, i: usize) -> usize {
         match self.reversals_to(i) {
-            0 => 0,
+            0 if self.arrived != 0 => 0,
+            0 => self.first_motion.saturating_sub(1).min(i),
             k => self.reversals[k - 1].saturating_sub(1),
         }
     }
@@ -503,11 +528,25 @@ impl SessionView {
         }
     }
 
-    /// Distance axis `a` travelled since its last reversal (or since run `r` started) at
-    /// sample `i` (SI).
+    /// Distance axis `a` travelled since its last reversal (or since its first motion in run
+    /// `r`) at sample `i` (SI; 0 before it first moves).
     pub fn travel(&self, r: usize, a: usize, i: usize) -> f64 {
         let q = self.runs[r].q.column(a);
         (q.get(i) - q.get(self.motion[r][a].anchor(i))).abs()
+    }
+
+    /// Time since axis `a` left its last turning point (or, before it reversed in run `r`,
+    /// the position it first moved from) at sample `i` (s; 0 before it first moves). A dwell
+    /// at the turning point does not count: the time runs from the last sample there.
+    pub fn since_turn(&self, r: usize, a: usize, i: usize) -> f64 {
+        let t = &self.runs[r].t;
+        t.get(i) - t.get(self.motion[r][a].anchor(i))
+    }
+
+    /// Whether axis `a`'s direction at sample `i` of run `r` was reached by a reversal within
+    /// the run ([`AxisMotion::reversed`]).
+    pub fn reversed(&self, r: usize, a: usize, i: usize) -> bool {
+        self.motion[r][a].reversed(i)
     }
 
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).
@@ -641,16 +680,13 @@ impl SessionView {
     }
 }
 
-/// Every run's motion of every axis. Each run's linear axes start in the state the previous run
-/// (in time) left them in: the machine went straight from that run's last position to this
-/// run's first, so an axis arrives from the side that move came from (or, if it did not move,
-/// keeps the direction it last moved in). A rotary axis may have gone either way round between
-/// runs (a controller unwinds or takes the short way): it, and the session's first run, arrive
-/// from the side of their first motion.
+/// Every run's motion of every axis. Each run's linear axes arrive in the state the previous
+/// run (in time) left them in ([`AxisMotion`]: the guess about the approach the file does not
+/// hold); rotary axes and the session's first run arrive from an unknown side.
 fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<AxisMotion>> {
     let na = axes.len();
     let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
-    let mut arrived: Vec<i8> = vec![0; na];
+    let mut last_direction: Vec<i8> = vec![0; na];
     // The previous run (in time) and its last sample.
     let mut last: Option<(usize, usize)> = None;
     for &r in order {
@@ -662,7 +698,7 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
         motion[r] = (0..na)
             .map(|a| {
                 let first = run.q.get(0, a);
-                let initial = match last.map(|(p, i)| runs[p].q.get(i, a)) {
+                let arrived = match last.map(|(p, i)| runs[p].q.get(i, a)) {
                     _ if axes[a].rotary => 0,
                     Some(prev) if (first - prev).abs() > STANDING => {
                         if first > prev {
@@ -671,12 +707,12 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
                             -1
                         }
                     }
-                    _ => arrived[a],
+                    _ => last_direction[a],
                 };
-                axis_motion(run.q.column(a), initial)
+                axis_motion(run.q.column(a), arrived)
             })
             .collect();
-        for (a, d) in arrived.iter_mut().enumerate() {
+        for (a, d) in last_direction.iter_mut().enumerate() {
             let end = motion[r][a].direction(run.len() - 1);
             if end != 0 {
                 *d = end;
@@ -701,8 +737,8 @@ fn step_direction(q: &Column, i: usize) -> i8 {
 }
 
 /// How an axis moves along its positions `q` (one run's), having arrived at its first position
-/// moving in direction `initial` (±1; 0: unknown, then from the side of its first motion).
-fn axis_motion(q: &Column, initial: i8) -> AxisMotion {
+/// moving in direction `arrived` (±1; 0: unknown).
+fn axis_motion(q: &Column, arrived: i8) -> AxisMotion {
     let n = q.len();
     if n == 0 {
         return AxisMotion::default();
@@ -712,18 +748,21 @@ fn axis_motion(q: &Column, initial: i8) -> AxisMotion {
         .map(|i| (q.get(i) - q.get(i - 1)).abs())
         .collect();
     let moves = !steps.is_empty();
-    let first_dir = (1..n)
-        .map(|i| step_direction(q, i))
-        .find(|&d| d != 0)
-        .unwrap_or(0);
-    let start = if initial != 0 { initial } else { first_dir };
-    let mut current = start;
+    let (first_motion, first_direction) = (1..n)
+        .map(|i| (i, step_direction(q, i)))
+        .find(|&(_, d)| d != 0)
+        .unwrap_or((n, 0));
+    let mut current = if arrived != 0 {
+        arrived
+    } else {
+        first_direction
+    };
     let mut reversals = Vec::new();
-    for i in 1..n {
+    for i in first_motion..n {
         let raw = step_direction(q, i);
         if raw != 0 && raw != current {
-            // A reversal: the turning point is the previous sample (or the run's start, when
-            // the axis arrived from the other side).
+            // A reversal: the turning point is the previous sample (the run's first when the
+            // axis arrived from the other side).
             reversals.push(i);
             current = raw;
         }
@@ -735,7 +774,9 @@ fn axis_motion(q: &Column, initial: i8) -> AxisMotion {
         (lo.min(q.get(i)), hi.max(q.get(i)))
     });
     AxisMotion {
-        initial: start,
+        arrived,
+        first_direction,
+        first_motion,
         reverses: !reversals.is_empty(),
         reversals,
         moves,
@@ -776,7 +817,8 @@ mod tests {
         let t: Vec<f64> = (0..q.len()).map(|i| i as f64).collect();
         let v = view(vec![run("a", t, q, vec![])]);
         let m = v.motion(0, 0);
-        assert_eq!(directions(&v, 0), vec![1, 1, 1, 1, -1, -1, -1]);
+        // Standing at the first sample: the side it came from is unknown.
+        assert_eq!(directions(&v, 0), vec![0, 1, 1, 1, -1, -1, -1]);
         assert!(m.reverses && m.moves);
         // Travel restarts at the turning point (0.002).
         assert!((v.travel(0, 0, 6) - 0.001).abs() < 1e-15);
@@ -847,13 +889,34 @@ mod tests {
 
     #[test]
     fn a_linear_axis_arrives_from_where_the_previous_run_left_it() {
-        // Run "a" ends at X = 0.01 after moving up; run "b" starts at 0.02 and moves down: it
-        // arrived moving up (from 0.01), so its first motion is a reversal.
+        // Run "a" ends at X = 0.01 after moving up; run "b" starts at 0.02, stands, then moves
+        // down: it arrived moving up (from 0.01), so its first motion is a reversal.
         let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
-        let b = run("b", vec![5.0, 6.0, 7.0], vec![0.02, 0.015, 0.01], vec![]);
+        let b = run(
+            "b",
+            vec![5.0, 6.0, 7.0, 8.0, 9.0],
+            vec![0.02, 0.02, 0.015, 0.01, 0.012],
+            vec![],
+        );
         let v = view(vec![a, b]);
-        assert_eq!(directions(&v, 1), vec![1, -1, -1]);
-        assert!(v.motion(1, 0).reverses);
+        assert_eq!(directions(&v, 1), vec![1, 1, -1, -1, 1]);
+        assert!(v.motion(1, 0).moves && v.motion(1, 0).reverses);
+        assert_eq!(
+            (0..5).map(|i| v.reversed(1, 0, i)).collect::<Vec<_>>(),
+            vec![false, false, true, true, true]
+        );
+        // Travel and time count from the run's start, then from each turning point (sample 1,
+        // 0.02; sample 3, 0.01).
+        let travel: Vec<f64> = (0..5).map(|i| v.travel(1, 0, i)).collect();
+        let expected = [0.0, 0.0, 0.005, 0.01, 0.002];
+        assert!(
+            travel
+                .iter()
+                .zip(expected)
+                .all(|(a, b)| (a - b).abs() < 1e-15)
+        );
+        let since: Vec<f64> = (0..5).map(|i| v.since_turn(1, 0, i)).collect();
+        assert_eq!(since, vec![0.0, 1.0, 1.0, 2.0, 1.0]);
         // Started where the last run ended: keeps its last direction.
         let a = run("a", vec![0.0, 1.0], vec![0.0, 0.01], vec![]);
         let b = run("b", vec![5.0, 6.0], vec![0.01, 0.02], vec![]);
@@ -862,9 +925,24 @@ mod tests {
         assert!(!v.motion(1, 0).reverses);
     }
 
+    #[test]
+    fn the_first_runs_state_before_its_first_motion_is_unknown() {
+        // Moving one way only: unknown (0) until the first step, which is no reversal.
+        let c = run("c", vec![0.0, 1.0, 2.0], vec![0.01, 0.02, 0.03], vec![]);
+        let v = view(vec![c]);
+        assert_eq!(directions(&v, 0), vec![0, 1, 1]);
+        assert!(!v.motion(0, 0).reverses && !v.reversed(0, 0, 2));
+        // Never moving: unknown all through.
+        let d = run("d", vec![0.0, 1.0, 2.0], vec![0.01; 3], vec![]);
+        let v = view(vec![d]);
+        assert_eq!(directions(&v, 0), vec![0, 0, 0]);
+        assert!(!v.motion(0, 0).moves && !v.motion(0, 0).reverses);
+        assert_eq!(v.travel(0, 0, 2), 0.0);
+    }
+
     /// Direction, velocity and travel of one axis in one run as they were kept before they
     /// were computed on demand (per sample, from plain vectors): the reference.
-    fn stored_motion(t: &[f64], q: &[f64], initial: i8) -> (Vec<i8>, Vec<f64>, Vec<f64>) {
+    fn stored_motion(t: &[f64], q: &[f64], arrived: i8) -> (Vec<i8>, Vec<f64>, Vec<f64>) {
         let n = q.len();
         let mut raw = vec![0i8; n];
         for (i, dir) in raw.iter_mut().enumerate().skip(1) {
@@ -873,13 +951,17 @@ mod tests {
                 *dir = if d > 0.0 { 1 } else { -1 };
             }
         }
-        let first_dir = raw.iter().copied().find(|&d| d != 0).unwrap_or(0);
         let mut direction = vec![0i8; n];
         let mut travel = vec![0.0; n];
-        let mut current = if initial != 0 { initial } else { first_dir };
+        // From the side it arrived from; unknown (0) until the first motion when that is not
+        // known, and then the first motion is no reversal.
+        let mut current = arrived;
         let mut anchor = q[0];
         for i in 0..n {
-            if raw[i] != 0 && raw[i] != current {
+            if raw[i] != 0 && current == 0 {
+                current = raw[i];
+                anchor = q[i - 1];
+            } else if raw[i] != 0 && raw[i] != current {
                 current = raw[i];
                 anchor = q[i.saturating_sub(1)];
             }
@@ -929,11 +1011,10 @@ mod tests {
             run("a", ta.clone(), qa.clone(), vec![]),
             run("b", tb.clone(), qb.clone(), vec![]),
         ]);
-        let end_a = stored_motion(&ta, &qa, 0).0[499];
-        let arrived = if qb[0] < qa[499] { -1 } else { 1 };
-        for (r, t, q, initial) in [(0, &ta, &qa, 0), (1, &tb, &qb, arrived)] {
-            let (direction, velocity, travel) = stored_motion(t, q, initial);
-            assert!(v.motion(r, 0).reverses && end_a != 0);
+        let down = if qb[0] < qa[qa.len() - 1] { -1 } else { 1 };
+        for (r, t, q, arrived) in [(0, &ta, &qa, 0), (1, &tb, &qb, down)] {
+            let (direction, velocity, travel) = stored_motion(t, q, arrived);
+            assert!(v.motion(r, 0).reverses);
             for i in 0..q.len() {
                 assert_eq!(v.direction(r, 0, i), direction[i], "run {r} sample {i}");
                 assert_eq!(v.velocity(r, 0, i).to_bits(), velocity[i].to_bits());

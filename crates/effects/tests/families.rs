@@ -58,12 +58,20 @@ fn view() -> Arc<SessionView> {
                 instrument: "rtest".into(),
                 channels: vec![channel("dx"), channel("dy")],
                 reads_pose: vec![true, true],
-                nuisance: vec![Nuisance {
-                    name: "ball_x".into(),
-                    unit: Unit::Um,
-                    free: true,
-                    prior_sigma: None,
-                }],
+                nuisance: vec![
+                    Nuisance {
+                        name: "ball_x".into(),
+                        unit: Unit::Um,
+                        free: true,
+                        prior_sigma: None,
+                    },
+                    Nuisance {
+                        name: "tool_length".into(),
+                        unit: Unit::Um,
+                        free: false,
+                        prior_sigma: None,
+                    },
+                ],
             },
             SetupView {
                 name: "sensors".into(),
@@ -207,8 +215,8 @@ fn configured_effects_take_their_values_as_optional_starts() {
     assert_eq!(values, vec![0.0]);
 }
 
-/// Every feature's derivative by its shape parameter equals central differences of the
-/// effect's value, at every sample of both runs.
+/// Every feature's derivative by each of its shape parameters equals central differences of
+/// the effect's value, at every sample of both runs.
 #[test]
 fn shape_derivatives_equal_differences() {
     let v = view();
@@ -220,47 +228,68 @@ fn shape_derivatives_equal_differences() {
         "effect = \"cyclic\"\naxis = \"X\"\nsin_um = 1.0\ncos_um = -0.5\npitch_mm = 16.0",
         "effect = \"cyclic\"\naxis = \"C\"\nsin_urad = 1.0\ncos_urad = 0.3\nperiod_deg = 40.0",
         "effect = \"stick-slip\"\naxis = \"X\"\nheight_um = 1.0\ndecay_mm = 3.0",
+        "effect = \"reversal-spike\"\naxis = \"X\"\nheight_um = 1.0\ntau_s = 7.0",
+        "effect = \"reversal-spike\"\naxis = \"C\"\nheight_urad = 1.0\ntau_s = 25.0",
+        "effect = \"local-error\"\naxis = \"X\"\namplitude_um = 1.5\ncentre_mm = 21.0\nhalf_width_mm = 37.0",
+        "effect = \"spindle-growth\"\namplitude_um = 3.0\ntau_s = 120.0",
+        "effect = \"spindle-growth\"\ndriver = \"S\"\ngain_um_per_krpm = 1.0\ntau_s = 60.0",
     ];
     for text in plants {
         let (e, values) = plant(&table(text), &v).unwrap();
+        let shapes: Vec<usize> = e
+            .params()
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.kind == mtcal_effects::ParamKind::Shape)
+            .map(|(j, _)| j)
+            .collect();
+        assert!(!shapes.is_empty(), "{text}");
         let effects = vec![e];
-        let shape = values.len() - 1; // every one of these has its shape parameter last
-        let h = 1e-6 * values[shape].abs();
-        let at = |x: &[f64]| PreparedEffects::new(&effects, &v, x);
-        let (base, plus, minus) = {
-            let mut p = values.clone();
-            p[shape] += h;
-            let mut m = values.clone();
-            m[shape] -= h;
-            (at(&values), at(&p), at(&m))
-        };
-        let mut out: SampleEffects = base.scratch(2, 1, 2);
-        let mut op = plus.scratch(2, 1, 2);
-        let mut om = minus.scratch(2, 1, 2);
-        for r in 0..2 {
-            let setup = v.runs[r].setup;
-            for i in (0..v.runs[r].len()).step_by(7) {
-                base.sample(r, setup, i, &values, &mut out);
+        let mut compared = 0;
+        for shape in shapes {
+            let h = 1e-6 * values[shape].abs();
+            let at = |x: &[f64]| PreparedEffects::new(&effects, &v, x);
+            let (base, plus, minus) = {
                 let mut p = values.clone();
                 p[shape] += h;
-                plus.sample(r, setup, i, &p, &mut op);
-                p[shape] -= 2.0 * h;
-                minus.sample(r, setup, i, &p, &mut om);
-                let blocks = [
-                    (&out.dq, &op.dq, &om.dq, &out.jq, out.n_axes),
-                    (&out.dr, &op.dr, &om.dr, &out.jr, out.n_ch),
-                ];
-                for (_, p, m, jac, width) in blocks {
-                    for k in 0..p.len() {
-                        let fd = (p[k] - m[k]) / (2.0 * h);
-                        let an = jac[shape * width + k];
-                        assert!(
-                            (an - fd).abs() <= 1e-6 * fd.abs().max(1e-9),
-                            "{text}: run {r} sample {i} slot {k}: {an:e} vs {fd:e}"
-                        );
+                let mut m = values.clone();
+                m[shape] -= h;
+                (at(&values), at(&p), at(&m))
+            };
+            let mut out: SampleEffects = base.scratch(2, 2, 2);
+            let mut op = plus.scratch(2, 2, 2);
+            let mut om = minus.scratch(2, 2, 2);
+            for r in 0..2 {
+                let setup = v.runs[r].setup;
+                for i in (0..v.runs[r].len()).step_by(7) {
+                    base.sample(r, setup, i, &values, &mut out);
+                    let mut p = values.clone();
+                    p[shape] += h;
+                    plus.sample(r, setup, i, &p, &mut op);
+                    p[shape] -= 2.0 * h;
+                    minus.sample(r, setup, i, &p, &mut om);
+                    let blocks = [
+                        (&op.dq, &om.dq, &out.jq, out.n_axes),
+                        (&op.dn, &om.dn, &out.jn, out.n_nuis),
+                        (&op.dr, &om.dr, &out.jr, out.n_ch),
+                    ];
+                    for (p, m, jac, width) in blocks {
+                        for k in 0..p.len() {
+                            let fd = (p[k] - m[k]) / (2.0 * h);
+                            let an = jac[shape * width + k];
+                            assert!(
+                                (an - fd).abs() <= 1e-6 * fd.abs().max(1e-9),
+                                "{text}: shape {shape} run {r} sample {i} slot {k}: {an:e} vs {fd:e}"
+                            );
+                            compared += usize::from(fd.abs() > 1e-9);
+                        }
                     }
                 }
             }
         }
+        assert!(
+            compared > 10,
+            "{text}: the shapes change nothing ({compared})"
+        );
     }
 }

@@ -4,13 +4,24 @@
 use serde::Serialize;
 
 /// Blocked cross-validation of a model on its fitted runs.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Heldout {
     /// Mean square of the whitened held-out residuals (1 for a model as good as the noise).
     pub mean_square: f64,
     /// RMS of the held-out residuals in the channels' units (µm).
     pub rms_um: f64,
     pub samples: usize,
+    /// Per fold, the mean square of its whitened held-out residuals (the scatter a gain is
+    /// judged against).
+    #[serde(skip)]
+    pub folds: Vec<f64>,
+    /// Per forecasting fold (the model fitted on the earlier part of the session predicting
+    /// the next stretch), the same.
+    #[serde(skip)]
+    pub forecast_folds: Vec<f64>,
+    /// Mean square over the forecasting folds' samples; `None` for a session too short to cut.
+    #[serde(skip)]
+    pub forecast_mean_square: Option<f64>,
 }
 
 /// A parameter of a discovery.
@@ -19,8 +30,12 @@ pub struct DiscoveryParameter {
     pub name: String,
     pub value: f64,
     pub unit: String,
-    /// 95 % half-width; `null` when the data cannot separate it.
+    /// 95 % half-width; `null` when the data cannot separate it, or when it is held.
     pub u95: Option<f64>,
+    /// A shape (τ, a pitch) the data do not determine, held where the fit left it: an
+    /// assumption of the model, not a fitted number. In the JSON only when true.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub held: bool,
 }
 
 /// A machine parameter an omitted effect had biased.
@@ -114,6 +129,42 @@ pub struct SearchReport {
     pub concealed: Vec<Concealed>,
     /// The final ranking's strongest candidates, one sentence each.
     pub ranking: Vec<String>,
+    /// Effects a step added that the final model does not keep: a parameter the final fit
+    /// does not determine, or the model predicting held-out data worse than the fit before the
+    /// search. Not discoveries.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub withdrawn: Vec<Withdrawn>,
+    /// Structure the final model leaves unexplained: where it is, its shape and the families
+    /// that came closest. The search claims nothing for it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub remains: Vec<Remains>,
+}
+
+/// An effect a step added and the final model does not keep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Withdrawn {
+    pub candidate: String,
+    pub effect: String,
+    pub why: String,
+}
+
+/// Structure the final model leaves in the residuals.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Remains {
+    pub run: String,
+    pub channel: String,
+    /// The variable it is ordered by (`t`, an axis position, `X direction`, a context column);
+    /// `null` when only its size shows.
+    pub along: Option<String>,
+    pub from: Option<f64>,
+    pub to: Option<f64>,
+    /// Share of the run-channel's excess χ² inside the span.
+    pub share: f64,
+    /// Its shape in words (a slow change in time, a local shape along X, periodic along Y
+    /// with a period of 12 mm, flipping with the direction of X…).
+    pub shape: String,
+    /// The candidates that came closest, each with why it was not kept.
+    pub closest: Vec<String>,
 }
 
 /// Why the search stopped.
@@ -128,6 +179,8 @@ pub enum SearchStop {
     NoneImproved,
     /// As many effects added as allowed (`SearchOptions::max_steps`).
     MostAllowed { steps: usize },
+    /// The fit before the search did not converge: nothing was searched.
+    BaseNotConverged,
 }
 
 impl std::fmt::Display for SearchStop {
@@ -144,6 +197,11 @@ impl std::fmt::Display for SearchStop {
             SearchStop::MostAllowed { steps } => {
                 write!(f, "{steps} effects added (the most allowed)")
             }
+            SearchStop::BaseNotConverged => f.write_str(
+                "the fit before the search did not converge, so nothing was searched or claimed \
+                 on it: fit a model the runs determine (`[identify] parameters`), check the \
+                 set-ups' starting values, or add runs that determine the weak parameters",
+            ),
         }
     }
 }

@@ -138,6 +138,15 @@ pub enum FoldOf {
         total: usize,
         count: usize,
     },
+    /// Forecasting: per run where it starts in the fitted timeline, and cuts of the timeline
+    /// (increasing). Fold `k ≥ 1` is the stretch from cut `k − 1` to cut `k` (or the end), and
+    /// leaving it out leaves out everything after it too: the model is fitted on the earlier
+    /// part of the session and predicts the next stretch. Fold 0 (before the first cut) is
+    /// always trained on.
+    Forecast {
+        offsets: Vec<usize>,
+        cuts: Vec<usize>,
+    },
 }
 
 impl FoldOf {
@@ -151,6 +160,18 @@ impl FoldOf {
                 total,
                 count,
             } => Folds::fold_of(*count, offsets[run] + sample, *total),
+            FoldOf::Forecast { offsets, cuts } => {
+                cuts.partition_point(|&c| c <= offsets[run] + sample)
+            }
+        }
+    }
+
+    /// Whether sample `sample` of run `run` is left out when fold `k` is held out: the fold
+    /// itself, and for a forecast everything after it as well.
+    pub fn held(&self, run: usize, sample: usize, k: usize) -> bool {
+        match self {
+            FoldOf::Forecast { .. } => self.of(run, sample) >= k,
+            _ => self.of(run, sample) == k,
         }
     }
 }
@@ -327,7 +348,7 @@ impl FitProblem<'_> {
         let held = |i: usize| {
             self.held_out
                 .as_ref()
-                .is_some_and(|(assign, k)| assign.of(r, i) == *k)
+                .is_some_and(|(assign, k)| assign.held(r, i, *k))
         };
         // A block that starts inside a run continues the filter from the sample before it.
         let first = if coloured && start > 0 && !held(start - 1) {

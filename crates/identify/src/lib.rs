@@ -193,9 +193,13 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
                 None if info.unit == "ppm" => 1e-2,
                 None => 1e-3,
             };
+            // A shape the data do not determine, held where the search left it
+            // (`search::keep`): an assumption of the model, not a fitted parameter.
+            let fixed = effect.is_some() && held.contains(&info.name);
             ParamSpec {
                 name: info.name,
                 initial: x0[i],
+                fixed,
                 prior,
                 bounds: effect.and_then(|d| d.bounds),
                 group: (!info.machine && effect.is_none()).then(|| "set-up".to_string()),

@@ -1,6 +1,7 @@
 //! Effects in the fit: the analytic Jacobian of the whitened residuals (machine coefficients,
 //! set-up parameters, every effect's amplitudes and shape parameters) equals central finite
-//! differences of the predictions, for one effect of every kind at once; and a noise-free
+//! differences of the predictions, for one effect of every kind at once (and the shapes of
+//! `SHAPES`); and a noise-free
 //! session with planted effects (applied exactly: axes really displaced, set-up parameters
 //! really moved) is fitted back to its planted values (the fit's first-order axis Jacobian
 //! against the simulation's exact chain).
@@ -127,6 +128,49 @@ channel = "dr"
 gain_ppm = 30000.0
 "#;
 
+/// The shapes of real machines beyond those (lost motion changing along the stroke, lateral
+/// play, a reversal spike decaying in time, a local bump of a straightness, the spindle growing
+/// every set-up's tool length in time and with speed): their columns against differences.
+const SHAPES: &str = r#"
+[[effect]]
+effect = "reversal"
+axis = "Y"
+backlash_um = 2.0
+backlash_change_um = 1.0
+[[effect]]
+effect = "lateral-play"
+axis = "X"
+across = "Z"
+play_um = 2.0
+[[effect]]
+effect = "reversal-spike"
+axis = "Y"
+height_um = 2.0
+tau_s = 3.0
+[[effect]]
+effect = "local-error"
+axis = "X"
+across = "Z"
+amplitude_um = 2.0
+centre_mm = 20.0
+half_width_mm = 40.0
+[[effect]]
+effect = "local-error"
+axis = "Y"
+amplitude_um = -1.5
+centre_mm = -10.0
+half_width_mm = 30.0
+[[effect]]
+effect = "spindle-growth"
+amplitude_um = 3.0
+tau_s = 600.0
+[[effect]]
+effect = "spindle-growth"
+driver = "S"
+gain_um_per_krpm = 0.5
+tau_s = 300.0
+"#;
+
 fn session(dir: &Path, noise: f64, effects: &str) -> PathBuf {
     let machine = machine_file(TRUNNION);
     let truth = five_axis_truth_file();
@@ -142,9 +186,10 @@ fn session(dir: &Path, noise: f64, effects: &str) -> PathBuf {
     out
 }
 
-/// The planted effects, rebuilt against the fitted study's view (same families, same keys).
-fn effects_of(study: &Study) -> (Vec<Arc<dyn mtcal_effects::Effect>>, Vec<f64>) {
-    let plan: toml::Table = toml::from_str(EFFECTS).unwrap();
+/// The effects of `text` (`[[effect]]` tables), rebuilt against the fitted study's view (same
+/// families, same keys).
+fn effects_of(study: &Study, text: &str) -> (Vec<Arc<dyn mtcal_effects::Effect>>, Vec<f64>) {
+    let plan: toml::Table = toml::from_str(text).unwrap();
     let mut effects = Vec::new();
     let mut values = Vec::new();
     for t in plan["effect"].as_array().unwrap() {
@@ -159,8 +204,8 @@ fn effects_of(study: &Study) -> (Vec<Arc<dyn mtcal_effects::Effect>>, Vec<f64>) 
 fn effect_columns_equal_finite_differences() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
-    let (effects, values) = effects_of(&loaded);
-    assert_eq!(effects.len(), 10);
+    let (effects, values) = effects_of(&loaded, &format!("{EFFECTS}{SHAPES}"));
+    assert_eq!(effects.len(), 17);
     let study = loaded
         .rebuild(Changes {
             effects,
@@ -226,7 +271,7 @@ fn effect_columns_equal_finite_differences() {
 fn planted_effects_are_fitted_back_without_noise() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = Study::load(&session(dir.path(), 0.0, EFFECTS)).unwrap();
-    let (effects, values) = effects_of(&loaded);
+    let (effects, values) = effects_of(&loaded, EFFECTS);
     let study = loaded
         .rebuild(Changes {
             effects,

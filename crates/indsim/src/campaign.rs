@@ -178,6 +178,8 @@ impl Campaign {
                     validate: false,
                     poses: circle(true)?,
                     labels: Vec::new(),
+                    interval_s: None,
+                    pause_before_s: None,
                 },
                 RunPlan {
                     name: "ballbar-xy-cw".into(),
@@ -185,6 +187,8 @@ impl Campaign {
                     validate: false,
                     poses: circle(false)?,
                     labels: Vec::new(),
+                    interval_s: None,
+                    pause_before_s: None,
                 },
             ],
             effects: Vec::new(),
@@ -270,6 +274,8 @@ fn trunnion_plan(machine: &Machine, urdf: &Path, effects: Vec<Effect>) -> Result
         validate,
         poses,
         labels: Vec::new(),
+        interval_s: None,
+        pause_before_s: None,
     };
     Ok(Plan {
         machine_urdf: urdf.to_path_buf(),
@@ -375,6 +381,8 @@ fn own_setup(
         validate,
         poses,
         labels: Vec::new(),
+        interval_s: None,
+        pause_before_s: None,
     });
 }
 
@@ -491,6 +499,562 @@ fn validation_runs(machine: &Machine, plan: &mut Plan) -> Result<(), SimError> {
         validate: true,
         poses: paths::grid(machine, 0.5, [3, 3, 3], &[])?,
         labels: Vec::new(),
+        interval_s: None,
+        pause_before_s: None,
     });
     Ok(())
+}
+
+/// The five-axis layouts with a ready-made half-hour session ([`Campaign::five_axis_check`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FiveAxisLayout {
+    /// `machines/mcu630-cafyxz.urdf`: a C table in an A cradle
+    /// ([`Campaign::trunnion_thermal_check`]).
+    Trunnion,
+    /// `machines/mcv1000-5ax220-bc.urdf`: a C plate on a B tilting table
+    /// ([`Campaign::table_table_check`]).
+    TableTable,
+    /// `machines/headhead-xyzca.urdf`: a C head carrying an A fork head
+    /// ([`Campaign::head_head_check`]).
+    HeadHead,
+    /// `machines/mixed-c-table-b-head.urdf`: a C table and a B swivel head
+    /// ([`Campaign::mixed_check`]).
+    Mixed,
+}
+
+impl FiveAxisLayout {
+    /// Every layout.
+    pub const ALL: [FiveAxisLayout; 4] = [
+        FiveAxisLayout::Trunnion,
+        FiveAxisLayout::TableTable,
+        FiveAxisLayout::HeadHead,
+        FiveAxisLayout::Mixed,
+    ];
+
+    /// The shipped machine's file name in `machines/` ([`crate::shipped_machine`]).
+    pub fn urdf_file(self) -> &'static str {
+        match self {
+            FiveAxisLayout::Trunnion => TRUNNION,
+            FiveAxisLayout::TableTable => TABLE_TABLE.file,
+            FiveAxisLayout::HeadHead => HEAD_HEAD.file,
+            FiveAxisLayout::Mixed => MIXED.file,
+        }
+    }
+
+    /// The shipped machine, parsed.
+    pub fn machine(self) -> Result<Machine, SimError> {
+        Ok(Machine::from_urdf_file(&shipped_machine(self.urdf_file()))?)
+    }
+}
+
+/// [`Campaign::three_axis_ballbar_planes`]: the bar's length, mm.
+pub const PLANES_BAR_MM: f64 = 150.0;
+/// [`Campaign::three_axis_ballbar_planes`]: time between runs on one plane, s.
+pub const PLANES_PAUSE_S: f64 = 15.0;
+/// [`Campaign::three_axis_ballbar_planes`]: time to turn the bar to the next plane, s.
+pub const PLANES_CHANGE_S: f64 = 120.0;
+
+impl Campaign {
+    /// The half-hour R-test and ball-bar session of `layout`'s shipped machine with `truth` and
+    /// `effects` planted: [`Self::trunnion_thermal_check`], [`Self::table_table_check`],
+    /// [`Self::head_head_check`] or [`Self::mixed_check`].
+    pub fn five_axis_check(
+        layout: FiveAxisLayout,
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        match layout {
+            FiveAxisLayout::Trunnion => Self::trunnion_thermal_check(dir, truth, effects, realism),
+            FiveAxisLayout::TableTable => {
+                five_axis_session(&TABLE_TABLE, dir, truth, effects, realism)
+            }
+            FiveAxisLayout::HeadHead => five_axis_session(&HEAD_HEAD, dir, truth, effects, realism),
+            FiveAxisLayout::Mixed => five_axis_session(&MIXED, dir, truth, effects, realism),
+        }
+    }
+
+    /// The shipped table-table machine `machines/mcv1000-5ax220-bc.urdf` (a NIKKEN tilting
+    /// rotary table: B tilt −105…15°, C plate, on the X table; spindle on Z) with `truth` and
+    /// `effects` planted, into `dir`, timed as [`Self::trunnion_thermal_check`]
+    /// ([`TRUNNION_EFFECTS_INTERVAL_S`] between samples, [`TRUNNION_EFFECTS_PAUSE_S`] between
+    /// runs; the random draws `realism`'s). Set-ups (R-test ball on the table,
+    /// `mount = "ball-on-table"`; positions in the workpiece frame, the plate-top centre):
+    /// `ball1` at [100, 0, 100] mm (off the C axis), `ball2` at [0, 0, 150] mm (on it), ball bar
+    /// `bar1` (pivot [0, 0, 100] mm, 100 mm). Runs in time order (R-test runs follow the ball
+    /// with X, Y, Z):
+    /// `rtest-c` (ball1, C 0→360° at B = 0, 145 samples), `ballbar-xy-ccw` (XY circle at
+    /// B = C = 0, 361), `rtest-b` (ball2, B −90→15° at C = 0, 85), `ballbar-xy-cw` (361),
+    /// `rtest-validate` (validation: ball1, B −20→−70° with C 0→180°, 37), `rtest-bc` (ball1,
+    /// B 0→−60° with C 0→360°, 289), `ballbar-xy-c90` (the circle with C held at 90°, 361),
+    /// `rtest-c-b-45` (C turn at B = −45°, 145), `ballbar-validate` (validation: circle with C
+    /// at 45°, 91), `rtest-c-b-75` (C turn at B = −75°, 145), `rtest-validate-b-30`
+    /// (validation: C 0→360° at B = −30°, 73), `ballbar-validate-c180` (validation: clockwise
+    /// circle with C at 180°, 91), `rtest-b-c90` (ball1, B −90→15° at C = 90°, 85), and
+    /// `rtest-c-end` (`rtest-c` repeated, fitted). 14 runs, 2414 samples, 33.3 min.
+    ///
+    /// The C turns at three B tilts see where C's line lies relative to B's (its position in
+    /// X and Y and its tilts); the B sweeps with the ball on and off C's line see B's line (its
+    /// position in X and Z and its tilts about X and Z).
+    pub fn table_table_check(
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        five_axis_session(&TABLE_TABLE, dir, truth, effects, realism)
+    }
+
+    /// The shipped head-head gantry `machines/headhead-xyzca.urdf` (C head carrying an A fork
+    /// head, 200 mm pivot; fixed table) with `truth` and `effects` planted, into `dir`, timed
+    /// as [`Self::table_table_check`]. Set-ups (R-test ball on the table on a riser,
+    /// `mount = "ball-on-table"`; the workpiece frame is the table-top centre): `ball1` at
+    /// [150, −100, 300] mm, `ball2` at [0, 0, 300] mm, ball bar `bar1` (pivot [0, 0, 250] mm,
+    /// 100 mm). Runs in time order (R-test runs follow the ball with X, Y, Z):
+    /// `rtest-c` (ball1, C 0→360° at A = 30°, 145), `ballbar-xy-ccw` (XY circle at
+    /// A = C = 0, 361), `rtest-a` (ball2, A −60→60° at C = 0, 97), `ballbar-xy-cw` (361),
+    /// `rtest-validate` (validation: ball1, A 45→−45° with C 0→180°, 37), `rtest-ac` (ball1,
+    /// A −45→45° with C 0→360°, 289), `ballbar-xy-a+30` (the circle with the head tilted,
+    /// A = 30°, 361), `rtest-c-a-30` (C turn at A = −30°, 145), `ballbar-validate`
+    /// (validation: circle at A = 15°, C = 45°, 91), `rtest-c-a+50` (C turn at A = 50°, 145),
+    /// `rtest-validate-a-15` (validation: C 0→360° at A = −15°, 73), `ballbar-validate-c90`
+    /// (validation: clockwise circle at A = −20°, C = 90°, 91), `rtest-a-c90` (ball1, A −60→60°
+    /// at C = 90°, 97), `rtest-c-end` (`rtest-c` repeated, fitted). 14 runs, 2438 samples,
+    /// 33.6 min.
+    ///
+    /// The C turns with the fork tilted both ways see A's line relative to C's (the tool point
+    /// circles C's line); the A sweeps at two C angles see A's line in both horizontal
+    /// directions.
+    pub fn head_head_check(
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        five_axis_session(&HEAD_HEAD, dir, truth, effects, realism)
+    }
+
+    /// The shipped mixed machine `machines/mixed-c-table-b-head.urdf` (a C table on the X
+    /// slide, a B swivel head with a 300 mm pivot on Z) with `truth` and `effects` planted,
+    /// into `dir`, timed as [`Self::table_table_check`]. Set-ups (R-test ball on the table,
+    /// `mount = "ball-on-table"`; the workpiece frame is the C table-top centre): `ball1` at
+    /// [150, 0, 300] mm (off the C axis, on a riser), `ball2` at [0, 0, 300] mm (on it), ball
+    /// bar `bar1` (pivot [0, 0, 200] mm, 100 mm). Runs in time order (R-test runs follow the
+    /// ball with X, Y, Z):
+    /// `rtest-c` (ball1, C 0→360° at B = 0, 145), `ballbar-xy-ccw` (XY circle at B = C = 0,
+    /// 361), `rtest-b` (ball2, B −50→50° at C = 0, 81), `ballbar-xy-cw` (361),
+    /// `rtest-validate` (validation: ball1, B 35→−35° with C 0→180°, 37), `rtest-bc` (ball1,
+    /// B −30→30° with C 0→360°, 289), `ballbar-xy-c90` (the circle with C held at 90°, 361),
+    /// `rtest-c-b+30` (C turn at B = 30°, 145), `ballbar-validate` (validation: circle with C
+    /// at 45° and B at 10°, 91), `rtest-c-b-30` (C turn at B = −30°, 145),
+    /// `rtest-validate-b+15` (validation: C 0→360° at B = 15°, 73), `ballbar-validate-c180`
+    /// (validation: clockwise circle with C at 180°, 91), `rtest-b-c90` (ball1, B −50→50° at
+    /// C = 90°, 81), `rtest-c-end` (`rtest-c` repeated, fitted). 14 runs, 2406 samples,
+    /// 33.2 min.
+    ///
+    /// The C turns at three B angles see C's line on the table and B's offset from it (the
+    /// head tilted carries the tool point round a different circle); the B sweeps with the ball
+    /// on and off C's line, at two C angles, see B's line.
+    pub fn mixed_check(
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        five_axis_session(&MIXED, dir, truth, effects, realism)
+    }
+
+    /// The shipped three-axis `machines/mcv754-zfyx.urdf` with `truth` and `effects` planted:
+    /// a ball-bar-only session in three planes, as a ball bar is used (ISO 230-4), into `dir`.
+    /// One set-up `bar1`: the centre pivot on the table at [0, 0, 160] mm, a
+    /// [`PLANES_BAR_MM`] bar. Each plane is measured counter-clockwise and clockwise at 1000
+    /// and 3000 mm/min; the bar is turned to the next plane between them:
+    /// - XY, full circles (361 samples, 1° apart, from +X): `ballbar-xy-ccw-f1000`,
+    ///   `ballbar-xy-cw-f1000`, `ballbar-xy-ccw-f3000`, `ballbar-xy-cw-f3000`, and
+    ///   `ballbar-xy-cw-f2000` (validation);
+    /// - YZ, 220° arcs above the pivot (the spindle cannot pass below it; 221 samples, angle
+    ///   from +Y towards +Z, −20° → 200° counter-clockwise and back clockwise):
+    ///   `ballbar-yz-ccw-f1000`, `ballbar-yz-cw-f1000`, `ballbar-yz-ccw-f3000`,
+    ///   `ballbar-yz-cw-f3000`;
+    /// - ZX, 220° arcs above the pivot (angle from +Z towards +X, −110° → 110°
+    ///   counter-clockwise and back clockwise): `ballbar-zx-ccw-f1000`, `ballbar-zx-cw-f1000`,
+    ///   `ballbar-zx-ccw-f3000`, `ballbar-zx-cw-f3000`, and `ballbar-zx-ccw-f2000`
+    ///   (validation).
+    ///
+    /// Timed by the feed: the samples 1° of arc apart, `150 mm · π/180` over the feed (0.157 s
+    /// at 1000 mm/min, 0.052 s at 3000); [`PLANES_PAUSE_S`] between runs on a plane,
+    /// [`PLANES_CHANGE_S`] to turn the bar to the next plane. 14 runs, 3794 samples, 13.1 min.
+    /// The random draws are `realism`'s (its interval and pause are not used).
+    pub fn three_axis_ballbar_planes(
+        dir: &Path,
+        truth: &Truth,
+        effects: &[Effect],
+        realism: &Realism,
+    ) -> Result<Written, SimError> {
+        let urdf = shipped_machine(THREE_AXIS);
+        let machine = Machine::from_urdf_file(&urdf)?;
+        let pivot = [0.0, 0.0, 160.0];
+        let centre = Vector3::new(pivot[0], pivot[1], pivot[2]) * 1e-3;
+        let radius = PLANES_BAR_MM * 1e-3;
+        let deg = f64::to_radians;
+        // (plane tag, plane (e1, e2), counter-clockwise from..to in degrees, samples,
+        // validation (direction, feed)).
+        type Plane = (
+            &'static str,
+            (usize, usize),
+            (f64, f64),
+            usize,
+            Option<(bool, f64)>,
+        );
+        let planes: [Plane; 3] = [
+            ("xy", (0, 1), (0.0, 360.0), 361, Some((false, 2000.0))),
+            ("yz", (1, 2), (-20.0, 200.0), 221, None),
+            ("zx", (2, 0), (-110.0, 110.0), 221, Some((true, 2000.0))),
+        ];
+        let mut runs = Vec::new();
+        for (p, &(tag, plane, (from, to), samples, validation)) in planes.iter().enumerate() {
+            let mut these = Vec::new();
+            let mut one = |ccw: bool, feed: f64, validate: bool| -> Result<(), SimError> {
+                let (a, b) = if ccw { (from, to) } else { (to, from) };
+                let poses = paths::arc(
+                    &machine,
+                    centre,
+                    radius,
+                    plane,
+                    (deg(a), deg(b)),
+                    &[],
+                    samples,
+                )?;
+                let step_mm = PLANES_BAR_MM * deg((to - from) / (samples - 1) as f64);
+                these.push(RunPlan {
+                    name: format!("ballbar-{tag}-{}-f{feed}", if ccw { "ccw" } else { "cw" }),
+                    setup: "bar1".into(),
+                    validate,
+                    poses,
+                    labels: Vec::new(),
+                    interval_s: Some(step_mm / (feed / 60.0)),
+                    pause_before_s: Some(PLANES_PAUSE_S),
+                });
+                Ok(())
+            };
+            for feed in [1000.0, 3000.0] {
+                one(true, feed, false)?;
+                one(false, feed, false)?;
+            }
+            if let Some((ccw, feed)) = validation {
+                one(ccw, feed, true)?;
+            }
+            if p > 0 {
+                these[0].pause_before_s = Some(PLANES_CHANGE_S);
+            }
+            runs.extend(these);
+        }
+        let plan = Plan {
+            machine_urdf: urdf,
+            setups: vec![SetupPlan {
+                name: "bar1".into(),
+                instrument: Instrument::BallBar {
+                    pivot_mm: pivot,
+                    length_mm: PLANES_BAR_MM,
+                },
+            }],
+            runs,
+            effects: effects.to_vec(),
+        };
+        write_session(dir, &machine, truth, &plan, realism)
+    }
+}
+
+/// A five-axis R-test and ball-bar session ([`five_axis_session`]): one rotary axis turned
+/// once round (`turn`), the other swept over part of its stroke (`tilt`). Angles in degrees,
+/// positions in mm.
+struct FiveAxisSpec {
+    file: &'static str,
+    /// Off and on the turning axis' line.
+    ball1: [f64; 3],
+    ball2: [f64; 3],
+    pivot: [f64; 3],
+    bar_mm: f64,
+    turn: char,
+    tilt: char,
+    /// Tilt settings of the fitted turns (the first opens and closes the session).
+    turn_at: [f64; 3],
+    /// The tilt sweep (ball2 at turn 0, ball1 at turn `tilt_c`), its samples.
+    tilt_range: (f64, f64),
+    tilt_samples: usize,
+    tilt_c: f64,
+    /// The combined run's tilt range (the turn 0→360°).
+    combined: (f64, f64),
+    /// What the third fitted circle holds, and its tag.
+    bar_hold: (char, f64),
+    /// Validation: the combined sweep's tilt range (turn 0→180°), the tilt of the turn, the
+    /// two circles' holds (counter-clockwise and clockwise) and the clockwise one's tag.
+    validate_sweep: (f64, f64),
+    validate_turn_at: f64,
+    validate_bar: [(f64, f64); 2],
+    validate_bar_tag: &'static str,
+}
+
+const TABLE_TABLE: FiveAxisSpec = FiveAxisSpec {
+    file: "mcv1000-5ax220-bc.urdf",
+    ball1: [100.0, 0.0, 100.0],
+    ball2: [0.0, 0.0, 150.0],
+    pivot: [0.0, 0.0, 100.0],
+    bar_mm: 100.0,
+    turn: 'C',
+    tilt: 'B',
+    turn_at: [0.0, -45.0, -75.0],
+    tilt_range: (-90.0, 15.0),
+    tilt_samples: 85,
+    tilt_c: 90.0,
+    combined: (0.0, -60.0),
+    bar_hold: ('C', 90.0),
+    validate_sweep: (-20.0, -70.0),
+    validate_turn_at: -30.0,
+    // (tilt, turn)
+    validate_bar: [(0.0, 45.0), (0.0, 180.0)],
+    validate_bar_tag: "c180",
+};
+
+const HEAD_HEAD: FiveAxisSpec = FiveAxisSpec {
+    file: "headhead-xyzca.urdf",
+    ball1: [150.0, -100.0, 300.0],
+    ball2: [0.0, 0.0, 300.0],
+    pivot: [0.0, 0.0, 250.0],
+    bar_mm: 100.0,
+    turn: 'C',
+    tilt: 'A',
+    turn_at: [30.0, -30.0, 50.0],
+    tilt_range: (-60.0, 60.0),
+    tilt_samples: 97,
+    tilt_c: 90.0,
+    combined: (-45.0, 45.0),
+    bar_hold: ('A', 30.0),
+    validate_sweep: (45.0, -45.0),
+    validate_turn_at: -15.0,
+    validate_bar: [(15.0, 45.0), (-20.0, 90.0)],
+    validate_bar_tag: "c90",
+};
+
+const MIXED: FiveAxisSpec = FiveAxisSpec {
+    file: "mixed-c-table-b-head.urdf",
+    ball1: [150.0, 0.0, 300.0],
+    ball2: [0.0, 0.0, 300.0],
+    pivot: [0.0, 0.0, 200.0],
+    bar_mm: 100.0,
+    turn: 'C',
+    tilt: 'B',
+    turn_at: [0.0, 30.0, -30.0],
+    tilt_range: (-50.0, 50.0),
+    tilt_samples: 81,
+    tilt_c: 90.0,
+    combined: (-30.0, 30.0),
+    bar_hold: ('C', 90.0),
+    validate_sweep: (35.0, -35.0),
+    validate_turn_at: 15.0,
+    validate_bar: [(10.0, 45.0), (0.0, 180.0)],
+    validate_bar_tag: "c180",
+};
+
+/// A tilt setting's tag: the axis letter and the signed angle (`b-45`, `a+30`).
+fn tilt_tag(axis: char, deg: f64) -> String {
+    format!("{}{deg:+}", axis.to_ascii_lowercase())
+}
+
+/// [`FiveAxisSpec`]'s session (see [`Campaign::table_table_check`] for the runs' pattern).
+fn five_axis_session(
+    spec: &FiveAxisSpec,
+    dir: &Path,
+    truth: &Truth,
+    effects: &[Effect],
+    realism: &Realism,
+) -> Result<Written, SimError> {
+    let urdf = shipped_machine(spec.file);
+    let machine = Machine::from_urdf_file(&urdf)?;
+    let deg = f64::to_radians;
+    let at = |v: [f64; 3]| Vector3::new(v[0], v[1], v[2]) * 1e-3;
+    let (turn, tilt) = (spec.turn, spec.tilt);
+    let (tn, tl) = (turn.to_ascii_lowercase(), tilt.to_ascii_lowercase());
+    let rtest = |ball_mm| Instrument::RTest {
+        ball_mm,
+        mount: Mount::BallOnTable,
+        write_mount_key: true,
+    };
+    let run = |name: String, setup: &str, validate, poses| RunPlan {
+        name,
+        setup: setup.into(),
+        validate,
+        poses,
+        labels: Vec::new(),
+        interval_s: None,
+        pause_before_s: None,
+    };
+    // The turning axis once round with the tilt held.
+    let turn_run = |tilt_deg: f64, n| {
+        paths::follow_ball(
+            &machine,
+            at(spec.ball1),
+            &[(turn, 0.0, deg(360.0))],
+            &[(tilt, deg(tilt_deg))],
+            n,
+        )
+    };
+    let tilt_run = |ball, turn_deg: f64| {
+        paths::follow_ball(
+            &machine,
+            at(ball),
+            &[(tilt, deg(spec.tilt_range.0), deg(spec.tilt_range.1))],
+            &[(turn, deg(turn_deg))],
+            spec.tilt_samples,
+        )
+    };
+    let circle = |ccw, hold: &[(char, f64)], n| {
+        paths::circle(
+            &machine,
+            at(spec.pivot),
+            spec.bar_mm * 1e-3,
+            (0, 1),
+            ccw,
+            hold,
+            n,
+        )
+    };
+    let first = run(
+        format!("rtest-{tn}"),
+        "ball1",
+        false,
+        turn_run(spec.turn_at[0], 145)?,
+    );
+    let mut end = first.clone();
+    end.name = format!("rtest-{tn}-end");
+    let (hold_axis, hold_deg) = spec.bar_hold;
+    let hold_tag = if hold_axis == turn {
+        format!("{tn}{hold_deg}")
+    } else {
+        tilt_tag(hold_axis, hold_deg)
+    };
+    let [(v1_tilt, v1_turn), (v2_tilt, v2_turn)] = spec.validate_bar;
+    let runs = vec![
+        first,
+        run(
+            "ballbar-xy-ccw".into(),
+            "bar1",
+            false,
+            circle(true, &[], 361)?,
+        ),
+        run(
+            format!("rtest-{tl}"),
+            "ball2",
+            false,
+            tilt_run(spec.ball2, 0.0)?,
+        ),
+        run(
+            "ballbar-xy-cw".into(),
+            "bar1",
+            false,
+            circle(false, &[], 361)?,
+        ),
+        run(
+            "rtest-validate".into(),
+            "ball1",
+            true,
+            paths::follow_ball(
+                &machine,
+                at(spec.ball1),
+                &[
+                    (tilt, deg(spec.validate_sweep.0), deg(spec.validate_sweep.1)),
+                    (turn, 0.0, deg(180.0)),
+                ],
+                &[],
+                37,
+            )?,
+        ),
+        run(
+            format!("rtest-{tl}{tn}"),
+            "ball1",
+            false,
+            paths::follow_ball(
+                &machine,
+                at(spec.ball1),
+                &[
+                    (tilt, deg(spec.combined.0), deg(spec.combined.1)),
+                    (turn, 0.0, deg(360.0)),
+                ],
+                &[],
+                289,
+            )?,
+        ),
+        run(
+            format!("ballbar-xy-{hold_tag}"),
+            "bar1",
+            false,
+            circle(true, &[(hold_axis, deg(hold_deg))], 361)?,
+        ),
+        run(
+            format!("rtest-{tn}-{}", tilt_tag(tilt, spec.turn_at[1])),
+            "ball1",
+            false,
+            turn_run(spec.turn_at[1], 145)?,
+        ),
+        run(
+            "ballbar-validate".into(),
+            "bar1",
+            true,
+            circle(true, &[(tilt, deg(v1_tilt)), (turn, deg(v1_turn))], 91)?,
+        ),
+        run(
+            format!("rtest-{tn}-{}", tilt_tag(tilt, spec.turn_at[2])),
+            "ball1",
+            false,
+            turn_run(spec.turn_at[2], 145)?,
+        ),
+        run(
+            format!("rtest-validate-{}", tilt_tag(tilt, spec.validate_turn_at)),
+            "ball1",
+            true,
+            turn_run(spec.validate_turn_at, 73)?,
+        ),
+        run(
+            format!("ballbar-validate-{}", spec.validate_bar_tag),
+            "bar1",
+            true,
+            circle(false, &[(tilt, deg(v2_tilt)), (turn, deg(v2_turn))], 91)?,
+        ),
+        run(
+            format!("rtest-{tl}-{tn}{}", spec.tilt_c),
+            "ball1",
+            false,
+            tilt_run(spec.ball1, spec.tilt_c)?,
+        ),
+        end,
+    ];
+    let plan = Plan {
+        machine_urdf: urdf,
+        setups: vec![
+            SetupPlan {
+                name: "ball1".into(),
+                instrument: rtest(spec.ball1),
+            },
+            SetupPlan {
+                name: "ball2".into(),
+                instrument: rtest(spec.ball2),
+            },
+            SetupPlan {
+                name: "bar1".into(),
+                instrument: Instrument::BallBar {
+                    pivot_mm: spec.pivot,
+                    length_mm: spec.bar_mm,
+                },
+            },
+        ],
+        runs,
+        effects: effects.to_vec(),
+    };
+    let timed = Realism {
+        interval_s: TRUNNION_EFFECTS_INTERVAL_S,
+        pause_s: TRUNNION_EFFECTS_PAUSE_S,
+        ..realism.clone()
+    };
+    write_session(dir, &machine, truth, &plan, &timed)
 }

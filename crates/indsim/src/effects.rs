@@ -1,6 +1,8 @@
-//! Effects a geometric error model leaves out, planted by their physics: lost motion, a servo
-//! lag, thermal growth of the spindle head, screw pitch errors, scale expansion, table twist,
-//! sag, the ball bar's own expansion and a set-up settling.
+//! Effects a geometric error model leaves out, planted by their physics: lost motion (uniform,
+//! or varying along a worn screw with an unknown start), a servo lag, reversal spikes and
+//! stick-slip, thermal growth of the spindle head and of the spindle along its axis, screw
+//! pitch errors, scale expansion, table twist, sag, a carriage rocking in its guideway
+//! clearance, a dent in a guideway, the ball bar's own expansion and a set-up settling.
 //!
 //! Formulated here from the physics of each effect, not from mtcal's effect formulas. Every
 //! value is SI inside (m, rad, s, K); a field whose unit is not SI says so in its name.
@@ -10,17 +12,23 @@
 //! time order), each sample at the time its `t` column says, state carried from one run into the
 //! next (the lost motion of the last sample of a run is where the next run starts from).
 //! Validation runs get the same physics as fitted runs. At each sample:
-//! 1. **axis effects** ([`Effect::Backlash`], [`Effect::ServoLag`], [`Effect::ScrewError`],
+//! 1. **axis effects** ([`Effect::Backlash`], [`Effect::LostMotion`], [`Effect::ServoLag`],
+//!    [`Effect::ReversalSpike`], [`Effect::StickSlip`], [`Effect::ScrewError`],
 //!    [`Effect::ThermalScale`]) move an axis' *actual* position `a` away from its command `c`;
 //!    several on one axis add, each evaluated at the command (`a = c + Σ δ_i(c)`; the error of an
-//!    error is left out). The written axis columns stay the commands;
+//!    error is left out). The written axis columns stay the commands. The ones that follow the
+//!    direction of motion (lost motion, lateral play, reversal spike, stick-slip) read it from
+//!    the commanded sequence, the move from one run's last command to the next run's first
+//!    included; moves under 1 nm (1 nrad) are no motion;
 //! 2. the machine's branches are evaluated at the actual positions with the truth's geometric
 //!    errors ([`Machine::branch_pose`]): `f_T_w(a)`, `f_T_t(a)` in the machine frame `f`;
-//! 3. **tool effects** ([`Effect::Thermal`], [`Effect::Twist`], [`Effect::Sag`]) are a
-//!    translation `d` of the tool point relative to the workpiece in machine directions,
-//!    pre-multiplied on the tool branch's pose: `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)`.
-//!    (A workpiece-side deformation such as the twist is the same relative motion: the
-//!    workpiece moving by −d is the tool moving by +d.)
+//! 3. **tool effects** ([`Effect::Thermal`], [`Effect::Twist`], [`Effect::Sag`],
+//!    [`Effect::LateralPlay`], [`Effect::GuidewayBump`]) are a translation `d` of the tool point
+//!    relative to the workpiece in machine directions, pre-multiplied on the tool branch's pose:
+//!    `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)`. (A workpiece-side deformation such as the
+//!    twist is the same relative motion: the workpiece moving by −d is the tool moving by +d.)
+//!    [`Effect::SpindleGrowth`] is a translation `(0, 0, −g)` in the tool frame,
+//!    post-multiplied: `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a) · Trans(0, 0, −g)`.
 //!
 //! Every instrument reads that actual pose, so the effects reach the R-test (both mounts), the
 //! ball bar, every laser mode, the tracer, displacement sensors and artefact plates alike. The
@@ -41,6 +49,8 @@
 use std::fmt::Write as _;
 
 use nalgebra::{Matrix4, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 use crate::error::SimError;
 use crate::instruments::{ActualPoses, Instrument, SetupPlan};
@@ -194,6 +204,101 @@ pub enum Effect {
     /// `S` in every run. Moves nothing by itself: heat sources with
     /// [`Programme::SpindleKrpm`] follow it.
     SpindleSpeed { rpm: Programme },
+    /// A worn screw and nut: lost motion like [`Effect::Backlash`] whose width varies along the
+    /// stroke, `B(c) = lost_motion_low + (lost_motion_high − lost_motion_low)·f`,
+    /// `f = (c − lo)/(hi − lo)` clamped to `[0, 1]`, `lo..hi` the axis' limits (one turn
+    /// −180°..180° on a continuous axis; beyond it the width holds its end value), both
+    /// widths m on a linear axis, rad on a rotary one. The dead band is Backlash's at the
+    /// width of the command: moving up the axis lags `B(c)/2` behind, after a reversal it
+    /// stands still until the command has taken up the play. Where the nut stands in its play
+    /// when a run starts is `approach`'s ([`Approach`]): carried along the commanded sequence,
+    /// or a side drawn at random before every run (an approach move the file does not
+    /// record).
+    LostMotion {
+        axis: char,
+        lost_motion_low: f64,
+        lost_motion_high: f64,
+        approach: Approach,
+    },
+    /// The carriage of `axis` (linear or rotary) rocks across its guideway clearance: the
+    /// friction at the guideway's flanks pushes it against one flank moving up, the other
+    /// moving down. The tool point relative to the workpiece is displaced by `p·u`, `u` the
+    /// unit vector of `across` (machine directions, normalised when used), `p` between
+    /// `+play/2` (moving +) and `−play/2` (moving −), `play` m. After a reversal the carriage
+    /// crosses the clearance while the command travels `take_up` (m or rad): from where it
+    /// was at the reversal, `p₀`, to the new flank `s·play/2` (`s` the new direction) as
+    /// `p = p₀ + (s·play/2 − p₀)·(1 − cos(π·d/take_up))/2` for `d < take_up`, `d` the
+    /// commanded travel since the reversal, and on the flank after (`take_up = 0`: a step).
+    /// The axis was brought to its first commanded position from below (on the + flank).
+    LateralPlay {
+        axis: char,
+        across: [f64; 3],
+        play: f64,
+        take_up: f64,
+    },
+    /// At a reversal of `axis` the friction force flips sign and the position loop's
+    /// integrator needs time to build up the new force: the axis trails its command by
+    /// `−s·height·(1 + Δt/T)·e^{−Δt/T}` (a critically damped recovery), `s` the new direction
+    /// of motion (±1), `Δt` the time since the reversal, `T = recovery_s` (s), `height` m (rad
+    /// on a rotary axis). Time-based: the spike decays while the axis moves or stands. A
+    /// reversal is where the commanded direction changes sign along the session's commanded
+    /// sequence (moves smaller than 1 nm or 1 nrad ignored); its time is that of the last sample
+    /// at the turning point.
+    ReversalSpike {
+        axis: char,
+        height: f64,
+        recovery_s: f64,
+    },
+    /// Stick-slip after a reversal of `axis`: the carriage stands (sticks) while the drive
+    /// winds up elastically, until the wind-up reaches what static friction holds beyond
+    /// kinetic friction, `height` = (F_s − F_k)/k (m or rad; the wind-up of kinetic friction
+    /// itself is a constant lost motion, [`Effect::Backlash`]'s); it then breaks away and the
+    /// excess wind-up is released over a slip travel `λ = slip_travel` as the loop damps the
+    /// carriage's jump critically. With `d` the commanded travel since the reversal and `s`
+    /// the new direction, the actual position is the command plus
+    /// `−s·d` while `d < height` (standing at the turning point), then
+    /// `−s·height·(1 + u)·e^{−u}`, `u = (d − height)/λ` (continuous, with a flat start).
+    /// Travel-based: standing still changes nothing. Reversals as for
+    /// [`Effect::ReversalSpike`]; before the session's first reversal nothing.
+    StickSlip {
+        axis: char,
+        height: f64,
+        slip_travel: f64,
+    },
+    /// A local dent or worn patch of the guideway of the linear `axis`: the tool point
+    /// relative to the workpiece is displaced along the unit `direction` (machine directions,
+    /// normalised when used) by the raised cosine
+    /// `height·(1 + cos(2π·(q − centre)/width))/2` for `|q − centre| < width/2`, zero
+    /// elsewhere, `q` the axis' actual position (m); `centre`, `width`, `height` m. A
+    /// translation of the tool point, like [`Effect::Twist`].
+    GuidewayBump {
+        axis: char,
+        direction: [f64; 3],
+        centre: f64,
+        width: f64,
+        height: f64,
+    },
+    /// The spindle grows along its own axis as it warms: the tool point moves out of the
+    /// spindle by `g(t) = Σ_i gain_i·x_i(t)` (nodes as [`Effect::Thermal`]'s, gains in m),
+    /// i.e. along −z of the tool frame (the tool link's +z points from the tool point into the
+    /// spindle). A translation in the tool frame, post-multiplied on the tool branch
+    /// (`… · f_T_t(a) · Trans(0, 0, −g)`): on a head whose rotary axes tilt the tool the growth
+    /// turns with it.
+    SpindleGrowth { sources: Vec<HeatSource> },
+}
+
+/// Where the nut of an axis with [`Effect::LostMotion`] stands in its play when a run starts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Approach {
+    /// As [`Effect::Backlash`]: the state carried along the session's commanded sequence (the
+    /// move from one run's last command to the next run's first counts), the first command
+    /// approached from below.
+    Carried,
+    /// Before every run the axis approaches the run's first command from below or from above,
+    /// drawn at random per run (one fair draw per run in plan order, from a ChaCha8 stream
+    /// seeded with `seed`): from below the axis stands `B/2` short of the command, from above
+    /// `B/2` beyond it. The approach move is not recorded.
+    RandomPerRun { seed: u64 },
 }
 
 /// `x(t)` of `τ dx/dt = p(t) − x`, `x(0) = 0`, `p` piecewise constant (`steps`, see
@@ -329,6 +434,81 @@ pub(crate) struct Resolved {
     lags: Vec<(usize, f64)>,
     spindle_rpm: Option<Vec<(f64, f64)>>,
     columns: Vec<Column>,
+    worn: Vec<Worn>,
+    lateral: Vec<Lateral>,
+    /// `(axis index, height, recovery s)`.
+    spikes: Vec<(usize, f64, f64)>,
+    /// `(axis index, height, slip travel)`.
+    sticks: Vec<(usize, f64, f64)>,
+    bumps: Vec<Bump>,
+    /// Nodes (gains in m) of each spindle growth along the tool axis.
+    spindle_growth: Vec<Vec<Node>>,
+}
+
+/// A lost motion whose width varies along the stroke ([`Effect::LostMotion`]).
+#[derive(Clone, Debug)]
+struct Worn {
+    axis: usize,
+    low: f64,
+    high: f64,
+    /// The stroke the width varies over.
+    stroke: (f64, f64),
+    /// The seed of the per-run approach side (`None`: carried).
+    random_seed: Option<u64>,
+}
+
+impl Worn {
+    /// `B(c)`.
+    fn width(&self, c: f64) -> f64 {
+        let (lo, hi) = self.stroke;
+        let f = ((c - lo) / (hi - lo)).clamp(0.0, 1.0);
+        self.low + (self.high - self.low) * f
+    }
+}
+
+/// A carriage rocking across its guideway clearance ([`Effect::LateralPlay`]).
+#[derive(Clone, Debug)]
+struct Lateral {
+    axis: usize,
+    across: Vector3<f64>,
+    play: f64,
+    take_up: f64,
+}
+
+impl Lateral {
+    /// Where the carriage sits across its clearance (m along `across`), having been at `from`
+    /// at the last reversal, moving in `sense` for `travel` since.
+    fn offset(&self, from: f64, sense: f64, travel: f64) -> f64 {
+        let flank = 0.5 * self.play * sense;
+        let u = if self.take_up > 0.0 {
+            (travel / self.take_up).min(1.0)
+        } else {
+            1.0
+        };
+        from + (flank - from) * 0.5 * (1.0 - (std::f64::consts::PI * u).cos())
+    }
+}
+
+/// A local bump on a guideway ([`Effect::GuidewayBump`]).
+#[derive(Clone, Debug)]
+struct Bump {
+    axis: usize,
+    direction: Vector3<f64>,
+    centre: f64,
+    width: f64,
+    height: f64,
+}
+
+impl Bump {
+    /// The raised cosine at the actual position `q`.
+    fn rise(&self, q: f64) -> f64 {
+        let off = q - self.centre;
+        if off.abs() < 0.5 * self.width {
+            0.5 * self.height * (1.0 + (std::f64::consts::TAU * off / self.width).cos())
+        } else {
+            0.0
+        }
+    }
 }
 
 /// A set-up's fixed element settling ([`Effect::SetupCreep`]).
@@ -390,12 +570,9 @@ impl Resolved {
                 self.backlash.push((i, *lost_motion));
             }
             Effect::Thermal { direction, sources } => {
-                let d = Vector3::from(*direction);
-                if !(d.iter().all(|v| v.is_finite()) && d.norm() > 0.0) {
-                    return Err(format!("direction {direction:?} is not a direction"));
-                }
+                let d = unit("direction", direction)?;
                 let nodes = self.nodes(sources)?;
-                self.growth.push((d.normalize(), nodes));
+                self.growth.push((d, nodes));
             }
             Effect::ScrewError {
                 axis,
@@ -480,6 +657,87 @@ impl Resolved {
                 shows: Shows::Spindle,
                 setup: None,
             }),
+            Effect::LostMotion {
+                axis,
+                lost_motion_low,
+                lost_motion_high,
+                approach,
+            } => {
+                let i = axis_index(machine, *axis)?;
+                finite_at_least("lost_motion_low", *lost_motion_low, 0.0)?;
+                finite_at_least("lost_motion_high", *lost_motion_high, 0.0)?;
+                self.worn.push(Worn {
+                    axis: i,
+                    low: *lost_motion_low,
+                    high: *lost_motion_high,
+                    stroke: machine.joints[i].stroke(),
+                    random_seed: match approach {
+                        Approach::Carried => None,
+                        Approach::RandomPerRun { seed } => Some(*seed),
+                    },
+                });
+            }
+            Effect::LateralPlay {
+                axis,
+                across,
+                play,
+                take_up,
+            } => {
+                let i = axis_index(machine, *axis)?;
+                let across = unit("across", across)?;
+                finite_at_least("play", *play, 0.0)?;
+                finite_at_least("take_up", *take_up, 0.0)?;
+                self.lateral.push(Lateral {
+                    axis: i,
+                    across,
+                    play: *play,
+                    take_up: *take_up,
+                });
+            }
+            Effect::ReversalSpike {
+                axis,
+                height,
+                recovery_s,
+            } => {
+                let i = axis_index(machine, *axis)?;
+                finite("height", *height)?;
+                positive("recovery_s", *recovery_s)?;
+                self.spikes.push((i, *height, *recovery_s));
+            }
+            Effect::StickSlip {
+                axis,
+                height,
+                slip_travel,
+            } => {
+                let i = axis_index(machine, *axis)?;
+                finite_at_least("height", *height, 0.0)?;
+                positive("slip_travel", *slip_travel)?;
+                self.sticks.push((i, *height, *slip_travel));
+            }
+            Effect::GuidewayBump {
+                axis,
+                direction,
+                centre,
+                width,
+                height,
+            } => {
+                let i = linear_axis(machine, *axis, "a guideway bump")?;
+                let direction = unit("direction", direction)?;
+                finite("centre", *centre)?;
+                positive("width", *width)?;
+                finite("height", *height)?;
+                self.bumps.push(Bump {
+                    axis: i,
+                    direction,
+                    centre: *centre,
+                    width: *width,
+                    height: *height,
+                });
+            }
+            Effect::SpindleGrowth { sources } => {
+                let nodes = self.nodes(sources)?;
+                self.spindle_growth.push(nodes);
+            }
         }
         Ok(())
     }
@@ -599,7 +857,13 @@ impl Resolved {
             && self.scales.is_empty()
             && self.growth.is_empty()
             && self.twist.is_empty()
-            && self.sag.is_empty())
+            && self.sag.is_empty()
+            && self.worn.is_empty()
+            && self.lateral.is_empty()
+            && self.spikes.is_empty()
+            && self.sticks.is_empty()
+            && self.bumps.is_empty()
+            && self.spindle_growth.is_empty())
     }
 
     /// What the instrument of `setup` reads besides the machine, m, at each of `times`: the
@@ -684,6 +948,12 @@ fn kind_name(e: &Effect) -> &'static str {
         Effect::SetupCreep { .. } => "setup-creep",
         Effect::ServoLag { .. } => "servo-lag",
         Effect::SpindleSpeed { .. } => "spindle-speed",
+        Effect::LostMotion { .. } => "lost-motion",
+        Effect::LateralPlay { .. } => "lateral-play",
+        Effect::ReversalSpike { .. } => "reversal-spike",
+        Effect::StickSlip { .. } => "stick-slip",
+        Effect::GuidewayBump { .. } => "guideway-bump",
+        Effect::SpindleGrowth { .. } => "spindle-growth",
     }
 }
 
@@ -712,6 +982,16 @@ fn linear_axis(machine: &Machine, letter: char, what: &str) -> Result<usize, Str
         JointKind::Rotary => Err(format!(
             "{what} needs a linear axis {letter}; {letter} is rotary here"
         )),
+    }
+}
+
+/// A direction's unit vector (machine directions), or why it is none.
+fn unit(name: &str, v: &[f64; 3]) -> Result<Vector3<f64>, String> {
+    let d = Vector3::from(*v);
+    if d.iter().all(|x| x.is_finite()) && d.norm() > 0.0 {
+        Ok(d.normalize())
+    } else {
+        Err(format!("{name} {v:?} is not a direction"))
     }
 }
 
@@ -775,6 +1055,15 @@ pub(crate) struct SampleState<'a> {
     strain: Vec<f64>,
     /// The spindle head's thermal growth, machine frame, m.
     growth: Vector3<f64>,
+    /// Per worn lost motion, per reversal spike, per stick-slip: actual minus commanded
+    /// position.
+    worn: Vec<f64>,
+    spike: Vec<f64>,
+    stick: Vec<f64>,
+    /// The carriages' displacement across their guideways, machine frame, m.
+    lateral: Vector3<f64>,
+    /// The spindle's growth along the tool axis (out of the spindle), m.
+    spindle: f64,
 }
 
 impl SampleState<'_> {
@@ -795,6 +1084,15 @@ impl SampleState<'_> {
         for (s, strain) in e.scales.iter().zip(&self.strain) {
             a[s.axis] += strain * (q[s.axis] - s.reference);
         }
+        for (w, lost) in e.worn.iter().zip(&self.worn) {
+            a[w.axis] += lost;
+        }
+        for (&(i, ..), v) in e.spikes.iter().zip(&self.spike) {
+            a[i] += v;
+        }
+        for (&(i, ..), v) in e.sticks.iter().zip(&self.stick) {
+            a[i] += v;
+        }
         a
     }
 
@@ -802,7 +1100,10 @@ impl SampleState<'_> {
     /// actual axis positions `a`.
     pub(crate) fn tool_shift(&self, a: &[f64]) -> Vector3<f64> {
         let e = self.effects;
-        let mut d = self.growth;
+        let mut d = self.growth + self.lateral;
+        for b in &e.bumps {
+            d += b.direction * b.rise(a[b.axis]);
+        }
         for &(x, y, k) in &e.twist {
             d.z += k * a[x] * a[y];
         }
@@ -813,8 +1114,8 @@ impl SampleState<'_> {
     }
 
     /// The actual tool pose in the workpiece frame at the commands `q`:
-    /// `f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)` (module docs); exactly the geometric model's pose when
-    /// no effect moves the machine.
+    /// `f_T_w(a)⁻¹ · Trans(d) · f_T_t(a) · Trans(0, 0, −g)` (module docs, `g` the spindle's
+    /// growth); exactly the geometric model's pose when no effect moves the machine.
     pub(crate) fn tool_in_workpiece(
         &self,
         machine: &Machine,
@@ -830,6 +1131,9 @@ impl SampleState<'_> {
         let mut t = machine.branch_pose(Side::Tool, &a, Some(truth));
         if d != Vector3::zeros() {
             t = translation(&d) * t;
+        }
+        if self.spindle != 0.0 {
+            t *= translation(&Vector3::new(0.0, 0.0, -self.spindle));
         }
         rigid_inverse(&w) * t
     }
@@ -854,6 +1158,62 @@ impl ActualPoses for [SampleState<'_>] {
     }
 }
 
+/// Commanded moves smaller than this (m or rad) do not count as motion: a held axis whose
+/// command differs in the last digits is not reversing.
+const STILL: f64 = 1e-9;
+
+/// The commanded motion of one axis along the session: which way it last moved, how far it
+/// has travelled since it last reversed, and when that was.
+#[derive(Clone, Debug)]
+struct Travel {
+    /// The command where the axis last moved (`None`: before the session's first sample).
+    last: Option<f64>,
+    /// The time of the previous sample, s.
+    last_t: f64,
+    /// +1 or −1: the direction of the last move (+1 before any: approached from below).
+    sense: f64,
+    /// Commanded travel since the last reversal (infinite before the first).
+    since: f64,
+    /// When the last reversal happened, s (the time of the last sample at the turning point).
+    reversed_at: Option<f64>,
+}
+
+impl Travel {
+    fn new() -> Self {
+        Travel {
+            last: None,
+            last_t: 0.0,
+            sense: 1.0,
+            since: f64::INFINITY,
+            reversed_at: None,
+        }
+    }
+
+    /// Moves to command `c` at time `t`; whether the axis reversed on the way.
+    fn to(&mut self, c: f64, t: f64) -> bool {
+        let mut reversed = false;
+        match self.last {
+            None => self.last = Some(c),
+            Some(from) => {
+                let step = c - from;
+                if step.abs() > STILL {
+                    if step.signum() == self.sense {
+                        self.since += step.abs();
+                    } else {
+                        self.sense = step.signum();
+                        self.since = step.abs();
+                        self.reversed_at = Some(self.last_t);
+                        reversed = true;
+                    }
+                    self.last = Some(c);
+                }
+            }
+        }
+        self.last_t = t;
+        reversed
+    }
+}
+
 /// The session's timeline: the effects' state carried from sample to sample and run to run.
 #[derive(Debug)]
 pub(crate) struct Timeline<'a> {
@@ -861,6 +1221,14 @@ pub(crate) struct Timeline<'a> {
     /// Per backlash effect: the axis' actual position after the last sample (`None`: before
     /// the session's first sample).
     actual: Vec<Option<f64>>,
+    /// Per worn lost motion: the same, and the random stream of its approach sides.
+    worn: Vec<(Option<f64>, Option<ChaCha8Rng>)>,
+    /// Per lateral play: the axis' travel and where the carriage was across at the last
+    /// reversal and at the last sample (m).
+    lateral: Vec<(Travel, f64, f64)>,
+    /// Per reversal spike, per stick-slip: the axis' travel.
+    spikes: Vec<Travel>,
+    sticks: Vec<Travel>,
 }
 
 impl<'a> Timeline<'a> {
@@ -868,12 +1236,35 @@ impl<'a> Timeline<'a> {
         Timeline {
             effects,
             actual: vec![None; effects.backlash.len()],
+            worn: effects
+                .worn
+                .iter()
+                .map(|w| (None, w.random_seed.map(ChaCha8Rng::seed_from_u64)))
+                .collect(),
+            lateral: effects
+                .lateral
+                .iter()
+                .map(|l| (Travel::new(), 0.5 * l.play, 0.5 * l.play))
+                .collect(),
+            spikes: vec![Travel::new(); effects.spikes.len()],
+            sticks: vec![Travel::new(); effects.sticks.len()],
         }
     }
 
     /// The states of the next run's samples: its commands `poses` (SI, as the machine moves
     /// there) at `times` (s).
     pub(crate) fn run(&mut self, poses: &[Vec<f64>], times: &[f64]) -> Vec<SampleState<'a>> {
+        // A worn axis approached from a random side: it stands B/2 short of (from below) or
+        // beyond (from above) the run's first command.
+        if let Some(first) = poses.first() {
+            for (w, (actual, rng)) in self.effects.worn.iter().zip(&mut self.worn) {
+                if let Some(rng) = rng {
+                    let c = first[w.axis];
+                    let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                    *actual = Some(c - side * 0.5 * w.width(c));
+                }
+            }
+        }
         (0..poses.len())
             .map(|k| {
                 let trail = self
@@ -909,12 +1300,62 @@ impl<'a> Timeline<'a> {
             .iter()
             .map(|(dir, nodes)| dir * nodes.iter().map(|n| n.at(t)).sum::<f64>())
             .sum();
+        let worn = e
+            .worn
+            .iter()
+            .zip(&mut self.worn)
+            .map(|(w, (a, _))| {
+                let c = q[w.axis];
+                let now = take_up(*a, c, w.width(c));
+                *a = Some(now);
+                now - c
+            })
+            .collect();
+        let mut lateral = Vector3::zeros();
+        for (l, (travel, from, now)) in e.lateral.iter().zip(&mut self.lateral) {
+            if travel.to(q[l.axis], t) {
+                *from = *now;
+            }
+            *now = l.offset(*from, travel.sense, travel.since);
+            lateral += l.across * *now;
+        }
+        let spike = e
+            .spikes
+            .iter()
+            .zip(&mut self.spikes)
+            .map(|(&(i, height, recovery_s), travel)| {
+                travel.to(q[i], t);
+                travel.reversed_at.map_or(0.0, |at| {
+                    let r = (t - at).max(0.0) / recovery_s;
+                    -travel.sense * height * (1.0 + r) * (-r).exp()
+                })
+            })
+            .collect();
+        let stick = e
+            .sticks
+            .iter()
+            .zip(&mut self.sticks)
+            .map(|(&(i, height, slip), travel)| {
+                travel.to(q[i], t);
+                stick_slip(travel.sense, travel.since, height, slip)
+            })
+            .collect();
+        let spindle = e
+            .spindle_growth
+            .iter()
+            .map(|nodes| nodes.iter().map(|n| n.at(t)).sum::<f64>())
+            .sum();
         SampleState {
             effects: e,
             lost,
             trail,
             strain,
             growth,
+            worn,
+            spike,
+            stick,
+            lateral,
+            spindle,
         }
     }
 }
@@ -932,6 +1373,19 @@ fn command_at(poses: &[Vec<f64>], times: &[f64], k: usize, i: usize, at: f64) ->
     let (t0, t1) = (times[j - 1], times[j]);
     let w = (at - t0) / (t1 - t0);
     poses[j - 1][i] + w * (poses[j][i] - poses[j - 1][i])
+}
+
+/// Stick-slip's actual minus commanded position ([`Effect::StickSlip`]) moving in `sense`,
+/// `travel` since the last reversal (infinite: none yet).
+fn stick_slip(sense: f64, travel: f64, height: f64, slip: f64) -> f64 {
+    if !travel.is_finite() {
+        0.0
+    } else if travel < height {
+        -sense * travel
+    } else {
+        let u = (travel - height) / slip;
+        -sense * height * (1.0 + u) * (-u).exp()
+    }
 }
 
 /// The dead band: where an axis with lost motion `b` ends up when the command moves to `c`
@@ -1072,6 +1526,88 @@ fn effect_table(machine: &Machine, e: &Effect) -> toml::Table {
             put("tau_s", (*tau_s).into());
         }
         Effect::SpindleSpeed { rpm } => put("rpm", programme_value(rpm)),
+        Effect::LostMotion {
+            axis,
+            lost_motion_low,
+            lost_motion_high,
+            approach,
+        } => {
+            put("axis", axis.to_string().into());
+            let unit = small_unit(*axis);
+            put(
+                &format!("lost_motion_low_{unit}"),
+                small(*lost_motion_low).into(),
+            );
+            put(
+                &format!("lost_motion_high_{unit}"),
+                small(*lost_motion_high).into(),
+            );
+            match approach {
+                Approach::Carried => put("approach", "carried".into()),
+                Approach::RandomPerRun { seed } => {
+                    put("approach", "random-per-run".into());
+                    // A TOML integer is an i64: the seed's bits.
+                    put("seed", i64::from_ne_bytes(seed.to_ne_bytes()).into());
+                }
+            }
+        }
+        Effect::LateralPlay {
+            axis,
+            across,
+            play,
+            take_up,
+        } => {
+            put("axis", axis.to_string().into());
+            put("across", floats(across));
+            put("play_um", small(*play).into());
+            put(
+                &format!("take_up_{}", place_unit(*axis)),
+                place(*axis, *take_up).into(),
+            );
+        }
+        Effect::ReversalSpike {
+            axis,
+            height,
+            recovery_s,
+        } => {
+            put("axis", axis.to_string().into());
+            put(
+                &format!("height_{}", small_unit(*axis)),
+                small(*height).into(),
+            );
+            put("recovery_ms", (recovery_s * 1e3).into());
+        }
+        Effect::StickSlip {
+            axis,
+            height,
+            slip_travel,
+        } => {
+            put("axis", axis.to_string().into());
+            put(
+                &format!("height_{}", small_unit(*axis)),
+                small(*height).into(),
+            );
+            put(
+                &format!("slip_travel_{}", place_unit(*axis)),
+                place(*axis, *slip_travel).into(),
+            );
+        }
+        Effect::GuidewayBump {
+            axis,
+            direction,
+            centre,
+            width,
+            height,
+        } => {
+            put("axis", axis.to_string().into());
+            put("direction", floats(direction));
+            put("centre_mm", (centre * 1e3).into());
+            put("width_mm", (width * 1e3).into());
+            put("height_um", small(*height).into());
+        }
+        Effect::SpindleGrowth { sources } => {
+            put("source", sources_value(sources, "gain_um", 1e6));
+        }
     }
     t
 }

@@ -74,14 +74,21 @@
 //!   formula and sign), acting along the session's timeline (runs in plan order, state
 //!   carried from run to run, validation runs alike; [`Plan::effects`], empty by default):
 //!   - on an axis' actual position (the written commands stay the commands): lost motion
-//!     ([`Effect::Backlash`], a dead band along the commanded sequence), a periodic screw
-//!     error ([`Effect::ScrewError`]), scale expansion about a reference with its temperature
-//!     ([`Effect::ThermalScale`]), a position loop trailing its command ([`Effect::ServoLag`]);
+//!     ([`Effect::Backlash`], a dead band along the commanded sequence; [`Effect::LostMotion`],
+//!     its width varying along the stroke and its state at a run's start carried or random,
+//!     [`Approach`]), a periodic screw error ([`Effect::ScrewError`]), scale expansion about a
+//!     reference with its temperature ([`Effect::ThermalScale`]), a position loop trailing its
+//!     command ([`Effect::ServoLag`]), a time-based spike at reversals
+//!     ([`Effect::ReversalSpike`]), a travel-based stick-slip after them ([`Effect::StickSlip`]);
 //!   - as a translation of the tool point relative to the workpiece in machine directions,
 //!     `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)` at the actual axis positions `a`: the
 //!     spindle head's thermal growth from first-order nodes integrated exactly
 //!     ([`Effect::Thermal`], [`HeatSource`], [`Programme`]), a table twist `k·x·y` along Z
-//!     ([`Effect::Twist`]), a sag `k·q²` ([`Effect::Sag`]);
+//!     ([`Effect::Twist`]), a sag `k·q²` ([`Effect::Sag`]), a carriage rocking across its
+//!     guideway clearance with the direction of motion ([`Effect::LateralPlay`]), a local dent
+//!     of a guideway ([`Effect::GuidewayBump`]);
+//!   - as a translation in the tool frame (post-multiplied on the tool branch): the spindle's
+//!     growth along its own axis ([`Effect::SpindleGrowth`]), turning with a tilting head;
 //!   - on the instrument alone: the ball bar's own expansion ([`Effect::BallBarThermal`]), a
 //!     set-up's fixed element settling after it was mounted ([`Effect::SetupCreep`]).
 //!
@@ -103,7 +110,8 @@
 //!   parameters, in µm / µrad / mm / s / K).
 //! - [`Realism`]: sample-time jitter, quantised readings, AR(1)-coloured noise, a stated σ
 //!   that differs from the one used, positions rounded as a controller writes them, real
-//!   set-ups off the stated ones (ball / nest / pivot / station position, tool length),
+//!   set-ups off the stated ones (ball / nest / pivot / station position, tool length; a normal
+//!   draw, plus a bounded uniform one for a set-up placed by eye, e.g. up to 0.2 mm),
 //!   temperature sensors' noise and resolution (a random stream of their own: with or without
 //!   effects, every other draw is the same).
 //!
@@ -118,6 +126,12 @@
 //! trunnion's runs with effects, timed to half an hour) and
 //! [`Campaign::three_axis_laser_tracer`] (ISO 230-2 laser runs, straightness, a laser-tracer
 //! grid from four stations, validation runs; half an hour) plant effects.
+//! [`Campaign::five_axis_check`] gives the half-hour R-test and ball-bar session of each
+//! shipped five-axis layout ([`FiveAxisLayout`]: the trunnion's
+//! [`Campaign::trunnion_thermal_check`], [`Campaign::table_table_check`],
+//! [`Campaign::head_head_check`], [`Campaign::mixed_check`]);
+//! [`Campaign::three_axis_ballbar_planes`] is a ball-bar-only session in three planes at two
+//! feeds, its sample times following the feed ([`RunPlan::interval_s`]).
 
 pub mod campaign;
 pub mod effects;
@@ -130,8 +144,8 @@ pub mod truth;
 
 use std::path::{Path, PathBuf};
 
-pub use campaign::Campaign;
-pub use effects::{Effect, HeatSource, Programme, TemperatureProgramme};
+pub use campaign::{Campaign, FiveAxisLayout};
+pub use effects::{Approach, Effect, HeatSource, Programme, TemperatureProgramme};
 pub use instruments::{
     DisplacementSensor, Instrument, LaserMode, Mount, PlatePlacement, Probed, SensorDirection,
     SetupOffsets,

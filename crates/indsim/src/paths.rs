@@ -77,6 +77,33 @@ pub fn circle(
     Ok(out)
 }
 
+/// An arc of `radius` (m) about `centre` (workpiece frame) in the plane spanned by the
+/// workpiece directions `e1`, `e2` (indices 0..3): the angle from e1 towards e2 runs linearly
+/// from `from` to `to` (rad; increasing: counter-clockwise seen with e1 × e2 towards the
+/// viewer), `samples` evenly spaced, both ends included. A ball bar's partial arc in a plane
+/// where the spindle cannot pass below the pivot.
+pub fn arc(
+    machine: &Machine,
+    centre: Vector3<f64>,
+    radius: f64,
+    (e1, e2): (usize, usize),
+    (from, to): (f64, f64),
+    hold: &[(char, f64)],
+    samples: usize,
+) -> Result<Vec<Vec<f64>>, MachineError> {
+    let mut q = base(machine, hold)?;
+    let mut out = Vec::with_capacity(samples);
+    for k in 0..samples {
+        let phi = from + (to - from) * k as f64 / (samples - 1) as f64;
+        let mut p = centre;
+        p[e1] += radius * phi.cos();
+        p[e2] += radius * phi.sin();
+        q = machine.follow_point(&q, &Vector3::zeros(), &p)?;
+        out.push(checked(machine, q.clone(), "arc")?);
+    }
+    Ok(out)
+}
+
 /// One linear axis from `from` to `to` (m) in `points` steps, the others held.
 pub fn line(
     machine: &Machine,

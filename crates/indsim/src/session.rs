@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 
 use nalgebra::Vector3;
-use rand::SeedableRng;
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 
@@ -27,6 +27,13 @@ pub struct RunPlan {
     /// One text per sample for an instrument with a label column (the artefact's `feature`:
     /// `feature`, or `placement/feature` with several placements); empty otherwise.
     pub labels: Vec<String>,
+    /// Time between this run's samples, s (e.g. a ball bar's arc per sample over the feed);
+    /// `None`: [`Realism::interval_s`].
+    pub interval_s: Option<f64>,
+    /// Time from the previous run's last sample to this run's first, s (e.g. a set-up
+    /// change); `None`: [`Realism::pause_s`]. Before the session's first run there is no
+    /// pause.
+    pub pause_before_s: Option<f64>,
 }
 
 /// What to write: the machine (a URDF file, referred to by a relative path), set-ups, runs (in
@@ -65,9 +72,14 @@ pub struct Realism {
     /// then moves exactly there; `None`: every digit).
     pub position_decimals: Option<i32>,
     /// σ of the difference between the real and the stated set-up, per coordinate, µm: the
-    /// ball / nest / pivot / station position and the tool length.
+    /// ball / nest / pivot / station position and the tool length (a normal draw, unbounded:
+    /// σ = 100 µm puts a coordinate up to 0.2 mm off in 95 % of set-ups).
     pub setup_position_sigma_um: f64,
     pub tool_length_sigma_um: f64,
+    /// A set-up placed by eye: each coordinate of the position additionally off by a uniform
+    /// draw in `±setup_position_bound_um` µm (200: up to 0.2 mm off nominal; 0: none). Drawn
+    /// from a random stream of its own, so that the other draws stay as without it.
+    pub setup_position_bound_um: f64,
     /// σ of a temperature sensor's white noise, K, and the resolution it writes, K (0: exact):
     /// the temperature columns of effects ([`crate::effects`]), drawn from a random stream of
     /// their own so that the other draws stay as without effects.
@@ -90,6 +102,7 @@ impl Realism {
             position_decimals: None,
             setup_position_sigma_um: 0.0,
             tool_length_sigma_um: 0.0,
+            setup_position_bound_um: 0.0,
             temperature_sigma_k: 0.0,
             temperature_resolution_k: 0.0,
         }
@@ -190,6 +203,7 @@ pub fn write_session(
     let letters: Vec<char> = machine.letters().chars().collect();
     let mut timeline = Timeline::new(&effects);
     let mut t0 = 0.0;
+    let mut first_run = true;
     let mut runs = Vec::new();
     let mut mounted: std::collections::HashMap<&str, f64> = std::collections::HashMap::new();
     for run in &plan.runs {
@@ -214,8 +228,13 @@ pub fn write_session(
         let normals: Vec<Vec<f64>> = (0..run.poses.len())
             .map(|_| (0..n_ch).map(|_| StandardNormal.sample(&mut rng)).collect())
             .collect();
-        let times = sample_times(realism, t0, run.poses.len(), &mut rng);
-        t0 = times.last().copied().unwrap_or(t0) + realism.pause_s;
+        if !first_run {
+            t0 += run.pause_before_s.unwrap_or(realism.pause_s);
+        }
+        first_run = false;
+        let interval_s = run.interval_s.unwrap_or(realism.interval_s);
+        let times = sample_times(realism, interval_s, t0, run.poses.len(), &mut rng);
+        t0 = times.last().copied().unwrap_or(t0);
         // The effects follow the commands as the machine moves to them.
         let commanded = to_si(machine, &to_file_units(machine, &run.poses, realism));
         let states = timeline.run(&commanded, &times);
@@ -326,13 +345,23 @@ fn draw_offsets(
     rng: &mut ChaCha8Rng,
 ) -> Vec<(String, SetupOffsets)> {
     let normal = |s: f64| Normal::new(0.0, s * 1e-6).expect("finite sigma");
+    // Placed by eye: a stream of its own.
+    let mut eye_rng = ChaCha8Rng::seed_from_u64(realism.seed);
+    eye_rng.set_stream(2);
+    let bound = realism.setup_position_bound_um * 1e-6;
     setups
         .iter()
         .map(|s| {
             let pos = normal(realism.setup_position_sigma_um);
             let len = normal(realism.tool_length_sigma_um);
+            let mut position = Vector3::new(pos.sample(rng), pos.sample(rng), pos.sample(rng));
+            if bound > 0.0 {
+                for v in position.iter_mut() {
+                    *v += eye_rng.random_range(-bound..=bound);
+                }
+            }
             let off = SetupOffsets {
-                position: Vector3::new(pos.sample(rng), pos.sample(rng), pos.sample(rng)),
+                position,
                 tool_length: len.sample(rng),
             };
             (s.name.clone(), off)
@@ -359,10 +388,16 @@ fn sidecar_setups(offsets: &[(String, SetupOffsets)], realism: &Realism) -> Stri
     s
 }
 
-/// The sample times of a run of `n` samples starting after `t0`: a regular interval with
+/// The sample times of a run of `n` samples starting after `t0`: a regular `interval_s` with
 /// jitter (clamped so that `t` keeps rising).
-fn sample_times(realism: &Realism, t0: f64, n: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
-    let jitter = 0.4 * realism.interval_s;
+fn sample_times(
+    realism: &Realism,
+    interval_s: f64,
+    t0: f64,
+    n: usize,
+    rng: &mut ChaCha8Rng,
+) -> Vec<f64> {
+    let jitter = 0.4 * interval_s;
     (0..n)
         .map(|k| {
             let j = if realism.jitter_s > 0.0 {
@@ -371,7 +406,7 @@ fn sample_times(realism: &Realism, t0: f64, n: usize, rng: &mut ChaCha8Rng) -> V
             } else {
                 0.0
             };
-            t0 + jitter + k as f64 * realism.interval_s + j
+            t0 + jitter + k as f64 * interval_s + j
         })
         .collect()
 }

@@ -130,6 +130,8 @@ fn plan_for(machine: &Machine, urdf: &Path, mount: Mount, write_mount_key: bool)
             validate: false,
             poses,
             labels,
+            interval_s: None,
+            pause_before_s: None,
         })
     };
     let mut run = |name: String, setup: &str, poses| labelled(name, setup, poses, Vec::new());

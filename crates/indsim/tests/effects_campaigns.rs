@@ -554,3 +554,51 @@ fn a_servo_lag_moves_the_axis_by_its_following_error() {
         "{effects}"
     );
 }
+
+/// A reversal spike on X ([`Effect::ReversalSpike`]) in the three-plane ball-bar session: the
+/// first circle (counter-clockwise from +X at 1000 mm/min) reverses X at once (the axis was
+/// brought to its start from below) and again at 180°; after each X trails by
+/// `−s·h·(1 + Δt/T)·e^{−Δt/T}` and the bar reads that along itself, `u_x·e_x` (first order).
+#[test]
+fn a_reversal_spike_shows_on_the_ball_bar_where_x_reverses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let truth = truth_of("mcv754-zfyx.urdf", 8);
+    let (h, t_rec) = (5e-6, 0.5);
+    let spike = Effect::ReversalSpike {
+        axis: 'X',
+        height: h,
+        recovery_s: t_rec,
+    };
+    let with = Campaign::three_axis_ballbar_planes(
+        &tmp.path().join("a"),
+        &truth,
+        &[spike],
+        &Realism::ideal(),
+    )
+    .unwrap();
+    let without =
+        Campaign::three_axis_ballbar_planes(&tmp.path().join("b"), &truth, &[], &Realism::ideal())
+            .unwrap();
+    let (a, b) = (&with.runs[0], &without.runs[0]);
+    assert_eq!(a.name, "ballbar-xy-ccw-f1000");
+    let mut largest = 0.0f64;
+    for k in 1..a.t.len() {
+        // Sample k is at k° of the circle; X moves down until 180°, then up.
+        let (sense, at) = if k <= 180 {
+            (-1.0, a.t[0])
+        } else {
+            (1.0, a.t[180])
+        };
+        let r = (a.t[k] - at) / t_rec;
+        let e_x = -sense * h * (1.0 + r) * (-r).exp();
+        let u_x = (k as f64).to_radians().cos();
+        let want_um = u_x * e_x * 1e6;
+        let got_um = a.clean_um[k][0] - b.clean_um[k][0];
+        assert!(
+            (got_um - want_um).abs() < 1e-3,
+            "sample {k}: {got_um} µm, want {want_um} µm"
+        );
+        largest = largest.max(got_um.abs());
+    }
+    assert!(largest > 4.0, "{largest} µm");
+}

@@ -1,8 +1,32 @@
 //! Effects of an axis' motion. Each acts on the axis itself (it is effectively displaced along
-//! its own motion, µm, or turned about its own axis, µrad), driven by the axis.
+//! its own motion, µm, or turned about its own axis, µrad), driven by the axis; `lateral-play`
+//! acts across it, on another linear axis.
+//!
+//! Which side an axis arrived from before a run is not in the run's file: until it first moves
+//! within a run its direction is unknown and the direction-driven features are 0 there (the
+//! mean of the two sides; [`crate::view::AxisMotion`]); a transient after a reversal
+//! (`stick-slip`, `reversal-spike`) counts half on the run's first motion (the turn may have
+//! been where the run starts, or not) and in full after a reversal within the run.
 //!
 //! - **`reversal`**: the axis lags by half its backlash `B` behind the commanded position in
-//!   the direction it last moved, `±B/2` (plant key `backlash_um`).
+//!   the direction it last moved, `±B/2` (plant key `backlash_um`; rotary `backlash_urad`).
+//!   With lost motion that changes along the stroke (a worn screw, a load that grows towards
+//!   one end), `−½·s·(B + ΔB·û)`: `B` at the middle of the stroke, `ΔB` its change from there
+//!   to the positive end, `û` the position normalised to `[−1, 1]` over the stroke (label
+//!   `reversal X (along X)`; plant keys `backlash_um`, `backlash_change_um`). Proposed for
+//!   every axis that reverses in a fitted run; the form along the stroke for linear axes and
+//!   rotary axes of less than a turn.
+//! - **`lateral-play`**: when axis `A` reverses, the tool steps across its motion along another
+//!   linear axis `B` (play of the carriage in its guides; a ball-bar's lateral play):
+//!   `−½·s_A·P` on `B`, `P` the step between the two directions; component the straightness
+//!   `E<B><A>` (`EYX`), label `lateral-play X (in Y)`. Plant keys `axis = "X"` (the axis whose
+//!   reversal drives it), `across = "Y"`, `play_um`. Proposed for every linear axis that
+//!   reverses in a fitted run and every other linear axis.
+//! - **`reversal-spike`**: after a reversal the axis trails by a spike that decays in time,
+//!   `h·s·exp(−Δt/τ)` with `Δt` the time since it left the turning point (a friction or servo
+//!   transient; `stick-slip` decays with travel instead). Plant keys `height_um` (rotary
+//!   `height_urad`), `tau_s` (1 ms … 30 s). Proposed where an axis reverses, at τ of 0.05,
+//!   0.2, 1 and 5 s that the sampling can show (at least half a sample interval).
 //! - **`cyclic`**: a screw (or worm) error periodic in the axis position, `a·sin(2πq/p) +
 //!   b·cos(2πq/p)` (plant keys `sin_um`, `cos_um`, `pitch_mm`; rotary `sin_urad`, `cos_urad`,
 //!   `period_deg`).
@@ -15,8 +39,8 @@
 //!   the corners): the table sagging under an overhanging carriage. Plant keys `axis = "L"`,
 //!   `driver = "K*M"`, `corner_um`.
 //!
-//! Candidates need the right motion in some fitted run: reversals for `reversal` and
-//! `stick-slip`, travel over at least one pitch with 2.5 samples per pitch for `cyclic`,
+//! Candidates need the right motion in some fitted run: reversals for `reversal`,
+//! `lateral-play`, `reversal-spike` and `stick-slip`, travel over at least one pitch with 2.5 samples per pitch for `cyclic`,
 //! motion for `servo-lag`, both driving axes moving for `cross-coupling`.
 
 use super::{axis_aim, moves, number, plant_aim, plant_values, reverses, single_letter, string};
@@ -106,12 +130,175 @@ fn plant_on_axis(
     Ok((Arc::new(e), v))
 }
 
+/// Backlash of axis `a` that changes along its stroke.
+fn reversal_along(view: &SessionView, a: usize) -> Basic {
+    let aim = axis_aim(view, a);
+    let letter = view.axes[a].letter;
+    let mut info = aim.info("reversal", Some(letter.to_string()));
+    info.label = format!("reversal {letter} (along {letter})");
+    Basic::new(
+        info,
+        Feature::ReversalAlong(a),
+        aim.target,
+        aim.words,
+        aim.unit,
+        None,
+    )
+}
+
+/// Whether a backlash along axis `a`'s stroke means something: a linear axis, or a rotary one
+/// with limits short of a turn (on an endless one `û` would jump where the stroke closes).
+fn has_ends(view: &SessionView, a: usize) -> bool {
+    let ax = &view.axes[a];
+    let (lo, hi) = ax.stroke;
+    !ax.rotary || hi - lo < std::f64::consts::TAU - 1e-6
+}
+
 fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
-    unshaped_candidates(view, "reversal", Feature::Reversal, reverses)
+    let mut out = Vec::new();
+    for a in pose_axes(view) {
+        if !reverses(view, a) {
+            continue;
+        }
+        out.push(on_axis(view, a, "reversal", Feature::Reversal(a), None));
+        if has_ends(view, a) {
+            out.push(reversal_along(view, a));
+        }
+    }
+    wrap(out)
 }
 
 fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
-    plant_on_axis(table, view, "reversal", Feature::Reversal, |_| Ok(None))
+    let along = ["backlash_change_um", "backlash_change_urad"]
+        .iter()
+        .any(|k| table.contains_key(*k));
+    if !along {
+        return plant_on_axis(table, view, "reversal", Feature::Reversal, |_| Ok(None));
+    }
+    let a = plant_axis(table, view)?;
+    if !has_ends(view, a) {
+        return Err(PlantError::at(
+            "axis",
+            format!(
+                "`axis = \"{}\"`: a backlash along the stroke needs an axis with ends (linear, or rotary of less than a turn)",
+                view.axes[a].letter
+            ),
+        ));
+    }
+    let e = reversal_along(view, a);
+    let v = plant_values(&e, table, &[])?;
+    Ok((Arc::new(e), v))
+}
+
+/// The linear axes (as targets of translations) when some channel reads the tool pose.
+fn linear_pose_axes(view: &SessionView) -> Vec<usize> {
+    pose_axes(view)
+        .into_iter()
+        .filter(|&a| !view.axes[a].rotary)
+        .collect()
+}
+
+/// Lateral play: axis `a`'s reversal steps the tool along linear axis `b`.
+fn lateral_play(view: &SessionView, a: usize, b: usize) -> Basic {
+    let (la, lb) = (view.axes[a].letter, view.axes[b].letter);
+    let aim = axis_aim(view, b);
+    let info = crate::EffectInfo {
+        class: "lateral-play",
+        axis: Some(la),
+        component: super::straightness_name(lb, la),
+        driver: Some(la.to_string()),
+        label: format!("lateral-play {la} (in {lb})"),
+    };
+    Basic::new(
+        info,
+        Feature::LateralPlay(a),
+        aim.target,
+        format!("{lb} when {la} reverses"),
+        aim.unit,
+        None,
+    )
+}
+
+fn lateral_candidates(view: &SessionView) -> Vec<Candidate> {
+    let linear = linear_pose_axes(view);
+    let mut out = Vec::new();
+    for &a in &linear {
+        if !reverses(view, a) {
+            continue;
+        }
+        for &b in linear.iter().filter(|&&b| b != a) {
+            out.push(lateral_play(view, a, b));
+        }
+    }
+    wrap(out)
+}
+
+fn lateral_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
+    let a = plant_axis(table, view)?;
+    let across = string(table, "across")?.ok_or_else(|| {
+        "a lateral play needs `across = \"Y\"` (the axis the tool steps along)".to_string()
+    })?;
+    let c = single_letter(across)?;
+    let b = view.axis_index(c).ok_or_else(|| {
+        PlantError::at(
+            "across",
+            format!("`across = \"{across}\"`: the machine has no axis {c}"),
+        )
+    })?;
+    for (key, k) in [("axis", a), ("across", b)] {
+        if view.axes[k].rotary {
+            return Err(PlantError::at(
+                key,
+                format!(
+                    "`{key} = \"{}\"`: a lateral play is between two linear axes",
+                    view.axes[k].letter
+                ),
+            ));
+        }
+    }
+    if a == b {
+        return Err(PlantError::at(
+            "across",
+            "`across`: the tool steps across the axis, along another one (the axis' own is a reversal)",
+        ));
+    }
+    let e = lateral_play(view, a, b);
+    let v = plant_values(&e, table, &["across"])?;
+    Ok((Arc::new(e), v))
+}
+
+/// Time constants of a reversal spike tried (s).
+const SPIKE_TAUS: [f64; 4] = [0.05, 0.2, 1.0, 5.0];
+
+fn spike_candidates(view: &SessionView) -> Vec<Candidate> {
+    // A spike faster than half a sample interval has gone before the next sample shows it.
+    let floor = 0.5 * view.median_interval();
+    let mut out = Vec::new();
+    for a in pose_axes(view) {
+        if !reverses(view, a) {
+            continue;
+        }
+        for tau in SPIKE_TAUS.into_iter().filter(|&t| t >= floor) {
+            out.push(on_axis(
+                view,
+                a,
+                "reversal-spike",
+                Feature::ReversalSpike(a),
+                Some(tau),
+            ));
+        }
+    }
+    wrap(out)
+}
+
+fn spike_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
+    plant_on_axis(
+        table,
+        view,
+        "reversal-spike",
+        Feature::ReversalSpike,
+        |_| number(table, "tau_s", 1.0),
+    )
 }
 
 /// Harmonics of a rotary axis' angular positioning error that the error model already
@@ -291,6 +478,24 @@ inventory::submit! {
         about: "backlash: an axis lags by half its lost motion behind the command, flipping with its direction",
         candidates: reversal_candidates,
         plant: Some(reversal_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "lateral-play",
+        about: "a straightness step flipping with an axis' direction: the tool shifts across the axis when it reverses",
+        candidates: lateral_candidates,
+        plant: Some(lateral_plant),
+    }
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "reversal-spike",
+        about: "an axis trailing by a spike after each reversal that decays in time",
+        candidates: spike_candidates,
+        plant: Some(spike_plant),
     }
 }
 

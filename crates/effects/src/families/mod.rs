@@ -12,7 +12,9 @@
 
 mod axis;
 mod instrument;
+mod local;
 pub(crate) mod model;
+mod spindle;
 mod thermal;
 
 use crate::basic::AmplitudeUnit;
@@ -54,6 +56,14 @@ pub(crate) fn positioning_name(letter: char, rotary: bool) -> Option<String> {
     let l = AxisLetter::new(letter)?;
     let d = Direction::from_parts(rotary, l.nominal_cartesian());
     Some(format!("E{}{}", d.letter(), letter))
+}
+
+/// The ISO 230-1 straightness (or, for `across == along`, positioning) component of linear
+/// axis `along` in the direction of linear axis `across` (`EYX`: X's straightness along Y).
+pub(crate) fn straightness_name(across: char, along: char) -> Option<String> {
+    let b = AxisLetter::new(across)?;
+    let d = Direction::from_parts(false, b.nominal_cartesian());
+    Some(format!("E{}{along}", d.letter()))
 }
 
 /// Axis `a` as a target.

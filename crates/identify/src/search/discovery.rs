@@ -9,7 +9,8 @@ use super::fitted::Fitted;
 use super::rank::Ranked;
 use super::step::Stage;
 use crate::K95;
-use crate::findings::{Concealed, Correction, Discovery, DiscoveryParameter};
+use crate::findings::SearchStop;
+use crate::findings::{Concealed, Correction, Discovery, DiscoveryParameter, Remains, Trial};
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_effects::{Candidate, Effect, EffectInfo};
@@ -93,6 +94,14 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
             let u95: Vec<Option<f64>> = (0..fx.params().len())
                 .map(|j| sol.sigma[offset + j].map(|s| K95 * s))
                 .collect();
+            let held: Vec<bool> = (0..fx.params().len())
+                .map(|j| {
+                    study
+                        .changes()
+                        .hold
+                        .contains(&study.param_info(offset + j).name)
+                })
+                .collect();
             let params = fx
                 .params()
                 .iter()
@@ -102,9 +111,19 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                     value: values[j] * p.per_si,
                     unit: p.unit.clone(),
                     u95: u95[j].map(|u| u * p.per_si),
+                    held: held[j],
                 })
                 .collect();
-            (fx.info().clone(), params, fx.describe(&values, &u95))
+            let mut words = fx.describe(&values, &u95);
+            if held.iter().any(|&h| h) {
+                // A held shape has no interval because it was not fitted, not because the
+                // data confuse it with another parameter.
+                words = words.replace(
+                    "(not separable from the fitted parameters)",
+                    "(held: these data do not determine it)",
+                );
+            }
+            (fx.info().clone(), params, words)
         }
         Candidate::Model(m) => {
             let prefix = format!("{}", m.param);
@@ -117,6 +136,7 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                         value: sol.x[i] * info.per_si,
                         unit: info.unit.clone(),
                         u95: sol.sigma[i].map(|s| K95 * s * info.per_si),
+                        held: false,
                     })
                 })
                 .collect();
@@ -379,6 +399,112 @@ fn num(x: f64) -> String {
     if s == "-0" { "0".into() } else { s.to_string() }
 }
 
+/// Structure the final model `id` leaves in its residuals (its mismatch analysis), at most
+/// three places, each with its shape in words and the candidates that came closest (the final
+/// ranking's strongest, with why each was not kept): what remains is reported, not explained
+/// by stacking candidates onto it.
+pub(super) fn remains(
+    id: &Identification,
+    ranking: &[Ranked],
+    steps: &[Vec<Trial>],
+) -> Vec<Remains> {
+    if !id.mismatch.detected {
+        return Vec::new();
+    }
+    let closest: Vec<String> = ranking
+        .iter()
+        .take(3)
+        .map(|r| {
+            let label = r.candidate.label();
+            let tried = steps
+                .iter()
+                .rev()
+                .flat_map(|t| t.iter())
+                .find(|t| t.candidate.starts_with(&label) && !t.accepted);
+            match tried {
+                Some(t) => format!(
+                    "{} [{}]: not kept, {}",
+                    r.name(),
+                    r.candidate.class(),
+                    t.why
+                ),
+                None if r.score.significant => format!(
+                    "{} [{}]: χ² would drop by {:.1}, not refitted",
+                    r.name(),
+                    r.candidate.class(),
+                    r.score.statistic
+                ),
+                None => format!(
+                    "{} [{}]: χ² would drop by {:.1}, not significant (adjusted p = {:.2})",
+                    r.name(),
+                    r.candidate.class(),
+                    r.score.statistic,
+                    r.score.adjusted_p
+                ),
+            }
+        })
+        .collect();
+    id.mismatch
+        .locations
+        .iter()
+        .take(3)
+        .map(|loc| Remains {
+            run: loc.run.clone(),
+            channel: loc.channel.clone(),
+            along: loc.along.clone(),
+            from: loc.from,
+            to: loc.to,
+            share: loc.share,
+            shape: shape_words(loc, &id.tests),
+            closest: closest.clone(),
+        })
+        .collect()
+}
+
+/// The shape of the structure at `loc` in words, from the variable that orders it and the
+/// tests that saw it.
+fn shape_words(loc: &mtcal_mismatch::Location, tests: &[mtcal_mismatch::TestRecord]) -> String {
+    let Some(along) = &loc.along else {
+        return "excess spread evenly over the run: no recorded variable orders it".into();
+    };
+    let span = match (loc.from, loc.to) {
+        (Some(a), Some(b)) if a != b => format!(
+            ", {:.0} % of its excess between {along} = {} and {}",
+            100.0 * loc.share,
+            num(a),
+            num(b)
+        ),
+        _ => String::new(),
+    };
+    if along == "t" {
+        return format!("a change in time{span}");
+    }
+    if let Some(axis) = along.strip_suffix(" direction") {
+        return format!(
+            "a difference between the directions of motion of {axis}: it flips where {axis} \
+             reverses"
+        );
+    }
+    if along.starts_with("T_") || along == "S" {
+        return format!("it follows {along}{span}");
+    }
+    let periodic = tests.iter().find(|t| {
+        t.run == loc.run
+            && t.channel == loc.channel
+            && t.along.as_deref() == Some(along.as_str())
+            && t.test == mtcal_mismatch::TestKind::LombScargle
+            && t.rejected
+    });
+    if let Some(t) = periodic {
+        return format!("periodic along {along} with a period of {}", num(t.detail));
+    }
+    if loc.share > 0.5 && !span.is_empty() {
+        format!("a local shape along {along}{span}")
+    } else {
+        format!("a shape along {along}{span}")
+    }
+}
+
 /// Candidates the data cannot tell from the fitted parameters (more than 99 % absorbed), one per
 /// effect class and target, most absorbed first. A candidate that hides behind an effect of its
 /// own label already fitted (the same drift at another starting τ) is that effect, not a
@@ -390,9 +516,15 @@ pub(super) fn concealed(ranking: &[Ranked]) -> Vec<Concealed> {
         .iter()
         .filter(|r| r.score.absorbed > 0.99 && !r.mimics.is_empty())
         .filter(|r| {
+            // One that hides behind an effect of its own class and target already in the
+            // model (the same drift at another τ, a reversal that also changes along the
+            // stroke) is that effect in another form.
             let own = r.candidate.label();
+            let own_kind = own.split(" (").next().unwrap_or(&own);
             !r.mimics.iter().any(|(n, _)| {
-                n.starts_with(&format!("{own}.")) || n.starts_with(&format!("{own} #"))
+                n.starts_with(&format!("{own}."))
+                    || n.starts_with(&format!("{own} #"))
+                    || n.split(" (").next() == Some(own_kind) && n.contains(").")
             })
         })
         .collect();
@@ -485,9 +617,15 @@ impl Identification {
             return String::new();
         };
         let mut s = String::new();
+        let added = match self.discoveries.len() {
+            0 if report.stopped == SearchStop::BaseNotConverged => String::new(),
+            0 => "nothing added; ".to_string(),
+            1 => "1 effect added; then ".to_string(),
+            n => format!("{n} effects added; then "),
+        };
         let _ = writeln!(
             s,
-            "physics search: {} candidates scored (family-wise α = 5 %); {}",
+            "physics search: {} candidates scored (family-wise α = 5 %); {added}{}",
             report.candidates, report.stopped
         );
         if verbose {
@@ -514,6 +652,29 @@ impl Identification {
                     let _ = writeln!(s, "  {} — {}", d.label, d.explanation);
                 } else {
                     s.push_str(&d.in_brief());
+                }
+            }
+        }
+        if !report.withdrawn.is_empty() {
+            let _ = writeln!(
+                s,
+                "withdrawn (added at a step, not kept by the final model):"
+            );
+            for w in &report.withdrawn {
+                let _ = writeln!(s, "  - {} [{}]: {}", w.candidate, w.effect, w.why);
+            }
+        }
+        if !report.remains.is_empty() {
+            let _ = writeln!(
+                s,
+                "REMAINS UNEXPLAINED (no candidate explains it; nothing is claimed for it):"
+            );
+            for r in report.remains.iter().take(if verbose { 3 } else { 2 }) {
+                let _ = writeln!(s, "  run {}, channel {}: {}", r.run, r.channel, r.shape);
+            }
+            if let Some(first) = report.remains.first() {
+                for c in first.closest.iter().take(if verbose { 3 } else { 2 }) {
+                    let _ = writeln!(s, "    closest: {c}");
                 }
             }
         }

@@ -32,6 +32,30 @@ pub(super) fn with_noise(fitted: Fitted, options: &SearchOptions) -> Result<Fitt
     }
 }
 
+/// The search's fit of `study` from `x0`, `held` parameters kept: run to its optimum (the
+/// search compares χ² to a fraction of a unit, so no fit stops where the χ² has merely
+/// settled); a fit that reaches its iteration limit while it creeps along a direction the data
+/// see only to second order (a rich model's near-null directions) goes on from there until its
+/// χ² has settled, and counts as converged if it then does. Nothing is judged on a fit that
+/// converges neither way.
+pub(super) fn solve(
+    study: &Study,
+    x0: &[f64],
+    options: &SearchOptions,
+    held: &[usize],
+) -> Result<Solution, IdentifyError> {
+    let solution = crate::solve_holding(study, x0, &options.solver, &mut Silent, held)?;
+    if solution.termination != mtcal_solve::Termination::MaxIterations {
+        return Ok(solution);
+    }
+    let settling = mtcal_solve::Options {
+        settle: true,
+        ..options.solver.clone()
+    };
+    let settled = crate::solve_holding(study, &solution.x, &settling, &mut Silent, held)?;
+    Ok(if settled.converged { settled } else { solution })
+}
+
 /// Fits `study` (from `x0` or its own start) and cross-validates it.
 pub(super) fn fit(
     study: Study,
@@ -39,7 +63,7 @@ pub(super) fn fit(
     options: &SearchOptions,
 ) -> Result<Fitted, IdentifyError> {
     let x0 = x0.unwrap_or_else(|| study.initial_x());
-    let solution = crate::solve_from(&study, &x0, &options.solver, &mut Silent)?;
+    let solution = solve(&study, &x0, options, &[])?;
     let id = Identification::new(&study, &solution)?;
     let heldout = heldout(&study, &solution.x, options)?;
     Ok(Fitted {

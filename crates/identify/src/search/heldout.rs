@@ -30,17 +30,126 @@ pub fn heldout(
     options: &SearchOptions,
 ) -> Result<Heldout, IdentifyError> {
     let (folds, assign) = fold_assignment(study, options);
-    let specs = param_specs_from(study, x);
+    let inner = fold_predictions(
+        study,
+        x,
+        options.solver.rank_tolerance,
+        folds,
+        &assign,
+        0..folds,
+        Refit::Everything,
+    )?;
+    let (w, u, c) = inner.iter().fold((0.0, 0.0, 0usize), |(w, u, c), f| {
+        (w + f.whitened, u + f.units, c + f.count)
+    });
+    let forecast = match forecast_assignment(study) {
+        Some((cuts, assign)) => fold_predictions(
+            study,
+            x,
+            options.solver.rank_tolerance,
+            cuts + 1,
+            &assign,
+            1..cuts + 1,
+            Refit::EffectsOnly,
+        )?,
+        None => Vec::new(),
+    };
+    let mean = |f: &FoldPrediction| f.whitened / f.count as f64;
+    let (fw, fc) = forecast
+        .iter()
+        .fold((0.0, 0usize), |(w, c), f| (w + f.whitened, c + f.count));
+    let c = c.max(1) as f64;
+    Ok(Heldout {
+        mean_square: w / c,
+        rms_um: (u / c).sqrt() * 1e6,
+        samples: c as usize,
+        folds: inner.iter().map(mean).collect(),
+        forecast_folds: forecast.iter().map(mean).collect(),
+        forecast_mean_square: (fc > 0).then(|| fw / fc as f64),
+    })
+}
+
+/// What a fold's refit moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Refit {
+    /// Every parameter: the model fitted on the other folds.
+    Everything,
+    /// Only the effects' parameters, the machine and the set-ups kept at the full fit. A
+    /// forecast asks whether the effects' course in time carries on into the later part of the
+    /// session; the geometry it cannot ask about: the earlier part may not see the runs that
+    /// determine some directions at all, and a step along the ones it barely sees would move
+    /// parameters by millimetres.
+    EffectsOnly,
+}
+
+/// One held-out fold's prediction: the sums of squares of its whitened residuals and of its
+/// residuals in the channels' units (SI), and its rows.
+struct FoldPrediction {
+    whitened: f64,
+    units: f64,
+    count: usize,
+}
+
+/// Share of the fitted timeline before the first forecasting cut, and the cuts after it: the
+/// model fitted on the first half predicts the next fifth, on 70 % the next 15 %, on 85 % the
+/// rest.
+const FORECAST_CUTS: [f64; 3] = [0.5, 0.7, 0.85];
+
+/// The forecasting folds of `study` ([`FoldOf::Forecast`]): their number and the assignment;
+/// `None` when the fitted timeline is too short to cut (fewer than 40 samples).
+fn forecast_assignment(study: &Study) -> Option<(usize, FoldOf)> {
+    let mut offsets = vec![0; study.runs.len()];
+    let mut total = 0;
+    for &r in study.view().runs_in_time_order() {
+        if study.runs[r].fit {
+            offsets[r] = total;
+            total += study.runs[r].len();
+        }
+    }
+    if total < 40 {
+        return None;
+    }
+    let cuts: Vec<usize> = FORECAST_CUTS
+        .iter()
+        .map(|&c| (c * total as f64).round() as usize)
+        .collect();
+    Some((cuts.len(), FoldOf::Forecast { offsets, cuts }))
+}
+
+/// Each fold `k` of `wanted` (of `assign`'s `folds`) left out ([`FoldOf::held`]), the model
+/// refitted on the rest by one Gauss–Newton step from `x` (what `refit` says), and the fold's
+/// samples predicted.
+/// Folds without samples are left out of the result.
+fn fold_predictions(
+    study: &Study,
+    x: &[f64],
+    rank_tolerance: f64,
+    folds: usize,
+    assign: &FoldOf,
+    wanted: std::ops::Range<usize>,
+    refit: Refit,
+) -> Result<Vec<FoldPrediction>, IdentifyError> {
+    let mut specs = param_specs_from(study, x);
     let n = study.layout().n_x();
-    let total = fold_sums(study, x, folds, &assign)?;
-    let (mut sum_w, mut sum_u, mut count) = (0.0, 0.0, 0usize);
-    for k in 0..folds {
+    if refit == Refit::EffectsOnly {
+        for spec in &mut specs[..study.layout().effect_offset()] {
+            spec.fixed = true;
+        }
+    }
+    let free = specs.iter().any(|s| !s.fixed);
+    let total = fold_sums(study, x, folds, assign)?;
+    let mut out = Vec::new();
+    for k in wanted {
         if total.count[k] == 0 {
             continue;
         }
-        let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
-        let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
-        let delta = lin.step(options.solver.rank_tolerance)?;
+        let delta = if free {
+            let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
+            let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
+            lin.step(rank_tolerance)?
+        } else {
+            vec![0.0; n]
+        };
         let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
             let mut q = rr;
             for i in 0..n {
@@ -51,24 +160,21 @@ pub fn heldout(
             }
             q.max(0.0)
         };
-        sum_w += quad(
-            &total.a[k * n * n..(k + 1) * n * n],
-            &total.g[k * n..(k + 1) * n],
-            total.rr[k],
-        );
-        sum_u += quad(
-            &total.au[k * n * n..(k + 1) * n * n],
-            &total.gu[k * n..(k + 1) * n],
-            total.rru[k],
-        );
-        count += total.count[k];
+        out.push(FoldPrediction {
+            whitened: quad(
+                &total.a[k * n * n..(k + 1) * n * n],
+                &total.g[k * n..(k + 1) * n],
+                total.rr[k],
+            ),
+            units: quad(
+                &total.au[k * n * n..(k + 1) * n * n],
+                &total.gu[k * n..(k + 1) * n],
+                total.rru[k],
+            ),
+            count: total.count[k],
+        });
     }
-    let c = count.max(1) as f64;
-    Ok(Heldout {
-        mean_square: sum_w / c,
-        rms_um: (sum_u / c).sqrt() * 1e6,
-        samples: count,
-    })
+    Ok(out)
 }
 
 /// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the

@@ -26,6 +26,10 @@ pub struct SearchOptions {
     /// Relative drop of the held-out mean square a candidate must bring (0: any drop; the score
     /// test and the information criterion already ask for evidence).
     pub min_heldout_gain: f64,
+    /// One-sided level of the signed-rank test a held-out gain must pass over the folds
+    /// (the blocks of the cross-validation): the folds that predict better must outweigh
+    /// those that predict worse beyond chance.
+    pub gain_level: f64,
     /// Only candidates of these families (`None`: every registered family).
     pub families: Option<Vec<String>>,
     /// Solver settings of every fit.
@@ -41,9 +45,10 @@ impl Default for SearchOptions {
             alpha: 0.05,
             max_steps: 10,
             tries: 8,
-            folds: 5,
+            folds: 8,
             cross_validation: CrossValidation::BlocksPerRun,
             min_heldout_gain: 0.0,
+            gain_level: 0.2,
             families: None,
             solver: Options::default(),
             cache_bytes: 256 << 20,
@@ -73,7 +78,7 @@ pub enum CrossValidation {
 pub const LOOKALIKE_BIC: f64 = 10.0;
 
 /// `options` with the session's `[identify] heldout` (`"blocks"`, the default; `"runs"`;
-/// `"timeline"`) and `folds` (blocks: 5 per run, 16 of a timeline).
+/// `"timeline"`) and `folds` (blocks: 8 per run, 16 of a timeline).
 pub(super) fn with_session_options(
     study: &Study,
     options: &SearchOptions,

@@ -4,7 +4,7 @@
 //! step kept as a [`Stage`] with its look-alikes (step 3). Uses the ranking, the cross-validation
 //! and the fit helpers; the loop drives it and the discoveries read its stages.
 
-use super::fitted::{Fitted, carry_over};
+use super::fitted::{Fitted, carry_over, solve};
 use super::heldout::{choose_width, heldout};
 use super::rank::{Ranked, rank_with};
 use super::settings::SearchOptions;
@@ -15,7 +15,7 @@ use crate::report::Identification;
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs};
 use mtcal_effects::Candidate;
-use mtcal_solve::{Silent, Solution};
+use mtcal_solve::Solution;
 use std::collections::HashMap;
 
 /// One accepted step.
@@ -37,6 +37,43 @@ pub(super) struct Stage {
     pub(super) after_heldout: Heldout,
     pub(super) after_id: Identification,
     pub(super) after_solution: Solution,
+    /// What the step added to the model, and the names of the parameters it added.
+    pub(super) addition: Addition,
+}
+
+/// What a step adds to the model: an effect (as it sits in the study's changes) or a change
+/// of the error model; and the names of the parameters it adds.
+#[derive(Clone, Debug)]
+pub(super) struct Addition {
+    pub(super) change: AddedChange,
+    pub(super) params: Vec<String>,
+}
+
+#[derive(Clone, Debug)]
+pub(super) enum AddedChange {
+    Effect(std::sync::Arc<dyn mtcal_effects::Effect>),
+    Model(mtcal_effects::ModelChange),
+}
+
+impl Addition {
+    /// `changes` without this addition.
+    pub(super) fn removed_from(&self, changes: &Changes) -> Changes {
+        let mut out = changes.clone();
+        match &self.change {
+            AddedChange::Effect(e) => out.effects.retain(|f| !std::sync::Arc::ptr_eq(f, e)),
+            AddedChange::Model(m) if m.extra_order == 0 => out.estimate.retain(|p| *p != m.param),
+            AddedChange::Model(m) => {
+                if let Some(k) = out
+                    .raise
+                    .iter()
+                    .rposition(|(p, o)| *p == m.param && *o == m.extra_order)
+                {
+                    out.raise.remove(k);
+                }
+            }
+        }
+        out
+    }
 }
 
 impl Stage {
@@ -59,6 +96,23 @@ impl Stage {
 /// tau_s = 120 s`: what stays when the driver and the starting shape are left out.
 fn class_and_target(label: &str) -> &str {
     label.split(" (").next().unwrap_or(label)
+}
+
+/// Whether `a` and `b` are one explanation in two forms (a reversal and a reversal that
+/// changes along the stroke, a drift in time through one thermal node or several): the same
+/// class on the same target following the same driver. Such a pair is not a look-alike: the
+/// data telling them apart or not, the answer is the same.
+pub(super) fn same_explanation(a: &Candidate, b: &Candidate) -> bool {
+    match (a, b) {
+        (Candidate::Effect(x), Candidate::Effect(y)) => {
+            let (x, y) = (x.info(), y.info());
+            x.class == y.class
+                && x.axis == y.axis
+                && x.component == y.component
+                && x.driver == y.driver
+        }
+        _ => a.label() == b.label(),
+    }
 }
 
 /// A look-alike dropped at one stage (it still explained something once the stage's effect was
@@ -181,7 +235,7 @@ pub(super) fn try_candidate(
     if !ladder.is_empty() {
         // A joint model with a ridge prior: fitted at its starting width, the width chosen by
         // cross-validation over whole runs, refitted at it.
-        let first = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+        let first = match solve(&study, &x0, options, &[]) {
             Ok(s) => s,
             Err(e) => {
                 trial.why = format!("the refit failed: {e}");
@@ -204,13 +258,21 @@ pub(super) fn try_candidate(
             }
         }
     }
-    let solution = match crate::solve_from(&study, &x0, &options.solver, &mut Silent) {
+    let solution = match solve(&study, &x0, options, &[]) {
         Ok(s) => s,
         Err(e) => {
             trial.why = format!("the refit failed: {e}");
             return Ok((trial, None));
         }
     };
+    if !solution.converged {
+        // Nothing is claimed on a fit that did not converge: its numbers are a last iterate.
+        trial.why = format!(
+            "the refit did not converge ({:?} after {} iterations)",
+            solution.termination, solution.iterations
+        );
+        return Ok((trial, None));
+    }
     // Refined together, a second thermal node's τ may slide onto the first one's, where the
     // two amplitudes grow without bound in opposite directions: then the earlier effects keep
     // the shapes they were found with and only the new one's is refined.
@@ -227,7 +289,7 @@ pub(super) fn try_candidate(
                         .is_some_and(|p| p.kind == mtcal_effects::ParamKind::Shape)
                 })
                 .collect();
-            match crate::solve_holding(&study, &x0, &options.solver, &mut Silent, &earlier) {
+            match solve(&study, &x0, options, &earlier) {
                 Ok(held) if implausible(current, &study, &held).is_none() => held,
                 _ => solution,
             }
@@ -261,7 +323,15 @@ pub(super) fn try_candidate(
         );
         return Ok((trial, None));
     }
+    if let Err(why) = real_gain(&current.heldout, &held, options.gain_level) {
+        trial.why = format!(
+            "held-out RMS {:.3} → {:.3} µm, but {why}",
+            current.heldout.rms_um, held.rms_um
+        );
+        return Ok((trial, None));
+    }
     trial.accepted = true;
+    let addition = addition_of(current, &study, &ranked.candidate);
     // Kept until the step's winner is chosen: without the lag series of its fit.
     study.clear_view_caches();
     trial.why = format!(
@@ -279,6 +349,7 @@ pub(super) fn try_candidate(
             solution,
             heldout: held,
             added_dof: added,
+            addition,
         }),
     ))
 }
@@ -374,6 +445,102 @@ fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
     dof.max(1.0)
 }
 
+/// Whether the held-out gain of `after` over `before` is real: the folds that predict better
+/// outweigh, beyond chance, those that predict worse (a one-sided Wilcoxon signed-rank test at
+/// `level` on the per-fold changes of the mean square), and the later part of the session is
+/// forecast no worse ([`forecasts_worse`]). A candidate fitted to the noise of
+/// the training folds gains a few nanometres on average and loses as much on some folds; a
+/// drift that does not extrapolate forecasts the stretches after its training worse. A real
+/// effect may gain much more in the folds that hold the runs it shows in than in the others:
+/// the signed ranks ask that the gain is consistent, not that it is even.
+fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result<(), String> {
+    if let Some(why) = forecasts_worse(before, after) {
+        return Err(why);
+    }
+    // The forecasts are judged above on their own: their refit moves the effects alone, so
+    // the model before a candidate forecasts with geometry fitted to those very samples.
+    let d: Vec<f64> = before
+        .folds
+        .iter()
+        .zip(&after.folds)
+        .map(|(b, a)| b - a)
+        .collect();
+    if std::env::var_os("MTCAL_DEBUG_FOLDS").is_some() {
+        eprintln!("fold gains {d:?}");
+    }
+    if d.len() < 3 {
+        return Ok(());
+    }
+    let p = signed_rank_p(&d);
+    if p <= level {
+        return Ok(());
+    }
+    let worse = d.iter().filter(|&&x| x < 0.0).count();
+    Err(format!(
+        "the gain is not consistent over the folds ({worse} of {} predicted worse; signed-rank \
+         p = {p:.3}, {level} needed)",
+        d.len()
+    ))
+}
+
+/// How much worse (relative mean square) a forecast may get before a model is said not to
+/// carry on into the later part of the session: a drift that does not extrapolate gets it
+/// worse by several per cent; a model that merely shifts what the earlier part taught it
+/// within the noise, by a fraction of one.
+pub(super) const FORECAST_TOLERANCE: f64 = 0.01;
+
+/// Why `after` forecasts the later part of the session worse than `before`, if it does by
+/// more than [`FORECAST_TOLERANCE`].
+pub(super) fn forecasts_worse(before: &Heldout, after: &Heldout) -> Option<String> {
+    match (before.forecast_mean_square, after.forecast_mean_square) {
+        (Some(b), Some(a)) if a > b * (1.0 + FORECAST_TOLERANCE) => Some(format!(
+            "it forecasts the later part of the session worse (mean square {b:.4} → {a:.4})"
+        )),
+        _ => None,
+    }
+}
+
+/// One-sided p-value of the Wilcoxon signed-rank test that the values `d` tend to be positive:
+/// the chance that random signs on the same ranks give a positive rank sum at least as large.
+/// Exact (the rank sums of every sign pattern counted, ties given their mean rank); zeros count
+/// as neither.
+pub(super) fn signed_rank_p(d: &[f64]) -> f64 {
+    let mut order: Vec<usize> = (0..d.len()).filter(|&i| d[i] != 0.0).collect();
+    let n = order.len();
+    if n == 0 {
+        return 1.0;
+    }
+    order.sort_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()));
+    // Twice the ranks, so that mean ranks of ties stay whole numbers.
+    let mut rank2 = vec![0usize; n];
+    let mut k = 0;
+    while k < n {
+        let mut e = k + 1;
+        while e < n && d[order[e]].abs() == d[order[k]].abs() {
+            e += 1;
+        }
+        for r in &mut rank2[k..e] {
+            *r = k + e + 1;
+        }
+        k = e;
+    }
+    let observed: usize = (0..n)
+        .filter(|&r| d[order[r]] > 0.0)
+        .map(|r| rank2[r])
+        .sum();
+    let total: usize = rank2.iter().sum();
+    // ways[s]: sign patterns whose positive ranks sum to s (counts as f64: 2^n may be large).
+    let mut ways = vec![0.0f64; total + 1];
+    ways[0] = 1.0;
+    for &r in &rank2 {
+        for s in (r..=total).rev() {
+            ways[s] += ways[s - r];
+        }
+    }
+    let at_least: f64 = ways[observed..].iter().sum();
+    at_least / 2f64.powi(n as i32)
+}
+
 /// A candidate's refit that passed the checks (its report is built only if it wins).
 pub(super) struct Refitted {
     pub(super) study: Study,
@@ -381,6 +548,29 @@ pub(super) struct Refitted {
     pub(super) heldout: Heldout,
     /// The parameters the candidate added, as the information criterion counts them.
     pub(super) added_dof: f64,
+    pub(super) addition: Addition,
+}
+
+/// What `candidate` added to `current`'s model to make `study`.
+fn addition_of(current: &Fitted, study: &Study, candidate: &Candidate) -> Addition {
+    let before: std::collections::HashSet<String> = (0..current.study.layout().n_x())
+        .map(|i| current.study.param_info(i).name)
+        .collect();
+    let params = (0..study.layout().n_x())
+        .map(|i| study.param_info(i).name)
+        .filter(|n| !before.contains(n))
+        .collect();
+    let change = match candidate {
+        Candidate::Effect(_) => AddedChange::Effect(std::sync::Arc::clone(
+            study
+                .changes()
+                .effects
+                .last()
+                .expect("an effect candidate adds an effect"),
+        )),
+        Candidate::Model(m) => AddedChange::Model(m.clone()),
+    };
+    Addition { change, params }
 }
 
 impl Refitted {
@@ -390,5 +580,24 @@ impl Refitted {
     /// get a parameter for free and win over an equal fit.
     pub(super) fn criterion(&self) -> f64 {
         self.solution.chi2 + self.added_dof * (self.solution.n_rows.max(2) as f64).ln()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::signed_rank_p;
+
+    #[test]
+    fn signed_rank_p_values_are_exact() {
+        // Every one of n values positive: only one pattern of 2^n is as extreme.
+        assert!((signed_rank_p(&[1.0, 2.0, 3.0, 4.0, 5.0]) - 1.0 / 32.0).abs() < 1e-15);
+        // All negative: every pattern is at least as large.
+        assert!((signed_rank_p(&[-1.0, -2.0, -3.0]) - 1.0).abs() < 1e-15);
+        // Ranks 1..4, the smallest negative: W+ = 9 of 10; patterns with W+ ≥ 9 are {2,3,4}
+        // and {1,2,3,4}: 2 of 16.
+        assert!((signed_rank_p(&[-0.1, 0.2, 0.3, 0.4]) - 2.0 / 16.0).abs() < 1e-15);
+        // Ties share their mean rank: |d| = 1, 1 → ranks 1.5, 1.5; W+ = 1.5 of 3: patterns
+        // {a}, {b}, {a, b} reach it: 3 of 4.
+        assert!((signed_rank_p(&[1.0, -1.0]) - 0.75).abs() < 1e-15);
     }
 }

@@ -94,6 +94,8 @@ fn run(name: &str, setup: &str, poses: Vec<Vec<f64>>) -> RunPlan {
         validate: false,
         poses,
         labels: Vec::new(),
+        interval_s: None,
+        pause_before_s: None,
     }
 }
 
@@ -1033,4 +1035,423 @@ fn the_twist_translates_the_tool_point_without_turning_it() {
         crate::machine::rotation_of(&pose),
         crate::machine::rotation_of(&nominal)
     );
+}
+
+/// The actual minus commanded position of axis `i` at each sample of one run.
+fn axis_errors(states: &[SampleState<'_>], poses: &[Vec<f64>], i: usize) -> Vec<f64> {
+    states
+        .iter()
+        .zip(poses)
+        .map(|(s, q)| s.axes(q)[i] - q[i])
+        .collect()
+}
+
+/// The tool point's translation from its nominal place (workpiece frame) at each sample, the
+/// truth zero, and whether the orientation stayed nominal.
+fn tool_moves(m: &Machine, states: &[SampleState<'_>], poses: &[Vec<f64>]) -> Vec<Vector3<f64>> {
+    let truth = Truth::zero(m);
+    states
+        .iter()
+        .zip(poses)
+        .map(|(s, q)| {
+            let pose = s.tool_in_workpiece(m, &truth, q);
+            let nominal = m.tool_in_workpiece(q, None);
+            assert!(
+                (crate::machine::rotation_of(&pose) - crate::machine::rotation_of(&nominal)).norm()
+                    < 1e-15
+            );
+            crate::machine::translation_of(&pose) - crate::machine::translation_of(&nominal)
+        })
+        .collect()
+}
+
+fn x_at_m(xs: &[f64]) -> Vec<Vec<f64>> {
+    xs.iter().map(|&x| vec![x, 0.0, -0.2]).collect()
+}
+
+#[test]
+fn worn_lost_motion_widens_along_the_stroke() {
+    // X's stroke −0.4…0.4 m, B = 2 µm at the low end, 6 µm at the high end: B(c) =
+    // 2 + 4·(c + 0.4)/0.8 µm. From below at −0.4 (−B/2 = −1), up to 0 (−2), 0.2 (−2.5), down
+    // to 0.1 (the play taken up: +B(0.1)/2 = +2.25), up to 0.3 (−2.75).
+    let m = simple();
+    let worn = |approach| Effect::LostMotion {
+        axis: 'X',
+        lost_motion_low: 2.0 * UM,
+        lost_motion_high: 6.0 * UM,
+        approach,
+    };
+    let resolved = Resolved::new(&m, &[], &[worn(Approach::Carried)]).unwrap();
+    let poses = x_at_m(&[-0.4, 0.0, 0.2, 0.1, 0.3]);
+    let states = Timeline::new(&resolved).run(&poses, &[0.0; 5]);
+    for (got, want) in axis_errors(&states, &poses, 0)
+        .iter()
+        .zip([-1.0, -2.0, -2.5, 2.25, -2.75])
+    {
+        assert_close(got / UM, want, 1e-9, "worn lost motion (µm)");
+    }
+    // Beyond the stroke the width holds its end value.
+    let states = Timeline::new(&resolved).run(&x_at_m(&[0.5]), &[0.0]);
+    assert_close(
+        states[0].axes(&[0.5, 0.0, -0.2])[0] - 0.5,
+        -3.0 * UM,
+        1e-15,
+        "end",
+    );
+
+    // Random approach: every run starts B/2 short of or beyond its first command, the side a
+    // fair draw per run from the seed's stream; within a run the play is carried.
+    let seed = 17;
+    let resolved = Resolved::new(&m, &[], &[worn(Approach::RandomPerRun { seed })]).unwrap();
+    let mut timeline = Timeline::new(&resolved);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut sides = Vec::new();
+    for _ in 0..24 {
+        let poses = x_at_m(&[0.0, 0.0]);
+        let states = timeline.run(&poses, &[0.0, 1.0]);
+        let below = rng.random_bool(0.5);
+        let want = if below { -2.0 } else { 2.0 };
+        for e in axis_errors(&states, &poses, 0) {
+            assert_close(e / UM, want, 1e-9, "random approach (µm)");
+        }
+        sides.push(below);
+    }
+    assert!(sides.contains(&true) && sides.contains(&false), "{sides:?}");
+}
+
+#[test]
+fn backlash_works_on_a_rotary_axis() {
+    // The trunnion's C with 100 µrad of lost motion: C lags 50 µrad turning up, leads 50 µrad
+    // after turning back. The R-test ball on the table 150 mm off C's line then sits
+    // 0.15 m · 50 µrad = 7.5 µm round the circle from where it would be, in the table's plane.
+    let m = Machine::from_urdf_file(&crate::shipped_machine("mcu630-cafyxz.urdf")).unwrap();
+    let c = m.index('C').unwrap();
+    let b = 100e-6;
+    let effects = [Effect::Backlash {
+        axis: 'C',
+        lost_motion: b,
+    }];
+    let resolved = Resolved::new(&m, &[], &effects).unwrap();
+    let ball = Vector3::new(0.15, 0.0, 0.2);
+    let deg = f64::to_radians;
+    let mut poses = crate::paths::follow_ball(&m, ball, &[('C', 0.0, deg(90.0))], &[], 7).unwrap();
+    poses.extend(
+        crate::paths::follow_ball(&m, ball, &[('C', deg(80.0), deg(20.0))], &[], 5).unwrap(),
+    );
+    let times: Vec<f64> = (0..poses.len()).map(|k| k as f64).collect();
+    let states = Timeline::new(&resolved).run(&poses, &times);
+    for (k, e) in axis_errors(&states, &poses, c).iter().enumerate() {
+        let want = if k < 7 { -0.5 * b } else { 0.5 * b };
+        assert_close(
+            *e,
+            want,
+            1e-15,
+            &format!("C's lost motion at sample {k} (rad)"),
+        );
+    }
+    let rtest = rtest(Mount::BallOnTable, [150.0, 0.0, 200.0]);
+    let truth = Truth::zero(&m);
+    let off = SetupOffsets::default();
+    let with = rtest.readings(&m, &truth, &poses, &[], &off, states.as_slice());
+    let without = rtest.readings(&m, &truth, &poses, &[], &off, &GeometricOnly);
+    for (k, (w, o)) in with.iter().zip(&without).enumerate() {
+        let d = Vector3::new(w[0] - o[0], w[1] - o[1], w[2] - o[2]);
+        assert_close(d.norm() / UM, 7.5, 1e-6, &format!("sample {k} (µm)"));
+        assert!(d.z.abs() < 1e-12, "sample {k}: {d}");
+    }
+    // The planted effect is written in µrad.
+    let text = effects_toml(&m, &effects);
+    assert!(text.contains("lost_motion_urad = 100"), "{text}");
+}
+
+#[test]
+fn lateral_play_crosses_the_clearance_over_its_take_up_travel() {
+    // X's carriage rocks along +Y: +2 µm moving up (play 4 µm), −2 µm moving down, crossing
+    // over 0.5 mm of travel after a reversal as p₀ + (s·play/2 − p₀)·(1 − cos(π·d/take_up))/2.
+    let m = simple();
+    let effects = [Effect::LateralPlay {
+        axis: 'X',
+        across: [0.0, 2.0, 0.0],
+        play: 4.0 * UM,
+        take_up: 0.5e-3,
+    }];
+    let resolved = Resolved::new(&m, &[], &effects).unwrap();
+    let xs = [0.0, 0.01, 0.02, 0.0199, 0.01975, 0.019, 0.0192];
+    let poses = x_at_m(&xs);
+    let states = Timeline::new(&resolved).run(&poses, &[0.0; 7]);
+    let ramp = |d: f64| 0.5 * (1.0 - (std::f64::consts::PI * d / 0.5e-3).cos());
+    let after = 2.0 - 4.0 * ramp(0.1e-3);
+    let turned = -2.0 + (2.0 - -2.0) * ramp(0.2e-3);
+    let want = [2.0, 2.0, 2.0, after, 0.0, -2.0, turned];
+    for (k, (d, w)) in tool_moves(&m, &states, &poses).iter().zip(want).enumerate() {
+        assert_close(d.y / UM, w, 1e-9, &format!("across at sample {k} (µm)"));
+        assert!(d.x.abs() < 1e-15 && d.z.abs() < 1e-15, "{d}");
+    }
+}
+
+#[test]
+fn a_reversal_spike_recovers_critically_damped_in_time() {
+    // X reverses at t = 0.2 s (the turning point 2 mm): from then on it trails by
+    // −s·h·(1 + Δt/T)·e^{−Δt/T}, s = −1, h = 3 µm, T = 50 ms; standing still it still recovers.
+    let m = simple();
+    let (h, t_rec) = (3.0 * UM, 0.05);
+    let effects = [Effect::ReversalSpike {
+        axis: 'X',
+        height: h,
+        recovery_s: t_rec,
+    }];
+    let resolved = Resolved::new(&m, &[], &effects).unwrap();
+    let poses = x_at_m(&[0.0, 1e-3, 2e-3, 1.5e-3, 1e-3, 1e-3]);
+    let times = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5];
+    let states = Timeline::new(&resolved).run(&poses, &times);
+    let spike = |dt: f64| h * (1.0 + dt / t_rec) * (-dt / t_rec).exp();
+    let want = [0.0, 0.0, 0.0, spike(0.1), spike(0.2), spike(0.3)];
+    for (k, (e, w)) in axis_errors(&states, &poses, 0).iter().zip(want).enumerate() {
+        assert_close(e / UM, w / UM, 1e-9, &format!("spike at sample {k} (µm)"));
+    }
+    // 1.218 µm 0.1 s after the reversal.
+    assert_close(want[3] / UM, 9.0 * (-2.0f64).exp(), 1e-12, "by hand");
+}
+
+#[test]
+fn stick_slip_sticks_for_its_height_then_slips_over_its_travel() {
+    // After the reversal at 5 mm (moving down, s = −1; h = 2 µm, λ = 0.2 mm): 1 µm of travel
+    // the carriage still stands (+1 µm), 0.1 mm on it has slipped to
+    // 2·(1 + 0.49)·e^{−0.49} µm, 1 mm on 2·5.99·e^{−4.99} µm; standing changes nothing.
+    let m = simple();
+    let effects = [Effect::StickSlip {
+        axis: 'X',
+        height: 2.0 * UM,
+        slip_travel: 0.2e-3,
+    }];
+    let resolved = Resolved::new(&m, &[], &effects).unwrap();
+    let xs = [0.0, 5e-3, 5e-3 - 1e-6, 4.9e-3, 4e-3, 4e-3];
+    let poses = x_at_m(&xs);
+    let states = Timeline::new(&resolved).run(&poses, &[0.0, 1.0, 2.0, 3.0, 4.0, 100.0]);
+    let slip = |u: f64| 2.0 * (1.0 + u) * (-u).exp();
+    let want = [0.0, 0.0, 1.0, slip(0.49), slip(4.99), slip(4.99)];
+    for (k, (e, w)) in axis_errors(&states, &poses, 0).iter().zip(want).enumerate() {
+        assert_close(e / UM, w, 1e-6, &format!("stick-slip at sample {k} (µm)"));
+    }
+}
+
+#[test]
+fn a_guideway_bump_raises_the_tool_over_its_width() {
+    // A 3 µm raised cosine 40 mm wide centred at X = 0.1 m, displacing the tool along +Z:
+    // 3 at the centre, 1.5 at ±10 mm, 0 beyond ±20 mm.
+    let m = simple();
+    let effects = [Effect::GuidewayBump {
+        axis: 'X',
+        direction: [0.0, 0.0, 5.0],
+        centre: 0.1,
+        width: 0.04,
+        height: 3.0 * UM,
+    }];
+    let resolved = Resolved::new(&m, &[], &effects).unwrap();
+    let poses = x_at_m(&[0.05, 0.09, 0.1, 0.11, 0.125]);
+    let states = Timeline::new(&resolved).run(&poses, &[0.0; 5]);
+    for (d, w) in tool_moves(&m, &states, &poses)
+        .iter()
+        .zip([0.0, 1.5, 3.0, 1.5, 0.0])
+    {
+        assert_close(d.z / UM, w, 1e-9, "bump (µm)");
+        assert!(d.x.abs() < 1e-15 && d.y.abs() < 1e-15, "{d}");
+    }
+}
+
+#[test]
+fn spindle_growth_moves_the_tool_point_out_of_the_spindle_and_turns_with_the_head() {
+    // 10 µm of growth at once (a node of 1 µs switched on at t = 0): on the head-head machine
+    // the tool point moves by −g along the tool's own z, wherever the head points.
+    let m = Machine::from_urdf_file(&crate::shipped_machine("headhead-xyzca.urdf")).unwrap();
+    let g = 10.0 * UM;
+    let growth = Effect::SpindleGrowth {
+        sources: vec![HeatSource {
+            gain: g,
+            tau_s: 1e-6,
+            power: Programme::constant(1.0),
+        }],
+    };
+    let resolved = Resolved::new(&m, &[], std::slice::from_ref(&growth)).unwrap();
+    let deg = f64::to_radians;
+    let poses: Vec<Vec<f64>> = [(0.0, 0.0), (30.0, 0.0), (-45.0, 90.0)]
+        .iter()
+        .map(|&(a, c)| vec![0.1, -0.2, -0.3, deg(a), deg(c)])
+        .collect();
+    let states = Timeline::new(&resolved).run(&poses, &[1.0; 3]);
+    for ((d, q), (a, c)) in tool_moves(&m, &states, &poses).iter().zip(&poses).zip([
+        (0.0, 0.0),
+        (30.0, 0.0),
+        (-45.0, 90.0),
+    ]) {
+        let z_tool = crate::machine::rotation_of(&m.tool_in_workpiece(q, None)) * Vector3::z();
+        assert!((d + z_tool * g).norm() < 1e-15, "A = {a}°, C = {c}°: {d}");
+    }
+    // Tilted 30° about +X, the tool's z is (0, −sin 30°, cos 30°): the point moves
+    // +5 µm along Y and −8.66 µm along Z.
+    let d = tool_moves(&m, &states, &poses)[1];
+    assert_close(d.y / UM, 5.0, 1e-9, "y (µm)");
+    assert_close(d.z / UM, -5.0 * 3f64.sqrt(), 1e-9, "z (µm)");
+    // On a vertical spindle it is the head's growth along −Z ([`Effect::Thermal`]).
+    let q = vec![vec![0.1, 0.05, -0.2]];
+    let thermal = Effect::Thermal {
+        direction: [0.0, 0.0, -1.0],
+        sources: vec![HeatSource {
+            gain: g,
+            tau_s: 1e-6,
+            power: Programme::constant(1.0),
+        }],
+    };
+    let a = read(
+        &[growth],
+        &rtest(Mount::BallInSpindle, [100.0, 50.0, 200.0]),
+        &q,
+        &[1.0],
+    );
+    let b = read(
+        &[thermal],
+        &rtest(Mount::BallInSpindle, [100.0, 50.0, 200.0]),
+        &q,
+        &[1.0],
+    );
+    for (x, y) in a[0].iter().zip(&b[0]) {
+        assert_close(*x, *y, 1e-18, "spindle growth = thermal along −Z");
+    }
+    assert_close(a[0][2] / UM, -10.0, 1e-9, "dz (µm)");
+}
+
+#[test]
+fn the_new_effects_are_written_down_and_checked() {
+    let m = simple();
+    let text = effects_toml(
+        &m,
+        &[
+            Effect::LostMotion {
+                axis: 'X',
+                lost_motion_low: 2e-6,
+                lost_motion_high: 6e-6,
+                approach: Approach::RandomPerRun { seed: 5 },
+            },
+            Effect::LateralPlay {
+                axis: 'Y',
+                across: [1.0, 0.0, 0.0],
+                play: 3e-6,
+                take_up: 5e-4,
+            },
+            Effect::ReversalSpike {
+                axis: 'X',
+                height: 2e-6,
+                recovery_s: 0.03,
+            },
+            Effect::StickSlip {
+                axis: 'Y',
+                height: 1e-6,
+                slip_travel: 2e-4,
+            },
+            Effect::GuidewayBump {
+                axis: 'Z',
+                direction: [1.0, 0.0, 0.0],
+                centre: -0.2,
+                width: 0.05,
+                height: 2e-6,
+            },
+            Effect::SpindleGrowth {
+                sources: vec![HeatSource {
+                    gain: 8e-6,
+                    tau_s: 600.0,
+                    power: Programme::constant(1.0),
+                }],
+            },
+        ],
+    );
+    let t: toml::Table = text.parse().unwrap();
+    let list = t["effect"].as_array().unwrap();
+    let kinds: Vec<&str> = list.iter().map(|e| e["kind"].as_str().unwrap()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "lost-motion",
+            "lateral-play",
+            "reversal-spike",
+            "stick-slip",
+            "guideway-bump",
+            "spindle-growth"
+        ]
+    );
+    assert_close(
+        list[0]["lost_motion_high_um"].as_float().unwrap(),
+        6.0,
+        1e-9,
+        "B",
+    );
+    assert_eq!(list[0]["approach"].as_str(), Some("random-per-run"));
+    assert_close(
+        list[1]["take_up_mm"].as_float().unwrap(),
+        0.5,
+        1e-12,
+        "take-up",
+    );
+    assert_close(list[2]["recovery_ms"].as_float().unwrap(), 30.0, 1e-9, "T");
+    assert_close(list[4]["width_mm"].as_float().unwrap(), 50.0, 1e-9, "width");
+    assert_close(
+        list[5]["source"][0]["gain_um"].as_float().unwrap(),
+        8.0,
+        1e-9,
+        "g",
+    );
+
+    let y_rotary = Machine::from_urdf_text(&SIMPLE.replacen(
+        r#"<joint name="Y" type="prismatic">"#,
+        r#"<joint name="Y" type="revolute">"#,
+        1,
+    ))
+    .unwrap();
+    let cases: Vec<(&Machine, Effect, &str)> = vec![
+        (
+            &y_rotary,
+            Effect::GuidewayBump {
+                axis: 'Y',
+                direction: [0.0, 0.0, 1.0],
+                centre: 0.0,
+                width: 0.01,
+                height: 1e-6,
+            },
+            "a guideway bump needs a linear axis Y",
+        ),
+        (
+            &m,
+            Effect::LateralPlay {
+                axis: 'X',
+                across: [0.0; 3],
+                play: 1e-6,
+                take_up: 1e-3,
+            },
+            "across [0.0, 0.0, 0.0] is not a direction",
+        ),
+        (
+            &m,
+            Effect::ReversalSpike {
+                axis: 'X',
+                height: 1e-6,
+                recovery_s: 0.0,
+            },
+            "recovery_s = 0: expected a positive number",
+        ),
+        (
+            &m,
+            Effect::LostMotion {
+                axis: 'X',
+                lost_motion_low: -1e-6,
+                lost_motion_high: 1e-6,
+                approach: Approach::Carried,
+            },
+            "lost_motion_low = -0.000001",
+        ),
+    ];
+    for (machine, effect, want) in cases {
+        let err = Resolved::new(machine, &[], &[effect])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(want), "{err:?} lacks {want:?}");
+    }
 }

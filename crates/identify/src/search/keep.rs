@@ -1,0 +1,259 @@
+//! What the final model keeps ([`keep_what_holds`]): every step was judged on the model of its
+//! own moment; once the search ends, each added effect must still be a determined, physical
+//! effect of the final fit, and the final model must predict held-out data no worse than the
+//! fit before the search. What fails is withdrawn (reported, never a discovery). Uses the
+//! cross-validation, the fit helpers and the steps; the loop calls it before the discoveries
+//! are written.
+
+use super::fitted::{Fitted, carry_over, fit};
+use super::settings::SearchOptions;
+use super::step::{Addition, Stage, forecasts_worse};
+use crate::findings::{Heldout, SearchReport, Withdrawn};
+use crate::study::{Changes, Study};
+use crate::{IdentifyError, K95, param_specs};
+use mtcal_solve::Solution;
+use std::collections::HashMap;
+
+/// Withdraws, latest first, every stage whose parameters the final fit does not determine
+/// ([`undetermined`]), then — while the model predicts held-out data (blocks or forecasts)
+/// worse than the model before the search, refitted on the same noise — the latest stage.
+/// Returns the model that remains.
+pub(super) fn keep_what_holds(
+    mut current: Fitted,
+    stages: &mut Vec<Stage>,
+    initial_changes: &Changes,
+    options: &SearchOptions,
+    report: &mut SearchReport,
+) -> Result<Fitted, IdentifyError> {
+    let mut changed = false;
+    let mut tried_holding: Vec<usize> = Vec::new();
+    while let Some((k, failure)) = stages.iter().enumerate().rev().find_map(|(k, s)| {
+        undetermined(&current.study, &current.solution, &s.addition.params).map(|w| (k, w))
+    }) {
+        // A shape (τ, a pitch) the data do not determine, while the effect's size is: the
+        // effect stays with its shape held where the fit left it — a stated assumption, not a
+        // fitted number — if its amplitudes are then determined.
+        if let Failure::Shape(_) = &failure
+            && !tried_holding.contains(&k)
+        {
+            tried_holding.push(k);
+            current = holding_shapes(current, &stages[k].addition, options)?;
+            changed = true;
+            continue;
+        }
+        let stage = stages.remove(k);
+        tried_holding.retain(|&j| j != k);
+        for j in &mut tried_holding {
+            if *j > k {
+                *j -= 1;
+            }
+        }
+        report.withdrawn.push(withdrawn(&stage, failure.why()));
+        current = without(current, &stage.addition, options)?;
+        changed = true;
+    }
+    if !stages.is_empty() {
+        let before = before_the_search(&current, initial_changes, options)?;
+        while !stages.is_empty()
+            && let Some(why) = worse(&current.heldout, &before.heldout)
+        {
+            let stage = stages.pop().expect("a stage to withdraw");
+            report.withdrawn.push(withdrawn(&stage, why));
+            current = without(current, &stage.addition, options)?;
+            changed = true;
+        }
+        if stages.is_empty() {
+            current = before;
+        }
+    }
+    if changed {
+        current = super::fitted::with_noise(current, options)?;
+    }
+    Ok(current)
+}
+
+fn withdrawn(stage: &Stage, why: String) -> Withdrawn {
+    Withdrawn {
+        candidate: stage.ranked.name(),
+        effect: stage.ranked.candidate.class().to_string(),
+        why,
+    }
+}
+
+/// `current` with the shape parameters of `addition` held at their fitted values, refitted
+/// on the same noise.
+fn holding_shapes(
+    current: Fitted,
+    addition: &Addition,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let specs = param_specs(&current.study);
+    let mut changes = current.study.changes().clone();
+    for spec in &specs {
+        if spec.bounds.is_some() && addition.params.contains(&spec.name) {
+            changes.hold.push(spec.name.clone());
+        }
+    }
+    let study = current.study.rebuild(changes)?;
+    let x0 = carry_over(&current.study, &current.solution.x, &study);
+    fit(study, Some(x0), options)
+}
+
+/// `current` without `addition`, refitted on the same noise.
+fn without(
+    current: Fitted,
+    addition: &Addition,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let study = current
+        .study
+        .rebuild(addition.removed_from(current.study.changes()))?;
+    let x0 = carry_over(&current.study, &current.solution.x, &study);
+    fit(study, Some(x0), options)
+}
+
+/// The model before the search (`initial_changes`) refitted on `current`'s noise, so that the
+/// two predict held-out data on one metric.
+fn before_the_search(
+    current: &Fitted,
+    initial_changes: &Changes,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let mut changes = initial_changes.clone();
+    changes.noise = current.study.changes().noise.clone();
+    let study = current.study.rebuild(changes)?;
+    let x0 = carry_over(&current.study, &current.solution.x, &study);
+    fit(study, Some(x0), options)
+}
+
+/// Why `after` predicts held-out data worse than `before`, if it does: the blocks' mean square
+/// larger, or the forecasts' by more than their tolerance ([`forecasts_worse`]).
+fn worse(after: &Heldout, before: &Heldout) -> Option<String> {
+    if after.mean_square > before.mean_square {
+        return Some(format!(
+            "the final model predicts held-out data worse than the fit before the search \
+             (mean square {:.4} against {:.4}, RMS {:.3} against {:.3} µm)",
+            after.mean_square, before.mean_square, after.rms_um, before.rms_um
+        ));
+    }
+    forecasts_worse(before, after)
+        .map(|why| format!("with the final model {why} than before the search"))
+}
+
+/// Why the parameters `names` (one effect's or model change's) are not a determined, physical
+/// effect of the fit `solution` of `study`, if they are not: a parameter the fit cannot
+/// separate; a shape (τ, pitch, decay) whose 95 % interval is as wide as its value; an
+/// amplitude beyond its plausible range or with an interval wider than it; or every amplitude
+/// within its 95 % interval of zero (a joint model whose columns each are: nothing is shown).
+pub(super) fn undetermined(
+    study: &Study,
+    solution: &Solution,
+    names: &[String],
+) -> Option<Failure> {
+    let specs = param_specs(study);
+    let index: HashMap<String, usize> = (0..study.layout().n_x())
+        .map(|i| (study.param_info(i).name, i))
+        .collect();
+    let mut amplitudes = Vec::new();
+    let held = &study.changes().hold;
+    for name in names {
+        let Some(&i) = index.get(name) else { continue };
+        if specs[i].bounds.is_some() && held.contains(name) {
+            continue;
+        }
+        let info = study.param_info(i);
+        let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
+        let value = solution.x[i];
+        let Some(sigma) = solution.sigma[i].filter(|_| solution.identified[i]) else {
+            let why = format!("the final fit cannot separate {name} from the other parameters");
+            return Some(if specs[i].bounds.is_some() {
+                Failure::Shape(why)
+            } else {
+                Failure::Other(why)
+            });
+        };
+        let u95 = K95 * sigma;
+        if specs[i].bounds.is_some() {
+            if u95 >= value.abs() {
+                return Some(Failure::Shape(format!(
+                    "the final fit does not determine {name} = {} ± {}",
+                    show(value),
+                    show(u95)
+                )));
+            }
+            continue;
+        }
+        amplitudes.push(i);
+        if let Some(range) = specs[i].scale {
+            if value.abs() > range {
+                return Some(Failure::Other(format!(
+                    "the final fit puts {name} at {}, beyond its plausible range of ±{}",
+                    show(value),
+                    show(range)
+                )));
+            }
+            if u95 > range {
+                return Some(Failure::Other(format!(
+                    "{name} = {} ± {} in the final fit: an interval wider than its plausible \
+                     range of ±{}",
+                    show(value),
+                    show(u95),
+                    show(range)
+                )));
+            }
+        }
+    }
+    let (statistic, limit) = wald(solution, &amplitudes)?;
+    (statistic <= limit).then(|| {
+        Failure::Other(if amplitudes.len() == 1 {
+            "its amplitude is within its 95 % interval of zero in the final fit".to_string()
+        } else {
+            format!(
+                "its {} amplitudes together are within their 95 % region of zero in the final \
+                 fit (Wald χ² {statistic:.1}, {limit:.1} needed)",
+                amplitudes.len()
+            )
+        })
+    })
+}
+
+/// Why an effect is not a determined, physical effect of a fit.
+pub(super) enum Failure {
+    /// A shape parameter (τ, a pitch, a decay) the fit does not determine.
+    Shape(String),
+    /// Anything else: an amplitude not separable, implausible or not shown.
+    Other(String),
+}
+
+impl Failure {
+    fn why(self) -> String {
+        match self {
+            Failure::Shape(w) | Failure::Other(w) => w,
+        }
+    }
+}
+
+/// The Wald statistic of the parameters `idx` against zero, `xᵀC⁺x` in the fit's covariance
+/// (the columns of a joint model are correlated: each may be within its interval of zero
+/// while together they are far from it), and its 95 % limit (χ² with the covariance's rank as
+/// degrees of freedom). `None` without parameters.
+fn wald(solution: &Solution, idx: &[usize]) -> Option<(f64, f64)> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    if idx.is_empty() {
+        return None;
+    }
+    let k = idx.len();
+    let c = nalgebra::DMatrix::from_fn(k, k, |a, b| solution.cov(idx[a], idx[b]));
+    let x = nalgebra::DVector::from_iterator(k, idx.iter().map(|&i| solution.x[i]));
+    let svd = c.svd(true, true);
+    let top = svd.singular_values.max();
+    let rank = svd
+        .singular_values
+        .iter()
+        .filter(|&&s| s > 1e-12 * top)
+        .count();
+    let pinv = svd.pseudo_inverse(1e-12 * top).ok()?;
+    let statistic = (x.transpose() * pinv * &x)[(0, 0)];
+    let limit = ChiSquared::new(rank.max(1) as f64).ok()?.inverse_cdf(0.95);
+    Some((statistic, limit))
+}
