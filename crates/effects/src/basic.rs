@@ -604,12 +604,16 @@ fn bump(sigma: f64) -> (f64, f64) {
     }
 }
 
-/// How much of a transient after a reversal the feature holds at sample `i` of run `r`:
-/// 1 after a reversal within the run, ½ on the run's first motion, 0 before it; with the
-/// direction.
+/// How much of a transient after a reversal the feature holds at sample `i` of run `r`: the
+/// direction after a reversal within the run's own motion, 0 before one. Whether the axis
+/// turned where the run starts depends on the approach, which the file does not hold: a
+/// transient there is not claimed (it would explain the guess's error, not a machine).
 fn after_reversal(view: &SessionView, r: usize, a: usize, i: usize) -> f64 {
-    let s = f64::from(view.direction(r, a, i));
-    if view.reversed(r, a, i) { s } else { 0.5 * s }
+    if view.reversed_within(r, a, i) {
+        f64::from(view.direction(r, a, i))
+    } else {
+        0.0
+    }
 }
 
 impl Basic {

@@ -291,6 +291,12 @@ impl AxisMotion {
         self.reversals_to(i) > 0
     }
 
+    /// Whether the axis reversed within the run's own motion at or before sample `i`: after
+    /// its first motion (a reversal at the first motion is the guessed arrival's).
+    pub fn reversed_within(&self, i: usize) -> bool {
+        self.reversals_to(i) > self.reversals_to(self.first_motion)
+    }
+
     /// The sample the travel at sample `i` counts from: the turning point of the last
     /// reversal; on the run's first motion, the last sample before it (where the axis stood);
     /// before any motion, `i` itself.
@@ -547,6 +553,12 @@ impl SessionView {
     /// the run ([`AxisMotion::reversed`]).
     pub fn reversed(&self, r: usize, a: usize, i: usize) -> bool {
         self.motion[r][a].reversed(i)
+    }
+
+    /// Whether axis `a` reversed within run `r`'s own motion at or before sample `i`
+    /// ([`AxisMotion::reversed_within`]).
+    pub fn reversed_within(&self, r: usize, a: usize, i: usize) -> bool {
+        self.motion[r][a].reversed_within(i)
     }
 
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).

@@ -229,7 +229,6 @@ fn shape_derivatives_equal_differences() {
         "effect = \"cyclic\"\naxis = \"C\"\nsin_urad = 1.0\ncos_urad = 0.3\nperiod_deg = 40.0",
         "effect = \"stick-slip\"\naxis = \"X\"\nheight_um = 1.0\ndecay_mm = 3.0",
         "effect = \"reversal-spike\"\naxis = \"X\"\nheight_um = 1.0\ntau_s = 7.0",
-        "effect = \"reversal-spike\"\naxis = \"C\"\nheight_urad = 1.0\ntau_s = 25.0",
         "effect = \"local-error\"\naxis = \"X\"\namplitude_um = 1.5\ncentre_mm = 21.0\nhalf_width_mm = 37.0",
         "effect = \"spindle-growth\"\namplitude_um = 3.0\ntau_s = 120.0",
         "effect = \"spindle-growth\"\ndriver = \"S\"\ngain_um_per_krpm = 1.0\ntau_s = 60.0",

@@ -223,10 +223,10 @@ fn lateral_play_steps_the_tool_across_the_reversing_axis() {
 }
 
 #[test]
-fn transients_after_a_reversal_and_on_a_runs_first_motion() {
+fn transients_follow_reversals_within_a_run_only() {
     let v = view(true, true, false);
-    // Reversal spike, τ = 2 s: X first moves at sample 2 (from where it stood at t = 1 s),
-    // half a spike (whether it turned there is unknown); it reverses at sample 5, leaving the
+    // Reversal spike, τ = 2 s: X first moves at sample 2 (from where it stood at t = 1 s): no
+    // spike (whether it turned there is unknown); it reverses at sample 5, leaving the
     // turning point (sample 4, t = 4 s) downwards: a full spike, decaying in time while the
     // axis moves on and stands.
     let spike = on_axis(
@@ -238,9 +238,9 @@ fn transients_after_a_reversal_and_on_a_runs_first_motion() {
     let expected = [
         0.0,
         0.0,
-        0.5 * e(1.0),
-        0.5 * e(2.0),
-        0.5 * e(3.0),
+        0.0,
+        0.0,
+        0.0,
         -e(1.0),
         -e(2.0),
         -e(3.0),
@@ -249,9 +249,9 @@ fn transients_after_a_reversal_and_on_a_runs_first_motion() {
         -e(6.0),
     ];
     assert_close(&spike, &expected, "reversal-spike X");
-    // Stick-slip decays with travel (λ = 10 mm) from the first motion (a run whose approach
-    // is unknown starts its transient there) and from each reversal; it stops decaying while
-    // the axis stands.
+    // Stick-slip decays with travel (λ = 10 mm) from the first motion (a run whose approach is
+    // unknown starts its transient there) and from each reversal; it stops decaying while the
+    // axis stands.
     let stick = on_axis(
         &v,
         "effect = \"stick-slip\"\naxis = \"X\"\nheight_um = 1.0\ndecay_mm = 10.0",

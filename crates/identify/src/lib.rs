@@ -204,7 +204,6 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
                 bounds: effect.and_then(|d| d.bounds),
                 group: (!info.machine && effect.is_none()).then(|| "set-up".to_string()),
                 scale: Some(scale),
-                ..ParamSpec::default()
             }
         })
         .collect()

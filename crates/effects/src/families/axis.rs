@@ -39,11 +39,17 @@
 //!   the corners): the table sagging under an overhanging carriage. Plant keys `axis = "L"`,
 //!   `driver = "K*M"`, `corner_um`.
 //!
-//! Candidates need the right motion in some fitted run: reversals for `reversal`,
-//! `lateral-play`, `reversal-spike` and `stick-slip`, travel over at least one pitch with 2.5 samples per pitch for `cyclic`,
+//! Candidates need the right motion in some fitted run: motion both ways for `reversal` (a
+//! reversal within a run, or runs that move the axis one way and others the other: a rotary
+//! axis turned forward in one run and back in the next), reversals within a run for the form
+//! along the stroke, `lateral-play`, `reversal-spike` and `stick-slip`, travel over at least
+//! one pitch with 2.5 samples per pitch for `cyclic`,
 //! motion for `servo-lag`, both driving axes moving for `cross-coupling`.
 
-use super::{axis_aim, moves, number, plant_aim, plant_values, reverses, single_letter, string};
+use super::{
+    axis_aim, moves, moves_both_ways, number, plant_aim, plant_values, reverses, single_letter,
+    string,
+};
 use crate::basic::{Basic, Feature};
 use crate::view::SessionView;
 use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
@@ -157,11 +163,11 @@ fn has_ends(view: &SessionView, a: usize) -> bool {
 fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
     for a in pose_axes(view) {
-        if !reverses(view, a) {
+        if !moves_both_ways(view, a) {
             continue;
         }
         out.push(on_axis(view, a, "reversal", Feature::Reversal(a), None));
-        if has_ends(view, a) {
+        if reverses(view, a) && has_ends(view, a) {
             out.push(reversal_along(view, a));
         }
     }

@@ -175,6 +175,24 @@ pub(crate) fn reverses(view: &SessionView, a: usize) -> bool {
     (0..view.runs.len()).any(|r| view.runs[r].fit && view.motion(r, a).reverses)
 }
 
+/// Whether axis `a` moves both ways in the fitted runs: it reverses within one, or some runs
+/// move it one way and others the other (a rotary axis turned forward in one run and back in
+/// the next: its backlash is a constant of each run, flipping with the run's direction).
+pub(crate) fn moves_both_ways(view: &SessionView, a: usize) -> bool {
+    if reverses(view, a) {
+        return true;
+    }
+    let mut seen = [false; 2];
+    for r in (0..view.runs.len()).filter(|&r| view.runs[r].fit && !view.runs[r].is_empty()) {
+        match view.direction(r, a, view.runs[r].len() - 1) {
+            1 => seen[0] = true,
+            -1 => seen[1] = true,
+            _ => {}
+        }
+    }
+    seen[0] && seen[1]
+}
+
 /// Whether axis `a` moves in some fitted run.
 pub(crate) fn moves(view: &SessionView, a: usize) -> bool {
     (0..view.runs.len()).any(|r| view.runs[r].fit && view.motion(r, a).moves)
