@@ -7,7 +7,7 @@
 
 use super::fitted::{Fitted, carry_over, fit};
 use super::settings::SearchOptions;
-use super::step::{Addition, Stage, forecasts_worse};
+use super::step::{Addition, Stage, forecasts_worse, real_gain};
 use crate::findings::{SearchReport, Withdrawn};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, K95, param_specs};
@@ -15,7 +15,8 @@ use mtcal_solve::Solution;
 use std::collections::HashMap;
 
 /// Withdraws, latest first, every stage whose parameters the final fit does not determine
-/// ([`undetermined`]), then — while the model predicts held-out data (blocks, forecasts:
+/// ([`undetermined`]), then every one the model predicts held-out data as well without
+/// (latest first, the step's test the other way round), then — while the model predicts held-out data (blocks, forecasts:
 /// [`worse`]) worse than the model before the search, refitted on the same noise — the latest
 /// stage.
 /// Returns the model that remains.
@@ -52,6 +53,27 @@ pub(super) fn keep_what_holds(
         report.withdrawn.push(withdrawn(&stage, failure.why()));
         current = without(current, &stage.addition, options)?;
         changed = true;
+    }
+    // Each effect must earn its place in the final model, not only at its step: one that a
+    // later step made redundant (the same structure explained again), or that only predicts
+    // better beside another, is withdrawn when the model without it predicts held-out data as
+    // well (the step's own test, the other way round).
+    if stages.len() >= 2 {
+        let mut k = stages.len();
+        while k > 0 {
+            k -= 1;
+            let reduced = refit_without(&current, &stages[k].addition, options)?;
+            if let Err(why) = real_gain(&reduced.heldout, &current.heldout, options.gain_level) {
+                let stage = stages.remove(k);
+                report.withdrawn.push(withdrawn(
+                    &stage,
+                    format!("in the final model {why}: the others explain what it did"),
+                ));
+                current = reduced;
+                changed = true;
+                k = k.min(stages.len());
+            }
+        }
     }
     if !stages.is_empty() {
         let before = before_the_search(&current, initial_changes, options)?;
@@ -103,6 +125,15 @@ fn holding_shapes(
 /// `current` without `addition`, refitted on the same noise.
 fn without(
     current: Fitted,
+    addition: &Addition,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    refit_without(&current, addition, options)
+}
+
+/// [`without`], `current` kept.
+fn refit_without(
+    current: &Fitted,
     addition: &Addition,
     options: &SearchOptions,
 ) -> Result<Fitted, IdentifyError> {

@@ -453,7 +453,7 @@ fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
 /// drift that does not extrapolate forecasts the stretches after its training worse. A real
 /// effect may gain much more in the folds that hold the runs it shows in than in the others:
 /// the signed ranks ask that the gain is consistent, not that it is even.
-fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result<(), String> {
+pub(super) fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result<(), String> {
     if let Some(why) = forecasts_worse(before, after) {
         return Err(why);
     }
