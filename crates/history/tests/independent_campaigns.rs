@@ -123,13 +123,7 @@ fn series(rate_um_per_day: f64, series: u64) -> (Vec<Measured>, TrendView) {
 /// The session as a user has it: the machine's URDF beside it (without the error-model file of
 /// the shipped one), and the eleven errors named in `[identify] parameters`.
 fn as_a_user_has_it(dir: &Path) {
-    let manifest = dir.join("session.toml");
-    let text = std::fs::read_to_string(&manifest).unwrap();
-    let line = text.lines().find(|l| l.starts_with("machine")).unwrap();
-    let urdf = line.split('"').nth(1).unwrap();
-    std::fs::copy(dir.join(urdf), dir.join("machine.urdf")).unwrap();
-    let named = format!("machine = \"machine.urdf\"\n\n[identify]\nparameters = {ELEVEN:?}");
-    std::fs::write(&manifest, text.replace(line, &named)).unwrap();
+    mtcal_testkit::sessions::as_a_user_has_it(dir, Some(&format!("{ELEVEN:?}")));
 }
 
 /// The counts of `n` trials that an event of probability `p` gives with probability 99 %: the

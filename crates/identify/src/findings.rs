@@ -151,15 +151,10 @@ pub struct Withdrawn {
 /// Structure the final model leaves in the residuals.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Remains {
-    pub run: String,
-    pub channel: String,
-    /// The variable it is ordered by (`t`, an axis position, `X direction`, a context column);
-    /// `null` when only its size shows.
-    pub along: Option<String>,
-    pub from: Option<f64>,
-    pub to: Option<f64>,
-    /// Share of the run-channel's excess χ² inside the span.
-    pub share: f64,
+    /// Where it is, as in `mismatch.where`: run, channel, the variable it is ordered by (`t`,
+    /// an axis position, `X direction`, a context column), the span and its share.
+    #[serde(flatten)]
+    pub location: mtcal_mismatch::Location,
     /// Its shape in words (a slow change in time, a local shape along X, periodic along Y
     /// with a period of 12 mm, flipping with the direction of X…).
     pub shape: String,

@@ -23,6 +23,7 @@ use mtcal_identify::{Study, base, predict_run};
 use mtcal_indsim::effects::{Effect, HeatSource, Programme, TemperatureProgramme};
 use mtcal_indsim::{Campaign, JointKind, Machine, Realism, Truth, Written, shipped_machine};
 use mtcal_solve::Options;
+use mtcal_testkit::sessions::parallel;
 use rand::SeedableRng;
 use std::path::Path;
 
@@ -440,27 +441,14 @@ fn truth(layout: Layout, seed: u64) -> (Machine, Truth) {
 }
 
 /// The session as a user has it: the machine's URDF beside it without its `.errors.toml`, and
-/// `[identify] parameters` only for [`Model::Eleven`].
+/// `[identify] parameters` only for [`Model::Eleven`] and [`Model::Family`].
 fn as_a_user_has_it(dir: &Path, model: Model) {
-    let manifest = dir.join("session.toml");
-    let text = std::fs::read_to_string(&manifest).unwrap();
-    let line = text.lines().find(|l| l.starts_with("machine")).unwrap();
-    let rel = line.split('"').nth(1).unwrap();
-    std::fs::copy(dir.join(rel), dir.join("machine.urdf")).unwrap();
-    let mut text = text.replace(line, "machine = \"machine.urdf\"");
     let list = match model {
         Model::Full => None,
         Model::Eleven => Some(ELEVEN),
         Model::Family => Some(FAMILY),
     };
-    if let Some(list) = list {
-        text = text.replacen(
-            "machine = \"machine.urdf\"\n",
-            &format!("machine = \"machine.urdf\"\n\n[identify]\nparameters = {list}\n"),
-            1,
-        );
-    }
-    std::fs::write(&manifest, text).unwrap();
+    mtcal_testkit::sessions::as_a_user_has_it(dir, list);
 }
 
 /// What a case came to.
@@ -631,33 +619,6 @@ fn outcome(case: &Case, written: &Written, realism: &Realism, result: &SearchRes
         inside: case.named.is_empty() && !case.effects.is_empty(),
         summary: id.search_summary(),
     }
-}
-
-/// Runs `f` over `items` on up to four threads, results in order.
-fn parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let out: std::sync::Mutex<Vec<Option<R>>> =
-        std::sync::Mutex::new((0..items.len()).map(|_| None).collect());
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(4);
-    std::thread::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(item) = items.get(k) else { return };
-                    let r = f(item);
-                    out.lock().unwrap()[k] = Some(r);
-                }
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap()
-        .into_iter()
-        .map(|r| r.expect("every item run"))
-        .collect()
 }
 
 /// Seeds of the truth and the noise each case is run with.

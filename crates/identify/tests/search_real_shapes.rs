@@ -29,6 +29,7 @@ use mtcal_indsim::{
     shipped_machine,
 };
 use mtcal_solve::Options;
+use mtcal_testkit::sessions::{as_a_user_has_it, parallel};
 use rand::SeedableRng;
 use std::path::Path;
 
@@ -284,17 +285,6 @@ fn realism(seed: u64) -> Realism {
     }
 }
 
-/// The session as a user has it: the machine's URDF beside it without its `.errors.toml`.
-fn as_a_user_has_it(dir: &Path) {
-    let manifest = dir.join("session.toml");
-    let text = std::fs::read_to_string(&manifest).unwrap();
-    let line = text.lines().find(|l| l.starts_with("machine")).unwrap();
-    let rel = line.split('"').nth(1).unwrap();
-    std::fs::copy(dir.join(rel), dir.join("machine.urdf")).unwrap();
-    let text = text.replace(line, "machine = \"machine.urdf\"");
-    std::fs::write(&manifest, text).unwrap();
-}
-
 fn matches(d: &Discovery, n: &Named) -> bool {
     let on = |class: &str, fields: [&Option<String>; 3]| {
         class == n.class && fields.iter().any(|f| f.as_deref() == Some(n.on.as_str()))
@@ -337,7 +327,7 @@ fn run_case(case: &Case) -> Outcome {
     let effects: Vec<Effect> = planted.iter().map(|p| p.0.clone()).collect();
     let realism = realism(case.seed);
     let written = case.layout.write(&dir, &truth, &effects, &realism);
-    as_a_user_has_it(&dir);
+    as_a_user_has_it(&dir, None);
     let (study, base) =
         base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
     let mut result = search(study, &Default::default()).unwrap();
@@ -465,33 +455,6 @@ fn intervals(result: &SearchResult, machine: &Machine, truth: &Truth) -> Vec<(St
     alone.chain(combined).collect()
 }
 
-/// Runs `f` over `items` on up to four threads, results in order.
-fn parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let out: std::sync::Mutex<Vec<Option<R>>> =
-        std::sync::Mutex::new((0..items.len()).map(|_| None).collect());
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(4);
-    std::thread::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(item) = items.get(k) else { return };
-                    let r = f(item);
-                    out.lock().unwrap()[k] = Some(r);
-                }
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap()
-        .into_iter()
-        .map(|r| r.expect("every item run"))
-        .collect()
-}
-
 #[test]
 fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     let only = std::env::var("CASES").ok();
@@ -585,7 +548,7 @@ fn clean_sessions_of_five_machines_rarely_raise_a_claim() {
             ..realism(seed)
         };
         layout.write(&dir, &truth, &[], &realism);
-        as_a_user_has_it(&dir);
+        as_a_user_has_it(&dir, None);
         let (study, _) =
             base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
         let result = search(study, &Default::default()).unwrap();

@@ -2,8 +2,9 @@
 //! repository, its shipped files and the shared real recordings are ([`repo`],
 //! [`machine_file`], [`shared_data`]), the five-axis example's
 //! eleven errors and its truth ([`params`]), the simulation plans several identification tests
-//! fit ([`plans`]), seeded generators that need no crate ([`random`]) and the command line run
-//! in the repository ([`cli`]).
+//! fit ([`plans`]), seeded generators that need no crate ([`random`]), the command line run
+//! in the repository ([`cli`]), and a session put as a user has it with work run on a few
+//! threads ([`sessions`]).
 //!
 //! Only text, paths and numbers: the kit depends on no mtcal crate, so any crate's tests can use
 //! it, and it is only ever a dev-dependency (`tests/architecture.rs` checks both).
@@ -12,6 +13,7 @@ pub mod cli;
 pub mod params;
 pub mod plans;
 pub mod random;
+pub mod sessions;
 
 use std::path::{Path, PathBuf};
 

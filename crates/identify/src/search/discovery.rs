@@ -449,12 +449,7 @@ pub(super) fn remains(
         .iter()
         .take(3)
         .map(|loc| Remains {
-            run: loc.run.clone(),
-            channel: loc.channel.clone(),
-            along: loc.along.clone(),
-            from: loc.from,
-            to: loc.to,
-            share: loc.share,
+            location: loc.clone(),
             shape: shape_words(loc, &id.tests),
             closest: closest.clone(),
         })
@@ -670,7 +665,11 @@ impl Identification {
                 "REMAINS UNEXPLAINED (no candidate explains it; nothing is claimed for it):"
             );
             for r in report.remains.iter().take(if verbose { 3 } else { 2 }) {
-                let _ = writeln!(s, "  run {}, channel {}: {}", r.run, r.channel, r.shape);
+                let _ = writeln!(
+                    s,
+                    "  run {}, channel {}: {}",
+                    r.location.run, r.location.channel, r.shape
+                );
             }
             if let Some(first) = report.remains.first() {
                 for c in first.closest.iter().take(if verbose { 3 } else { 2 }) {
