@@ -179,6 +179,7 @@ impl Bank {
                 // A column contributing a millimetre is not a thermal effect.
                 scale: 1e-3 / s,
                 prior: Some(self.width / s),
+                nuisance: false,
             })
             .collect();
     }

@@ -84,6 +84,9 @@ pub struct Basic {
     /// Whether every term carries the same feature (one amplitude acting on several
     /// targets: [`Basic::shared`]).
     shared: bool,
+    /// The axis and its stretches of unknown state ([`Basic::with_start_states`]): one
+    /// nuisance term each, after the feature's own terms.
+    start_states: Option<(usize, Vec<usize>)>,
 }
 
 /// The unit of an amplitude on a target, and its factor from SI.
@@ -134,6 +137,7 @@ impl Basic {
             initial: 0.0,
             bounds: None,
             prior: None,
+            nuisance: false,
         };
         let shape_def = |name: &str, unit: &str, per_si: f64, lo: f64, hi: f64| ParamDef {
             name: name.to_string(),
@@ -144,6 +148,7 @@ impl Basic {
             bounds: Some((lo, hi)),
             scale: shape.unwrap_or(1.0).abs().max(lo),
             prior: None,
+            nuisance: false,
         };
         let u = &unit.unit;
         let k = unit.per_si;
@@ -249,6 +254,7 @@ impl Basic {
             feature,
             target_words,
             shared: false,
+            start_states: None,
         }
     }
 
@@ -307,7 +313,53 @@ impl Basic {
     pub fn feature(&self) -> &Feature {
         &self.feature
     }
+
+    /// A direction-driven effect ([`Feature::Reversal`], [`Feature::ReversalAlong`],
+    /// [`Feature::LateralPlay`]) of axis `a` with the axis' state fitted where the side it
+    /// arrived from is unknown: one nuisance amplitude per stretch of unknown state that holds
+    /// at least [`START_STATE_SAMPLES`] fitted samples ([`SessionView::start_segments`]), named
+    /// `start_<run>_<unit>` after the run it begins in. The feature reads 0 there (the mean of
+    /// the two sides); the term adds `−½·c` (`c` between `−B` and `B`: the side the approach,
+    /// not in the file, left the axis on). A session's first run recorded with the axis
+    /// standing still would otherwise carry the difference as a drift.
+    pub fn with_start_states(mut self, view: &SessionView, a: usize) -> Self {
+        assert!(
+            !self.shared
+                && matches!(
+                    self.feature,
+                    Feature::Reversal(_) | Feature::ReversalAlong(_) | Feature::LateralPlay(_)
+                ),
+            "start states belong to a direction-driven effect"
+        );
+        let segments: Vec<_> = view
+            .start_segments(a)
+            .into_iter()
+            .filter(|s| s.fitted_samples >= START_STATE_SAMPLES)
+            .collect();
+        if segments.is_empty() {
+            return self;
+        }
+        let target = self.terms[0].target.clone();
+        let template = self.params[self.terms[0].amplitude].clone();
+        for s in &segments {
+            self.terms.push(Term {
+                amplitude: self.params.len(),
+                target: target.clone(),
+            });
+            self.params.push(ParamDef {
+                name: format!("start_{}_{}", s.first_run, template.unit),
+                nuisance: true,
+                ..template.clone()
+            });
+        }
+        self.start_states = Some((a, segments.iter().map(|s| s.id).collect()));
+        self
+    }
 }
+
+/// The fewest fitted samples a stretch of unknown state needs to be given its own state
+/// ([`Basic::with_start_states`]): a run's first sample alone says too little.
+pub const START_STATE_SAMPLES: usize = 5;
 
 /// A shape parameter's start, box (SI) and plausible size ([`Basic::with_shapes`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -362,6 +414,10 @@ impl Effect for Basic {
             lag,
             input,
             setup_start,
+            start_states: self.start_states.clone().map(|(a, ids)| {
+                let first = self.terms.len() - ids.len();
+                (a, first, ids)
+            }),
         })
     }
 
@@ -655,6 +711,8 @@ struct BasicFeatures {
     lag: Option<Arc<crate::lag::LagSeries>>,
     input: Option<Arc<Vec<f64>>>,
     setup_start: f64,
+    /// The axis, the first start-state term and the stretches' ids.
+    start_states: Option<(usize, usize, Vec<usize>)>,
 }
 
 impl Features for BasicFeatures {
@@ -767,6 +825,12 @@ impl Features for BasicFeatures {
                 let q = from_mid(view, r, i, *a);
                 f[0] = lag.y[k] * q;
                 df[0] = lag.dy_dtau[k] * q;
+            }
+        }
+        if let Some((a, first, ids)) = &self.start_states {
+            let here = view.start_segment(r, *a, i);
+            for (k, id) in ids.iter().enumerate() {
+                f[first + k] = if here == Some(*id) { -0.5 } else { 0.0 };
             }
         }
         // A shared effect: every term carries the first term's feature.

@@ -99,6 +99,10 @@ pub struct ParamDef {
     /// A zero-mean Gaussian prior's standard deviation (SI), for effects fitted with a ridge
     /// ([`bank::Bank`]); `None`: no prior.
     pub prior: Option<f64>,
+    /// A nuisance amplitude: fitted with the effect but not part of what it claims (an axis'
+    /// state where the side it arrived from is unknown, [`basic::Basic::with_start_states`]).
+    /// The data need not determine it, and a discovery does not report it as a number.
+    pub nuisance: bool,
 }
 
 /// How an effect is named in reports and in FORMATS.md `discoveries`.

@@ -81,6 +81,16 @@ impl SetupView {
 }
 
 impl AxisView {
+    /// Whether a positioning move of `delta` between two recorded positions could have gone
+    /// either way round: on an axis that turns without limit, a move of half a turn or more
+    /// (a control that unwinds goes by `delta`, one that takes the short way the other way).
+    /// A tilt axis within its limits, a linear axis, and a move shorter than half a turn go
+    /// one way only.
+    pub fn turns_either_way(&self, delta: f64) -> bool {
+        let unlimited = self.stroke.1 - self.stroke.0 >= std::f64::consts::TAU - 1e-6;
+        self.rotary && unlimited && delta.abs() >= std::f64::consts::PI - 1e-6
+    }
+
     /// Every axis of `machine`, in its axis order.
     pub fn of_machine(machine: &mtcal_kinematics::Machine) -> Vec<AxisView> {
         machine
@@ -234,15 +244,20 @@ impl Input {
 /// A run's file holds no approach move, so the side an axis arrived from is a guess: a linear
 /// axis is taken to have come straight from where the previous run (in time) left it (the
 /// controller's positioning move between two runs), or — if it did not move between them — to
-/// keep the direction it last moved in. A rotary axis may have gone either way round between
-/// runs (a controller unwinds or takes the short way), and the session's first run has no
-/// previous one: there the direction is 0 (unknown: the mean of the two sides, a backlash
-/// `±B/2` reads 0) until the axis first moves. Where the guess is wrong the run's first samples
+/// keep the direction it last moved in. A rotary axis that turns without limit may have gone
+/// either way round for a move of half a turn or more (a controller unwinds or takes the short
+/// way: [`AxisView::turns_either_way`]), and the session's first run has no previous one:
+/// there the direction is 0 (unknown: the mean of the two sides, a backlash `±B/2` reads 0)
+/// until the axis first moves. Where the guess is wrong the run's first samples
 /// carry the difference, which the residuals show.
 #[derive(Clone, Debug, Default)]
 pub struct AxisMotion {
     /// The side the axis arrived from ±1 (0: unknown; see above).
     arrived: i8,
+    /// When the side is unknown: the stretch of unknown state the run's samples before its
+    /// first motion belong to ([`SessionView::start_segment`]). Consecutive runs the axis does
+    /// not move in, or between, share one: the axis keeps its state.
+    start_segment: Option<usize>,
     /// Direction of the axis' first motion in the run, ±1 (0 if it never moves).
     first_direction: i8,
     /// The sample of the first step (`step_direction` ≠ 0); the run's length if it never
@@ -307,6 +322,17 @@ impl AxisMotion {
             k => self.reversals[k - 1].saturating_sub(1),
         }
     }
+}
+
+/// A stretch of an axis' unknown state: from a run it arrived at from an unknown side to its
+/// first motion ([`SessionView::start_segments`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StartSegment {
+    pub id: usize,
+    /// The run (its name) the stretch begins in.
+    pub first_run: String,
+    /// Samples of fitted runs in it.
+    pub fitted_samples: usize,
 }
 
 /// Every sample's time in timeline order (runs in time order; [`SessionView::timeline_index`]),
@@ -521,6 +547,38 @@ impl SessionView {
         self.motion[r][a].direction(i)
     }
 
+    /// The stretch of unknown state sample `i` of run `r` is in for axis `a`: before the
+    /// axis' first motion in a run it arrived at from an unknown side ([`AxisMotion`]).
+    pub fn start_segment(&self, r: usize, a: usize, i: usize) -> Option<usize> {
+        let m = &self.motion[r][a];
+        m.start_segment.filter(|_| i < m.first_motion)
+    }
+
+    /// Axis `a`'s stretches of unknown state, in time order: their ids
+    /// ([`SessionView::start_segment`]), the run each begins in, and how many fitted samples
+    /// each holds.
+    pub fn start_segments(&self, a: usize) -> Vec<StartSegment> {
+        let mut out: Vec<StartSegment> = Vec::new();
+        for &r in &self.order {
+            let m = &self.motion[r][a];
+            let Some(id) = m.start_segment else { continue };
+            let fitted = if self.runs[r].fit {
+                m.first_motion.min(self.runs[r].len())
+            } else {
+                0
+            };
+            match out.iter_mut().find(|s| s.id == id) {
+                Some(s) => s.fitted_samples += fitted,
+                None => out.push(StartSegment {
+                    id,
+                    first_run: self.runs[r].name.clone(),
+                    fitted_samples: fitted,
+                }),
+            }
+        }
+        out
+    }
+
     /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences
     /// (one-sided at the run's ends; 0 where no time passes).
     pub fn velocity(&self, r: usize, a: usize, i: usize) -> f64 {
@@ -694,11 +752,15 @@ impl SessionView {
 
 /// Every run's motion of every axis. Each run's linear axes arrive in the state the previous
 /// run (in time) left them in ([`AxisMotion`]: the guess about the approach the file does not
-/// hold); rotary axes and the session's first run arrive from an unknown side.
+/// hold); the session's first run, and a rotary axis after a move that may have gone either
+/// way round, arrive from an unknown side.
 fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<AxisMotion>> {
     let na = axes.len();
     let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
     let mut last_direction: Vec<i8> = vec![0; na];
+    // The stretch of unknown state each axis is in (until it moves), and how many there are.
+    let mut segment: Vec<Option<usize>> = vec![None; na];
+    let mut segments = 0;
     // The previous run (in time) and its last sample.
     let mut last: Option<(usize, usize)> = None;
     for &r in order {
@@ -711,9 +773,12 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
             .map(|a| {
                 let first = run.q.get(0, a);
                 let arrived = match last.map(|(p, i)| runs[p].q.get(i, a)) {
-                    _ if axes[a].rotary => 0,
                     Some(prev) if (first - prev).abs() > STANDING => {
-                        if first > prev {
+                        if axes[a].turns_either_way(first - prev) {
+                            // Either way round: a new stretch of unknown state.
+                            segment[a] = None;
+                            0
+                        } else if first > prev {
                             1
                         } else {
                             -1
@@ -721,13 +786,21 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
                     }
                     _ => last_direction[a],
                 };
-                axis_motion(run.q.column(a), arrived)
+                let mut m = axis_motion(run.q.column(a), arrived);
+                if arrived == 0 {
+                    m.start_segment = Some(*segment[a].get_or_insert_with(|| {
+                        segments += 1;
+                        segments - 1
+                    }));
+                }
+                m
             })
             .collect();
         for (a, d) in last_direction.iter_mut().enumerate() {
             let end = motion[r][a].direction(run.len() - 1);
             if end != 0 {
                 *d = end;
+                segment[a] = None;
             }
         }
         last = Some((r, run.len() - 1));
@@ -787,6 +860,7 @@ fn axis_motion(q: &Column, arrived: i8) -> AxisMotion {
     });
     AxisMotion {
         arrived,
+        start_segment: None,
         first_direction,
         first_motion,
         reverses: !reversals.is_empty(),

@@ -8,6 +8,12 @@
 //! (`stick-slip`, `reversal-spike`) counts half on the run's first motion (the turn may have
 //! been where the run starts, or not) and in full after a reversal within the run.
 //!
+//! Where the side is unknown over a stretch of fitted samples (the session's first run
+//! recorded with the axis standing, a turn that may have gone either way round), a
+//! `reversal` or `lateral-play` candidate fits the axis' state there as a nuisance amplitude
+//! per stretch (`start_<run>_um`; [`Basic::with_start_states`]): not a claim, the approach the
+//! file does not hold.
+//!
 //! - **`reversal`**: the axis lags by half its backlash `B` behind the commanded position in
 //!   the direction it last moved, `±B/2` (plant key `backlash_um`; rotary `backlash_urad`).
 //!   With lost motion that changes along the stroke (a worn screw, a load that grows towards
@@ -166,9 +172,11 @@ fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
         if !moves_both_ways(view, a) {
             continue;
         }
-        out.push(on_axis(view, a, "reversal", Feature::Reversal(a), None));
+        out.push(
+            on_axis(view, a, "reversal", Feature::Reversal(a), None).with_start_states(view, a),
+        );
         if reverses(view, a) && has_ends(view, a) {
-            out.push(reversal_along(view, a));
+            out.push(reversal_along(view, a).with_start_states(view, a));
         }
     }
     wrap(out)
@@ -233,7 +241,7 @@ fn lateral_candidates(view: &SessionView) -> Vec<Candidate> {
             continue;
         }
         for &b in linear.iter().filter(|&&b| b != a) {
-            out.push(lateral_play(view, a, b));
+            out.push(lateral_play(view, a, b).with_start_states(view, a));
         }
     }
     wrap(out)

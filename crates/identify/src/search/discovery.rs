@@ -102,10 +102,12 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                         .contains(&study.param_info(offset + j).name)
                 })
                 .collect();
+            // The axis' states where its approach is unknown are fitted, not claimed.
             let params = fx
                 .params()
                 .iter()
                 .enumerate()
+                .filter(|(_, p)| !p.nuisance)
                 .map(|(j, p)| DiscoveryParameter {
                     name: p.name.clone(),
                     value: values[j] * p.per_si,
@@ -115,6 +117,13 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                 })
                 .collect();
             let mut words = fx.describe(&values, &u95);
+            let states = fx.params().iter().filter(|p| p.nuisance).count();
+            if states > 0 {
+                words.push_str(&format!(
+                    " (the axis' state fitted over {states} stretch{} where the side it arrived                      from is not in the files)",
+                    if states == 1 { "" } else { "es" }
+                ));
+            }
             if held.iter().any(|&h| h) {
                 // A held shape has no interval because it was not fitted, not because the
                 // data confuse it with another parameter.

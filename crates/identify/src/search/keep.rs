@@ -195,7 +195,8 @@ pub(super) fn undetermined(
     let held = &study.changes().hold;
     for name in names {
         let Some(&i) = index.get(name) else { continue };
-        if specs[i].bounds.is_some() && held.contains(name) {
+        let nuisance = study.effect_param(i).is_some_and(|p| p.nuisance);
+        if nuisance || (specs[i].bounds.is_some() && held.contains(name)) {
             continue;
         }
         let info = study.param_info(i);

@@ -367,7 +367,9 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         .collect();
     for (i, spec) in specs.iter().enumerate() {
         let Some(range) = spec.scale else { continue };
-        if !solution.identified[i] {
+        // An axis' state where its approach is unknown is not a claim: the data need not
+        // determine it.
+        if !solution.identified[i] || study.effect_param(i).is_some_and(|p| p.nuisance) {
             continue;
         }
         if let Some((lo, hi)) = spec.bounds {
