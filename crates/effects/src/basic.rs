@@ -37,6 +37,11 @@ pub enum Feature {
     /// `−½·s` of axis `a` (as [`Feature::Reversal`]) acting on another axis: a straightness
     /// step that flips with `a`'s direction (lateral play of the carriage in its guides).
     LateralPlay(usize),
+    /// [`Feature::LateralPlay`] taken up over travel: after a reversal the carriage crosses
+    /// its clearance as the axis travels, `−½·s·(1 − 2·e^{−d/λ})` (`d` the travel since the
+    /// turning point: from the old flank at `d = 0` towards the new one); before the axis
+    /// reverses in a run, on the flank of its direction. Shape: λ (m).
+    LateralTakeUp(usize),
     /// `w·s·exp(−Δt/τ)` of axis `a`: direction `s` (±1) and time `Δt` since the axis left its
     /// last turning point; `w = 1` after a reversal within the run, `½` on the run's first
     /// motion (whether the axis turned where the run starts is unknown: the mean of a spike
@@ -179,6 +184,11 @@ impl Basic {
                 amp(&format!("backlash_change_{u}"), u.clone(), k),
             ],
             Feature::LateralPlay(_) => vec![amp(&format!("play_{u}"), u.clone(), k)],
+            Feature::LateralTakeUp(_) => vec![
+                amp(&format!("play_{u}"), u.clone(), k),
+                // Beyond a few centimetres the carriage never settles on a flank: not play.
+                shape_def("take_up_mm", "mm", 1e3, 1e-6, 0.02),
+            ],
             Feature::ReversalSpike(_) => {
                 // Beyond half a minute a decay in time is a reversal error held over the next
                 // stretch of the path, the simpler explanation.
@@ -327,7 +337,10 @@ impl Basic {
             !self.shared
                 && matches!(
                     self.feature,
-                    Feature::Reversal(_) | Feature::ReversalAlong(_) | Feature::LateralPlay(_)
+                    Feature::Reversal(_)
+                        | Feature::ReversalAlong(_)
+                        | Feature::LateralPlay(_)
+                        | Feature::LateralTakeUp(_)
                 ),
             "start states belong to a direction-driven effect"
         );
@@ -532,6 +545,11 @@ impl Effect for Basic {
             Feature::LateralPlay(_) => format!(
                 "a lateral play: {target}, a step of {} that flips with the direction of motion",
                 p(0)
+            ),
+            Feature::LateralTakeUp(_) => format!(
+                "a lateral play: {target}, a step of {} that flips with the direction of motion, taken up over {} of travel",
+                p(0),
+                p(1)
             ),
             Feature::ReversalSpike(_) => format!(
                 "a reversal spike of {target}: {} after each reversal, decaying in time with τ = {}",
@@ -762,6 +780,19 @@ impl Features for BasicFeatures {
             }
             Feature::Reversal(a) | Feature::LateralPlay(a) => {
                 f[0] = -0.5 * f64::from(view.direction(r, *a, i));
+            }
+            Feature::LateralTakeUp(a) => {
+                let s = -0.5 * f64::from(view.direction(r, *a, i));
+                if view.reversed(r, *a, i) {
+                    let d = view.travel(r, *a, i);
+                    let lambda = self.shape;
+                    let e = (-d / lambda).exp();
+                    f[0] = s * (1.0 - 2.0 * e);
+                    df[0] = -2.0 * s * e * d / (lambda * lambda);
+                } else {
+                    f[0] = s;
+                    df[0] = 0.0;
+                }
             }
             Feature::ReversalAlong(a) => {
                 let (lo, hi) = view.axes[*a].stroke;

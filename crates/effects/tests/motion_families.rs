@@ -414,16 +414,21 @@ fn motion_families_propose_where_the_axes_move_and_reverse() {
     };
     assert_eq!(c.params()[0].name, "backlash_urad");
     assert_eq!(c.params()[0].unit, "urad");
-    // Lateral play of the reversing linear axes across every other linear one.
+    // Lateral play of the reversing linear axes across every other linear one, as a step and
+    // taken up over travel.
     let mut lateral = labels(&all, "lateral-play");
     lateral.sort();
     assert_eq!(
         lateral,
         [
             "lateral-play X (in Y)",
+            "lateral-play X (in Y, taken up)",
             "lateral-play X (in Z)",
+            "lateral-play X (in Z, taken up)",
             "lateral-play Y (in X)",
+            "lateral-play Y (in X, taken up)",
             "lateral-play Y (in Z)",
+            "lateral-play Y (in Z, taken up)",
         ]
     );
     // Spikes at 1 and 5 s (samples a second apart: 0.05 and 0.2 s are gone before the next

@@ -129,7 +129,7 @@ gain_ppm = 30000.0
 "#;
 
 /// The shapes of real machines beyond those (lost motion changing along the stroke, lateral
-/// play, a reversal spike decaying in time, a local bump of a straightness, the spindle growing
+/// play as a step and taken up over travel, a reversal spike decaying in time, a local bump of a straightness, the spindle growing
 /// every set-up's tool length in time and with speed): their columns against differences.
 const SHAPES: &str = r#"
 [[effect]]
@@ -142,6 +142,12 @@ effect = "lateral-play"
 axis = "X"
 across = "Z"
 play_um = 2.0
+[[effect]]
+effect = "lateral-play"
+axis = "Y"
+across = "X"
+play_um = 1.5
+take_up_mm = 4.0
 [[effect]]
 effect = "reversal-spike"
 axis = "Y"
@@ -205,7 +211,7 @@ fn effect_columns_equal_finite_differences() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
     let (effects, values) = effects_of(&loaded, &format!("{EFFECTS}{SHAPES}"));
-    assert_eq!(effects.len(), 17);
+    assert_eq!(effects.len(), 18);
     let study = loaded
         .rebuild(Changes {
             effects,

@@ -27,7 +27,10 @@
 //!   `−½·s_A·P` on `B`, `P` the step between the two directions; component the straightness
 //!   `E<B><A>` (`EYX`), label `lateral-play X (in Y)`. Plant keys `axis = "X"` (the axis whose
 //!   reversal drives it), `across = "Y"`, `play_um`. Proposed for every linear axis that
-//!   reverses in a fitted run and every other linear axis.
+//!   reverses in a fitted run and every other linear axis. The carriage may cross its
+//!   clearance over some travel rather than at once: `−½·s·P·(1 − 2·e^{−d/λ})` after a
+//!   reversal, `d` the travel since the turning point (label `lateral-play X (in Y, taken
+//!   up)`, plant key `take_up_mm`), proposed beside the step.
 //! - **`reversal-spike`**: after a reversal the axis trails by a spike that decays in time,
 //!   `h·s·exp(−Δt/τ)` with `Δt` the time since it left the turning point (a friction or servo
 //!   transient; `stick-slip` decays with travel instead). Plant keys `height_um` (rotary
@@ -212,8 +215,9 @@ fn linear_pose_axes(view: &SessionView) -> Vec<usize> {
         .collect()
 }
 
-/// Lateral play: axis `a`'s reversal steps the tool along linear axis `b`.
-fn lateral_play(view: &SessionView, a: usize, b: usize) -> Basic {
+/// Lateral play: axis `a`'s reversal steps the tool along linear axis `b`; taken up over
+/// `take_up` of travel (m) if given, a step otherwise.
+fn lateral_play(view: &SessionView, a: usize, b: usize, take_up: Option<f64>) -> Basic {
     let (la, lb) = (view.axes[a].letter, view.axes[b].letter);
     let aim = axis_aim(view, b);
     let info = crate::EffectInfo {
@@ -221,17 +225,26 @@ fn lateral_play(view: &SessionView, a: usize, b: usize) -> Basic {
         axis: Some(la),
         component: super::straightness_name(lb, la),
         driver: Some(la.to_string()),
-        label: format!("lateral-play {la} (in {lb})"),
+        label: match take_up {
+            None => format!("lateral-play {la} (in {lb})"),
+            Some(_) => format!("lateral-play {la} (in {lb}, taken up)"),
+        },
     };
     Basic::new(
         info,
-        Feature::LateralPlay(a),
+        match take_up {
+            None => Feature::LateralPlay(a),
+            Some(_) => Feature::LateralTakeUp(a),
+        },
         aim.target,
         format!("{lb} when {la} reverses"),
         aim.unit,
-        None,
+        take_up,
     )
 }
+
+/// The travel over which a lateral play's take-up is first tried (m): the refit finds its own.
+const TAKE_UP_START_M: f64 = 1e-3;
 
 fn lateral_candidates(view: &SessionView) -> Vec<Candidate> {
     let linear = linear_pose_axes(view);
@@ -241,7 +254,8 @@ fn lateral_candidates(view: &SessionView) -> Vec<Candidate> {
             continue;
         }
         for &b in linear.iter().filter(|&&b| b != a) {
-            out.push(lateral_play(view, a, b).with_start_states(view, a));
+            out.push(lateral_play(view, a, b, None).with_start_states(view, a));
+            out.push(lateral_play(view, a, b, Some(TAKE_UP_START_M)).with_start_states(view, a));
         }
     }
     wrap(out)
@@ -276,7 +290,8 @@ fn lateral_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Pla
             "`across`: the tool steps across the axis, along another one (the axis' own is a reversal)",
         ));
     }
-    let e = lateral_play(view, a, b);
+    let take_up = number(table, "take_up_mm", 1e3)?;
+    let e = lateral_play(view, a, b, take_up);
     let v = plant_values(&e, table, &["across"])?;
     Ok((Arc::new(e), v))
 }
