@@ -89,8 +89,8 @@ pub struct Basic {
     /// Whether every term carries the same feature (one amplitude acting on several
     /// targets: [`Basic::shared`]).
     shared: bool,
-    /// The axis and its stretches of unknown state ([`Basic::with_start_states`]): one
-    /// nuisance term each, after the feature's own terms.
+    /// The axis and the runs whose start state is fitted ([`Basic::with_start_states`]): one
+    /// nuisance shape each, after the feature's own shapes.
     start_states: Option<(usize, Vec<usize>)>,
 }
 
@@ -325,13 +325,14 @@ impl Basic {
     }
 
     /// A direction-driven effect ([`Feature::Reversal`], [`Feature::ReversalAlong`],
-    /// [`Feature::LateralPlay`]) of axis `a` with the axis' state fitted where the side it
-    /// arrived from is unknown: one nuisance amplitude per stretch of unknown state that holds
-    /// at least [`START_STATE_SAMPLES`] fitted samples ([`SessionView::start_segments`]), named
-    /// `start_<run>_<unit>` after the run it begins in. The feature reads 0 there (the mean of
-    /// the two sides); the term adds `−½·c` (`c` between `−B` and `B`: the side the approach,
-    /// not in the file, left the axis on). A session's first run recorded with the axis
-    /// standing still would otherwise carry the difference as a drift.
+    /// [`Feature::LateralPlay`], [`Feature::LateralTakeUp`]) of axis `a` with the axis' state
+    /// before its first motion fitted in every run it arrived at from an unknown side, where
+    /// that decides at least [`START_STATE_SAMPLES`] fitted samples
+    /// ([`SessionView::start_states`]): the approach move is not in the file. One nuisance
+    /// shape `u` per run, `start_<run>` between −1 and 1, starting from 0 (the mean of the
+    /// two sides): the feature reads `−½·u` there (the direction's `−½·s` for a side `u` of
+    /// the play). Without it a session whose first run is recorded with the axis standing
+    /// carries `±B/2` there as a drift or a set-up error.
     pub fn with_start_states(mut self, view: &SessionView, a: usize) -> Self {
         assert!(
             !self.shared
@@ -344,34 +345,30 @@ impl Basic {
                 ),
             "start states belong to a direction-driven effect"
         );
-        let segments: Vec<_> = view
-            .start_segments(a)
-            .into_iter()
-            .filter(|s| s.fitted_samples >= START_STATE_SAMPLES)
-            .collect();
-        if segments.is_empty() {
+        let states = view.start_states(a, START_STATE_SAMPLES);
+        if states.is_empty() {
             return self;
         }
-        let target = self.terms[0].target.clone();
-        let template = self.params[self.terms[0].amplitude].clone();
-        for s in &segments {
-            self.terms.push(Term {
-                amplitude: self.params.len(),
-                target: target.clone(),
-            });
+        for st in &states {
             self.params.push(ParamDef {
-                name: format!("start_{}_{}", s.first_run, template.unit),
+                name: format!("start_{}", st.name),
+                unit: "side".into(),
+                per_si: 1.0,
+                kind: ParamKind::Shape,
+                initial: 0.0,
+                bounds: Some((-1.0, 1.0)),
+                scale: 1.0,
+                prior: None,
                 nuisance: true,
-                ..template.clone()
             });
         }
-        self.start_states = Some((a, segments.iter().map(|s| s.id).collect()));
+        self.start_states = Some((a, states.iter().map(|st| st.run).collect()));
         self
     }
 }
 
-/// The fewest fitted samples a stretch of unknown state needs to be given its own state
-/// ([`Basic::with_start_states`]): a run's first sample alone says too little.
+/// The fewest fitted samples before an axis' first motion for the run's start state to be
+/// fitted ([`Basic::with_start_states`]): a run's first sample alone says too little.
 pub const START_STATE_SAMPLES: usize = 5;
 
 /// A shape parameter's start, box (SI) and plausible size ([`Basic::with_shapes`]).
@@ -427,10 +424,11 @@ impl Effect for Basic {
             lag,
             input,
             setup_start,
-            start_states: self.start_states.clone().map(|(a, ids)| {
-                let first = self.terms.len() - ids.len();
-                (a, first, ids)
+            start_states: self.start_states.clone().map(|(a, runs)| {
+                let first = shape.len() - runs.len();
+                (a, first, runs)
             }),
+            shape_values: shape.to_vec(),
         })
     }
 
@@ -476,7 +474,7 @@ impl Effect for Basic {
         let keep_scale = matches!(self.feature, Feature::LocalBump(_));
         for p in e.params.iter_mut().filter(|p| p.kind == ParamKind::Shape) {
             p.initial = *values.next()?;
-            if !keep_scale {
+            if !keep_scale && !p.nuisance {
                 p.scale = p.initial.abs().max(p.bounds.map_or(0.0, |b| b.0));
             }
         }
@@ -729,8 +727,57 @@ struct BasicFeatures {
     lag: Option<Arc<crate::lag::LagSeries>>,
     input: Option<Arc<Vec<f64>>>,
     setup_start: f64,
-    /// The axis, the first start-state term and the stretches' ids.
+    /// The axis, the index of the first start state among the shapes, and the runs.
     start_states: Option<(usize, usize, Vec<usize>)>,
+    /// Every shape value (the start states among them).
+    shape_values: Vec<f64>,
+}
+
+impl BasicFeatures {
+    /// [`Basic::with_start_states`]: before axis `a`'s first motion in a run whose start
+    /// state is fitted (shape `first + k` for the `k`-th of `runs`), the side `u` replaces the
+    /// guessed direction; every start state's derivative is set on every sample.
+    #[allow(clippy::too_many_arguments)]
+    fn start_state(
+        &self,
+        r: usize,
+        i: usize,
+        a: usize,
+        first: usize,
+        runs: &[usize],
+        f: &mut [f64],
+        df: &mut [f64],
+    ) {
+        let ns = self.n_shapes;
+        let n_terms = if matches!(self.feature, Feature::ReversalAlong(_)) {
+            2
+        } else {
+            1
+        };
+        for k in 0..n_terms {
+            df[k * ns + first..k * ns + first + runs.len()].fill(0.0);
+        }
+        let view = &*self.view;
+        let Some(k) = runs.iter().position(|&run| run == r) else {
+            return;
+        };
+        if !view.before_first_motion(r, a, i) {
+            return;
+        }
+        let side = self.shape_values[first + k];
+        f[0] = -0.5 * side;
+        df[first + k] = -0.5;
+        if first > 0 {
+            // The feature's own shape (a take-up) does nothing before the first motion.
+            df[..first].fill(0.0);
+        }
+        if let Feature::ReversalAlong(_) = self.feature {
+            let (lo, hi) = view.axes[a].stroke;
+            let u = (2.0 * view.q(r, i, a) - lo - hi) / (hi - lo);
+            f[1] = f[0] * u;
+            df[ns + first + k] = -0.5 * u;
+        }
+    }
 }
 
 impl Features for BasicFeatures {
@@ -858,11 +905,8 @@ impl Features for BasicFeatures {
                 df[0] = lag.dy_dtau[k] * q;
             }
         }
-        if let Some((a, first, ids)) = &self.start_states {
-            let here = view.start_segment(r, *a, i);
-            for (k, id) in ids.iter().enumerate() {
-                f[first + k] = if here == Some(*id) { -0.5 } else { 0.0 };
-            }
+        if let Some((a, first, runs)) = &self.start_states {
+            self.start_state(r, i, *a, *first, runs, f, df);
         }
         // A shared effect: every term carries the first term's feature.
         let ns = self.n_shapes;

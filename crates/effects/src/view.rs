@@ -254,10 +254,6 @@ impl Input {
 pub struct AxisMotion {
     /// The side the axis arrived from ±1 (0: unknown; see above).
     arrived: i8,
-    /// When the side is unknown: the stretch of unknown state the run's samples before its
-    /// first motion belong to ([`SessionView::start_segment`]). Consecutive runs the axis does
-    /// not move in, or between, share one: the axis keeps its state.
-    start_segment: Option<usize>,
     /// Direction of the axis' first motion in the run, ±1 (0 if it never moves).
     first_direction: i8,
     /// The sample of the first step (`step_direction` ≠ 0); the run's length if it never
@@ -324,15 +320,13 @@ impl AxisMotion {
     }
 }
 
-/// A stretch of an axis' unknown state: from a run it arrived at from an unknown side to its
-/// first motion ([`SessionView::start_segments`]).
+/// A run whose readings before an axis' first motion depend on the side it was approached
+/// from, which is not known ([`SessionView::start_states`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct StartSegment {
-    pub id: usize,
-    /// The run (its name) the stretch begins in.
-    pub first_run: String,
-    /// Samples of fitted runs in it.
-    pub fitted_samples: usize,
+pub struct StartState {
+    pub run: usize,
+    /// The run's name.
+    pub name: String,
 }
 
 /// Every sample's time in timeline order (runs in time order; [`SessionView::timeline_index`]),
@@ -547,36 +541,31 @@ impl SessionView {
         self.motion[r][a].direction(i)
     }
 
-    /// The stretch of unknown state sample `i` of run `r` is in for axis `a`: before the
-    /// axis' first motion in a run it arrived at from an unknown side ([`AxisMotion`]).
-    pub fn start_segment(&self, r: usize, a: usize, i: usize) -> Option<usize> {
-        let m = &self.motion[r][a];
-        m.start_segment.filter(|_| i < m.first_motion)
+    /// Whether sample `i` of run `r` comes before axis `a`'s first motion in the run: where
+    /// its state is the approach's, which the file does not hold.
+    pub fn before_first_motion(&self, r: usize, a: usize, i: usize) -> bool {
+        i < self.motion[r][a].first_motion
     }
 
-    /// Axis `a`'s stretches of unknown state, in time order: their ids
-    /// ([`SessionView::start_segment`]), the run each begins in, and how many fitted samples
-    /// each holds.
-    pub fn start_segments(&self, a: usize) -> Vec<StartSegment> {
-        let mut out: Vec<StartSegment> = Vec::new();
-        for &r in &self.order {
-            let m = &self.motion[r][a];
-            let Some(id) = m.start_segment else { continue };
-            let fitted = if self.runs[r].fit {
-                m.first_motion.min(self.runs[r].len())
-            } else {
-                0
-            };
-            match out.iter_mut().find(|s| s.id == id) {
-                Some(s) => s.fitted_samples += fitted,
-                None => out.push(StartSegment {
-                    id,
-                    first_run: self.runs[r].name.clone(),
-                    fitted_samples: fitted,
-                }),
-            }
-        }
-        out
+    /// The runs (in time order) that axis `a` arrived at from an unknown side ([`AxisMotion`]:
+    /// the session's first, or after a turn that may have gone either way round) and whose
+    /// fitted samples before its first motion number at least `min_samples`: where the side
+    /// decides a stretch of readings ([`StartState`]). Elsewhere the side is taken from the
+    /// previous run: a free side in every run would let a reversal explain any offset of a run
+    /// as the play's.
+    pub fn start_states(&self, a: usize, min_samples: usize) -> Vec<StartState> {
+        self.order
+            .iter()
+            .filter(|&&r| self.runs[r].fit && self.motion[r][a].arrived == 0)
+            .filter_map(|&r| {
+                let m = &self.motion[r][a];
+                let samples = m.first_motion.min(self.runs[r].len());
+                (samples >= min_samples).then(|| StartState {
+                    run: r,
+                    name: self.runs[r].name.clone(),
+                })
+            })
+            .collect()
     }
 
     /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences
@@ -758,9 +747,6 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
     let na = axes.len();
     let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
     let mut last_direction: Vec<i8> = vec![0; na];
-    // The stretch of unknown state each axis is in (until it moves), and how many there are.
-    let mut segment: Vec<Option<usize>> = vec![None; na];
-    let mut segments = 0;
     // The previous run (in time) and its last sample.
     let mut last: Option<(usize, usize)> = None;
     for &r in order {
@@ -775,8 +761,6 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
                 let arrived = match last.map(|(p, i)| runs[p].q.get(i, a)) {
                     Some(prev) if (first - prev).abs() > STANDING => {
                         if axes[a].turns_either_way(first - prev) {
-                            // Either way round: a new stretch of unknown state.
-                            segment[a] = None;
                             0
                         } else if first > prev {
                             1
@@ -786,21 +770,13 @@ fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<Axis
                     }
                     _ => last_direction[a],
                 };
-                let mut m = axis_motion(run.q.column(a), arrived);
-                if arrived == 0 {
-                    m.start_segment = Some(*segment[a].get_or_insert_with(|| {
-                        segments += 1;
-                        segments - 1
-                    }));
-                }
-                m
+                axis_motion(run.q.column(a), arrived)
             })
             .collect();
         for (a, d) in last_direction.iter_mut().enumerate() {
             let end = motion[r][a].direction(run.len() - 1);
             if end != 0 {
                 *d = end;
-                segment[a] = None;
             }
         }
         last = Some((r, run.len() - 1));
@@ -860,7 +836,6 @@ fn axis_motion(q: &Column, arrived: i8) -> AxisMotion {
     });
     AxisMotion {
         arrived,
-        start_segment: None,
         first_direction,
         first_motion,
         reverses: !reversals.is_empty(),

@@ -120,8 +120,9 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
             let states = fx.params().iter().filter(|p| p.nuisance).count();
             if states > 0 {
                 words.push_str(&format!(
-                    " (the axis' state fitted over {states} stretch{} where the side it arrived                      from is not in the files)",
-                    if states == 1 { "" } else { "es" }
+                    " (the side of its play before the first motion fitted in {states} run{}: \
+                     the approach is not in the files)",
+                    if states == 1 { "" } else { "s" }
                 ));
             }
             if held.iter().any(|&h| h) {

@@ -136,6 +136,14 @@ fn fold_predictions(
             spec.fixed = true;
         }
     }
+    // An axis' start state in a run (a nuisance shape boxed in ±1) keeps the full fit's
+    // value: a fold that holds out its stretch leaves it without data, where a Gauss–Newton
+    // step (which knows no box) would throw it far outside its box.
+    for (i, spec) in specs.iter_mut().enumerate() {
+        if study.effect_param(i).is_some_and(|p| p.nuisance) {
+            spec.fixed = true;
+        }
+    }
     let free = specs.iter().any(|s| !s.fixed);
     let total = fold_sums(study, x, folds, assign)?;
     let mut out = Vec::new();

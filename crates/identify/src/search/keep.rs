@@ -35,6 +35,13 @@ pub(super) fn keep_what_holds(
         // A shape (τ, a pitch) the data do not determine, while the effect's size is: the
         // effect stays with its shape held where the fit left it — a stated assumption, not a
         // fitted number — if its amplitudes are then determined.
+        // A shape pinned at an edge of its box found no optimum inside it (a stick-slip
+        // "decaying" over a tenth of a micrometre is a step on single samples): not a shape
+        // to hold.
+        let failure = match (failure, pinned(&current, &stages[k].addition.params)) {
+            (Failure::Shape(_), Some(why)) => Failure::Other(why),
+            (f, _) => f,
+        };
         if let Failure::Shape(_) = &failure
             && !tried_holding.contains(&k)
         {
@@ -250,6 +257,31 @@ pub(super) fn undetermined(
                 "its {} amplitudes together are within their 95 % region of zero in the final \
                  fit (Wald χ² {statistic:.1}, {limit:.1} needed)",
                 amplitudes.len()
+            )
+        })
+    })
+}
+
+/// Why a shape (not a nuisance) among the parameters `names` is no shape of `current`'s
+/// fit, if one is: its value at an edge of its box.
+fn pinned(current: &Fitted, names: &[String]) -> Option<String> {
+    let study = &current.study;
+    let specs = param_specs(study);
+    (0..study.layout().n_x()).find_map(|i| {
+        let (lo, hi) = specs[i].bounds?;
+        let p = study.effect_param(i)?;
+        let info = study.param_info(i);
+        if p.nuisance || !names.contains(&info.name) {
+            return None;
+        }
+        let value = current.solution.x[i];
+        let at = |edge: f64| (value - edge).abs() <= 1e-3 * edge.abs();
+        (at(lo) || at(hi)).then(|| {
+            format!(
+                "the final fit pins {} at the edge of its range, {:.4} {}",
+                info.name,
+                value * info.per_si,
+                info.unit
             )
         })
     })

@@ -33,7 +33,7 @@ impl Ranked {
                 let shapes: Vec<String> = e
                     .params()
                     .iter()
-                    .filter(|p| p.kind == mtcal_effects::ParamKind::Shape)
+                    .filter(|p| p.kind == mtcal_effects::ParamKind::Shape && !p.nuisance)
                     .map(|p| format!("{} = {:.4} {}", p.name, p.initial * p.per_si, p.unit))
                     .collect();
                 if shapes.is_empty() {
