@@ -47,6 +47,10 @@ pub enum Feature {
     /// motion (whether the axis turned where the run starts is unknown: the mean of a spike
     /// and none), 0 before it. Shape: τ (s).
     ReversalSpike(usize),
+    /// [`Feature::ReversalSpike`] recovering as a critically damped loop does (a position
+    /// loop's integrator rebuilding the friction force): `w·s·(1 + Δt/τ)·exp(−Δt/τ)`, flat at
+    /// first, then decaying. Shape: τ (s).
+    ReversalSpikeDamped(usize),
     /// A compact bump in axis `a`'s position: the cubic B-spline on the uniform knots
     /// `c − w, c − w/2, c, c + w/2, c + w`, scaled to 1 at its centre (`1 − 6σ² + 6σ³` for
     /// `σ = |q − c|/w ≤ ½`, `2(1 − σ)³` up to 1, 0 beyond; twice continuously
@@ -189,7 +193,7 @@ impl Basic {
                 // Beyond a few centimetres the carriage never settles on a flank: not play.
                 shape_def("take_up_mm", "mm", 1e3, 1e-6, 0.02),
             ],
-            Feature::ReversalSpike(_) => {
+            Feature::ReversalSpike(_) | Feature::ReversalSpikeDamped(_) => {
                 // Beyond half a minute a decay in time is a reversal error held over the next
                 // stretch of the path, the simpler explanation.
                 vec![
@@ -554,6 +558,11 @@ impl Effect for Basic {
                 p(0),
                 tau(1)
             ),
+            Feature::ReversalSpikeDamped(_) => format!(
+                "a reversal spike of {target}: {} after each reversal, recovering as a critically damped loop with τ = {}",
+                p(0),
+                tau(1)
+            ),
             Feature::LocalBump(_) => format!(
                 "a local error of {target}: a bump of {} centred at {} with a half-width of {}",
                 p(0),
@@ -854,6 +863,13 @@ impl Features for BasicFeatures {
                 let e = w * (-dt / tau).exp();
                 f[0] = e;
                 df[0] = e * dt / (tau * tau);
+            }
+            Feature::ReversalSpikeDamped(a) => {
+                let w = after_reversal(view, r, *a, i);
+                let x = view.since_turn(r, *a, i) / self.shape;
+                let e = w * (-x).exp();
+                f[0] = e * (1.0 + x);
+                df[0] = e * x * x / self.shape;
             }
             Feature::LocalBump(a) => {
                 let (c, w) = (self.shape, self.second);

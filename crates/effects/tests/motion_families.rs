@@ -432,8 +432,13 @@ fn motion_families_propose_where_the_axes_move_and_reverse() {
         ]
     );
     // Spikes at 1 and 5 s (samples a second apart: 0.05 and 0.2 s are gone before the next
-    // sample) on the four reversing axes.
-    assert_eq!(labels(&all, "reversal-spike").len(), 8);
+    // sample) on the four reversing axes, first-order and critically damped.
+    let spikes = labels(&all, "reversal-spike");
+    assert_eq!(spikes.len(), 16);
+    assert_eq!(
+        spikes.iter().filter(|l| l.ends_with(", damped)")).count(),
+        8
+    );
     // Local errors along X and Y (Z never moves) on each of X, Y, Z: seven each.
     let local = labels(&all, "local-error");
     assert_eq!(local.len(), 2 * 3 * 7);

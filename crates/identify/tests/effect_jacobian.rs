@@ -129,7 +129,7 @@ gain_ppm = 30000.0
 "#;
 
 /// The shapes of real machines beyond those (lost motion changing along the stroke, lateral
-/// play as a step and taken up over travel, a reversal spike decaying in time, a local bump of a straightness, the spindle growing
+/// play as a step and taken up over travel, a reversal spike first-order and damped decaying in time, a local bump of a straightness, the spindle growing
 /// every set-up's tool length in time and with speed): their columns against differences.
 const SHAPES: &str = r#"
 [[effect]]
@@ -153,6 +153,12 @@ effect = "reversal-spike"
 axis = "Y"
 height_um = 2.0
 tau_s = 3.0
+[[effect]]
+effect = "reversal-spike"
+axis = "Y"
+recovery = "damped"
+height_um = 1.5
+tau_s = 2.0
 [[effect]]
 effect = "local-error"
 axis = "X"
@@ -211,7 +217,7 @@ fn effect_columns_equal_finite_differences() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
     let (effects, values) = effects_of(&loaded, &format!("{EFFECTS}{SHAPES}"));
-    assert_eq!(effects.len(), 18);
+    assert_eq!(effects.len(), 19);
     let study = loaded
         .rebuild(Changes {
             effects,
@@ -223,9 +229,60 @@ fn effect_columns_equal_finite_differences() {
         .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
         .collect();
     x[study.layout().effect_offset()..].copy_from_slice(&values);
-    let specs = param_specs_from(&study, &x);
-    let problem = FitProblem::new(&study);
-    let lin = mtcal_solve::linearize(&problem, &specs, &x, 0).unwrap();
+    assert_columns_match(&study, &x);
+}
+
+/// A reversal's side of its play in a run the axis arrived at from an unknown side (the
+/// session's first, recorded with A standing): a nuisance shape in ±1 whose column, and the
+/// backlash's beside it, equal differences.
+#[test]
+fn start_state_columns_equal_finite_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
+    let all = mtcal_identify::search::candidates(&loaded, None);
+    let with_states: Vec<Arc<dyn mtcal_effects::Effect>> = all
+        .iter()
+        .filter_map(|c| match c {
+            Candidate::Effect(e) if e.params().iter().any(|p| p.nuisance) => Some(Arc::clone(e)),
+            _ => None,
+        })
+        .collect();
+    let labels: Vec<&str> = with_states
+        .iter()
+        .map(|e| e.info().label.as_str())
+        .collect();
+    assert!(
+        labels.contains(&"reversal A (A)") && labels.iter().any(|l| l.starts_with("lateral-play")),
+        "{labels:?}"
+    );
+    let reversal = with_states
+        .iter()
+        .find(|e| e.info().label == "reversal A (A)")
+        .unwrap();
+    let names: Vec<&str> = reversal.params().iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["backlash_urad", "start_xyc"]);
+    let study = loaded
+        .rebuild(Changes {
+            effects: vec![Arc::clone(reversal)],
+            ..Changes::default()
+        })
+        .unwrap();
+    let mut x: Vec<f64> = (0..study.layout().n_x())
+        .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
+        .collect();
+    let o = study.layout().effect_offset();
+    // 40 µrad of play, the axis on 0.6 of the way to its + side.
+    x[o] = 40e-6;
+    x[o + 1] = 0.6;
+    assert_columns_match(&study, &x);
+}
+
+/// JᵀJ of the whitened residuals at `x` from the analytic factor equals that of central
+/// differences of the predictions (every parameter: machine, set-up, effects).
+fn assert_columns_match(study: &Study, x: &[f64]) {
+    let specs = param_specs_from(study, x);
+    let problem = FitProblem::new(study);
+    let lin = mtcal_solve::linearize(&problem, &specs, x, 0).unwrap();
     let n = study.layout().n_x();
     // JᵀJ from the factor and from differences of the whitened predictions.
     let jtj =
@@ -233,24 +290,23 @@ fn effect_columns_equal_finite_differences() {
     let mut columns: Vec<Vec<f64>> = Vec::with_capacity(n);
     for i in 0..n {
         let h = match study.effect_param(i) {
+            // A side of the play (±1): the readings are linear in it.
+            Some(p) if p.nuisance => 1e-2,
             Some(p) if p.kind == mtcal_effects::ParamKind::Shape => {
                 1e-5 * p.initial.abs().max(1e-3)
             }
             _ => 1e-8,
         };
-        let mut plus = x.clone();
+        let mut plus = x.to_vec();
         plus[i] += h;
-        let mut minus = x.clone();
+        let mut minus = x.to_vec();
         minus[i] -= h;
         let mut col = Vec::new();
         for (r, run) in study.runs.iter().enumerate() {
             if !run.fit {
                 continue;
             }
-            let (p, m) = (
-                predict_run(&study, r, &plus),
-                predict_run(&study, r, &minus),
-            );
+            let (p, m) = (predict_run(study, r, &plus), predict_run(study, r, &minus));
             let nch = study.channels(r).len();
             for (k, (a, b)) in p.iter().zip(&m).enumerate() {
                 col.push((a - b) / (2.0 * h) / study.channels(r)[k % nch].sigma);

@@ -512,15 +512,16 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     // The bar, met: the location and squareness intervals hold the truth.
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
-    // Today's floors (module docs): the bar is 90 % named, 5 % claims, none worse.
-    assert!(share(found, effects) >= 0.75, "{found}/{effects} named");
-    assert!(share(claimed, n) <= 0.4, "claims in {claimed}/{n} sessions");
+    // Today's floors (measured: 71/80 named, claims in 9/60, 52/72 predicted, 71/72 no
+    // worse): the bar is 90 % named, 5 % claims, none worse.
+    assert!(share(found, effects) >= 0.85, "{found}/{effects} named");
+    assert!(share(claimed, n) <= 0.2, "claims in {claimed}/{n} sessions");
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"
     );
     assert!(
-        share(predicted, runs) >= 0.65,
+        share(predicted, runs) >= 0.7,
         "{predicted}/{runs} predicted"
     );
 }

@@ -35,7 +35,10 @@
 //!   `h·s·exp(−Δt/τ)` with `Δt` the time since it left the turning point (a friction or servo
 //!   transient; `stick-slip` decays with travel instead). Plant keys `height_um` (rotary
 //!   `height_urad`), `tau_s` (1 ms … 30 s). Proposed where an axis reverses, at τ of 0.05,
-//!   0.2, 1 and 5 s that the sampling can show (at least half a sample interval).
+//!   0.2, 1 and 5 s that the sampling can show (at least half a sample interval). A position
+//!   loop rebuilding the friction force recovers as a critically damped loop,
+//!   `h·s·(1 + Δt/τ)·exp(−Δt/τ)` (label `reversal-spike X (X, damped)`, plant key
+//!   `recovery = "damped"`), proposed beside it.
 //! - **`cyclic`**: a screw (or worm) error periodic in the axis position, `a·sin(2πq/p) +
 //!   b·cos(2πq/p)` (plant keys `sin_um`, `cos_um`, `pitch_mm`; rotary `sin_urad`, `cos_urad`,
 //!   `period_deg`).
@@ -308,26 +311,45 @@ fn spike_candidates(view: &SessionView) -> Vec<Candidate> {
             continue;
         }
         for tau in SPIKE_TAUS.into_iter().filter(|&t| t >= floor) {
-            out.push(on_axis(
-                view,
-                a,
-                "reversal-spike",
-                Feature::ReversalSpike(a),
-                Some(tau),
-            ));
+            out.push(spike(view, a, tau, false));
+            out.push(spike(view, a, tau, true));
         }
     }
     wrap(out)
 }
 
+/// A reversal spike of axis `a` starting at time constant `tau` (s): decaying as a first-order
+/// recovery, or as a critically damped one (`damped`).
+fn spike(view: &SessionView, a: usize, tau: f64, damped: bool) -> Basic {
+    let aim = axis_aim(view, a);
+    let letter = view.axes[a].letter;
+    let mut info = aim.info("reversal-spike", Some(letter.to_string()));
+    if damped {
+        info.label = format!("reversal-spike {letter} ({letter}, damped)");
+    }
+    let feature = match damped {
+        false => Feature::ReversalSpike(a),
+        true => Feature::ReversalSpikeDamped(a),
+    };
+    Basic::new(info, feature, aim.target, aim.words, aim.unit, Some(tau))
+}
+
 fn spike_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
-    plant_on_axis(
-        table,
-        view,
-        "reversal-spike",
-        Feature::ReversalSpike,
-        |_| number(table, "tau_s", 1.0),
-    )
+    let damped = match string(table, "recovery")? {
+        None | Some("first-order") => false,
+        Some("damped") => true,
+        Some(other) => {
+            return Err(PlantError::at(
+                "recovery",
+                format!("`recovery = \"{other}\"`: \"first-order\" or \"damped\""),
+            ));
+        }
+    };
+    let a = plant_axis(table, view)?;
+    let tau = number(table, "tau_s", 1.0)?.unwrap_or(1.0);
+    let e = spike(view, a, tau, damped);
+    let v = plant_values(&e, table, &["recovery"])?;
+    Ok((Arc::new(e), v))
 }
 
 /// Harmonics of a rotary axis' angular positioning error that the error model already

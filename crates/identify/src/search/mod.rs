@@ -217,11 +217,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         // pays for it with parameters (stick-slip with an endless decay is a reversal error
         // with one parameter more). Those within a whisker of it are its look-alikes.
         let scale = current.solution.chi2_reduced.max(1.0);
-        let winner = passed
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1.2.criterion().total_cmp(&b.1.2.criterion()))
-            .map(|(k, _)| k);
+        let winner = step::winner(passed.iter().map(|p| &p.2));
         let mut lookalikes = Vec::new();
         if let Some(w) = winner {
             let (wk, wr, wf) = &passed[w];
@@ -233,7 +229,11 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
                 let delta = (f.criterion() - best) / scale;
                 let t = &mut trials[*k];
                 t.accepted = false;
-                if delta < LOOKALIKE_BIC && !same_explanation(&r.candidate, &wr.candidate) {
+                // One the winner predicts clearly better than is told apart by these data.
+                if delta < LOOKALIKE_BIC
+                    && !same_explanation(&r.candidate, &wr.candidate)
+                    && !step::clearly_better(&wf.heldout, &f.heldout)
+                {
                     t.why = format!(
                         "explains nearly as well as the one added (information criterion {delta:+.1}): \
                          a look-alike; {}",

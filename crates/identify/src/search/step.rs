@@ -485,6 +485,44 @@ pub(super) fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result
     ))
 }
 
+/// Of the candidates that passed, the one added: the lowest information criterion — unless
+/// another predicts the held-out data clearly better ([`clearly_better`]), when the best
+/// predictor among those does. A fit's χ² counts what the candidate and the refitted
+/// geometry together absorb of the training data; where the two disagree, the prediction of
+/// data the fit did not see is what the model is for (a reversal error fits a decaying spike
+/// as well as the spike does, but predicts the blocks it did not see worse).
+pub(super) fn winner<'a>(passed: impl Iterator<Item = &'a Refitted> + Clone) -> Option<usize> {
+    let by_criterion = passed
+        .clone()
+        .enumerate()
+        .min_by(|a, b| a.1.criterion().total_cmp(&b.1.criterion()))?;
+    let better = passed
+        .enumerate()
+        .filter(|(_, r)| clearly_better(&r.heldout, &by_criterion.1.heldout))
+        .min_by(|a, b| a.1.heldout.mean_square.total_cmp(&b.1.heldout.mean_square));
+    Some(better.map_or(by_criterion.0, |b| b.0))
+}
+
+/// A held-out mean square lower by at least this share before it decides over the
+/// information criterion.
+pub(super) const CLEARLY_BETTER_SHARE: f64 = 0.1;
+/// The one-sided level of the signed-rank test over the folds it must pass as well.
+const CLEARLY_BETTER_LEVEL: f64 = 0.1;
+
+/// Whether `a` predicts the held-out data clearly better than `b`: a mean square lower by
+/// [`CLEARLY_BETTER_SHARE`] and lower fold by fold beyond chance (signed-rank test at
+/// [`CLEARLY_BETTER_LEVEL`]).
+pub(super) fn clearly_better(a: &Heldout, b: &Heldout) -> bool {
+    if a.mean_square > (1.0 - CLEARLY_BETTER_SHARE) * b.mean_square
+        || a.folds.len() != b.folds.len()
+        || a.folds.len() < 3
+    {
+        return false;
+    }
+    let d: Vec<f64> = b.folds.iter().zip(&a.folds).map(|(b, a)| b - a).collect();
+    signed_rank_p(&d) <= CLEARLY_BETTER_LEVEL
+}
+
 /// How much worse (relative mean square) a forecast may get before a model is said not to
 /// carry on into the later part of the session: a drift that does not extrapolate gets it
 /// worse by several per cent; a model that merely shifts what the earlier part taught it
