@@ -38,7 +38,13 @@
 //!    full fit, computed from every fold's normal equations in one pass ([`heldout`]). Of
 //!    those that pass, the lowest BIC wins: scores at grid starting values cannot tell a drift
 //!    in time from a lagged temperature that follows it, their refits can; and of two that fit
-//!    alike the one with fewer parameters.
+//!    alike the one with fewer parameters — unless another predicts the held-out data clearly
+//!    better (a mean square 10 % lower, and lower fold by fold: `step::winner`), when the best
+//!    predictor does (a reversal error fits a decaying spike as well as the spike, with the
+//!    geometry's help, and predicts the blocks it did not see worse).
+//!    A `reversal` or `lateral-play` fits the axis' side of its play before its first motion in
+//!    each run it arrived at from an unknown side, as nuisance shapes in ±1 that the held-out
+//!    folds keep at the full fit's values and that no discovery reports as a number.
 //! 3. **Look-alikes.** Others that passed within [`LOOKALIKE_BIC`] of the winner, and that are
 //!    no longer significant once it is in the model (they explained the same thing), are its
 //!    look-alikes: the discovery names them and the measurement that would tell them apart,
