@@ -16,7 +16,9 @@
 //! - each planted effect named (class and axis, or among the discovery's look-alikes);
 //! - claims: discoveries that match nothing planted;
 //! - the validation runs against the simulator's noise-free readings, after the search and
-//!   before it: within 1.2 × the noise after, and never worse than before;
+//!   before it: within 1.2 × the noise after, and never worse than before — for the runs the
+//!   fitted runs determine; those mtcal reports as undetermined (their prediction depends on
+//!   parameters no fitted run sees) are counted and printed, not asserted;
 //! - the location and squareness errors' 95 % intervals against the truth.
 //!
 //! And on clean sessions of the same machines, the share that claims anything.
@@ -302,8 +304,9 @@ struct Outcome {
     name: String,
     named: Vec<bool>,
     claims: Vec<String>,
-    /// Per validation run: RMS of prediction − truth over the noise, after and before.
-    validation: Vec<(String, f64, f64)>,
+    /// Per validation run: RMS of prediction − truth over the noise, after and before, and
+    /// whether the fitted runs determine its prediction.
+    validation: Vec<Validation>,
     /// Location and squareness errors: (name, inside its 95 % interval of the truth).
     intervals: Vec<(String, bool)>,
     summary: String,
@@ -356,13 +359,19 @@ fn run_case(case: &Case) -> Outcome {
     }
 }
 
-/// Per validation run the fitted runs determine: the RMS error of the prediction against the
-/// simulator's noise-free readings over the noise, after the search and before it.
-fn validation(
-    result: &SearchResult,
-    written: &Written,
-    realism: &Realism,
-) -> Vec<(String, f64, f64)> {
+/// One validation run's RMS error of the prediction against the simulator's noise-free
+/// readings over the noise, after the search and before it.
+struct Validation {
+    run: String,
+    after: f64,
+    before: f64,
+    /// Whether the fitted runs determine the run's prediction (mtcal reports the others as
+    /// undetermined: counted, not asserted).
+    determined: bool,
+}
+
+/// Per validation run: [`Validation`].
+fn validation(result: &SearchResult, written: &Written, realism: &Realism) -> Vec<Validation> {
     let noise_um = (realism.noise_sigma_um.powi(2) + realism.resolution_um.powi(2) / 12.0).sqrt();
     let id = &result.identification;
     let before = result
@@ -371,14 +380,13 @@ fn validation(
         .unwrap();
     let mut out = Vec::new();
     for (r, run) in result.study.runs.iter().enumerate() {
-        if run.fit
-            || id
-                .undetermined_validation
-                .iter()
-                .any(|(n, _)| *n == run.name)
-        {
+        if run.fit {
             continue;
         }
+        let determined = !id
+            .undetermined_validation
+            .iter()
+            .any(|(n, _)| *n == run.name);
         let clean = &written
             .runs
             .iter()
@@ -396,11 +404,12 @@ fn validation(
                 .sum();
             (ss / (clean.len() * nch) as f64).sqrt() / noise_um
         };
-        out.push((
-            run.name.clone(),
-            rms(&result.study, &result.solution.x),
-            rms(&before, &result.initial_solution.x),
-        ));
+        out.push(Validation {
+            run: run.name.clone(),
+            after: rms(&result.study, &result.solution.x),
+            before: rms(&before, &result.initial_solution.x),
+            determined,
+        });
     }
     out
 }
@@ -468,17 +477,25 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     let outcomes = parallel(&cases, run_case);
     let (mut effects, mut found, mut claimed) = (0, 0, 0);
     let (mut predicted, mut never_worse, mut runs) = (0, 0, 0);
+    let (mut undetermined, mut undetermined_no_worse) = (0, 0);
     let (mut held, mut checked) = (0, 0);
     let mut worse = Vec::new();
     for o in &outcomes {
-        let worst = o.validation.iter().map(|v| v.1).fold(0.0, f64::max);
+        let determined = || o.validation.iter().filter(|v| v.determined);
+        let worst = determined().map(|v| v.after).fold(0.0, f64::max);
+        let ratio = o
+            .validation
+            .iter()
+            .map(|v| v.after / v.before.max(1e-9))
+            .fold(0.0, f64::max);
         eprintln!(
-            "{:<48} named {}/{}, claims {:?}, worst validation {worst:.2} σ (before {:.2})",
+            "{:<48} named {}/{}, claims {:?}, worst validation {worst:.2} σ (before {:.2}), \
+             worst after/before {ratio:.2}",
             o.name,
             o.named.iter().filter(|&&n| n).count(),
             o.named.len(),
             o.claims,
-            o.validation.iter().map(|v| v.2).fold(0.0, f64::max),
+            determined().map(|v| v.before).fold(0.0, f64::max),
         );
         if std::env::var("VERBOSE").is_ok() || !o.claims.is_empty() {
             eprintln!("{}", o.summary);
@@ -486,13 +503,25 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
         effects += o.named.len();
         found += o.named.iter().filter(|&&n| n).count();
         claimed += usize::from(!o.claims.is_empty());
-        for (run, after, before) in &o.validation {
+        for v in &o.validation {
+            let no_worse = v.after <= v.before + NO_WORSE;
+            if !v.determined {
+                // mtcal says these predictions depend on parameters the fitted runs do not
+                // determine: counted, not asserted (their error moves with whatever the fit
+                // leaves along those directions, before the search as after it).
+                undetermined += 1;
+                undetermined_no_worse += usize::from(no_worse);
+                continue;
+            }
             runs += 1;
-            predicted += usize::from(*after <= PREDICTION_OVER_NOISE);
-            if *after <= before + NO_WORSE {
+            predicted += usize::from(v.after <= PREDICTION_OVER_NOISE);
+            if no_worse {
                 never_worse += 1;
             } else {
-                worse.push(format!("{} {run}: {before:.2} → {after:.2} σ", o.name));
+                worse.push(format!(
+                    "{} {}: {:.2} → {:.2} σ",
+                    o.name, v.run, v.before, v.after
+                ));
             }
         }
         held += o.intervals.iter().filter(|i| i.1).count();
@@ -501,9 +530,10 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     let n = outcomes.len();
     eprintln!(
         "{n} sessions: {found}/{effects} planted effects named; claims in {claimed}/{n} sessions; \
-         validation runs within 1.2 × the noise: {predicted}/{runs}, no worse than before the \
-         search: {never_worse}/{runs}; location and squareness intervals holding the truth: \
-         {held}/{checked}\nworse: {worse:?}"
+         validation runs the fitted runs determine: within 1.2 × the noise {predicted}/{runs}, \
+         no worse than before the search {never_worse}/{runs} (those mtcal calls undetermined: \
+         no worse {undetermined_no_worse}/{undetermined}); location and squareness intervals \
+         holding the truth: {held}/{checked}\nworse: {worse:?}"
     );
     let share = |a: usize, b: usize| a as f64 / b.max(1) as f64;
     if only.is_some() {
@@ -512,10 +542,13 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     // The issue's bar, met: the location and squareness intervals hold the truth.
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
-    // Today's floors (measured: 71/80 named, claims in 9/60, 52/72 predicted, 71/72 no
+    // Today's floors (measured: 72/80 named, claims in 8/60, 53/72 predicted, 71/72 no
     // worse): the issue's bar is 90 % named, 5 % claims, none worse.
-    assert!(share(found, effects) >= 0.85, "{found}/{effects} named");
-    assert!(share(claimed, n) <= 0.2, "claims in {claimed}/{n} sessions");
+    assert!(share(found, effects) >= 0.875, "{found}/{effects} named");
+    assert!(
+        share(claimed, n) <= 0.17,
+        "claims in {claimed}/{n} sessions"
+    );
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"

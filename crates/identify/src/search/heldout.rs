@@ -154,7 +154,27 @@ fn fold_predictions(
         let delta = if free {
             let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
             let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
-            lin.step(rank_tolerance)?
+            let delta = lin.step(rank_tolerance)?;
+            // A shape (a bump's centre, a time constant) the training part barely sees can be
+            // thrown out of its box by the step, which knows no box: no fit would go there.
+            // Such shapes keep the full fit's values, and the rest is stepped again.
+            let outside: Vec<usize> = (0..n)
+                .filter(|&i| {
+                    !specs[i].fixed
+                        && specs[i]
+                            .bounds
+                            .is_some_and(|(lo, hi)| !(lo..=hi).contains(&(x[i] + delta[i])))
+                })
+                .collect();
+            if outside.is_empty() {
+                delta
+            } else {
+                let mut held = specs.clone();
+                for &i in &outside {
+                    held[i].fixed = true;
+                }
+                mtcal_solve::linearize(&training, &held, x, 0)?.step(rank_tolerance)?
+            }
         } else {
             vec![0.0; n]
         };
