@@ -21,8 +21,13 @@
 //!   parameters no fitted run sees) are counted and printed, not asserted;
 //! - the location and squareness errors' 95 % intervals against the truth.
 //!
-//! And on clean sessions of the same machines, the share that claims anything.
+//! And on clean sessions of the same machines, the share that claims anything. Every search
+//! result, planted or clean, holds the honesty rules of `search_honesty.rs`
+//! (`common::honesty`).
 
+mod common;
+
+use common::honesty::honest;
 use mtcal_identify::search::{Discovery, SearchResult, search};
 use mtcal_identify::{Study, base, predict_run};
 use mtcal_indsim::effects::{Effect, HeatSource, Programme};
@@ -310,6 +315,8 @@ struct Outcome {
     /// Location and squareness errors: (name, inside its 95 % interval of the truth).
     intervals: Vec<(String, bool)>,
     summary: String,
+    /// The honesty rules (`common::honesty`): which failed, if one did.
+    dishonest: Option<String>,
 }
 
 /// A prediction within 1.2 × the noise: `√(σ² + e²) ≤ 1.2 σ`, an RMS error of 0.66 σ.
@@ -356,6 +363,7 @@ fn run_case(case: &Case) -> Outcome {
         validation: validation(&result, &written, &realism),
         intervals: intervals(&result, &machine, &truth),
         summary: id.search_summary(),
+        dishonest: honest(&result).err(),
     }
 }
 
@@ -536,6 +544,13 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
          holding the truth: {held}/{checked}\nworse: {worse:?}"
     );
     let share = |a: usize, b: usize| a as f64 / b.max(1) as f64;
+    // Every discovery of every session determined and physical, none on an unconverged fit,
+    // the first line agreeing: not a floor, a rule.
+    let dishonest: Vec<(&str, &str)> = outcomes
+        .iter()
+        .filter_map(|o| Some((o.name.as_str(), o.dishonest.as_deref()?)))
+        .collect();
+    assert!(dishonest.is_empty(), "{dishonest:?}");
     if only.is_some() {
         return;
     }
@@ -586,6 +601,9 @@ fn clean_sessions_of_five_machines_rarely_raise_a_claim() {
         let (study, _) =
             base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
         let result = search(study, &Default::default()).unwrap();
+        if let Err(why) = honest(&result) {
+            panic!("{layout:?} seed {seed}: {why}");
+        }
         let labels: Vec<String> = result
             .identification
             .discoveries

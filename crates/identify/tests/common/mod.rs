@@ -1,3 +1,4 @@
 pub mod coverage;
 pub mod finite;
+pub mod honesty;
 pub mod planted;

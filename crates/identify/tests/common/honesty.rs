@@ -1,0 +1,109 @@
+//! The honesty rules every search result must hold (`search_honesty.rs`, and the independent
+//! simulator's sessions of `search_real_shapes.rs`): a discovery is a determined, physical
+//! effect of the final fit, none comes from a fit that did not converge, and the search's
+//! first line agrees with its discoveries.
+
+#![allow(dead_code)]
+
+use mtcal_identify::param_specs;
+use mtcal_identify::search::SearchResult;
+
+/// Every honesty rule on `result` (see the module docs); `Err` says which failed.
+pub fn honest(result: &SearchResult) -> Result<(), String> {
+    let id = &result.identification;
+    let summary = id.search_summary();
+    let first = summary.lines().next().unwrap_or_default();
+    let n = id.discoveries.len();
+    let says = match n {
+        0 if !result.initial.solver.converged => "did not converge".to_string(),
+        0 => "nothing added".to_string(),
+        1 => "1 effect added".to_string(),
+        n => format!("{n} effects added"),
+    };
+    if !first.contains(&says) {
+        return Err(format!("{n} discoveries, but the first line says: {first}"));
+    }
+    if n == 0 {
+        return Ok(());
+    }
+    if !result.initial.solver.converged || !id.solver.converged {
+        return Err(format!(
+            "discoveries on a fit that did not converge:\n{summary}"
+        ));
+    }
+    let study = &result.study;
+    let specs = param_specs(study);
+    let index = |name: &str| (0..study.layout().n_x()).find(|&i| study.param_info(i).name == name);
+    for d in &id.discoveries {
+        let mut amplitudes = Vec::new();
+        for p in &d.parameters {
+            let full = if d.effect == "omitted-parameter" || d.effect == "component-order" {
+                p.name.clone()
+            } else {
+                format!("{}.{}", d.label, p.name)
+            };
+            let i = index(&full).ok_or_else(|| format!("{full} is not in the final model"))?;
+            let per_si = study.param_info(i).per_si;
+            if p.held {
+                if specs[i].bounds.is_none() || p.u95.is_some() {
+                    return Err(format!("{}: {full} is held but not a shape", d.label));
+                }
+                continue;
+            }
+            let Some(u95) = p.u95 else {
+                return Err(format!("{}: {full} has no interval\n{summary}", d.label));
+            };
+            if specs[i].bounds.is_some() {
+                if u95 >= p.value.abs() {
+                    return Err(format!("{}: shape {full} = {} ± {u95}", d.label, p.value));
+                }
+                continue;
+            }
+            amplitudes.push(i);
+            if let Some(range) = specs[i].scale {
+                let range = range * per_si;
+                if p.value.abs() > range || u95 > range {
+                    return Err(format!(
+                        "{}: {full} = {} ± {u95} against a plausible range of ±{range}",
+                        d.label, p.value
+                    ));
+                }
+            }
+        }
+        if !amplitudes.is_empty() {
+            let (w, limit) = wald(&result.solution, &amplitudes);
+            if w <= limit {
+                return Err(format!(
+                    "{}: its amplitudes are within their 95 % region of zero (Wald {w:.1} ≤ \
+                     {limit:.1})\n{summary}",
+                    d.label
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `xᵀC⁺x` of the parameters `idx` of `solution` and the χ² 95 % quantile of its rank.
+fn wald(solution: &mtcal_solve::Solution, idx: &[usize]) -> (f64, f64) {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let k = idx.len();
+    let c = nalgebra::DMatrix::from_fn(k, k, |a, b| solution.cov(idx[a], idx[b]));
+    let x = nalgebra::DVector::from_iterator(k, idx.iter().map(|&i| solution.x[i]));
+    let eps = 1e-12 * c.norm();
+    let rank = c
+        .clone()
+        .svd(false, false)
+        .singular_values
+        .iter()
+        .filter(|&&s| s > eps)
+        .count();
+    let pinv = c.pseudo_inverse(eps).unwrap();
+    let w = (x.transpose() * pinv * &x)[(0, 0)];
+    (
+        w,
+        ChiSquared::new(rank.max(1) as f64)
+            .unwrap()
+            .inverse_cdf(0.95),
+    )
+}
