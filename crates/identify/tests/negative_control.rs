@@ -5,36 +5,24 @@
 mod common;
 
 use common::planted::{Variant, searched};
+use mtcal_testkit::sessions::parallel;
 
 #[test]
 fn fifty_clean_sessions_rarely_raise_a_claim() {
     let seeds: Vec<u64> = (1000..1050).collect();
-    let claims = std::sync::Mutex::new(Vec::new());
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(4);
-    std::thread::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(&seed) = seeds.get(k) else { return };
-                    let result = searched("", seed, Variant::default());
-                    let found: Vec<String> = result
-                        .identification
-                        .discoveries
-                        .iter()
-                        .map(|d| d.label.clone())
-                        .collect();
-                    if !found.is_empty() {
-                        claims.lock().unwrap().push((seed, found));
-                    }
-                }
-            });
-        }
-    });
-    let claims = claims.into_inner().unwrap();
+    let claims: Vec<(u64, Vec<String>)> = parallel(&seeds, |&seed| {
+        let result = searched("", seed, Variant::default());
+        let found: Vec<String> = result
+            .identification
+            .discoveries
+            .iter()
+            .map(|d| d.label.clone())
+            .collect();
+        (seed, found)
+    })
+    .into_iter()
+    .filter(|(_, found)| !found.is_empty())
+    .collect();
     eprintln!(
         "{} of 50 clean sessions claimed an effect: {claims:?}",
         claims.len()

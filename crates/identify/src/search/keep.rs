@@ -7,7 +7,7 @@
 
 use super::fitted::{Fitted, carry_over, fit};
 use super::settings::SearchOptions;
-use super::step::{Addition, Stage, forecasts_worse, real_gain};
+use super::step::{Addition, Stage, at_edge, forecasts_worse, real_gain};
 use crate::findings::{SearchReport, Withdrawn};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, K95, param_specs};
@@ -275,8 +275,7 @@ fn pinned(current: &Fitted, names: &[String]) -> Option<String> {
             return None;
         }
         let value = current.solution.x[i];
-        let at = |edge: f64| (value - edge).abs() <= 1e-3 * edge.abs();
-        (at(lo) || at(hi)).then(|| {
+        at_edge(value, (lo, hi)).then(|| {
             format!(
                 "the final fit pins {} at the edge of its range, {:.4} {}",
                 info.name,

@@ -378,8 +378,7 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
             // its 1 s floor is a step on the first samples, not a time constant).
             let info = study.param_info(i);
             let value = solution.x[i];
-            let pinned = |edge: f64| (value - edge).abs() <= 1e-3 * edge.abs();
-            if !before.contains_key(&info.name) && (pinned(lo) || pinned(hi)) {
+            if !before.contains_key(&info.name) && at_edge(value, (lo, hi)) {
                 return Some(format!(
                     "not physics: the refit pins {} at the edge of its range, {:.4} {}",
                     info.name,
@@ -483,6 +482,13 @@ pub(super) fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result
          p = {p:.3}, {level} needed)",
         d.len()
     ))
+}
+
+/// Whether a shape's `value` sits at an edge of its box `bounds` (within 0.1 % of it): the fit
+/// found no optimum inside.
+pub(super) fn at_edge(value: f64, (lo, hi): (f64, f64)) -> bool {
+    let at = |edge: f64| (value - edge).abs() <= 1e-3 * edge.abs();
+    at(lo) || at(hi)
 }
 
 /// Of the candidates that passed, the one added: the lowest information criterion — unless
