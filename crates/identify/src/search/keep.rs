@@ -5,9 +5,10 @@
 //! cross-validation, the fit helpers and the steps; the loop calls it before the discoveries
 //! are written.
 
+use super::curves;
 use super::fitted::{Fitted, carry_over, fit};
 use super::settings::SearchOptions;
-use super::step::{Addition, Stage, at_edge, forecasts_worse, real_gain};
+use super::step::{AddedChange, Addition, Stage, at_edge, forecasts_worse, real_gain};
 use crate::findings::{SearchReport, Withdrawn};
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, K95, param_specs};
@@ -30,7 +31,9 @@ pub(super) fn keep_what_holds(
     let mut changed = false;
     let mut tried_holding: Vec<usize> = Vec::new();
     while let Some((k, failure)) = stages.iter().enumerate().rev().find_map(|(k, s)| {
-        undetermined(&current.study, &current.solution, &s.addition.params).map(|w| (k, w))
+        undetermined(&current.study, &current.solution, &s.addition.params)
+            .or_else(|| implausible_order(&current, &s.addition))
+            .map(|w| (k, w))
     }) {
         // A shape (τ, a pitch) the data do not determine, while the effect's size is: the
         // effect stays with its shape held where the fit left it — a stated assumption, not a
@@ -260,6 +263,22 @@ pub(super) fn undetermined(
             )
         })
     })
+}
+
+/// Why a component given more orders (`addition`) is no curve a machine could have in
+/// `current`'s fit, if it is not ([`curves`]).
+fn implausible_order(current: &Fitted, addition: &Addition) -> Option<Failure> {
+    let AddedChange::Model(m) = &addition.change else {
+        return None;
+    };
+    if m.extra_order == 0 {
+        return None;
+    }
+    let component = m.param.to_string();
+    curves::component_curves(&current.study, &current.solution)
+        .into_iter()
+        .find(|c| c.component == component && c.implausible())
+        .map(|c| Failure::Other(format!("in the final fit {}", c.describe())))
 }
 
 /// Why a shape (not a nuisance) among the parameters `names` is no shape of `current`'s

@@ -101,6 +101,7 @@
 //! [`heldout`]: fn@heldout
 //! [`rank`]: fn@rank
 
+mod curves;
 mod discovery;
 mod fitted;
 mod heldout;

@@ -4,6 +4,7 @@
 //! step kept as a [`Stage`] with its look-alikes (step 3). Uses the ranking, the cross-validation
 //! and the fit helpers; the loop drives it and the discoveries read its stages.
 
+use super::curves;
 use super::fitted::{Fitted, carry_over, solve};
 use super::heldout::{choose_width, heldout};
 use super::rank::{Ranked, rank_with};
@@ -365,6 +366,13 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
     let before: HashMap<String, f64> = (0..current.study.layout().n_x())
         .map(|i| (current.study.param_info(i).name, current.solution.x[i]))
         .collect();
+    // A component's whole curve, where each coefficient alone is in range.
+    if let Some(curve) = curves::newly_implausible(
+        &curves::component_curves(&current.study, &current.solution),
+        &curves::component_curves(study, solution),
+    ) {
+        return Some(format!("not physics: in the refit, {}", curve.describe()));
+    }
     for (i, spec) in specs.iter().enumerate() {
         let Some(range) = spec.scale else { continue };
         // An axis' state where its approach is unknown is not a claim: the data need not

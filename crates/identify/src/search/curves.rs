@@ -1,0 +1,186 @@
+//! Whether a component error is one a machine could have, judged by its whole curve over the
+//! axis' stroke rather than coefficient by coefficient ([`implausible_curves`]). The generic
+//! range of a machine parameter (a millimetre) holds a single coefficient; but a ball-bar or a
+//! short artefact barely tells a Legendre basis' coefficients apart, and a refit that raises a
+//! component's order can trade them off into a curve of hundreds of micrometres that no
+//! guideway has, each coefficient still "in range". Used by the step (a candidate may not drive
+//! a plausible curve beyond its range) and by what the final model keeps (a component given
+//! more orders must remain a plausible curve).
+
+use crate::study::Study;
+use mtcal_solve::Solution;
+use std::collections::BTreeMap;
+
+/// Plausible peak of a translational component error (positioning, straightness) over an
+/// axis' stroke, per metre of stroke: ten times what ISO 230-1 acceptance tolerances of a
+/// machine tool allow, a machine worn out of any specification.
+const TRANSLATION_PER_M: f64 = 100e-6;
+/// The floor of that range on a short stroke.
+const TRANSLATION_FLOOR: f64 = 30e-6;
+/// Plausible peak of an angular component error (pitch, yaw, roll) over the stroke.
+const ROTATION: f64 = 500e-6;
+/// Points of the stroke at which a curve is evaluated.
+const GRID: usize = 201;
+
+/// A component error's curve over its axis' stroke in a fit.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Curve {
+    /// The component, `EZX`.
+    pub component: String,
+    /// Largest magnitude over the stroke (SI).
+    pub peak: f64,
+    /// The plausible range of that magnitude (SI).
+    pub range: f64,
+    /// Reporting unit and its factor from SI.
+    pub unit: String,
+    pub per_si: f64,
+}
+
+impl Curve {
+    pub(super) fn implausible(&self) -> bool {
+        self.peak > self.range
+    }
+
+    pub(super) fn describe(&self) -> String {
+        format!(
+            "{} reaches {:.1} {} over its axis' stroke, beyond a plausible ±{:.1} {}",
+            self.component,
+            self.peak * self.per_si,
+            self.unit,
+            self.range * self.per_si,
+            self.unit
+        )
+    }
+}
+
+/// Every Legendre component error of a linear axis in `study` whose coefficients the fit
+/// `solution` all determines, with its curve's peak and plausible range. A component with a
+/// coefficient in the null space has no value to judge.
+pub(super) fn component_curves(study: &Study, solution: &Solution) -> Vec<Curve> {
+    // component → (degree, index)
+    let mut by_component: BTreeMap<String, Vec<(usize, usize)>> = BTreeMap::new();
+    for i in 0..study.layout().n_x() {
+        let info = study.param_info(i);
+        if !info.machine {
+            continue;
+        }
+        if let Some((component, degree)) = legendre_coefficient(&info.name) {
+            by_component
+                .entry(component.to_string())
+                .or_default()
+                .push((degree, i));
+        }
+    }
+    let axes = &study.view().axes;
+    by_component
+        .into_iter()
+        .filter_map(|(component, coefficients)| {
+            if coefficients
+                .iter()
+                .any(|&(_, i)| solution.sigma[i].is_none())
+            {
+                return None;
+            }
+            let letters: Vec<char> = component.chars().collect();
+            let axis = axes.iter().find(|a| !a.rotary && a.letter == letters[2])?;
+            let stroke_m = (axis.stroke.1 - axis.stroke.0).abs();
+            let angular = matches!(letters[1], 'A' | 'B' | 'C');
+            let range = if angular {
+                ROTATION
+            } else {
+                (TRANSLATION_PER_M * stroke_m).max(TRANSLATION_FLOOR)
+            };
+            let info = study.param_info(coefficients[0].1);
+            let values: Vec<(usize, f64)> = coefficients
+                .iter()
+                .map(|&(k, i)| (k, solution.x[i]))
+                .collect();
+            Some(Curve {
+                peak: peak(&values),
+                range,
+                unit: info.unit,
+                per_si: info.per_si,
+                component,
+            })
+        })
+        .collect()
+}
+
+/// The curves of `after` that are implausible while they were not in `before` (a component
+/// already implausible before is not the candidate's doing).
+pub(super) fn newly_implausible(before: &[Curve], after: &[Curve]) -> Option<Curve> {
+    after
+        .iter()
+        .filter(|c| c.implausible())
+        .find(|c| {
+            before
+                .iter()
+                .find(|b| b.component == c.component)
+                .is_none_or(|b| !b.implausible())
+        })
+        .cloned()
+}
+
+/// `EZX.P3` → (`EZX`, 3): a Legendre coefficient of a component error of a linear axis.
+fn legendre_coefficient(name: &str) -> Option<(&str, usize)> {
+    let (component, coefficient) = name.split_once('.')?;
+    let degree = coefficient.strip_prefix('P')?.parse().ok()?;
+    let c: Vec<char> = component.chars().collect();
+    (c.len() == 3 && c[0] == 'E' && "XYZABC".contains(c[1]) && c[2].is_ascii_uppercase())
+        .then_some((component, degree))
+}
+
+/// Largest `|Σ c_k P_k(u)|` over `u ∈ [−1, 1]` (Legendre polynomials, Bonnet's recurrence).
+fn peak(coefficients: &[(usize, f64)]) -> f64 {
+    let top = coefficients.iter().map(|&(k, _)| k).max().unwrap_or(0);
+    let mut p = vec![0.0; top + 1];
+    (0..GRID)
+        .map(|g| {
+            let u = -1.0 + 2.0 * g as f64 / (GRID - 1) as f64;
+            p[0] = 1.0;
+            if top >= 1 {
+                p[1] = u;
+            }
+            for n in 1..top {
+                p[n + 1] = ((2 * n + 1) as f64 * u * p[n] - n as f64 * p[n - 1]) / (n + 1) as f64;
+            }
+            coefficients
+                .iter()
+                .map(|&(k, c)| c * p[k])
+                .sum::<f64>()
+                .abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_of_legendre_sums_matches_their_closed_forms() {
+        // P3(u) = (5u³ − 3u)/2 peaks at 1 on [−1, 1]; 2·P1 + P3 = 2u + (5u³ − 3u)/2 reaches
+        // 3 at u = 1.
+        assert!((peak(&[(3, 1.0)]) - 1.0).abs() < 1e-12);
+        assert!((peak(&[(1, 2.0), (3, 1.0)]) - 3.0).abs() < 1e-12);
+        // P2 − P0 = (3u² − 1)/2 − 1 is −1.5 at u = 0 and 0 at u = ±1.
+        assert!((peak(&[(0, -1.0), (2, 1.0)]) - 1.5).abs() < 1e-12);
+        // P4(u) = (35u⁴ − 30u² + 3)/8, brute force on a fine grid.
+        let brute = (0..=20_000)
+            .map(|g| {
+                let u = -1.0 + g as f64 / 10_000.0;
+                (0.5 * (35.0 * u.powi(4) - 30.0 * u * u + 3.0) / 4.0 - 0.7 * u).abs()
+            })
+            .fold(0.0, f64::max);
+        assert!((peak(&[(4, 1.0), (1, -0.7)]) - brute).abs() < 1e-3);
+    }
+
+    #[test]
+    fn coefficient_names_are_read_only_from_component_errors() {
+        assert_eq!(legendre_coefficient("EZX.P3"), Some(("EZX", 3)));
+        assert_eq!(legendre_coefficient("EAY.P12"), Some(("EAY", 12)));
+        assert_eq!(legendre_coefficient("EXC.C2"), None);
+        assert_eq!(legendre_coefficient("ball1.tool_length"), None);
+        assert_eq!(legendre_coefficient("EB0Z"), None);
+    }
+}
