@@ -132,7 +132,8 @@ impl Basic {
         unit: AmplitudeUnit,
         shape: Option<f64>,
     ) -> Self {
-        // Plausible sizes: a millimetre (or milliradian) of error, a 10 % gain, a second of lag.
+        // Plausible sizes: a millimetre (or milliradian) of error, a 10 % gain (an instrument
+        // channel's: 5 %), a second of lag.
         let amp = |name: &str, unit: String, per_si: f64| ParamDef {
             name: name.to_string(),
             scale: match unit.as_str() {
@@ -231,7 +232,13 @@ impl Basic {
                 vec![amp(&format!("height_{u}"), u.clone(), k), decay]
             }
             Feature::Bilinear(..) => vec![amp(&format!("corner_{u}"), u.clone(), k)],
-            Feature::Constant => vec![amp("gain_ppm", "ppm".into(), 1e6)],
+            // An instrument channel's gain: a sensor's sensitivity entered wrong or a
+            // ball-bar's calibration lost by a few per cent is plausible; readings off by more
+            // than 5 % would be visibly wrong at the machine.
+            Feature::Constant => vec![ParamDef {
+                scale: 0.05,
+                ..amp("gain_ppm", "ppm".into(), 1e6)
+            }],
             Feature::Expansion(..) | Feature::LaggedExpansion(..) => {
                 // A scale follows its temperature by some 10 ppm/K (steel 11.5, glass 8):
                 // 100 ppm/K is beyond any machine.

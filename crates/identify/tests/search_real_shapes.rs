@@ -557,13 +557,15 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     // The bar, met: the location and squareness intervals hold the truth.
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
-    // Today's floors (measured: 72/80 named, claims in 8/60, 53/72 predicted, 71/72 no
-    // worse): the bar is 90 % named, 5 % claims, none worse.
-    assert!(share(found, effects) >= 0.875, "{found}/{effects} named");
+    // The bar, met: 90 % named (measured 75/80), claims in 5 % of the sessions at most
+    // (measured 3/60).
+    assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
     assert!(
-        share(claimed, n) <= 0.17,
+        share(claimed, n) <= 0.05,
         "claims in {claimed}/{n} sessions"
     );
+    // Today's floors (measured 71/72 no worse, 52/72 within 1.2 × the noise): the bar
+    // is every one.
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"

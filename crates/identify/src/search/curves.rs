@@ -7,6 +7,7 @@
 //! a plausible curve beyond its range) and by what the final model keeps (a component given
 //! more orders must remain a plausible curve).
 
+use crate::K95;
 use crate::study::Study;
 use mtcal_solve::Solution;
 use std::collections::BTreeMap;
@@ -29,6 +30,10 @@ pub(super) struct Curve {
     pub component: String,
     /// Largest magnitude over the stroke (SI).
     pub peak: f64,
+    /// Its 95 % uncertainty in the fit (SI).
+    pub peak_u95: f64,
+    /// The widest 95 % uncertainty of the curve anywhere over the stroke (SI).
+    pub widest_u95: f64,
     /// The plausible range of that magnitude (SI).
     pub range: f64,
     /// Reporting unit and its factor from SI.
@@ -37,15 +42,23 @@ pub(super) struct Curve {
 }
 
 impl Curve {
+    /// Beyond its range by more than its own uncertainty: a curve the data barely pin down
+    /// (coefficients that a ball-bar trades off) is not blamed for where its value wanders.
     pub(super) fn implausible(&self) -> bool {
-        self.peak > self.range
+        self.peak - self.peak_u95 > self.range
+    }
+
+    /// Not an identification: somewhere over the stroke its interval is wider than the range.
+    pub(super) fn undetermined(&self) -> bool {
+        self.widest_u95 > self.range
     }
 
     pub(super) fn describe(&self) -> String {
         format!(
-            "{} reaches {:.1} {} over its axis' stroke, beyond a plausible ±{:.1} {}",
+            "{} reaches {:.1} ± {:.1} {} over its axis' stroke, beyond a plausible ±{:.1} {}",
             self.component,
             self.peak * self.per_si,
+            self.peak_u95 * self.per_si,
             self.unit,
             self.range * self.per_si,
             self.unit
@@ -95,8 +108,25 @@ pub(super) fn component_curves(study: &Study, solution: &Solution) -> Vec<Curve>
                 .iter()
                 .map(|&(k, i)| (k, solution.x[i]))
                 .collect();
+            let (peak, at) = peak(&values);
+            let top = coefficients.iter().map(|&(k, _)| k).max().unwrap_or(0);
+            let u95 = |u: f64| {
+                let p = legendre(u, top);
+                let mut variance = 0.0;
+                for &(k, i) in &coefficients {
+                    for &(l, j) in &coefficients {
+                        variance += p[k] * p[l] * solution.cov(i, j);
+                    }
+                }
+                K95 * variance.max(0.0).sqrt()
+            };
+            let widest_u95 = (0..GRID)
+                .map(|g| u95(-1.0 + 2.0 * g as f64 / (GRID - 1) as f64))
+                .fold(0.0, f64::max);
             Some(Curve {
-                peak: peak(&values),
+                peak,
+                peak_u95: u95(at),
+                widest_u95,
                 range,
                 unit: info.unit,
                 per_si: info.per_si,
@@ -130,27 +160,30 @@ fn legendre_coefficient(name: &str) -> Option<(&str, usize)> {
         .then_some((component, degree))
 }
 
-/// Largest `|Σ c_k P_k(u)|` over `u ∈ [−1, 1]` (Legendre polynomials, Bonnet's recurrence).
-fn peak(coefficients: &[(usize, f64)]) -> f64 {
+/// Largest `|Σ c_k P_k(u)|` over `u ∈ [−1, 1]` and where it is.
+fn peak(coefficients: &[(usize, f64)]) -> (f64, f64) {
     let top = coefficients.iter().map(|&(k, _)| k).max().unwrap_or(0);
-    let mut p = vec![0.0; top + 1];
     (0..GRID)
         .map(|g| {
             let u = -1.0 + 2.0 * g as f64 / (GRID - 1) as f64;
-            p[0] = 1.0;
-            if top >= 1 {
-                p[1] = u;
-            }
-            for n in 1..top {
-                p[n + 1] = ((2 * n + 1) as f64 * u * p[n] - n as f64 * p[n - 1]) / (n + 1) as f64;
-            }
-            coefficients
-                .iter()
-                .map(|&(k, c)| c * p[k])
-                .sum::<f64>()
-                .abs()
+            let p = legendre(u, top);
+            let value: f64 = coefficients.iter().map(|&(k, c)| c * p[k]).sum();
+            (value.abs(), u)
         })
-        .fold(0.0, f64::max)
+        .fold((0.0, 0.0), |best, v| if v.0 > best.0 { v } else { best })
+}
+
+/// `P_0(u) … P_top(u)` (Bonnet's recurrence).
+fn legendre(u: f64, top: usize) -> Vec<f64> {
+    let mut p = vec![0.0; top + 1];
+    p[0] = 1.0;
+    if top >= 1 {
+        p[1] = u;
+    }
+    for n in 1..top {
+        p[n + 1] = ((2 * n + 1) as f64 * u * p[n] - n as f64 * p[n - 1]) / (n + 1) as f64;
+    }
+    p
 }
 
 #[cfg(test)]
@@ -161,10 +194,10 @@ mod tests {
     fn peak_of_legendre_sums_matches_their_closed_forms() {
         // P3(u) = (5u³ − 3u)/2 peaks at 1 on [−1, 1]; 2·P1 + P3 = 2u + (5u³ − 3u)/2 reaches
         // 3 at u = 1.
-        assert!((peak(&[(3, 1.0)]) - 1.0).abs() < 1e-12);
-        assert!((peak(&[(1, 2.0), (3, 1.0)]) - 3.0).abs() < 1e-12);
+        assert!((peak(&[(3, 1.0)]).0 - 1.0).abs() < 1e-12);
+        assert!((peak(&[(1, 2.0), (3, 1.0)]).0 - 3.0).abs() < 1e-12);
         // P2 − P0 = (3u² − 1)/2 − 1 is −1.5 at u = 0 and 0 at u = ±1.
-        assert!((peak(&[(0, -1.0), (2, 1.0)]) - 1.5).abs() < 1e-12);
+        assert!((peak(&[(0, -1.0), (2, 1.0)]).0 - 1.5).abs() < 1e-12);
         // P4(u) = (35u⁴ − 30u² + 3)/8, brute force on a fine grid.
         let brute = (0..=20_000)
             .map(|g| {
@@ -172,7 +205,27 @@ mod tests {
                 (0.5 * (35.0 * u.powi(4) - 30.0 * u * u + 3.0) / 4.0 - 0.7 * u).abs()
             })
             .fold(0.0, f64::max);
-        assert!((peak(&[(4, 1.0), (1, -0.7)]) - brute).abs() < 1e-3);
+        assert!((peak(&[(4, 1.0), (1, -0.7)]).0 - brute).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_curve_is_blamed_only_beyond_its_range_by_more_than_its_uncertainty() {
+        let curve = |peak: f64, peak_u95: f64| Curve {
+            component: "EZX".into(),
+            peak,
+            peak_u95,
+            widest_u95: peak_u95,
+            range: 75e-6,
+            unit: "um".into(),
+            per_si: 1e6,
+        };
+        assert!(curve(447e-6, 185e-6).implausible());
+        assert!(!curve(150e-6, 100e-6).implausible());
+        assert!(!curve(70e-6, 0.0).implausible());
+        // Only a curve that was plausible before the candidate is the candidate's doing.
+        assert!(newly_implausible(&[curve(70e-6, 0.0)], &[curve(200e-6, 10e-6)]).is_some());
+        assert!(newly_implausible(&[curve(200e-6, 0.0)], &[curve(300e-6, 10e-6)]).is_none());
+        assert!(newly_implausible(&[], &[curve(300e-6, 10e-6)]).is_some());
     }
 
     #[test]

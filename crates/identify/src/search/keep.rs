@@ -266,7 +266,7 @@ pub(super) fn undetermined(
 }
 
 /// Why a component given more orders (`addition`) is no curve a machine could have in
-/// `current`'s fit, if it is not ([`curves`]).
+/// `current`'s fit, or no determined one, if it is not ([`curves`]).
 fn implausible_order(current: &Fitted, addition: &Addition) -> Option<Failure> {
     let AddedChange::Model(m) = &addition.change else {
         return None;
@@ -275,10 +275,26 @@ fn implausible_order(current: &Fitted, addition: &Addition) -> Option<Failure> {
         return None;
     }
     let component = m.param.to_string();
-    curves::component_curves(&current.study, &current.solution)
+    let curve = curves::component_curves(&current.study, &current.solution)
         .into_iter()
-        .find(|c| c.component == component && c.implausible())
-        .map(|c| Failure::Other(format!("in the final fit {}", c.describe())))
+        .find(|c| c.component == component)?;
+    if curve.implausible() {
+        return Some(Failure::Other(format!(
+            "in the final fit {}",
+            curve.describe()
+        )));
+    }
+    curve.undetermined().then(|| {
+        Failure::Other(format!(
+            "the final fit does not determine {}'s curve: ±{:.1} {} somewhere over its axis' \
+             stroke, wider than its plausible range of ±{:.1} {}",
+            curve.component,
+            curve.widest_u95 * curve.per_si,
+            curve.unit,
+            curve.range * curve.per_si,
+            curve.unit
+        ))
+    })
 }
 
 /// Why a shape (not a nuisance) among the parameters `names` is no shape of `current`'s

@@ -8,7 +8,7 @@ use super::curves;
 use super::fitted::{Fitted, carry_over, solve};
 use super::heldout::{choose_width, heldout};
 use super::rank::{Ranked, rank_with};
-use super::settings::SearchOptions;
+use super::settings::{LOOKALIKE_BIC, SearchOptions};
 use crate::K95;
 use crate::findings::{Heldout, LookAlike, Trial};
 use crate::relabel::unique;
@@ -456,8 +456,8 @@ fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
 
 /// Whether the held-out gain of `after` over `before` is real: the folds that predict better
 /// outweigh, beyond chance, those that predict worse (a one-sided Wilcoxon signed-rank test at
-/// `level` on the per-fold changes of the mean square), and the later part of the session is
-/// forecast no worse ([`forecasts_worse`]). A candidate fitted to the noise of
+/// `level` on the per-fold changes of the mean square), the held-out RMS in the channels' units
+/// does not grow, and the later part of the session is forecast no worse ([`forecasts_worse`]). A candidate fitted to the noise of
 /// the training folds gains a few nanometres on average and loses as much on some folds; a
 /// drift that does not extrapolate forecasts the stretches after its training worse. A real
 /// effect may gain much more in the folds that hold the runs it shows in than in the others:
@@ -465,6 +465,15 @@ fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
 pub(super) fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result<(), String> {
     if let Some(why) = forecasts_worse(before, after) {
         return Err(why);
+    }
+    // The statistic is the whitened mean square (channels weighed by their noise); but a
+    // model whose held-out error in the channels' own units grows predicts no better for the
+    // user, whatever the weights say.
+    if after.rms_um > before.rms_um {
+        return Err(format!(
+            "the held-out error in the channels' units grows (RMS {:.3} → {:.3} µm)",
+            before.rms_um, after.rms_um
+        ));
     }
     // The forecasts are judged above on their own: their refit moves the effects alone, so
     // the model before a candidate forecasts with geometry fitted to those very samples.
@@ -500,26 +509,36 @@ pub(super) fn at_edge(value: f64, (lo, hi): (f64, f64)) -> bool {
 }
 
 /// Of the candidates that passed, the one added: the lowest information criterion — unless
-/// another predicts the held-out data clearly better ([`clearly_better`]), when the best
-/// predictor among those does. A fit's χ² counts what the candidate and the refitted
-/// geometry together absorb of the training data; where the two disagree, the prediction of
-/// data the fit did not see is what the model is for (a reversal error fits a decaying spike
-/// as well as the spike does, but predicts the blocks it did not see worse).
-pub(super) fn winner<'a>(passed: impl Iterator<Item = &'a Refitted> + Clone) -> Option<usize> {
+/// another predicts the held-out data clearly better ([`clearly_better`]), or, within
+/// [`LOOKALIKE_BIC`] of it (where the criterion's evidence is not strong: `scale` is the noise
+/// estimate it is measured in), consistently better ([`consistently_better`]); then the best
+/// predictor among those. A fit's χ² counts what the candidate and the refitted geometry
+/// together absorb of the training data; where the two disagree, the prediction of data the
+/// fit did not see is what the model is for (a reversal error fits a decaying spike as well as
+/// the spike does, but predicts the blocks it did not see worse).
+pub(super) fn winner<'a>(
+    passed: impl Iterator<Item = &'a Refitted> + Clone,
+    scale: f64,
+) -> Option<usize> {
     let by_criterion = passed
         .clone()
         .enumerate()
         .min_by(|a, b| a.1.criterion().total_cmp(&b.1.criterion()))?;
+    let best = by_criterion.1;
     let better = passed
         .enumerate()
-        .filter(|(_, r)| clearly_better(&r.heldout, &by_criterion.1.heldout))
+        .filter(|(_, r)| {
+            clearly_better(&r.heldout, &best.heldout)
+                || (r.criterion() - best.criterion()) / scale < LOOKALIKE_BIC
+                    && consistently_better(&r.heldout, &best.heldout)
+        })
         .min_by(|a, b| a.1.heldout.mean_square.total_cmp(&b.1.heldout.mean_square));
     Some(better.map_or(by_criterion.0, |b| b.0))
 }
 
 /// A held-out mean square lower by at least this share before it decides over the
 /// information criterion.
-pub(super) const CLEARLY_BETTER_SHARE: f64 = 0.1;
+pub(super) const CLEARLY_BETTER_SHARE: f64 = 0.05;
 /// The one-sided level of the signed-rank test over the folds it must pass as well.
 const CLEARLY_BETTER_LEVEL: f64 = 0.1;
 
@@ -527,10 +546,13 @@ const CLEARLY_BETTER_LEVEL: f64 = 0.1;
 /// [`CLEARLY_BETTER_SHARE`] and lower fold by fold beyond chance (signed-rank test at
 /// [`CLEARLY_BETTER_LEVEL`]).
 pub(super) fn clearly_better(a: &Heldout, b: &Heldout) -> bool {
-    if a.mean_square > (1.0 - CLEARLY_BETTER_SHARE) * b.mean_square
-        || a.folds.len() != b.folds.len()
-        || a.folds.len() < 3
-    {
+    a.mean_square <= (1.0 - CLEARLY_BETTER_SHARE) * b.mean_square && consistently_better(a, b)
+}
+
+/// Whether `a` predicts the held-out data better than `b` fold by fold beyond chance
+/// (signed-rank test at [`CLEARLY_BETTER_LEVEL`]), and on the whole.
+fn consistently_better(a: &Heldout, b: &Heldout) -> bool {
+    if a.mean_square >= b.mean_square || a.folds.len() != b.folds.len() || a.folds.len() < 3 {
         return false;
     }
     let d: Vec<f64> = b.folds.iter().zip(&a.folds).map(|(b, a)| b - a).collect();
