@@ -43,9 +43,9 @@ pub enum Feature {
     /// reverses in a run, on the flank of its direction. Shape: λ (m).
     LateralTakeUp(usize),
     /// `w·s·exp(−Δt/τ)` of axis `a`: direction `s` (±1) and time `Δt` since the axis left its
-    /// last turning point; `w = 1` after a reversal within the run, `½` on the run's first
-    /// motion (whether the axis turned where the run starts is unknown: the mean of a spike
-    /// and none), 0 before it. Shape: τ (s).
+    /// last turning point; `w = 1` after a reversal — within the run, or on its first motion
+    /// against the side it arrived from (as the reversal error takes it) — and 0 before one
+    /// or where the side is unknown. Shape: τ (s).
     ReversalSpike(usize),
     /// [`Feature::ReversalSpike`] recovering as a critically damped loop does (a position
     /// loop's integrator rebuilding the friction force): `w·s·(1 + Δt/τ)·exp(−Δt/τ)`, flat at
@@ -353,10 +353,18 @@ impl Basic {
                         | Feature::ReversalAlong(_)
                         | Feature::LateralPlay(_)
                         | Feature::LateralTakeUp(_)
+                        | Feature::ReversalSpike(_)
+                        | Feature::ReversalSpikeDamped(_)
                 ),
             "start states belong to a direction-driven effect"
         );
-        let states = view.start_states(a, START_STATE_SAMPLES);
+        let states = match self.feature {
+            // A transient follows the first motion: every run whose first turn is unknown.
+            Feature::ReversalSpike(_) | Feature::ReversalSpikeDamped(_) => {
+                view.unknown_first_turns(a)
+            }
+            _ => view.start_states(a, START_STATE_SAMPLES),
+        };
         if states.is_empty() {
             return self;
         }
@@ -692,12 +700,25 @@ fn bump(sigma: f64) -> (f64, f64) {
     }
 }
 
+/// A reversal spike's decay `Δt` after the turn at time constant `tau`, and its derivative
+/// with respect to `tau`: first-order `e^{−x}`, or critically damped `(1 + x)·e^{−x}`
+/// ([`Feature::ReversalSpikeDamped`]), `x = Δt/τ`.
+fn spike_law(feature: &Feature, dt: f64, tau: f64) -> (f64, f64) {
+    let x = dt / tau;
+    let e = (-x).exp();
+    match feature {
+        Feature::ReversalSpikeDamped(_) => (e * (1.0 + x), e * x * x / tau),
+        _ => (e, e * x / tau),
+    }
+}
+
 /// How much of a transient after a reversal the feature holds at sample `i` of run `r`: the
-/// direction after a reversal within the run's own motion, 0 before one. Whether the axis
-/// turned where the run starts depends on the approach, which the file does not hold: a
-/// transient there is not claimed (it would explain the guess's error, not a machine).
+/// direction after a reversal, 0 before one. A run's first motion against the side the axis
+/// arrived from is a reversal, as the reversal error counts it (the previous run left the axis
+/// moving the other way: the controller turns it where this run starts, and the transient
+/// decays into the run's first samples); where the side is unknown, none is counted.
 fn after_reversal(view: &SessionView, r: usize, a: usize, i: usize) -> f64 {
-    if view.reversed_within(r, a, i) {
+    if view.reversed(r, a, i) {
         f64::from(view.direction(r, a, i))
     } else {
         0.0
@@ -777,6 +798,22 @@ impl BasicFeatures {
         let Some(k) = runs.iter().position(|&run| run == r) else {
             return;
         };
+        if let Feature::ReversalSpike(_) | Feature::ReversalSpikeDamped(_) = self.feature {
+            // From the first motion to the first reversal within the run, the spike of a
+            // turn at the run's start in the share `½(1 − u·s)` of the side `u` against the
+            // first direction `s`: in full if it arrived from the other side, none if from
+            // its own.
+            if view.before_first_motion(r, a, i) || view.reversed(r, a, i) {
+                return;
+            }
+            let s = f64::from(view.direction(r, a, i));
+            let (g, dg) = spike_law(&self.feature, view.since_turn(r, a, i), self.shape);
+            let w = 0.5 * (s - self.shape_values[first + k]);
+            f[0] = w * g;
+            df[0] = w * dg;
+            df[first + k] = -0.5 * g;
+            return;
+        }
         if !view.before_first_motion(r, a, i) {
             return;
         }
@@ -863,20 +900,11 @@ impl Features for BasicFeatures {
                 f[0] = -0.5 * f64::from(view.direction(r, *a, i));
                 f[1] = f[0] * u;
             }
-            Feature::ReversalSpike(a) => {
+            Feature::ReversalSpike(a) | Feature::ReversalSpikeDamped(a) => {
                 let w = after_reversal(view, r, *a, i);
-                let dt = view.since_turn(r, *a, i);
-                let tau = self.shape;
-                let e = w * (-dt / tau).exp();
-                f[0] = e;
-                df[0] = e * dt / (tau * tau);
-            }
-            Feature::ReversalSpikeDamped(a) => {
-                let w = after_reversal(view, r, *a, i);
-                let x = view.since_turn(r, *a, i) / self.shape;
-                let e = w * (-x).exp();
-                f[0] = e * (1.0 + x);
-                df[0] = e * x * x / self.shape;
+                let (g, dg) = spike_law(&self.feature, view.since_turn(r, *a, i), self.shape);
+                f[0] = w * g;
+                df[0] = w * dg;
             }
             Feature::LocalBump(a) => {
                 let (c, w) = (self.shape, self.second);

@@ -295,17 +295,10 @@ impl AxisMotion {
         }
     }
 
-    /// Whether the direction at sample `i` was reached by a reversal within the run (`false`
-    /// before the first reversal: on the first motion, whether the axis turned where the run
-    /// starts is unknown).
+    /// Whether the direction at sample `i` was reached by a reversal: within the run, or on
+    /// its first motion against the side the axis arrived from (where that side is known).
     pub fn reversed(&self, i: usize) -> bool {
         self.reversals_to(i) > 0
-    }
-
-    /// Whether the axis reversed within the run's own motion at or before sample `i`: after
-    /// its first motion (a reversal at the first motion is the guessed arrival's).
-    pub fn reversed_within(&self, i: usize) -> bool {
-        self.reversals_to(i) > self.reversals_to(self.first_motion)
     }
 
     /// The sample the travel at sample `i` counts from: the turning point of the last
@@ -568,6 +561,23 @@ impl SessionView {
             .collect()
     }
 
+    /// The fitted runs (in time order) that axis `a` arrived at from an unknown side and in
+    /// which it moves: where whether its first motion was a reversal is unknown, which decides
+    /// a transient after it ([`StartState`]).
+    pub fn unknown_first_turns(&self, a: usize) -> Vec<StartState> {
+        self.order
+            .iter()
+            .filter(|&&r| {
+                let m = &self.motion[r][a];
+                self.runs[r].fit && m.arrived == 0 && m.moves
+            })
+            .map(|&r| StartState {
+                run: r,
+                name: self.runs[r].name.clone(),
+            })
+            .collect()
+    }
+
     /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences
     /// (one-sided at the run's ends; 0 where no time passes).
     pub fn velocity(&self, r: usize, a: usize, i: usize) -> f64 {
@@ -596,16 +606,10 @@ impl SessionView {
         t.get(i) - t.get(self.motion[r][a].anchor(i))
     }
 
-    /// Whether axis `a`'s direction at sample `i` of run `r` was reached by a reversal within
-    /// the run ([`AxisMotion::reversed`]).
+    /// Whether axis `a`'s direction at sample `i` of run `r` was reached by a reversal
+    /// ([`AxisMotion::reversed`]).
     pub fn reversed(&self, r: usize, a: usize, i: usize) -> bool {
         self.motion[r][a].reversed(i)
-    }
-
-    /// Whether axis `a` reversed within run `r`'s own motion at or before sample `i`
-    /// ([`AxisMotion::reversed_within`]).
-    pub fn reversed_within(&self, r: usize, a: usize, i: usize) -> bool {
-        self.motion[r][a].reversed_within(i)
     }
 
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).

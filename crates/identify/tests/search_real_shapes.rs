@@ -564,14 +564,14 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
         share(claimed, n) <= 0.05,
         "claims in {claimed}/{n} sessions"
     );
-    // Today's floors (measured 71/72 no worse, 52/72 within 1.2 × the noise): the bar
+    // Today's floors (measured 71/72 no worse, 58/72 within 1.2 × the noise): the bar
     // is every one.
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"
     );
     assert!(
-        share(predicted, runs) >= 0.7,
+        share(predicted, runs) >= 0.78,
         "{predicted}/{runs} predicted"
     );
 }

@@ -5,14 +5,16 @@
 //! Which side an axis arrived from before a run is not in the run's file: until it first moves
 //! within a run its direction is unknown and the direction-driven features are 0 there (the
 //! mean of the two sides; [`crate::view::AxisMotion`]); a transient after a reversal
-//! (`stick-slip`, `reversal-spike`) counts half on the run's first motion (the turn may have
-//! been where the run starts, or not) and in full after a reversal within the run.
+//! (`stick-slip`, `reversal-spike`) counts in full after a reversal within the run and after a
+//! first motion against the side the axis arrived from.
 //!
 //! Where the side is unknown over a stretch of fitted samples (the session's first run
 //! recorded with the axis standing, a turn that may have gone either way round), a
-//! `reversal` or `lateral-play` candidate fits the axis' state there as a nuisance amplitude
-//! per stretch (`start_<run>_um`; [`Basic::with_start_states`]): not a claim, the approach the
-//! file does not hold.
+//! `reversal` or `lateral-play` candidate fits the axis' state there as a nuisance side per
+//! stretch (`start_<run>`; [`Basic::with_start_states`]): not a claim, the approach the file
+//! does not hold. A `reversal-spike` candidate of a linear axis fits the same side in every run
+//! the axis arrived at from an unknown side: it decides whether the run's first motion was a
+//! turn.
 //!
 //! - **`reversal`**: the axis lags by half its backlash `B` behind the commanded position in
 //!   the direction it last moved, `±B/2` (plant key `backlash_um`; rotary `backlash_urad`).
@@ -311,8 +313,16 @@ fn spike_candidates(view: &SessionView) -> Vec<Candidate> {
             continue;
         }
         for tau in SPIKE_TAUS.into_iter().filter(|&t| t >= floor) {
-            out.push(spike(view, a, tau, false));
-            out.push(spike(view, a, tau, true));
+            for damped in [false, true] {
+                let candidate = spike(view, a, tau, damped);
+                // A linear axis' first turn is unknown in the session's first run only; an
+                // endless rotary axis' after every turn of half a revolution, and a free
+                // transient at the start of each such run would fit any run's first samples.
+                out.push(match view.axes[a].rotary {
+                    false => candidate.with_start_states(view, a),
+                    true => candidate,
+                });
+            }
         }
     }
     wrap(out)

@@ -120,8 +120,8 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
             let states = fx.params().iter().filter(|p| p.nuisance).count();
             if states > 0 {
                 words.push_str(&format!(
-                    " (the side of its play before the first motion fitted in {states} run{}: \
-                     the approach is not in the files)",
+                    " (the side the axis arrived from before its first motion fitted in \
+                     {states} run{}: the approach is not in the files)",
                     if states == 1 { "" } else { "s" }
                 ));
             }
