@@ -261,16 +261,7 @@ fn start_state_columns_equal_finite_differences() {
         .unwrap();
     let names: Vec<&str> = reversal.params().iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["backlash_urad", "start_xyc"]);
-    let study = loaded
-        .rebuild(Changes {
-            effects: vec![Arc::clone(reversal)],
-            ..Changes::default()
-        })
-        .unwrap();
-    let mut x: Vec<f64> = (0..study.layout().n_x())
-        .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
-        .collect();
-    let o = study.layout().effect_offset();
+    let (study, mut x, o) = with_effect(&loaded, reversal);
     // 40 µrad of play, the axis on 0.6 of the way to its + side.
     x[o] = 40e-6;
     x[o + 1] = 0.6;
@@ -286,22 +277,32 @@ fn start_state_columns_equal_finite_differences() {
         names[..2] == ["height_um", "tau_s"] && names[2..].iter().all(|n| n.starts_with("start_")),
         "{names:?}"
     );
-    let study = loaded
-        .rebuild(Changes {
-            effects: vec![Arc::clone(spike)],
-            ..Changes::default()
-        })
-        .unwrap();
-    let mut x: Vec<f64> = (0..study.layout().n_x())
-        .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
-        .collect();
-    let o = study.layout().effect_offset();
+    let (study, mut x, o) = with_effect(&loaded, spike);
     x[o] = 3e-6;
     x[o + 1] = spike.params()[1].initial;
     for (k, side) in (o + 2..study.layout().n_x()).enumerate() {
         x[side] = [-0.4, 0.7, 0.1][k % 3];
     }
     assert_columns_match(&study, &x);
+}
+
+/// `loaded` with `effect` added, a point of small machine and set-up errors to evaluate it
+/// at, and where the effect's parameters start in it.
+fn with_effect(
+    loaded: &Study,
+    effect: &Arc<dyn mtcal_effects::Effect>,
+) -> (Study, Vec<f64>, usize) {
+    let study = loaded
+        .rebuild(Changes {
+            effects: vec![Arc::clone(effect)],
+            ..Changes::default()
+        })
+        .unwrap();
+    let x = (0..study.layout().n_x())
+        .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
+        .collect();
+    let o = study.layout().effect_offset();
+    (study, x, o)
 }
 
 /// JᵀJ of the whitened residuals at `x` from the analytic factor equals that of central
