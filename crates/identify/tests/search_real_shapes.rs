@@ -18,7 +18,11 @@
 //! - the validation runs against the simulator's noise-free readings, after the search and
 //!   before it: within 1.2 × the noise after, and never worse than before — for the runs the
 //!   fitted runs determine; those mtcal reports as undetermined (their prediction depends on
-//!   parameters no fitted run sees) are counted and printed, not asserted;
+//!   parameters no fitted run sees) are counted and printed, not asserted. A run is judged
+//!   from the sample where every axis it moves has moved: before that the axes stand as the
+//!   approach left them, which the file does not hold (the simulator draws a lost motion's
+//!   side at random per run; a rotary axis' half turn goes either way round), and no model
+//!   predicts a play's side it cannot know;
 //! - the location and squareness errors' 95 % intervals against the truth.
 //!
 //! And on clean sessions of the same machines, the share that claims anything. Every search
@@ -395,22 +399,27 @@ fn validation(result: &SearchResult, written: &Written, realism: &Realism) -> Ve
             .undetermined_validation
             .iter()
             .any(|(n, _)| *n == run.name);
-        let clean = &written
-            .runs
-            .iter()
-            .find(|w| w.name == run.name)
-            .unwrap()
-            .clean_um;
+        let w = written.runs.iter().find(|w| w.name == run.name).unwrap();
+        let clean = &w.clean_um;
+        // The samples before every axis that moves in the run has first moved hold the
+        // approach's state, which the file does not hold (the simulator draws a lost motion's
+        // side at random per run, a rotary axis' half turn goes either way): no model predicts
+        // them, so the run is judged from there on.
+        let skip = (0..w.positions[0].len())
+            .filter_map(|a| w.positions.iter().position(|p| p[a] != w.positions[0][a]))
+            .max()
+            .unwrap_or(0);
         let rms = |study: &Study, x: &[f64]| {
             let pred = predict_run(study, r, x);
             let nch = study.channels(r).len();
             let ss: f64 = clean
                 .iter()
                 .enumerate()
+                .skip(skip)
                 .flat_map(|(i, row)| (0..nch).map(move |c| (i, c, row[c])))
                 .map(|(i, c, v)| (pred[i * nch + c] * 1e6 - v).powi(2))
                 .sum();
-            (ss / (clean.len() * nch) as f64).sqrt() / noise_um
+            (ss / ((clean.len() - skip).max(1) * nch) as f64).sqrt() / noise_um
         };
         out.push(Validation {
             run: run.name.clone(),
@@ -507,6 +516,15 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
         );
         if std::env::var("VERBOSE").is_ok() || !o.claims.is_empty() {
             eprintln!("{}", o.summary);
+            for v in &o.validation {
+                eprintln!(
+                    "  validation {}: {:.2} σ (before {:.2}){}",
+                    v.run,
+                    v.after,
+                    v.before,
+                    if v.determined { "" } else { ", undetermined" }
+                );
+            }
         }
         effects += o.named.len();
         found += o.named.iter().filter(|&&n| n).count();
@@ -558,20 +576,21 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
     // The bar, met: 90 % named (measured 75/80), claims in 5 % of the sessions at most
-    // (measured 3/60).
+    // (measured 1/60).
     assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
     assert!(
         share(claimed, n) <= 0.05,
         "claims in {claimed}/{n} sessions"
     );
-    // Today's floors (measured 71/72 no worse, 58/72 within 1.2 × the noise): the bar
-    // is every one.
+    // Today's floors (measured 71/72 no worse — the one worse 0.14 → 0.17 × the noise —, and
+    // 70/72 within 1.2 × the noise: the two outside are one session's, a guideway bump the
+    // search does not find and says remains unexplained): the bar is every one.
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"
     );
     assert!(
-        share(predicted, runs) >= 0.78,
+        share(predicted, runs) >= 0.95,
         "{predicted}/{runs} predicted"
     );
 }

@@ -47,6 +47,11 @@
 //!    those parameters the earlier part carries 2 % of the session's information on at least:
 //!    a guideway bump the first runs cross at its tail only is not stepped by tens of
 //!    micrometres along a direction they barely see.
+//!    A candidate that mostly re-expresses an effect added before (half or more of a new
+//!    amplitude explained by the earlier effects' parameters, the geometry profiled out: a
+//!    linear tool-length drift beside the head's warm-up along Z) must predict clearly better
+//!    (the 5 % above): a few per cent says the earlier law is not quite the truth's, not that a
+//!    second effect is there.
 //!    A refit is not physics if it drives a parameter beyond its plausible range or a
 //!    component error's whole curve beyond what a guideway has (`curves`: 100 µm per metre of
 //!    stroke, 500 µrad), coefficients each in range but traded off against each other.

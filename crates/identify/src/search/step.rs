@@ -331,6 +331,20 @@ pub(super) fn try_candidate(
         );
         return Ok((trial, None));
     }
+    if let Some((effect, shared)) = re_expresses(&study, &solution, current.study.effects().len())
+        && !clearly_better(&held, &current.heldout)
+    {
+        trial.why = format!(
+            "held-out RMS {:.3} → {:.3} µm, but {:.0} % of what it adds beside the geometry \
+             {effect} (added before) explains as well: a second law for that effect must \
+             predict clearly better ({:.0} % lower mean square)",
+            current.heldout.rms_um,
+            held.rms_um,
+            100.0 * shared,
+            100.0 * CLEARLY_BETTER_SHARE
+        );
+        return Ok((trial, None));
+    }
     trial.accepted = true;
     let addition = addition_of(current, &study, &ranked.candidate);
     // Kept until the step's winner is chosen: without the lag series of its fit.
@@ -501,6 +515,74 @@ pub(super) fn real_gain(before: &Heldout, after: &Heldout, level: f64) -> Result
     ))
 }
 
+/// The share of a new effect's amplitude the effects added before explain beside the
+/// geometry at which it re-expresses them ([`re_expresses`]).
+const RE_EXPRESSES_SHARE: f64 = 0.5;
+
+/// The effect added before that the newest effect of `study` (its last) mostly re-expresses,
+/// and the share: the squared multiple correlation, in `solution`'s covariance (the geometry
+/// profiled out), of one of the new amplitudes with the earlier effects' parameters; `None`
+/// below [`RE_EXPRESSES_SHARE`]. A linear drift of a tool length beside the head's warm-up
+/// along Z, a spindle growth beside it: a second law for what an effect already explains, and
+/// a few per cent of held-out gain then says the first law is not quite the truth's, not that
+/// a second effect is there. `earlier` is how many effects came before.
+fn re_expresses(study: &Study, solution: &Solution, earlier: usize) -> Option<(String, f64)> {
+    let effects = study.effects();
+    if earlier == 0 || effects.len() != earlier + 1 {
+        return None;
+    }
+    let n = solution.x.len();
+    if solution.covariance.len() != n * n {
+        return None;
+    }
+    let range = study.layout().effects();
+    let new_first = range.end - effects[earlier].params().len();
+    let kind = |i: usize| study.effect_param(i).map(|p| (p.kind, p.nuisance));
+    let old: Vec<usize> = (range.start..new_first)
+        .filter(|&i| kind(i).is_some_and(|(_, nuisance)| !nuisance))
+        .collect();
+    let mut best: Option<(usize, f64)> = None;
+    for k in new_first..range.end {
+        if kind(k) != Some((mtcal_effects::ParamKind::Amplitude, false)) {
+            continue;
+        }
+        let share = multiple_correlation(&solution.covariance, n, k, &old);
+        if share >= RE_EXPRESSES_SHARE && best.is_none_or(|(_, b)| share > b) {
+            best = Some((k, share));
+        }
+    }
+    let (k, share) = best?;
+    // Name the earlier effect whose parameter correlates most with the new amplitude.
+    let c = |i: usize, j: usize| solution.covariance[i * n + j];
+    let closest = old.iter().copied().max_by(|&a, &b| {
+        let r = |i: usize| c(k, i).abs() / (c(k, k) * c(i, i)).sqrt().max(f64::MIN_POSITIVE);
+        r(a).total_cmp(&r(b))
+    })?;
+    let mut offset = range.start;
+    let label = effects
+        .iter()
+        .find(|e| {
+            offset += e.params().len();
+            closest < offset
+        })
+        .map(|e| e.info().label.clone())?;
+    Some((label, share))
+}
+
+/// The squared multiple correlation of estimate `k` with the estimates `others` under the
+/// covariance `cov` (`n × n`, row-major): `1 − 1/(C_kk·(C⁻¹)_kk)` over the sub-matrix of `k`
+/// and `others`; 0 where that matrix is singular.
+fn multiple_correlation(cov: &[f64], n: usize, k: usize, others: &[usize]) -> f64 {
+    let idx: Vec<usize> = std::iter::once(k).chain(others.iter().copied()).collect();
+    let m = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov[idx[a] * n + idx[b]]);
+    match m.clone().try_inverse() {
+        Some(inv) if m[(0, 0)] > 0.0 && inv[(0, 0)] > 0.0 => {
+            (1.0 - 1.0 / (m[(0, 0)] * inv[(0, 0)])).clamp(0.0, 1.0)
+        }
+        _ => 0.0,
+    }
+}
+
 /// Whether a shape's `value` sits at an edge of its box `bounds` (within 0.1 % of it): the fit
 /// found no optimum inside.
 pub(super) fn at_edge(value: f64, (lo, hi): (f64, f64)) -> bool {
@@ -661,7 +743,33 @@ impl Refitted {
 
 #[cfg(test)]
 mod tests {
-    use super::signed_rank_p;
+    use super::{multiple_correlation, signed_rank_p};
+    use nalgebra::DMatrix;
+
+    /// The squared multiple correlation of the estimate `0` with the others equals the share
+    /// of its variance a regression on them explains, `c_kᵀ·S⁻¹·c_k / C_kk` (the regression
+    /// formulation, not the inverse's corner element); and 0 and 1 at the ends.
+    #[test]
+    fn multiple_correlation_is_the_regression_share() {
+        // An SPD covariance from a random 5 × 8 design.
+        let a = DMatrix::from_fn(5, 8, |i, j| {
+            ((i * 7 + j * 3) as f64 * 0.37).sin() + 0.1 * i as f64
+        });
+        let cov = &a * a.transpose();
+        let n = 5;
+        let flat: Vec<f64> = (0..n * n).map(|k| cov[(k / n, k % n)]).collect();
+        let others = [1, 3, 4];
+        let s = DMatrix::from_fn(3, 3, |i, j| cov[(others[i], others[j])]);
+        let c = nalgebra::DVector::from_fn(3, |i, _| cov[(0, others[i])]);
+        let regression = (c.transpose() * s.try_inverse().unwrap() * &c)[(0, 0)] / cov[(0, 0)];
+        let r2 = multiple_correlation(&flat, n, 0, &others);
+        assert!((r2 - regression).abs() < 1e-9, "{r2} vs {regression}");
+        // Uncorrelated: nothing shared; a copy of another estimate: everything.
+        let diag = [1.0, 0.0, 0.0, 2.0];
+        assert_eq!(multiple_correlation(&diag, 2, 0, &[1]), 0.0);
+        let twin = [1.0, 1.0 - 1e-12, 1.0 - 1e-12, 1.0];
+        assert!(multiple_correlation(&twin, 2, 0, &[1]) > 0.999);
+    }
 
     #[test]
     fn signed_rank_p_values_are_exact() {
