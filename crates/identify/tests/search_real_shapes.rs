@@ -575,23 +575,22 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     // The bar, met: the location and squareness intervals hold the truth.
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
-    // The bar, met: 90 % named (measured 75/80), claims in 5 % of the sessions at most
+    // The bar, met: 90 % named (measured 76/80), claims in 5 % of the sessions at most
     // (measured 1/60).
     assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
     assert!(
         share(claimed, n) <= 0.05,
         "claims in {claimed}/{n} sessions"
     );
-    // Today's floors (measured 71/72 no worse — the one worse 0.14 → 0.17 × the noise —, and
-    // 70/72 within 1.2 × the noise: the two outside are one session's, a guideway bump the
-    // search does not find and says remains unexplained): the bar is every one.
+    // The bar, met: every validation run the fitted runs determine within 1.2 × the
+    // noise (measured 72/72, the worst 0.53 of the 0.66 allowed).
+    assert_eq!(predicted, runs, "{predicted}/{runs} predicted");
+    // Today's floor (measured 71/72 no worse; the one worse 0.14 → 0.17 × the noise, an XY
+    // circle the geometry's refit beside a bump seen in the other planes moves by 9 nm): the
+    // issue's bar is every one.
     assert!(
         share(never_worse, runs) >= 0.95,
         "{never_worse}/{runs} no worse: {worse:?}"
-    );
-    assert!(
-        share(predicted, runs) >= 0.95,
-        "{predicted}/{runs} predicted"
     );
 }
 
