@@ -218,6 +218,15 @@ impl Case {
     }
 }
 
+/// `SEED_SHIFT=k` draws every session anew (its geometry, noise and set-ups): to see that
+/// the numbers do not belong to one draw.
+fn seed_shift() -> u64 {
+    std::env::var("SEED_SHIFT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0)
+}
+
 /// Sixty-odd sessions: on each machine each shape alone, below the noise (a third of its size),
 /// masked by the head's warm-up, and in pairs.
 fn cases() -> Vec<Case> {
@@ -229,7 +238,7 @@ fn cases() -> Vec<Case> {
         FiveAxisLayout::Mixed,
     ];
     for (m, layout) in five.into_iter().map(Layout::Five).enumerate() {
-        let seed = 10 + m as u64;
+        let seed = 10 + m as u64 + seed_shift();
         let mut add = |shapes: Vec<(&'static str, f64)>| {
             out.push(Case {
                 layout,
@@ -251,7 +260,7 @@ fn cases() -> Vec<Case> {
         out.push(Case {
             layout: Layout::Planes,
             shapes: vec![(kind, 1.0)],
-            seed: 20,
+            seed: 20 + seed_shift(),
         });
     }
     for shapes in [
@@ -265,7 +274,7 @@ fn cases() -> Vec<Case> {
         out.push(Case {
             layout: Layout::Planes,
             shapes,
-            seed: 21,
+            seed: 21 + seed_shift(),
         });
     }
     out
