@@ -586,6 +586,15 @@ impl Study {
             .then(|| self.effect_at(i - self.layout.effect_offset()).1)
     }
 
+    /// The effect parameter `i` of the parameter vector belongs to (`None` for machine and
+    /// set-up parameters).
+    pub fn effect_of_param(&self, i: usize) -> Option<&Arc<dyn Effect>> {
+        self.layout
+            .effects()
+            .contains(&i)
+            .then(|| self.effect_at(i - self.layout.effect_offset()).0)
+    }
+
     /// The effect and its parameter of the `index`-th effect parameter.
     fn effect_at(&self, index: usize) -> (&Arc<dyn Effect>, &mtcal_effects::ParamDef) {
         let mut o = 0;

@@ -558,14 +558,7 @@ fn re_expresses(study: &Study, solution: &Solution, earlier: usize) -> Option<(S
         let r = |i: usize| c(k, i).abs() / (c(k, k) * c(i, i)).sqrt().max(f64::MIN_POSITIVE);
         r(a).total_cmp(&r(b))
     })?;
-    let mut offset = range.start;
-    let label = effects
-        .iter()
-        .find(|e| {
-            offset += e.params().len();
-            closest < offset
-        })
-        .map(|e| e.info().label.clone())?;
+    let label = study.effect_of_param(closest)?.info().label.clone();
     Some((label, share))
 }
 
