@@ -337,12 +337,12 @@ impl Basic {
 
     /// A direction-driven effect ([`Feature::Reversal`], [`Feature::ReversalAlong`],
     /// [`Feature::LateralPlay`], [`Feature::LateralTakeUp`]) of axis `a` with the axis' state
-    /// before its first motion fitted in every run it arrived at from an unknown side, where
-    /// that decides at least [`START_STATE_SAMPLES`] fitted samples
-    /// ([`SessionView::start_states`]): the approach move is not in the file. One nuisance
-    /// shape `u` per run, `start_<run>` between −1 and 1, starting from 0 (the mean of the
-    /// two sides): the feature reads `−½·u` there (the direction's `−½·s` for a side `u` of
-    /// the play). Without it a session whose first run is recorded with the axis standing
+    /// before its first motion fitted in every run it moves in, and in those it stands in
+    /// arrived at from an unknown side where that decides at least [`START_STATE_SAMPLES`]
+    /// fitted samples ([`SessionView::start_states`]): the approach move is not in the file.
+    /// One nuisance shape `u` per run, `start_<run>` between −1 and 1, starting from the side
+    /// the previous run suggests (0, the mean of the two sides, where none does): the feature
+    /// reads `−½·u` there (the direction's `−½·s` for a side `u` of the play). Without it a session whose first run is recorded with the axis standing
     /// carries `±B/2` there as a drift or a set-up error.
     pub fn with_start_states(mut self, view: &SessionView, a: usize) -> Self {
         assert!(
@@ -374,7 +374,7 @@ impl Basic {
                 unit: "side".into(),
                 per_si: 1.0,
                 kind: ParamKind::Shape,
-                initial: 0.0,
+                initial: f64::from(st.guess),
                 bounds: Some((-1.0, 1.0)),
                 scale: 1.0,
                 prior: None,
@@ -803,7 +803,7 @@ impl BasicFeatures {
             // turn at the run's start in the share `½(1 − u·s)` of the side `u` against the
             // first direction `s`: in full if it arrived from the other side, none if from
             // its own.
-            if view.before_first_motion(r, a, i) || view.reversed(r, a, i) {
+            if view.before_first_motion(r, a, i) || view.reversed_in_run(r, a, i) {
                 return;
             }
             let s = f64::from(view.direction(r, a, i));

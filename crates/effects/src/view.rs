@@ -318,6 +318,8 @@ impl AxisMotion {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct StartState {
     pub run: usize,
+    /// The side taken from the previous run (±1; 0 unknown): where the fit starts.
+    pub guess: i8,
     /// The run's name.
     pub name: String,
 }
@@ -540,42 +542,53 @@ impl SessionView {
         i < self.motion[r][a].first_motion
     }
 
-    /// The runs (in time order) that axis `a` arrived at from an unknown side ([`AxisMotion`]:
-    /// the session's first, or after a turn that may have gone either way round) and whose
-    /// fitted samples before its first motion number at least `min_samples`: where the side
-    /// decides a stretch of readings ([`StartState`]). Elsewhere the side is taken from the
-    /// previous run: a free side in every run would let a reversal explain any offset of a run
-    /// as the play's.
+    /// The fitted runs (in time order) whose side of axis `a`'s play before its first motion
+    /// is fitted ([`StartState`]): every run in which the axis moves — the approach move is
+    /// not in the file, and the guess from the previous run ([`AxisMotion`]) is only a guess:
+    /// a ball bar's feed-in arc or an R-test's approach from a safe position leaves either
+    /// side, and a wrong guess reads the whole play at the run's first samples — and the runs
+    /// in which it stands, arrived at from an unknown side (the session's first, or after a
+    /// turn that may have gone either way round), with at least `min_samples` fitted samples.
+    /// A run in which the axis stands and whose side has a guess keeps the guess: a free side
+    /// there would let a reversal explain any offset of the run as the play's.
     pub fn start_states(&self, a: usize, min_samples: usize) -> Vec<StartState> {
         self.order
             .iter()
-            .filter(|&&r| self.runs[r].fit && self.motion[r][a].arrived == 0)
+            .filter(|&&r| self.runs[r].fit)
             .filter_map(|&r| {
                 let m = &self.motion[r][a];
                 let samples = m.first_motion.min(self.runs[r].len());
-                (samples >= min_samples).then(|| StartState {
+                let unknown = m.moves || (m.arrived == 0 && samples >= min_samples);
+                (unknown && samples > 0).then(|| StartState {
                     run: r,
                     name: self.runs[r].name.clone(),
+                    guess: m.direction(0),
                 })
             })
             .collect()
     }
 
-    /// The fitted runs (in time order) that axis `a` arrived at from an unknown side and in
-    /// which it moves: where whether its first motion was a reversal is unknown, which decides
-    /// a transient after it ([`StartState`]).
+    /// The fitted runs (in time order) in which axis `a` moves: whether its first motion was
+    /// a reversal is unknown (the approach is not in the file; the previous run's side is
+    /// only a guess), which decides a transient after it ([`StartState`]).
     pub fn unknown_first_turns(&self, a: usize) -> Vec<StartState> {
         self.order
             .iter()
-            .filter(|&&r| {
-                let m = &self.motion[r][a];
-                self.runs[r].fit && m.arrived == 0 && m.moves
-            })
+            .filter(|&&r| self.runs[r].fit && self.motion[r][a].moves)
             .map(|&r| StartState {
                 run: r,
                 name: self.runs[r].name.clone(),
+                guess: self.motion[r][a].arrived,
             })
             .collect()
+    }
+
+    /// Whether axis `a` reversed within run `r` by sample `i`: after its first motion, not on
+    /// it (the turn from the side it arrived from is the approach's, [`Self::reversed`]).
+    pub fn reversed_in_run(&self, r: usize, a: usize, i: usize) -> bool {
+        let m = &self.motion[r][a];
+        let arrival_turn = usize::from(m.reversals.first() == Some(&m.first_motion));
+        m.reversals_to(i) > arrival_turn
     }
 
     /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences

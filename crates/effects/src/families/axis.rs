@@ -315,9 +315,12 @@ fn spike_candidates(view: &SessionView) -> Vec<Candidate> {
         for tau in SPIKE_TAUS.into_iter().filter(|&t| t >= floor) {
             for damped in [false, true] {
                 let candidate = spike(view, a, tau, damped);
-                // A linear axis' first turn is unknown in the session's first run only; an
-                // endless rotary axis' after every turn of half a revolution, and a free
-                // transient at the start of each such run would fit any run's first samples.
+                // Whether a linear axis' first motion in a run is a turn is unknown (the
+                // approach is not in the file): its share of the spike there, between none and
+                // all of it, is fitted per run as the reversal's side is. An endless rotary
+                // axis keeps the previous run's guess: it turns in few runs, each starting
+                // after a half turn that went either way, and a free transient at the start of
+                // each would fit any run's first samples.
                 out.push(match view.axes[a].rotary {
                     false => candidate.with_start_states(view, a),
                     true => candidate,

@@ -56,7 +56,8 @@
 //!    component error's whole curve beyond what a guideway has (`curves`: 100 µm per metre of
 //!    stroke, 500 µrad), coefficients each in range but traded off against each other.
 //!    A `reversal` or `lateral-play` fits the axis' side of its play before its first motion in
-//!    each run it arrived at from an unknown side, as nuisance shapes in ±1 that the held-out
+//!    each run it moves in (the approach is not in the file: the previous run's side is only a
+//!    guess), as nuisance shapes in ±1 that the held-out
 //!    folds keep at the full fit's values and that no discovery reports as a number.
 //! 3. **Look-alikes.** Others that passed within [`LOOKALIKE_BIC`] of the winner, and that are
 //!    no longer significant once it is in the model (they explained the same thing), are its
