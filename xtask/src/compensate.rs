@@ -3,12 +3,13 @@
 //! `cargo xtask check-compensation`: a compensation file read back and checked against the
 //! control's limits ([`mtcal_compensate::check_compensation`]).
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use clap::builder::{EnumValueParser, PossibleValue, TypedValueParser};
 use mtcal_compensate::{Compensation, ParameterFormat, PitchFormat, Settings};
+use mtcal_located::Outputs;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The arguments of `compensate`.
 #[derive(clap::Args)]
@@ -266,10 +267,34 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
             .control
             .settings(hold_q, args.spacing_mm, args.spacing_deg)
     };
-    let exported =
-        mtcal_compensate::write_compensation(&model, &coeffs, &args.out, what, &settings)?;
+    // The file and those beside it (tables, a card) written into a private folder, then
+    // into place together: an error in any leaves none of them.
+    let name = args
+        .out
+        .file_name()
+        .with_context(|| format!("{}: not a file name", args.out.display()))?;
+    let target = args
+        .out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut files = Outputs::new();
+    files.file(&args.out, Vec::new());
+    files.check()?;
+    let (exported, staging) = mtcal_located::staged(|dir| {
+        mtcal_compensate::write_compensation(&model, &coeffs, &dir.join(name), what, &settings)
+            // A message names the file where the user will find it, not the private folder.
+            .map_err(|e| {
+                let shown = target.display().to_string();
+                anyhow::anyhow!(e.to_string().replace(&dir.display().to_string(), &shown))
+            })
+    })??;
+    let mut files = Outputs::new();
+    files.files_of(staging.path(), target)?;
+    files.commit()?;
     writeln!(out, "wrote {} ({})", args.out.display(), exported.written)?;
     for (beside, what) in &exported.beside {
+        let beside = target.join(beside.strip_prefix(staging.path()).unwrap_or(beside));
         writeln!(out, "wrote {} ({what})", beside.display())?;
     }
     write!(out, "{}", exported.card.lines("  "))?;

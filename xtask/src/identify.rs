@@ -4,6 +4,7 @@
 
 use anyhow::Result;
 use mtcal_identify::pipeline::{PipelineOptions, Prepared};
+use mtcal_located::Outputs;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -57,6 +58,7 @@ pub(crate) struct IdentifyArgs {
 /// `identify`: what was loaded, then (after the fit or the search) the summary and the
 /// information account, what another session would add, and the files asked for.
 pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
+    check_outputs(&args, &[])?;
     // The tolerance file first: a mistake in it is told before the session is read.
     let acceptance = args
         .acceptance
@@ -72,6 +74,9 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
         acceptance,
     };
     let prepared = Prepared::load(&args.session, options)?;
+    if let Some(dir) = &args.predict {
+        check_outputs(&args, &prepared.prediction_paths(dir))?;
+    }
     write!(out, "{}", prepared.header())?;
     let mut progress = Progress::new(args.quiet);
     let outcome = prepared.run(&mut progress);
@@ -81,21 +86,45 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
     if let Some(dir) = &args.what_if {
         write!(out, "\n{}", outcome.what_if(dir)?)?;
     }
+    // Every output built first, then written together: an error in any leaves none behind.
+    let mut files = Outputs::new();
     if let Some(path) = &args.suggest_model {
-        crate::write_file(out, path, &outcome.suggested_model())?;
+        files.file(path, outcome.suggested_model());
     }
     if let Some(path) = &args.json {
-        crate::write_file(out, path, &outcome.identification.to_json())?;
+        files.file(path, outcome.identification.to_json());
     }
     if let Some(dir) = &args.predict {
-        for f in outcome.write_predictions(dir)? {
-            writeln!(out, "wrote {}", f.display())?;
+        files.folder(dir);
+        for (path, text) in outcome.prediction_files(dir)? {
+            files.file(path, text);
         }
     }
     if let Some(dir) = &args.report {
-        let path = outcome.write_report(dir)?;
-        writeln!(out, "wrote {}", path.display())?;
+        files.folder(dir);
+        files.file(dir.join("index.html"), outcome.report_page()?);
     }
+    crate::commit(out, files)
+}
+
+/// Every output path of `args` checked before the fit (`predictions`: the files `--predict`
+/// will write, once the session is read): a folder where the JSON goes, a file where the
+/// report folder goes, a run's name too long for a file name, are told at once.
+fn check_outputs(args: &IdentifyArgs, predictions: &[PathBuf]) -> Result<()> {
+    let mut files = Outputs::new();
+    for path in [&args.suggest_model, &args.json].into_iter().flatten() {
+        files.file(path, Vec::new());
+    }
+    for dir in [&args.predict, &args.report].into_iter().flatten() {
+        files.folder(dir);
+    }
+    if let Some(dir) = &args.report {
+        files.file(dir.join("index.html"), Vec::new());
+    }
+    for path in predictions {
+        files.file(path, Vec::new());
+    }
+    files.check()?;
     Ok(())
 }
 

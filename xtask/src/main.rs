@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use mtcal_kinematics::volmap::{Grid, MapMethod, MapOptions, volumetric_map};
 use mtcal_kinematics::{AxisKind, MachineModel};
+use mtcal_located::Outputs;
 use mtcal_machine::topology::Reading;
 use mtcal_machine::{LoadedMachine, load_machine};
 use std::io::Write;
@@ -344,13 +345,19 @@ fn run(cli: Cli) -> Result<()> {
                 Some(_) => Some(path_error_svg(&model, &data, &errors, &cl)?),
                 None => None,
             };
+            let mut files = Outputs::new();
             if let Some(out) = &out {
-                save(out, &errors.csv(model.machine(), &data))?;
-                let rows = errors.errors.len();
-                writeln!(stdout, "wrote {} ({rows} rows)", out.display())?;
+                files.file(out, errors.csv(model.machine(), &data));
             }
             if let (Some(plot), Some(svg)) = (&plot, svg) {
-                write_file(&mut stdout, plot, &svg)?;
+                files.file(plot, svg);
+            }
+            for path in files.commit()? {
+                let rows = errors.errors.len();
+                match Some(&path) == out.as_ref() {
+                    true => writeln!(stdout, "wrote {} ({rows} rows)", path.display())?,
+                    false => writeln!(stdout, "wrote {}", path.display())?,
+                }
             }
             Ok(())
         }
@@ -381,6 +388,14 @@ fn run(cli: Cli) -> Result<()> {
 fn save(path: &Path, text: &str) -> Result<()> {
     mtcal_machine::write_atomically(path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes `files` as one transaction ([`Outputs`]) and says which.
+fn commit(out: &mut impl Write, files: Outputs) -> Result<()> {
+    for path in files.commit()? {
+        writeln!(out, "wrote {}", path.display())?;
+    }
+    Ok(())
 }
 
 /// Writes `text` to `path` atomically and says so.

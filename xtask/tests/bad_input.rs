@@ -27,7 +27,8 @@ fn corpus() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/bad-input")
 }
 
-/// Every file under `dir`, by relative path, with its contents.
+/// Every file under `dir`, by relative path, with its contents; every folder too (a folder
+/// created and left empty is a change), as its path with a trailing `/` and no contents.
 fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
         let mut entries: Vec<_> = std::fs::read_dir(dir)
@@ -37,6 +38,8 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
         entries.sort();
         for p in entries {
             if p.is_dir() {
+                let rel = p.strip_prefix(root).unwrap().join("");
+                out.insert(rel, Vec::new());
                 walk(root, &p, out);
             } else {
                 let rel = p.strip_prefix(root).unwrap().to_path_buf();
@@ -52,7 +55,11 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
 fn copy_case(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for (rel, bytes) in snapshot(from) {
-        let p = to.join(rel);
+        let p = to.join(&rel);
+        if rel.to_string_lossy().ends_with('/') {
+            std::fs::create_dir_all(p).unwrap();
+            continue;
+        }
         std::fs::create_dir_all(p.parent().unwrap()).unwrap();
         std::fs::write(p, bytes).unwrap();
     }

@@ -478,9 +478,10 @@ fn write_card_beside(path: &Path, card: &ConventionCard) -> Result<PathBuf, Comp
     let mut name = path.as_os_str().to_owned();
     name.push(".card.txt");
     let beside = PathBuf::from(name);
+    // The file beside it by name: the pair moves together, a folder in the text would not.
     let text = format!(
         "# convention card of {}\n{}",
-        path.display(),
+        path.file_name().unwrap_or_default().to_string_lossy(),
         card.file_lines("")
     );
     crate::write_file(&beside, &text)?;

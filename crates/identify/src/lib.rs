@@ -48,7 +48,7 @@ pub use report::Identification;
 pub use study::Study;
 
 use mtcal_instrument::SetupError;
-use mtcal_session::{RunColumns, RunTable, write_run};
+use mtcal_session::{RunColumns, RunTable};
 use mtcal_solve::{Observer, Options, ParamSpec, Silent, SolveError};
 use std::path::{Path, PathBuf};
 
@@ -261,22 +261,27 @@ pub fn identify_session(session: &Path) -> Result<(Study, Identification), Ident
     Ok((study, id))
 }
 
-/// Writes every validation run's predicted readings to `dir/<run>.csv` (the run's own columns,
-/// readings replaced by the predictions, or added when the run has none). Returns the files.
-/// Refuses, before writing anything, a `dir` where a prediction would replace one of the
-/// session's own files (inputs are never modified).
-pub fn write_predictions(
+/// Where a validation run's predictions go: `dir/<run>.csv`.
+pub fn prediction_path(dir: &Path, run: &str) -> PathBuf {
+    dir.join(format!("{run}.csv"))
+}
+
+/// Every validation run's predicted readings as the file `dir/<run>.csv` would hold them (the
+/// run's own columns, readings replaced by the predictions, or added when the run has none):
+/// `(path, text)`, for the caller to write with its other outputs. Refuses a `dir` where a
+/// prediction would replace one of the session's own files (inputs are never modified).
+pub fn prediction_files(
     study: &Study,
     x: &[f64],
     dir: &Path,
-) -> Result<Vec<PathBuf>, IdentifyError> {
+) -> Result<Vec<(PathBuf, String)>, IdentifyError> {
     let inputs: Vec<PathBuf> = study
         .runs
         .iter()
         .filter_map(|run| run.file.path.canonicalize().ok())
         .collect();
     for run in study.runs.iter().filter(|run| !run.fit) {
-        let target = dir.join(format!("{}.csv", run.name));
+        let target = prediction_path(dir, &run.name);
         if target.canonicalize().is_ok_and(|t| inputs.contains(&t)) {
             return Err(IdentifyError::RunData {
                 at: target.display().to_string(),
@@ -286,12 +291,6 @@ pub fn write_predictions(
             });
         }
     }
-    std::fs::create_dir_all(dir).map_err(|e| {
-        IdentifyError::Session(mtcal_session::SessionError::Write {
-            path: dir.to_path_buf(),
-            cause: e,
-        })
-    })?;
     let mut out = Vec::new();
     for (r, run) in study.runs.iter().enumerate() {
         if run.fit {
@@ -334,13 +333,14 @@ pub fn write_predictions(
             .cloned()
             .collect();
         table.columns.extend(missing);
-        let path = dir.join(format!("{}.csv", run.name));
-        write_run(&path, &table)?;
-        // Read back: what we wrote must load as a run with readings.
+        let path = prediction_path(dir, &run.name);
+        let text = mtcal_session::run_text(&path, &table)?;
+        // Read back: what we write must load as a run with readings.
         let axes: Vec<char> = table.axes.clone();
         let names: Vec<&str> = table.readings.iter().map(String::as_str).collect();
-        mtcal_session::read_run(
+        mtcal_session::parse_run(
             &path,
+            text.clone(),
             &RunColumns {
                 axes: &axes,
                 readings: &names,
@@ -348,7 +348,7 @@ pub fn write_predictions(
                 labels: &[],
             },
         )?;
-        out.push(path);
+        out.push((path, text));
     }
     Ok(out)
 }

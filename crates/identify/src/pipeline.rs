@@ -165,6 +165,17 @@ impl Prepared {
 
     /// What was loaded, the lines `mtcal identify` prints before the fit: the session, its
     /// machine and parameters; the parameters the runs cannot determine, if any were held.
+    /// The files `--predict dir` will write: one per validation run
+    /// ([`crate::prediction_path`]), to check before the fit.
+    pub fn prediction_paths(&self, dir: &Path) -> Vec<PathBuf> {
+        self.study
+            .runs
+            .iter()
+            .filter(|run| !run.fit)
+            .map(|run| crate::prediction_path(dir, &run.name))
+            .collect()
+    }
+
     pub fn header(&self) -> String {
         let study = &self.study;
         let samples: usize = study.runs.iter().map(|r| r.len()).sum();
@@ -179,6 +190,12 @@ impl Prepared {
             study.layout().n_x(),
             study.layout().n_machine()
         );
+        for name in study.unused_setups() {
+            s.push_str(&format!(
+                "warning: {}: set-up `{name}` is used by no run (is a run's `setup` misspelt?)\n",
+                study.session.manifest.display()
+            ));
+        }
         if let Some(base) = self.base.as_ref().filter(|b| !b.held.is_empty()) {
             s.push_str(&format!(
                 "model: {} parameters the runs cannot determine get no values (no [identify] \
@@ -301,10 +318,10 @@ impl Outcome {
         suggested_model(&self.study, self.base.as_ref())
     }
 
-    /// Every validation run's predicted readings written to `dir/<run>.csv`
-    /// ([`crate::write_predictions`]); the files written.
-    pub fn write_predictions(&self, dir: &Path) -> Result<Vec<PathBuf>, IdentifyError> {
-        crate::write_predictions(&self.study, &self.identification.x, dir)
+    /// Every validation run's predicted readings as `dir/<run>.csv` would hold them
+    /// ([`crate::prediction_files`]).
+    pub fn prediction_files(&self, dir: &Path) -> Result<Vec<(PathBuf, String)>, IdentifyError> {
+        crate::prediction_files(&self.study, &self.identification.x, dir)
     }
 
     /// The HTML report's model ([`crate::html_report::report`]).
@@ -318,9 +335,9 @@ impl Outcome {
         )
     }
 
-    /// The HTML report written to `dir/index.html`; its path.
-    pub fn write_report(&self, dir: &Path) -> Result<PathBuf, IdentifyError> {
-        mtcal_report::write(dir, &self.report()?).map_err(IdentifyError::Report)
+    /// The HTML report's page (`index.html` of the report folder).
+    pub fn report_page(&self) -> Result<String, IdentifyError> {
+        mtcal_report::render(&self.report()?).map_err(IdentifyError::Report)
     }
 }
 

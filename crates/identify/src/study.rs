@@ -40,7 +40,7 @@ pub struct SetupSlot {
 /// One run's samples.
 ///
 /// The samples are held once: `table` keeps the file's times, context and (for validation
-/// runs, which [`crate::write_predictions`] writes back) the positions and labels as read,
+/// runs, which [`crate::prediction_files`] writes back) the positions and labels as read,
 /// while the positions and readings the fit uses are converted to SI in place (`q`,
 /// `readings`): a fitted run's `table.positions` and every run's `table.values` are empty, a
 /// fitted run's label columns are empty (their numbers are `labels`). What the mismatch
@@ -263,6 +263,16 @@ pub struct Changes {
 }
 
 impl Study {
+    /// The shared set-ups of the manifest that no run uses, by name.
+    pub fn unused_setups(&self) -> Vec<&str> {
+        self.session
+            .setups
+            .keys()
+            .filter(|name| !self.setups.iter().any(|s| &s.name == *name))
+            .map(String::as_str)
+            .collect()
+    }
+
     /// Loads `dir` (a session folder or its manifest): machine, set-ups and every run file.
     pub fn load(dir: &Path) -> Result<Study, IdentifyError> {
         let session = load_session(dir)?;
@@ -442,9 +452,14 @@ impl Study {
                     let ctx = SetupContext {
                         machine: &machine.machine,
                     };
+                    // A set-up's error points at its key when the set-up is shared (its own
+                    // table), else at the run.
                     let setup =
                         (plugin.load_setup)(&table, &ctx).map_err(|e| IdentifyError::Setup {
-                            at: spec.location.to_string(),
+                            at: session
+                                .setup_location(&setup_name, &e.key)
+                                .unwrap_or(&spec.location)
+                                .to_string(),
                             setup: setup_name.clone(),
                             cause: e,
                         })?;

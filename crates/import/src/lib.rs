@@ -100,6 +100,9 @@ pub enum ImportError {
     /// that exists, no machine for a new session).
     #[error("{0}")]
     Options(String),
+    /// The run and the manifest could not both be written; neither was.
+    #[error(transparent)]
+    Output(#[from] mtcal_located::OutputError),
 }
 
 /// What to import, and into which session.

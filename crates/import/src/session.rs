@@ -4,7 +4,7 @@ use std::path::{Component, Path, PathBuf};
 
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_machine::topology::Reading;
-use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, SetupRef, write_run, write_session};
+use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, SetupRef, run_text, session_text};
 
 use crate::recording::Recording;
 use crate::{ImportError, ImportOptions, Imported};
@@ -333,19 +333,14 @@ fn entry_text(run: &ManifestRun) -> String {
 
 /// Writes the run file, then the manifest; if the manifest is refused, the new run file is
 /// removed again (and the folder, if this import created it), so nothing half is left.
+/// The run file and the manifest written together ([`mtcal_located::Outputs`]): an error
+/// leaves neither (nor a session folder it created).
 fn write_both(dir: &Path, table: &RunTable, manifest: &Manifest) -> Result<PathBuf, ImportError> {
-    let dir_existed = dir.exists();
-    let remove_new_dir = || {
-        if !dir_existed {
-            let _ = std::fs::remove_dir(dir);
-        }
-    };
-    write_run(&table.path, table).inspect_err(|_| remove_new_dir())?;
-    write_session(dir, manifest)
-        .inspect_err(|_| {
-            // Best effort: the error that matters is the manifest's.
-            let _ = std::fs::remove_file(&table.path);
-            remove_new_dir();
-        })
-        .map_err(ImportError::from)
+    let mut files = mtcal_located::Outputs::new();
+    files.folder(dir);
+    files.file(&table.path, run_text(&table.path, table)?);
+    let (path, text) = session_text(dir, manifest)?;
+    files.file(&path, text);
+    files.commit()?;
+    Ok(path)
 }

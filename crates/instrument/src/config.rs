@@ -119,12 +119,22 @@ impl Serialize for Number {
 #[serde(try_from = "toml::Value")]
 pub struct Vec3(pub [f64; 3]);
 
+/// The farthest a set-up's point or vector reaches from the machine's origin (mm): a
+/// kilometre, beyond any machine and any instrument standing beside one. Finite is not
+/// enough: a ball at 1e308 mm passes every other check and fails inside the fit.
+pub const MAX_SETUP_MM: f64 = 1e6;
+
 impl TryFrom<toml::Value> for Vec3 {
     type Error = String;
     fn try_from(value: toml::Value) -> Result<Self, String> {
-        vec3(&value)
-            .map(Vec3)
-            .ok_or_else(|| expected("three numbers [x, y, z]", &value))
+        let v = vec3(&value).ok_or_else(|| expected("three numbers [x, y, z]", &value))?;
+        if let Some(far) = v.iter().find(|c| c.abs() > MAX_SETUP_MM) {
+            return Err(format!(
+                "{far:e} mm lies beyond any machine's reach: a set-up's points and vectors are \
+                 within {MAX_SETUP_MM:e} mm (a kilometre) of the machine's origin"
+            ));
+        }
+        Ok(Vec3(v))
     }
 }
 

@@ -9,11 +9,12 @@
 //! Layer 0: it knows nothing of machines or instruments.
 
 use std::fmt;
-use std::io::Write as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+pub mod outputs;
 pub mod toml;
+pub use outputs::{OutputError, Outputs, staged};
 
 /// A position in a text file, 1-based, for error messages. The column counts characters, not
 /// bytes.
@@ -144,66 +145,19 @@ impl Source {
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that
-/// an interrupted run leaves either the old file or the new one, never half of one. The file's
-/// data reach the disk before the rename and the folder's entry after it. A missing folder is
-/// created. A run killed during the write may leave its temporary file `.NAME.PID.tmp` beside
-/// `path` (`path` itself is whole); the next write of `path` removes those whose process is
-/// gone (on Linux, where `/proc` tells).
+/// an interrupted run leaves either the old file or the new one, never half of one: an
+/// [`Outputs`] of one file (a symbolic link followed, a device or FIFO written through, a
+/// folder refused). The file's data reach the disk before the rename and the folder's entry
+/// after it. A missing folder is created. A run killed during the write may leave its temporary
+/// file `.mtcal-PID-K.tmp` beside `path` (`path` itself is whole); the next write into that
+/// folder removes those whose process is gone (on Linux, where `/proc` tells).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir)?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)?;
-        // The rename itself to disk (a folder opens for reading on Unix; elsewhere skip).
-        if let Ok(d) = std::fs::File::open(dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    } else {
-        remove_stale_temporaries(dir, &name);
-    }
-    result
-}
-
-/// Removes `.NAME.PID.tmp` files in `dir` left by killed writes of `NAME` (their process no
-/// longer exists). Where processes cannot be looked up, nothing is removed.
-fn remove_stale_temporaries(dir: &Path, name: &str) {
-    let proc = Path::new("/proc/self");
-    if !proc.exists() {
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let prefix = format!(".{name}.");
-    for entry in entries.flatten() {
-        let file = entry.file_name();
-        let Some(pid) = file
-            .to_str()
-            .and_then(|f| f.strip_prefix(&prefix))
-            .and_then(|rest| rest.strip_suffix(".tmp"))
-            .filter(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
-        else {
-            continue;
-        };
-        if !Path::new("/proc").join(pid).exists() {
-            let _ = std::fs::remove_file(entry.path());
-        }
-    }
+    let mut out = Outputs::new();
+    out.file(path, bytes);
+    out.commit().map(|_| ()).map_err(|e| match e {
+        OutputError::Io { source, .. } => source,
+        refused => std::io::Error::other(refused.to_string()),
+    })
 }
 
 #[cfg(test)]
@@ -266,19 +220,21 @@ mod tests {
         let p = dir.path().join("out.json");
         // A process id that is not running (beyond the kernel's pid_max), and a live one (the
         // process that started this test).
-        let dead = dir.path().join(".out.json.4294967295.tmp");
+        let dead = dir.path().join(".mtcal-4294967295-0.tmp");
         let live = dir.path().join(format!(
-            ".out.json.{}.tmp",
+            ".mtcal-{}-0.tmp",
             std::os::unix::process::parent_id()
         ));
-        let other = dir.path().join(".other.json.4294967295.tmp");
-        for f in [&dead, &live, &other] {
+        // A dead process' old version of a file is the only copy if it died between two
+        // renames: kept.
+        let old = dir.path().join(".mtcal-4294967295-1.old");
+        for f in [&dead, &live, &old] {
             std::fs::write(f, b"half").unwrap();
         }
         write_atomically(&p, b"whole").unwrap();
         assert!(!dead.exists(), "a dead process' temporary is removed");
         assert!(live.exists(), "a running process' temporary is left alone");
-        assert!(other.exists(), "another file's temporary is left alone");
+        assert!(old.exists(), "an old version is left alone");
         assert_eq!(std::fs::read(&p).unwrap(), b"whole");
     }
 }

@@ -95,4 +95,4 @@ pub fn load_machine(arg: &str, reading: topology::Reading) -> Result<LoadedMachi
 
 /// Located reading and atomic writing (`mtcal-located`), which every file of a machine goes
 /// through.
-pub use mtcal_located::{Location, write_atomically};
+pub use mtcal_located::{Location, OutputError, Outputs, write_atomically};

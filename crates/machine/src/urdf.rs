@@ -236,6 +236,16 @@ impl UrdfError {
 
 /// Loads a machine from a URDF file.
 pub fn load_urdf_file(path: &Path) -> Result<Machine, UrdfError> {
+    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    if bytes > MAX_URDF_BYTES {
+        return Err(UrdfError::Io {
+            file: path.to_path_buf(),
+            message: format!(
+                "{bytes} bytes: a machine's URDF is a few kilobytes, at most {MAX_URDF_BYTES} \
+                 are read"
+            ),
+        });
+    }
     let text = std::fs::read_to_string(path).map_err(|e| UrdfError::Io {
         file: path.to_path_buf(),
         message: e.to_string(),
@@ -243,10 +253,27 @@ pub fn load_urdf_file(path: &Path) -> Result<Machine, UrdfError> {
     load_urdf_str(&text, path)
 }
 
+/// The deepest nesting of elements a URDF may have. A machine's is 3 (`robot`, `joint`,
+/// `limit`; a `visual`'s geometry 5); the readers after the XML parser recurse, and a file
+/// nested thousands deep would overflow their stack.
+pub const MAX_URDF_DEPTH: usize = 64;
+
+/// The largest URDF file read (bytes): meshes are referenced, not inlined.
+pub const MAX_URDF_BYTES: u64 = 64 << 20;
+
+/// The most XML nodes (elements, text, comments) a URDF may have: a machine of a hundred
+/// links with visuals has a few thousand.
+pub const MAX_URDF_NODES: u32 = 1_000_000;
+
 /// Loads a machine from URDF text; `file` only names the source in error messages.
 pub fn load_urdf_str(text: &str, file: &Path) -> Result<Machine, UrdfError> {
-    let doc = Document::parse(text).map_err(|e| syntax_error(file, &e))?;
+    let options = roxmltree::ParsingOptions {
+        nodes_limit: MAX_URDF_NODES,
+        ..Default::default()
+    };
+    let doc = Document::parse_with_options(text, options).map_err(|e| syntax_error(file, &e))?;
     let ctx = Ctx { file, doc: &doc };
+    check_depth(&ctx)?;
     let model = XmlModel::collect(&ctx)?;
     let tree = Tree::build(&ctx, &model)?;
     let branches = Branches::find(&ctx, &model, &tree)?;
@@ -265,7 +292,96 @@ pub fn load_urdf_str(text: &str, file: &Path) -> Result<Machine, UrdfError> {
         workpiece: branch_spec(&ctx, &model, &by_name, &branches.workpiece)?,
         tool: branch_spec(&ctx, &model, &by_name, &branches.tool)?,
     };
-    Machine::try_new(&spec).map_err(|e| locate_machine_error(&ctx, &model, e))
+    let machine = Machine::try_new(&spec).map_err(|e| locate_machine_error(&ctx, &model, e))?;
+    check_directions(&ctx, &model, &machine)?;
+    Ok(machine)
+}
+
+/// The machine direction (0 = x, 1 = y, 2 = z) an axis letter names: X, U and A along x…
+fn named_direction(letter: char) -> usize {
+    match letter {
+        'X' | 'U' | 'A' => 0,
+        'Y' | 'V' | 'B' => 1,
+        _ => 2,
+    }
+}
+
+/// Refuses, at the joint, two linear axes named for different directions moving along one
+/// (no error model can tell them apart), and an axis without `<axis>` whose URDF default (1 0 0 in its frame) is not
+/// the direction its letter names: a line left out, not a machine with Z along X.
+fn check_directions(ctx: &Ctx, model: &XmlModel, machine: &Machine) -> Result<(), UrdfError> {
+    let world = |a: &mtcal_kinematics::machine::Axis| a.zero_rotation() * a.direction();
+    let axes = machine.axes();
+    for (i, a) in axes.iter().enumerate() {
+        let letter = a.letter().as_char();
+        let Some(joint) = model.joint_named(&letter.to_string()) else {
+            continue;
+        };
+        let d = world(a);
+        let show = |d: &nalgebra::Vector3<f64>| format!("({:.3} {:.3} {:.3})", d.x, d.y, d.z);
+        let no_axis = !joint.node.children().any(|c| c.has_tag_name("axis"));
+        if no_axis && d.iamax() != named_direction(letter) {
+            return Err(UrdfError::Invalid {
+                at: ctx.at(joint.node),
+                message: format!(
+                    "joint `{letter}` has no `<axis>`, and URDF's default (1 0 0 in the joint's \
+                     frame) moves it along {} in the machine, not the direction its letter \
+                     names: give it, e.g. `<axis xyz=\"{}\"/>`",
+                    show(&d),
+                    ["1 0 0", "0 1 0", "0 0 1"][named_direction(letter)]
+                ),
+            });
+        }
+        if a.kind() != mtcal_kinematics::AxisKind::Linear {
+            continue;
+        }
+        // X and U (Y and V, Z and W) are parallel by name (a quill beside Z); X and Z are not.
+        let twin = axes[..i].iter().find(|b| {
+            b.kind() == mtcal_kinematics::AxisKind::Linear
+                && named_direction(b.letter().as_char()) != named_direction(letter)
+                && world(b).cross(&d).norm() < 1e-6
+        });
+        if let Some(b) = twin {
+            return Err(UrdfError::Invalid {
+                at: ctx.at(joint.node),
+                message: format!(
+                    "joint `{letter}` moves along {}, parallel to axis {}: two linear axes \
+                     along one direction cannot be told apart{}",
+                    show(&d),
+                    b.letter().as_char(),
+                    if no_axis {
+                        " (it has no `<axis>`: URDF's default is 1 0 0)"
+                    } else {
+                        ""
+                    }
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refuses, at the first element too deep, a document nested beyond [`MAX_URDF_DEPTH`]
+/// (walked without recursion).
+fn check_depth(ctx: &Ctx) -> Result<(), UrdfError> {
+    // Nodes come parent first: each one's depth is its parent's plus one.
+    let mut depth = vec![0usize; ctx.doc.descendants().count()];
+    for n in ctx.doc.descendants() {
+        let Some(parent) = n.parent() else { continue };
+        let d = depth[parent.id().get_usize()] + usize::from(n.is_element());
+        depth[n.id().get_usize()] = d;
+        if d > MAX_URDF_DEPTH {
+            return Err(UrdfError::Syntax {
+                at: ctx.at(n),
+                message: format!(
+                    "elements nested {d} deep (`<{}>`): a URDF nests a few deep, at most \
+                     {MAX_URDF_DEPTH} are read",
+                    n.tag_name().name()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn syntax_error(file: &Path, e: &roxmltree::Error) -> UrdfError {

@@ -117,4 +117,7 @@ pub enum PlanError {
     Geometry { file: PathBuf, message: String },
     #[error("information of the planned runs: {0}")]
     Information(String),
+    /// The plan's files could not all be written; none was.
+    #[error(transparent)]
+    Output(#[from] mtcal_located::OutputError),
 }

@@ -1128,18 +1128,10 @@ impl Planned {
     /// Writes `plan.toml`, the machine, one NC program per run, `report.json` and
     /// `report.txt` into `dir` (created if needed). Returns the files written.
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, PlanError> {
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |e| PlanError::Io { path, cause: e }
-        };
+        // Every file at once ([`mtcal_located::Outputs`]): an error leaves none behind.
+        let mut files = mtcal_located::Outputs::new();
+        files.folder(dir);
         let programs = dir.join("programs");
-        std::fs::create_dir_all(&programs).map_err(io(&programs))?;
-        let mut written = Vec::new();
-        let mut put = |p: PathBuf, bytes: &[u8]| -> Result<(), PlanError> {
-            mtcal_machine::write_atomically(&p, bytes).map_err(io(&p))?;
-            written.push(p);
-            Ok(())
-        };
         let header = format!(
             "# Test plan written by `cargo xtask plan` from {} (see report.txt).\n# Simulate it with \
              `cargo xtask simulate plan.toml --out session`; run programs/<run>.nc on the machine.\n",
@@ -1147,10 +1139,10 @@ impl Planned {
         );
         let body =
             toml::to_string(&self.plan).map_err(|e| PlanError::Information(e.to_string()))?;
-        put(dir.join("plan.toml"), format!("{header}{body}").as_bytes())?;
-        put(dir.join("machine.urdf"), self.urdf.as_bytes())?;
+        files.file(dir.join("plan.toml"), format!("{header}{body}"));
+        files.file(dir.join("machine.urdf"), self.urdf.clone());
         if let Some(e) = &self.errors_toml {
-            put(dir.join("machine.errors.toml"), e.as_bytes())?;
+            files.file(dir.join("machine.errors.toml"), e.clone());
         }
         for r in &self.runs {
             let text = mtcal_instrument::program::nc_program(
@@ -1159,13 +1151,13 @@ impl Planned {
                 r.feed_mm_min,
                 &format!("mtcal {} run {}", r.instrument, r.name),
             );
-            put(programs.join(format!("{}.nc", r.name)), text.as_bytes())?;
+            files.file(programs.join(format!("{}.nc", r.name)), text);
         }
         let json = serde_json::to_string_pretty(&self.report)
             .map_err(|e| PlanError::Information(e.to_string()))?;
-        put(dir.join("report.json"), json.as_bytes())?;
-        put(dir.join("report.txt"), self.report.summary().as_bytes())?;
-        Ok(written)
+        files.file(dir.join("report.json"), json);
+        files.file(dir.join("report.txt"), self.report.summary());
+        Ok(files.commit()?)
     }
 }
 

@@ -59,13 +59,9 @@ pub enum ReportError {
     /// The plotting backend failed.
     #[error("report: plot `{plot}`: {message}")]
     Plot { plot: String, message: String },
-    #[error("{}: cannot create the report folder: {cause}", dir.display())]
-    CreateDir { dir: PathBuf, cause: std::io::Error },
-    #[error("{}: cannot write the report: {cause}", path.display())]
-    Write {
-        path: PathBuf,
-        cause: std::io::Error,
-    },
+    /// The report could not be written; nothing of it was.
+    #[error("cannot write the report: {0}")]
+    Write(#[from] mtcal_machine::OutputError),
 }
 
 /// Everything the page shows.
@@ -335,19 +331,14 @@ pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, ReportError> {
     write_page(dir, &html)
 }
 
-/// Writes `html` to `dir/index.html` (creating `dir`), atomically; returns that path.
+/// Writes `html` to `dir/index.html` (creating `dir`), atomically; returns that path. A file
+/// where the folder goes is refused, and nothing (not the folder) is left on an error.
 fn write_page(dir: &Path, html: &str) -> Result<PathBuf, ReportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::CreateDir {
-        dir: dir.to_path_buf(),
-        cause: source,
-    })?;
     let path = dir.join("index.html");
-    mtcal_machine::write_atomically(&path, html.as_bytes()).map_err(|source| {
-        ReportError::Write {
-            path: path.clone(),
-            cause: source,
-        }
-    })?;
+    let mut files = mtcal_machine::Outputs::new();
+    files.folder(dir);
+    files.file(&path, html);
+    files.commit()?;
     Ok(path)
 }
 

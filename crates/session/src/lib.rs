@@ -86,9 +86,11 @@ pub use column::{Column, Columns, Scale, Storage};
 pub use error::{Location, SessionError};
 pub use manifest::{
     MANIFEST_NAME, Manifest, ManifestRun, RUN_KEYS, RunSpec, RunUse, Session, SetupRef, TOP_KEYS,
-    load_session, write_session,
+    load_session, session_text, write_session,
 };
-pub use run::{CONTEXT_COLUMNS, RunColumns, RunTable, read_run, row_line, write_run};
+pub use run::{
+    CONTEXT_COLUMNS, RunColumns, RunTable, parse_run, read_run, row_line, run_text, write_run,
+};
 
 use std::path::Path;
 

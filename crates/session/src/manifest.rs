@@ -45,9 +45,18 @@ pub struct Session {
     pub identify: toml::Table,
     /// Where each `[identify]` key's value is written, for messages.
     pub identify_at: BTreeMap<String, Location>,
+    /// Where each key's value of each shared set-up `[setup.<name>]` is written, for messages.
+    pub setup_at: BTreeMap<String, BTreeMap<String, Location>>,
 }
 
 impl Session {
+    /// Where key `key` of the shared set-up `setup` is written (`None` for a run's own set-up
+    /// or a key it lacks). A nested key (`sensors.s1.at`) is found by its first part.
+    pub fn setup_location(&self, setup: &str, key: &str) -> Option<&Location> {
+        let first = key.split('.').next().unwrap_or(key);
+        self.setup_at.get(setup)?.get(first)
+    }
+
     /// `manifest:line:column` of `[identify]` key `key` (the manifest alone for a key it lacks).
     pub fn identify_location(&self, key: &str) -> String {
         match self.identify_at.get(key) {
@@ -225,6 +234,17 @@ pub fn load_session(dir_or_manifest: &Path) -> Result<Session, SessionError> {
         .into_iter()
         .map(|(k, span)| (k, locate(&manifest, &text, span.start)))
         .collect();
+    let setup_at = parsed
+        .setup_spans
+        .into_iter()
+        .map(|(name, keys)| {
+            let keys = keys
+                .into_iter()
+                .map(|(k, span)| (k, locate(&manifest, &text, span.start)))
+                .collect();
+            (name, keys)
+        })
+        .collect();
     Ok(Session {
         dir,
         manifest,
@@ -235,6 +255,7 @@ pub fn load_session(dir_or_manifest: &Path) -> Result<Session, SessionError> {
         runs,
         identify: parsed.identify,
         identify_at,
+        setup_at,
     })
 }
 
@@ -284,6 +305,7 @@ struct ParsedManifest {
     machine: String,
     machine_span: Range<usize>,
     identify_spans: BTreeMap<String, Range<usize>>,
+    setup_spans: BTreeMap<String, BTreeMap<String, Range<usize>>>,
     setups: BTreeMap<String, toml::Table>,
     runs: Vec<ParsedRun>,
     identify: toml::Table,
@@ -307,6 +329,21 @@ fn parse(text: &str) -> Parsed<ParsedManifest> {
             .collect(),
         _ => BTreeMap::new(),
     };
+    let setup_spans = match de.get("setup").map(|item| item.get_ref()) {
+        Some(DeValue::Table(t)) => t
+            .iter()
+            .filter_map(|(name, v)| match v.get_ref() {
+                DeValue::Table(keys) => Some((
+                    name.get_ref().to_string(),
+                    keys.iter()
+                        .map(|(k, v)| (k.get_ref().to_string(), v.span()))
+                        .collect(),
+                )),
+                _ => None,
+            })
+            .collect(),
+        _ => BTreeMap::new(),
+    };
     let setups = read_setups(&de, &values)?;
     let runs = read_runs(text, &de, &values, &setups)?;
     let identify = match (de.get("identify"), values.get("identify")) {
@@ -323,6 +360,7 @@ fn parse(text: &str) -> Parsed<ParsedManifest> {
         identify,
         machine_span,
         identify_spans,
+        setup_spans,
     })
 }
 
@@ -659,6 +697,19 @@ impl Manifest {
 /// Refuses, writing nothing, a manifest that [`load_session`] would reject for its contents
 /// (the run files themselves are not checked: they may be written afterwards).
 pub fn write_session(dir: &Path, manifest: &Manifest) -> Result<PathBuf, SessionError> {
+    let (path, text) = session_text(dir, manifest)?;
+    mtcal_machine::write_atomically(&path, text.as_bytes()).map_err(|source| {
+        SessionError::Write {
+            path: path.clone(),
+            cause: source,
+        }
+    })?;
+    Ok(path)
+}
+
+/// What [`write_session`] writes: `dir/session.toml` and its text, checked to load again (to
+/// be written with other outputs at once).
+pub fn session_text(dir: &Path, manifest: &Manifest) -> Result<(PathBuf, String), SessionError> {
     let path = dir.join(MANIFEST_NAME);
     let refuse = |message: String| SessionError::NotWritten {
         path: path.clone(),
@@ -672,11 +723,5 @@ pub fn write_session(dir: &Path, manifest: &Manifest) -> Result<PathBuf, Session
             at.line, p.message
         )));
     }
-    mtcal_machine::write_atomically(&path, text.as_bytes()).map_err(|source| {
-        SessionError::Write {
-            path: path.clone(),
-            cause: source,
-        }
-    })?;
-    Ok(path)
+    Ok((path, text))
 }

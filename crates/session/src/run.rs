@@ -174,7 +174,12 @@ fn read_run_streaming(path: &Path, cols: &RunColumns) -> Result<RunTable, Sessio
 /// [`read_run`] from the whole text, with every check's located error.
 fn read_run_text(path: &Path, cols: &RunColumns) -> Result<RunTable, SessionError> {
     let bytes = std::fs::read(path).map_err(|e| SessionError::read(path, e))?;
-    let mut text = crate::text_of(path, bytes)?;
+    parse_run(path, crate::text_of(path, bytes)?, cols)
+}
+
+/// [`read_run`] of a run's text held in memory (`path` names it in the messages).
+pub fn parse_run(path: &Path, text: String, cols: &RunColumns) -> Result<RunTable, SessionError> {
+    let mut text = text;
     if text.contains('\r') {
         // The csv crate counts a CRLF file's lines one short from the second record on.
         text = text.replace("\r\n", "\n");
@@ -597,16 +602,22 @@ fn check_increasing(
 /// empty or not allowed, or a non-empty [`columns`](RunTable::columns) that does not list
 /// exactly the table's columns.
 pub fn write_run(path: &Path, table: &RunTable) -> Result<(), SessionError> {
+    let text = run_text(path, table)?;
+    mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| SessionError::Write {
+        path: path.to_path_buf(),
+        cause: source,
+    })
+}
+
+/// The text [`write_run`] writes for `table` (to be written with other outputs at once);
+/// `path` names the file in the messages.
+pub fn run_text(path: &Path, table: &RunTable) -> Result<String, SessionError> {
     let refuse = |message: String| SessionError::NotWritten {
         path: path.to_path_buf(),
         message,
     };
     let columns = check_writable(table).map_err(refuse)?;
-    let text = render(table, &columns);
-    mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| SessionError::Write {
-        path: path.to_path_buf(),
-        cause: source,
-    })
+    Ok(render(table, &columns))
 }
 
 /// One column's numbers: `(data, stride, offset)`, or its labels.

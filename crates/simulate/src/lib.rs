@@ -121,6 +121,9 @@ pub enum SimulateError {
         path: PathBuf,
         cause: std::io::Error,
     },
+    /// The session's files could not all be written; none was.
+    #[error(transparent)]
+    Output(#[from] mtcal_machine::OutputError),
 }
 
 /// What a simulation wrote.

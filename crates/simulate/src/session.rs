@@ -6,7 +6,7 @@ use crate::{SimulateError, Simulated};
 use mtcal_machine::LoadedMachine;
 use mtcal_session::{
     Location, MANIFEST_NAME, Manifest, ManifestRun, RunSpec, RunTable, RunUse, Session, SetupRef,
-    write_run, write_session,
+    run_text, session_text,
 };
 use std::path::{Path, PathBuf};
 
@@ -83,41 +83,36 @@ impl SimulatedSession {
     }
 
     /// Writes the session folder: the machine's files, each run's NC program
-    /// (`programs/<run>.nc`) and CSV file, then `session.toml`; every file atomically.
+    /// (`programs/<run>.nc`) and CSV file, and `session.toml`; all at once
+    /// ([`mtcal_machine::Outputs`]): an error leaves none of them behind.
     pub fn write(&self) -> Result<Simulated, SimulateError> {
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| SimulateError::Io {
-                path,
-                cause: source,
-            }
-        };
-        std::fs::create_dir_all(&self.dir).map_err(io(&self.dir))?;
+        let mut files = mtcal_machine::Outputs::new();
+        files.folder(&self.dir);
         if let MachineFiles::Urdf { urdf, errors } = &self.machine.files {
-            let to = self.dir.join("machine.urdf");
-            mtcal_machine::write_atomically(&to, urdf).map_err(io(&to))?;
+            files.file(self.dir.join("machine.urdf"), urdf.clone());
             if let Some(errors) = errors {
-                let to = self.dir.join("machine.errors.toml");
-                mtcal_machine::write_atomically(&to, errors).map_err(io(&to))?;
+                files.file(self.dir.join("machine.errors.toml"), errors.clone());
             }
         }
         let programs = self.dir.join("programs");
         for run in &self.runs {
-            std::fs::create_dir_all(&programs).map_err(io(&programs))?;
             let nc = programs.join(format!("{}.nc", run.name));
-            let program = run.program(&self.machine.loaded.machine);
-            mtcal_machine::write_atomically(&nc, program.as_bytes()).map_err(io(&nc))?;
-            write_run(&run.table.path, &run.table).map_err(|e| SimulateError::Run {
+            files.file(nc, run.program(&self.machine.loaded.machine));
+            let text = run_text(&run.table.path, &run.table).map_err(|e| SimulateError::Run {
                 file: self.plan.clone(),
                 run: run.name.clone(),
                 message: e.to_string(),
             })?;
+            files.file(&run.table.path, text);
         }
-        let manifest =
-            write_session(&self.dir, &self.manifest).map_err(|e| SimulateError::Plan {
+        let (path, text) =
+            session_text(&self.dir, &self.manifest).map_err(|e| SimulateError::Plan {
                 file: self.plan.clone(),
                 message: e.to_string(),
             })?;
+        files.file(path, text);
+        files.commit()?;
+        let manifest = self.dir.join(MANIFEST_NAME);
         Ok(Simulated {
             manifest,
             runs: self.runs.len(),
@@ -172,6 +167,7 @@ impl SimulatedSession {
             runs,
             identify: self.manifest.identify.clone(),
             identify_at: Default::default(),
+            setup_at: Default::default(),
         }
     }
 
