@@ -53,6 +53,10 @@ pub(crate) struct IdentifyArgs {
     /// (`acceptance`) and in the report.
     #[arg(long, value_name = "FILE")]
     acceptance: Option<PathBuf>,
+    /// Stop the fit after this many iterations (default: the solver's own limit); a fit
+    /// stopped before it converges says so first and exits 1.
+    #[arg(long, value_name = "N")]
+    max_iterations: Option<usize>,
 }
 
 /// `identify`: what was loaded, then (after the fit or the search) the summary and the
@@ -66,9 +70,13 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
         .map(mtcal_acceptance::Tolerances::read)
         .transpose()?;
     let options = PipelineOptions {
-        solver: mtcal_solve::Options {
-            threads: args.threads,
-            ..Default::default()
+        solver: {
+            let defaults = mtcal_solve::Options::default();
+            mtcal_solve::Options {
+                threads: args.threads,
+                max_iterations: args.max_iterations.unwrap_or(defaults.max_iterations),
+                ..defaults
+            }
         },
         search: args.search,
         acceptance,
@@ -104,7 +112,34 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
         files.folder(dir);
         files.file(dir.join("index.html"), outcome.report_page()?);
     }
-    crate::commit(out, files)
+    crate::commit(out, files)?;
+    checks_failed(&outcome.identification)
+}
+
+/// Exit 1 ([`crate::ChecksFailed`]) when the work is done but something asked of it is not: the
+/// fit did not converge or does not explain the recordings (the verdict), or the acceptance
+/// failed or could not be decided.
+fn checks_failed(id: &mtcal_identify::Identification) -> Result<()> {
+    let mut why = Vec::new();
+    if let Some(verdict) = id.verdict() {
+        let first = verdict.split([':', '\n']).next().unwrap_or(&verdict);
+        why.push(format!("the fit: {first}"));
+    }
+    if let Some(a) = id
+        .acceptance
+        .as_ref()
+        .filter(|a| a.verdict != mtcal_acceptance::Verdict::Pass)
+    {
+        why.push(format!(
+            "the acceptance ({}): {}",
+            a.file,
+            a.verdict.as_str()
+        ));
+    }
+    match why.is_empty() {
+        true => Ok(()),
+        false => Err(crate::ChecksFailed(why.join("; ")).into()),
+    }
 }
 
 /// Every output path of `args` checked before the fit (`predictions`: the files `--predict`

@@ -51,6 +51,7 @@ pub struct ImportArgs {
 
 /// Imports the file and prints what was read and the `[[run]]` written.
 pub fn run(args: ImportArgs, stdout: &mut dyn Write) -> Result<()> {
+    crate::check_paths(&[], &[&args.session])?;
     let imported = mtcal_import::import(&ImportOptions {
         format: args.format.into(),
         file: &args.file,

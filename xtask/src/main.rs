@@ -23,7 +23,12 @@ mod scale;
 mod tolerance;
 
 #[derive(Parser)]
-#[command(name = "cargo xtask", about = "mtcal: machine-tool metrology", version)]
+#[command(
+    name = "cargo xtask",
+    about = "mtcal: machine-tool metrology",
+    version,
+    after_help = EXIT_CODES
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -195,12 +200,34 @@ fn reading(from_tool: bool) -> Reading {
     }
 }
 
+/// What a script can read from the exit code (`--help` and the README say the same).
+const EXIT_CODES: &str = "Exit codes: 0 done, and within every check asked for; 1 done, but a \
+check failed or could not be decided (an acceptance that fails or cannot decide, a fit that did \
+not converge or does not explain the recordings) — the outputs are written; 2 bad input or \
+another error — nothing is written.";
+
+/// The work is done and its outputs written, but a check asked of it is not met: exit 1.
+#[derive(Debug)]
+pub(crate) struct ChecksFailed(pub String);
+
+impl std::fmt::Display for ChecksFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ChecksFailed {}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // The reader went away (`| head`): nothing more to say to it, and not a failure.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<ChecksFailed>().is_some() => {
+            eprintln!("check failed: {e}");
+            ExitCode::from(1)
+        }
         Err(e) => {
             eprintln!("error: {}", message(&e));
             ExitCode::from(2)
@@ -229,6 +256,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Identify(args) => identify::run(args, &mut stdout),
         Command::Simulate { plan, out } => {
+            check_paths(&[], &[&out])?;
             let sim = mtcal_simulate::simulate(&plan, &out)?;
             writeln!(
                 stdout,
@@ -241,7 +269,10 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Import(args) => import::run(args, &mut stdout),
         Command::History(args) => history::run(args, &mut stdout),
-        Command::Plan { planning, out } => plan::run(&planning, &out, &mut stdout),
+        Command::Plan { planning, out } => {
+            check_paths(&[], &[&out])?;
+            plan::run(&planning, &out, &mut stdout)
+        }
         Command::Plugins => {
             let plugins = mtcal_plugins::plugins();
             let width = plugins.iter().map(|p| p.name.len()).max().unwrap_or(0);
@@ -298,6 +329,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             position_only,
         } => {
+            check_paths(&[&out], &[])?;
             let (model, coeffs) = model_and_coeffs(&machine, &params)?;
             let options = mtcal_ncprog::CorrectOptions {
                 match_tool_axis: !position_only,
@@ -315,6 +347,10 @@ fn run(cli: Cli) -> Result<()> {
             program,
             out,
         } => {
+            check_paths(
+                &[out.as_deref()].into_iter().flatten().collect::<Vec<_>>(),
+                &[],
+            )?;
             let (model, coeffs) = model_and_coeffs(&machine, &params)?;
             let grid =
                 Grid::source004(model.machine()).context("cannot build source 004's grid")?;
@@ -335,6 +371,11 @@ fn run(cli: Cli) -> Result<()> {
             out,
             plot,
         } => {
+            let outputs: Vec<&Path> = [out.as_deref(), plot.as_deref()]
+                .into_iter()
+                .flatten()
+                .collect();
+            check_paths(&outputs, &[])?;
             let (model, coeffs) = model_and_coeffs(&machine, &params)?;
             let data = mtcal_ncprog::read_cl(&cl)?;
             let errors = mtcal_ncprog::PathErrors::new(&model, &coeffs, &data, &cl)?;
@@ -388,6 +429,19 @@ fn run(cli: Cli) -> Result<()> {
 fn save(path: &Path, text: &str) -> Result<()> {
     mtcal_machine::write_atomically(path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The output paths of a command checked before its work ([`Outputs::check`]): a folder where a
+/// file goes, a file where a folder goes, a name too long, told at once.
+fn check_paths(files: &[&Path], folders: &[&Path]) -> Result<()> {
+    let mut outputs = Outputs::new();
+    for f in files {
+        outputs.file(f, Vec::new());
+    }
+    for d in folders {
+        outputs.folder(d);
+    }
+    Ok(outputs.check()?)
 }
 
 /// Writes `files` as one transaction ([`Outputs`]) and says which.

@@ -4,8 +4,9 @@
 //! the error model): a byte replaced, a line deleted, repeated or swapped with the next, a
 //! number's digit changed, or a token that breaks formats (`nan`, `1e308`, `,`, `"`, `[`, …)
 //! put in. `identify --json --predict` then either succeeds — no NaN or infinity in what it
-//! prints or writes, the JSON without nulls — or exits 2 with a message, writing nothing and
-//! changing nothing. Never another exit code, never a panic.
+//! prints or writes, the JSON without nulls; exit 1 when a check is not met, such as a fit that
+//! does not explain a mutated run — or exits 2 with a message, writing nothing and changing
+//! nothing. Never another exit code, never a panic.
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -202,7 +203,13 @@ fn check(session: &str, file: &str, m: &Mutation) -> Result<bool, String> {
         return Err(format!("{case}: {stderr}"));
     }
     match out.status.code() {
-        Some(0) => {
+        // 1: done, a check not met (the fit does not explain a mutated run): written all the same.
+        Some(code @ (0 | 1)) => {
+            if code == 1 && !stderr.starts_with("check failed: ") {
+                return Err(format!(
+                    "{case}: exit 1 without saying which check: {stderr}"
+                ));
+            }
             finite_text(&stdout).map_err(|e| format!("{case}: stdout: {e}"))?;
             let json = std::fs::read_to_string(tmp.path().join("out.json"))
                 .map_err(|e| format!("{case}: no out.json: {e}"))?;

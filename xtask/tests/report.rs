@@ -39,8 +39,9 @@ fn identify(args: &[&str], tmp: &Path) -> (PathBuf, serde_json::Value, String) {
         .output()
         .expect("mtcal runs");
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    // 1: done, an acceptance check not passed (tests/exit_codes.rs); the report is written.
     assert!(
-        out.status.success(),
+        matches!(out.status.code(), Some(0 | 1)),
         "{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );

@@ -155,7 +155,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let mut out = Outputs::new();
     out.file(path, bytes);
     out.commit().map(|_| ()).map_err(|e| match e {
-        OutputError::Io { source, .. } => source,
+        OutputError::Io { cause, .. } => cause,
         refused => std::io::Error::other(refused.to_string()),
     })
 }

@@ -29,11 +29,10 @@ pub enum OutputError {
     #[error("{}: {why}", path.display())]
     Refused { path: PathBuf, why: String },
     /// The file system refused a write; everything written was undone.
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}: {cause}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 }
 
@@ -207,9 +206,9 @@ fn refused(path: &Path, why: impl Into<String>) -> OutputError {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-    move |source| OutputError::Io {
+    move |cause| OutputError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     }
 }
 

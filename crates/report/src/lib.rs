@@ -60,7 +60,7 @@ pub enum ReportError {
     #[error("report: plot `{plot}`: {message}")]
     Plot { plot: String, message: String },
     /// The report could not be written; nothing of it was.
-    #[error("cannot write the report: {0}")]
+    #[error(transparent)]
     Write(#[from] mtcal_machine::OutputError),
 }
 

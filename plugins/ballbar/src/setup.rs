@@ -75,6 +75,16 @@ impl BallbarConfig {
                 format!("the bar length must be positive (mm), found {length_mm}"),
             ));
         }
+        if length_mm > config::MAX_SETUP_MM {
+            return Err(SetupError::new(
+                "length",
+                format!(
+                    "{length_mm:e} mm lies beyond any machine's reach: a set-up's lengths are \
+                     within {:e} mm (a kilometre)",
+                    config::MAX_SETUP_MM
+                ),
+            ));
+        }
         let sigma_um = keys.sigma_um.map_or(1.0, f64::from);
         if sigma_um <= 0.0 {
             return Err(SetupError::new(
