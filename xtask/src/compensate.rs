@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 pub(crate) struct CompensateArgs {
     #[command(flatten)]
     machine: crate::MachineArg,
-    /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+    /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+    /// `identify --json` (what it identified goes in; what it could not determine stays zero).
     #[arg(long)]
     params: PathBuf,
     /// The file to write.
@@ -255,7 +256,7 @@ impl ControlArgs {
 }
 
 pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
-    let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params)?;
+    let (model, coeffs) = crate::model_and_coeffs(&args.machine, &args.params, out)?;
     let defaults = mtcal_compensate::default_hold(model.machine());
     let hold = args.hold.as_deref().unwrap_or("");
     let hold_q = mtcal_machine::axis_text::held_positions(model.machine(), defaults, hold)?;

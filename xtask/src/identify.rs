@@ -53,6 +53,11 @@ pub(crate) struct IdentifyArgs {
     /// (`acceptance`) and in the report.
     #[arg(long, value_name = "FILE")]
     acceptance: Option<PathBuf>,
+    /// Write the identified values as a parameter file (TOML, `mtcal.params/1`) to edit by
+    /// hand or give to `--params`: what the session determined, the rest zero, and a header
+    /// saying what was left out. The identify JSON itself is read by `--params` as well.
+    #[arg(long, value_name = "FILE")]
+    params_out: Option<PathBuf>,
     /// Stop the fit after this many iterations (default: the solver's own limit); a fit
     /// stopped before it converges says so first and exits 1.
     #[arg(long, value_name = "N")]
@@ -102,6 +107,9 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
     if let Some(path) = &args.json {
         files.file(path, outcome.identification.to_json());
     }
+    if let Some(path) = &args.params_out {
+        files.file(path, params_file(&outcome, path)?);
+    }
     if let Some(dir) = &args.predict {
         files.folder(dir);
         for (path, text) in outcome.prediction_files(dir)? {
@@ -142,12 +150,37 @@ fn checks_failed(id: &mtcal_identify::Identification) -> Result<()> {
     }
 }
 
+/// The identified values as a parameter file of the session's model, with what the JSON read
+/// by `--params` would say as its header ([`mtcal_machine::from_identify`]): one reading of an
+/// identification, whichever file carries it.
+fn params_file(
+    outcome: &mtcal_identify::pipeline::Outcome,
+    path: &std::path::Path,
+) -> Result<String> {
+    let errors = outcome.study.model.errors();
+    let from = mtcal_machine::from_identify::read_identify_json(
+        &outcome.identification.to_json(),
+        path,
+        errors,
+    )?;
+    let mut text: String = from
+        .account("of this session")
+        .iter()
+        .map(|l| format!("# {l}\n"))
+        .collect();
+    text.push_str(&mtcal_machine::params::write_params(errors, &from.coeffs));
+    Ok(text)
+}
+
 /// Every output path of `args` checked before the fit (`predictions`: the files `--predict`
 /// will write, once the session is read): a folder where the JSON goes, a file where the
 /// report folder goes, a run's name too long for a file name, are told at once.
 fn check_outputs(args: &IdentifyArgs, predictions: &[PathBuf]) -> Result<()> {
     let mut files = Outputs::new();
-    for path in [&args.suggest_model, &args.json].into_iter().flatten() {
+    for path in [&args.suggest_model, &args.json, &args.params_out]
+        .into_iter()
+        .flatten()
+    {
         files.file(path, Vec::new());
     }
     for dir in [&args.predict, &args.report].into_iter().flatten() {

@@ -45,7 +45,8 @@ enum Command {
     Map {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
         #[arg(long)]
         params: PathBuf,
         /// Grid points per linear axis, e.g. 21x22x22 (source 004's 10,164 points, the default).
@@ -80,7 +81,8 @@ enum Command {
     Correct {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
         #[arg(long)]
         params: PathBuf,
         /// The NC program to correct (read, never modified).
@@ -98,7 +100,8 @@ enum Command {
     ZeroPoint {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
         #[arg(long)]
         params: PathBuf,
         /// An NC program to offset (read, never modified); needs --out.
@@ -114,7 +117,8 @@ enum Command {
     ClError {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad).
+        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
         #[arg(long)]
         params: PathBuf,
         /// The CL data file (read, never modified).
@@ -298,7 +302,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let loaded = machine.load()?;
             let model = build_model(&loaded)?;
-            let coeffs = load_params(&model, &params)?;
+            let coeffs = load_params(&model, &params, &mut stdout)?;
             let grid = mtcal_machine::axis_text::map_grid(
                 model.machine(),
                 grid.as_deref(),
@@ -330,7 +334,7 @@ fn run(cli: Cli) -> Result<()> {
             position_only,
         } => {
             check_paths(&[&out], &[])?;
-            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
+            let (model, coeffs) = model_and_coeffs(&machine, &params, &mut stdout)?;
             let options = mtcal_ncprog::CorrectOptions {
                 match_tool_axis: !position_only,
                 ..Default::default()
@@ -351,7 +355,7 @@ fn run(cli: Cli) -> Result<()> {
                 &[out.as_deref()].into_iter().flatten().collect::<Vec<_>>(),
                 &[],
             )?;
-            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
+            let (model, coeffs) = model_and_coeffs(&machine, &params, &mut stdout)?;
             let grid =
                 Grid::source004(model.machine()).context("cannot build source 004's grid")?;
             let z = mtcal_ncprog::model_zero_point(&model, &coeffs, &grid)
@@ -376,7 +380,7 @@ fn run(cli: Cli) -> Result<()> {
                 .flatten()
                 .collect();
             check_paths(&outputs, &[])?;
-            let (model, coeffs) = model_and_coeffs(&machine, &params)?;
+            let (model, coeffs) = model_and_coeffs(&machine, &params, &mut stdout)?;
             let data = mtcal_ncprog::read_cl(&cl)?;
             let errors = mtcal_ncprog::PathErrors::new(&model, &coeffs, &data, &cl)?;
             write!(stdout, "{}", errors.report(&cl))?;
@@ -465,15 +469,31 @@ fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
 }
 
 /// The coefficients of the parameter file `params` for `model`.
-fn load_params(model: &MachineModel, params: &Path) -> Result<Vec<f64>> {
-    mtcal_machine::params::load_params(params, model.errors())
-        .with_context(|| format!("cannot read parameter file {}", params.display()))
+fn load_params(model: &MachineModel, params: &Path, out: &mut impl Write) -> Result<Vec<f64>> {
+    let context = || format!("cannot read parameter file {}", params.display());
+    let text = std::fs::read_to_string(params).with_context(context)?;
+    if !mtcal_machine::from_identify::is_json(&text) {
+        return mtcal_machine::params::parse_params(&text, params, model.errors())
+            .with_context(context);
+    }
+    // An identify JSON: what the identification gave a number, said on the screen.
+    let from = mtcal_machine::from_identify::read_identify_json(&text, params, model.errors())
+        .with_context(context)?;
+    for line in from.account(&params.display().to_string()) {
+        writeln!(out, "{line}")?;
+    }
+    Ok(from.coeffs)
 }
 
-/// The machine's model and the coefficients of a parameter file.
-fn model_and_coeffs(machine: &MachineArg, params: &Path) -> Result<(MachineModel, Vec<f64>)> {
+/// The machine's model and the coefficients of a parameter file (a TOML parameter file or an
+/// identify JSON, whose account goes to `out`).
+fn model_and_coeffs(
+    machine: &MachineArg,
+    params: &Path,
+    out: &mut impl Write,
+) -> Result<(MachineModel, Vec<f64>)> {
     let model = build_model(&machine.load()?)?;
-    let coeffs = load_params(&model, params)?;
+    let coeffs = load_params(&model, params, out)?;
     Ok((model, coeffs))
 }
 

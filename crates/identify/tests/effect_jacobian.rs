@@ -233,8 +233,8 @@ fn effect_columns_equal_finite_differences() {
 }
 
 /// A reversal's side of its play in a run the axis arrived at from an unknown side (the
-/// session's first, recorded with A standing): a nuisance shape in ±1 whose column, and the
-/// backlash's beside it, equal differences.
+/// session's first, recorded with A standing) and in a run it moves in: nuisance shapes in ±1
+/// whose columns, and the backlash's beside them, equal differences.
 #[test]
 fn start_state_columns_equal_finite_differences() {
     let dir = tempfile::tempdir().unwrap();
@@ -259,12 +259,15 @@ fn start_state_columns_equal_finite_differences() {
         .iter()
         .find(|e| e.info().label == "reversal A (A)")
         .unwrap();
+    // A side in the run recorded standing (xyc), and in every run A moves in (yza): its
+    // approach is not in the file either.
     let names: Vec<&str> = reversal.params().iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["backlash_urad", "start_xyc"]);
+    assert_eq!(names, ["backlash_urad", "start_xyc", "start_yza"]);
     let (study, mut x, o) = with_effect(&loaded, reversal);
-    // 40 µrad of play, the axis on 0.6 of the way to its + side.
+    // 40 µrad of play, the axis on 0.6 of the way to its + side in one run, −0.3 in the other.
     x[o] = 40e-6;
     x[o + 1] = 0.6;
+    x[o + 2] = -0.3;
     assert_columns_match(&study, &x);
     // A damped reversal spike whose first turn in a run is unknown: its side is a nuisance
     // too, and the transient after the first motion moves with it.

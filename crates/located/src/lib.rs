@@ -225,16 +225,18 @@ mod tests {
             ".mtcal-{}-0.tmp",
             std::os::unix::process::parent_id()
         ));
-        // A dead process' old version of a file is the only copy if it died between two
-        // renames: kept.
-        let old = dir.path().join(".mtcal-4294967295-1.old");
-        for f in [&dead, &live, &old] {
+        // A dead process' second name of an old file (never its only copy): removed too.
+        let old = dir.path().join(".mtcal-4294967295-1.old.tmp");
+        // Not a temporary of mtcal's: left alone.
+        let other = dir.path().join(".other-4294967295-1.tmp");
+        for f in [&dead, &live, &old, &other] {
             std::fs::write(f, b"half").unwrap();
         }
         write_atomically(&p, b"whole").unwrap();
         assert!(!dead.exists(), "a dead process' temporary is removed");
         assert!(live.exists(), "a running process' temporary is left alone");
-        assert!(old.exists(), "an old version is left alone");
+        assert!(!old.exists(), "a dead process' old version is removed");
+        assert!(other.exists(), "another program's file is left alone");
         assert_eq!(std::fs::read(&p).unwrap(), b"whole");
     }
 }

@@ -41,7 +41,7 @@ pub enum OutputError {
 enum Target {
     /// Nothing: created by a rename.
     Absent,
-    /// A regular file: replaced by a rename, the old one kept aside until the end.
+    /// A regular file: replaced by a rename, the old one kept under a second name until the end.
     Regular,
     /// A device or FIFO: written through.
     Special,
@@ -353,10 +353,15 @@ impl Transaction {
             file.sync_all().map_err(io(f.given))?;
         }
         for (k, f) in regular() {
+            // The old version kept under a second name (a hard link, or a copy where the file
+            // system has none) while the new one is renamed over it: the path always holds a
+            // whole file, old or new, even if the process is killed here.
             let old = match f.target {
                 Target::Regular => {
-                    let old = sibling(&f.path, k, "old");
-                    fs::rename(&f.path, &old).map_err(io(f.given))?;
+                    let old = sibling(&f.path, k, "old.tmp");
+                    if fs::hard_link(&f.path, &old).is_err() {
+                        fs::copy(&f.path, &old).map_err(io(f.given))?;
+                    }
                     Some(old)
                 }
                 _ => None,
@@ -424,8 +429,13 @@ impl Transaction {
         for (path, old) in self.placed.iter().rev() {
             match old {
                 Some(old) => {
-                    // The new file may not be there yet (its rename failed): restore anyway.
+                    // The new file may not be there yet (its rename failed): restore anyway. A
+                    // rename between two names of one file does nothing; then the path holds
+                    // the old contents already and the second name goes.
                     let _ = fs::rename(old, path);
+                    if old.exists() && fs::read(old).ok() == fs::read(path).ok() {
+                        let _ = fs::remove_file(old);
+                    }
                 }
                 None => {
                     let _ = fs::remove_file(path);
@@ -438,9 +448,10 @@ impl Transaction {
     }
 }
 
-/// Removes the temporaries `.mtcal-PID-K.tmp` in `dir` left by killed writes (their process
-/// no longer exists). Where processes cannot be looked up, nothing is removed; an old version
-/// (`.old`) is never removed: if its process died between two renames it is the only copy.
+/// Removes the temporaries `.mtcal-PID-K.tmp` (a new file not yet renamed) and
+/// `.mtcal-PID-K.old.tmp` (a second name of an old file, never its only copy) in `dir` left by
+/// killed writes (their process no longer exists). Where processes cannot be looked up, nothing
+/// is removed.
 fn remove_stale_temporaries(dir: &Path) {
     if !Path::new("/proc/self").exists() {
         return;

@@ -9,6 +9,7 @@ pub mod axis_text;
 pub mod card;
 pub mod config;
 mod describe;
+pub mod from_identify;
 pub mod params;
 pub mod topology;
 pub mod urdf;

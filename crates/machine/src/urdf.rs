@@ -1298,8 +1298,41 @@ mod tests {
             ("valid", with(&[]), O("wXYFZt")),
             (
                 "continuous head",
-                with(&[(12, &moving("C", "continuous", "z_slide", "tool", ""))]),
+                with(&[(
+                    12,
+                    &moving(
+                        "C",
+                        "continuous",
+                        "z_slide",
+                        "tool",
+                        r#"<axis xyz="0 0 1"/>"#,
+                    ),
+                )]),
                 O("wXYFZCt"),
+            ),
+            (
+                "a rotary axis without <axis>, URDF's default not its letter's",
+                with(&[(12, &moving("C", "continuous", "z_slide", "tool", ""))]),
+                E(
+                    "joint `C` has no `<axis>`, and URDF's default",
+                    Some((12, "<joint")),
+                ),
+            ),
+            (
+                "a linear axis without <axis>, moving along X",
+                with(&[(8, &y_with(LIMIT))]),
+                E(
+                    "joint `Y` has no `<axis>`, and URDF's default",
+                    Some((8, "<joint")),
+                ),
+            ),
+            (
+                "two linear axes along one direction",
+                with(&[(8, &y_with(&format!(r#"<axis xyz="1 0 0"/>{LIMIT}"#)))]),
+                E(
+                    "two linear axes along one direction cannot be told apart",
+                    None,
+                ),
             ),
             (
                 "collision-only link off the branches",

@@ -40,6 +40,7 @@ fn without_locations(session: &Session) -> Session {
     let mut s = session.clone();
     s.machine_at = nowhere.clone();
     s.identify_at.clear();
+    s.setup_at.clear();
     for r in &mut s.runs {
         r.location = nowhere.clone();
     }

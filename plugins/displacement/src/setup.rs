@@ -110,7 +110,9 @@ impl TryFrom<toml::Value> for SensorDirection {
                 )
             }),
             toml::Value::Array(_) => {
-                let v3 = Vec3::try_from(value.clone())?.0;
+                // A direction, not a point: its length is normalised away (no reach bound).
+                let v3 = config::vec3(&value)
+                    .ok_or_else(|| expected("three numbers [x, y, z]", &value))?;
                 let norm = Vector3::from(v3).norm();
                 if !(norm.is_finite() && norm > 0.0) {
                     return Err(format!(

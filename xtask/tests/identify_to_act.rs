@@ -1,0 +1,218 @@
+//! From the identification to what acts on it in one flow (issue 37): every command that takes
+//! `--params` takes the JSON of `identify --json` too, and gives the same files as with the
+//! parameter file `identify --params-out` writes of the same identification; what went in and
+//! what was left out (parameters the session could not determine, combinations, discoveries)
+//! is said on the screen, and nothing the identification gave no number gets one.
+
+use mtcal_testkit::repo;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn mtcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .current_dir(repo())
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `identify SESSION --json D/id.json --params-out D/id.toml`.
+fn identify(session: &str, dir: &Path) {
+    let (json, toml) = (dir.join("id.json"), dir.join("id.toml"));
+    ok(&mtcal(&[
+        "identify",
+        session,
+        "--quiet",
+        "--json",
+        json.to_str().unwrap(),
+        "--params-out",
+        toml.to_str().unwrap(),
+    ]));
+}
+
+/// The command `args` (with `{params}` and `{out}` in it) run with the JSON and with the TOML:
+/// the same files and the same screen after the JSON's account of what went in.
+fn same_either_way(dir: &Path, args: &[&str], outputs: &[&str]) -> String {
+    let mut screens = Vec::new();
+    for (params, tag) in [("id.json", "json"), ("id.toml", "toml")] {
+        let out_dir = dir.join(tag);
+        std::fs::create_dir_all(&out_dir).unwrap();
+        let params = dir.join(params);
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| {
+                a.replace("{params}", params.to_str().unwrap())
+                    .replace("{out}", out_dir.to_str().unwrap())
+            })
+            .collect();
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        // The files' own names aside (`map` prints the parameter file's).
+        let screen = ok(&mtcal(&refs))
+            .replace(out_dir.to_str().unwrap(), "OUT")
+            .replace(params.to_str().unwrap(), "PARAMS");
+        screens.push(screen);
+    }
+    for f in outputs {
+        let a = std::fs::read(dir.join("json").join(f)).unwrap();
+        let b = std::fs::read(dir.join("toml").join(f)).unwrap();
+        assert!(a == b, "{f} differs with the JSON and with the TOML");
+    }
+    let (json, toml) = (&screens[0], &screens[1]);
+    assert!(
+        json.starts_with("parameters from the identification ") && json.ends_with(toml.as_str()),
+        "{json}\n---\n{toml}"
+    );
+    json[..json.len() - toml.len()].to_string()
+}
+
+#[test]
+fn every_command_reads_the_identify_json_as_the_parameter_file_it_writes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    identify("examples/three-axis/session", d);
+    let m = "examples/three-axis/session/machine.urdf";
+    std::fs::write(
+        d.join("p.nc"),
+        "G21 G90\nN10 G0 X-100 Y-50 Z-100\nN20 G1 X100 F500\nY50\nM30\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("cl.csv"), "x,y,z\n0,0,300\n100,50,280\n").unwrap();
+    let nc = d.join("p.nc");
+    let cl = d.join("cl.csv");
+    let account = same_either_way(
+        d,
+        &[
+            "compensate",
+            m,
+            "--params",
+            "{params}",
+            "--out",
+            "{out}/x.csv",
+            "--axis",
+            "X",
+        ],
+        &["x.csv"],
+    );
+    // The three-axis session determines its whole model: all of it went in.
+    assert!(account.contains("put in"), "{account}");
+    same_either_way(
+        d,
+        &[
+            "compensate",
+            m,
+            "--params",
+            "{params}",
+            "--out",
+            "{out}/grid.csv",
+        ],
+        &["grid.csv"],
+    );
+    same_either_way(
+        d,
+        &[
+            "correct",
+            m,
+            "--params",
+            "{params}",
+            "--program",
+            nc.to_str().unwrap(),
+            "--out",
+            "{out}/c.nc",
+        ],
+        &["c.nc"],
+    );
+    same_either_way(d, &["zero-point", m, "--params", "{params}"], &[]);
+    same_either_way(
+        d,
+        &[
+            "cl-error",
+            m,
+            "--params",
+            "{params}",
+            "--cl",
+            cl.to_str().unwrap(),
+            "--out",
+            "{out}/e.csv",
+        ],
+        &["e.csv"],
+    );
+    same_either_way(
+        d,
+        &["map", m, "--params", "{params}", "--grid", "3x3x3"],
+        &[],
+    );
+}
+
+/// The five-axis example cannot separate the A axis' EZ0A from the balls' heights: the JSON
+/// gives it no number, the compensation leaves it at zero and says so, and so does the
+/// parameter file's header.
+#[test]
+fn what_the_session_could_not_determine_is_left_out_and_said() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    identify("examples/five-axis/session", d);
+    let m = "examples/five-axis/session/machine.urdf";
+    let account = same_either_way(
+        d,
+        &[
+            "compensate",
+            m,
+            "--params",
+            "{params}",
+            "--out",
+            "{out}/grid.csv",
+        ],
+        &["grid.csv"],
+    );
+    assert!(account.contains("left at zero"), "{account}");
+    assert!(account.contains("EZ0A"), "{account}");
+    assert!(
+        account.contains("not separated, left out: moving EZ0A"),
+        "{account}"
+    );
+    let toml = std::fs::read_to_string(d.join("id.toml")).unwrap();
+    assert!(
+        toml.starts_with("# parameters from the identification"),
+        "{toml}"
+    );
+    assert!(toml.contains("EZ0A = 0"), "{toml}");
+}
+
+/// A fit stopped before it converged gives no parameters to act on.
+#[test]
+fn an_unconverged_identification_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("id.json");
+    let out = mtcal(&[
+        "identify",
+        "examples/five-axis/session",
+        "--quiet",
+        "--max-iterations",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let grid = tmp.path().join("grid.csv");
+    let out = mtcal(&[
+        "compensate",
+        "examples/five-axis/session/machine.urdf",
+        "--params",
+        json.to_str().unwrap(),
+        "--out",
+        grid.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("did not converge"), "{err}");
+    assert!(!grid.exists());
+}
