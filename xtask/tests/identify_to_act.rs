@@ -102,8 +102,9 @@ fn every_command_reads_the_identify_json_as_the_parameter_file_it_writes() {
         ],
         &["x.csv"],
     );
-    // The three-axis session determines its whole model: all of it went in.
-    assert!(account.contains("put in"), "{account}");
+    // The three-axis session determines its whole model: all of it went in, nothing left out.
+    assert!(account.contains(": 33 identified"), "{account}");
+    assert!(!account.contains("left at zero"), "{account}");
     same_either_way(
         d,
         &[
