@@ -14,12 +14,22 @@
 //! - [`Format::ApiPos`] — API XD laser linear data (`api_pos`);
 //! - [`Format::RenishawRtx`] — Renishaw CARTO dynamic capture (`rtx`).
 //!
-//! Errors name the file, the line and column (text) or the byte offset (binary) and what was
-//! expected; no reader panics or yields a non-finite number.
+//! [`import_stream`] (`rtest-stream`) is of another kind: an R-test head's continuous stream,
+//! the NC program that drove the measuring cycle and a context log become the per-visit
+//! session of docs/VOLUMETRIC.md, one `rtest` run per ball (`rtest_stream`, with the program's
+//! reader `nc_dwells` and the stream's cutting `plateaus`).
+//!
+//! Errors name the file, the line and column (text), the byte offset (binary) or the time (a
+//! stream that does not follow its program) and what was expected; no reader panics or yields
+//! a non-finite number.
 
 mod api_pos;
+mod csv_rows;
 mod ecmc;
+pub mod nc_dwells;
+pub mod plateaus;
 mod recording;
+pub mod rtest_stream;
 mod rtx;
 mod session;
 mod text;
@@ -29,6 +39,7 @@ use std::path::{Path, PathBuf};
 pub use api_pos::read_pos;
 pub use ecmc::read_dat;
 pub use recording::Recording;
+pub use rtest_stream::{StreamImported, StreamOptions, import_stream};
 pub use rtx::read_rtx;
 
 /// The instrument exports [`import`] reads.
@@ -80,6 +91,14 @@ pub enum ImportError {
     /// Text contents wrong at a line and column: what was expected, what was found.
     #[error(transparent)]
     Invalid(#[from] mtcal_located::Located),
+    /// A stream or log that does not fit the program or the session, at a time (s) on the
+    /// session's clock: what was expected, what was found.
+    #[error("{}: t = {t_s} s: {message}", path.display())]
+    AtTime {
+        path: PathBuf,
+        t_s: f64,
+        message: String,
+    },
     /// Binary contents wrong at a byte offset (0-based).
     #[error("{}: byte {offset}: {message}", path.display())]
     Binary {

@@ -4,13 +4,15 @@ use std::path::{Component, Path, PathBuf};
 
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_machine::topology::Reading;
-use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, SetupRef, run_text, session_text};
+use mtcal_session::{
+    Manifest, ManifestRun, RunTable, RunUse, Session, SetupRef, run_text, session_text,
+};
 
 use crate::recording::Recording;
 use crate::{ImportError, ImportOptions, Imported};
 
 /// Positions may pass an axis limit by this much (mm), as the session reader allows.
-const LIMIT_TOL_MM: f64 = 0.01;
+pub(crate) const LIMIT_TOL_MM: f64 = 0.01;
 
 /// The session as it is before the import: its manifest (or a new one) and its machine.
 struct Target {
@@ -22,12 +24,7 @@ struct Target {
 
 pub fn write(options: &ImportOptions<'_>, recording: Recording) -> Result<Imported, ImportError> {
     let target = target(options)?;
-    let machine = mtcal_machine::load_machine(&target.machine_arg, Reading::FromWorkpiece)
-        .map_err(|cause| ImportError::Machine {
-            machine: target.machine_arg.clone(),
-            cause: Box::new(cause),
-        })?
-        .machine;
+    let machine = load_machine(&target.machine_arg)?;
     let axis = axis(options, &recording, &machine)?;
     let name = run_name(options)?;
     let file = format!("{name}.csv");
@@ -64,14 +61,10 @@ fn target(options: &ImportOptions<'_>) -> Result<Target, ImportError> {
                 dir.display()
             )));
         }
-        let session = mtcal_session::load_session(dir)?;
-        let machine_arg = match &session.machine_path {
-            Some(p) => p.to_string_lossy().into_owned(),
-            None => session.machine.clone(),
-        };
+        let session = mtcal_session::load_session_to_extend(dir)?;
         return Ok(Target {
             manifest: session.to_manifest(),
-            machine_arg,
+            machine_arg: machine_arg(&session),
             created: false,
         });
     }
@@ -90,6 +83,25 @@ fn target(options: &ImportOptions<'_>) -> Result<Target, ImportError> {
         machine_arg: machine.to_string(),
         created: true,
     })
+}
+
+/// What `load_machine` is given for a session: its URDF resolved from the current folder, or
+/// its topology code.
+pub(crate) fn machine_arg(session: &Session) -> String {
+    match &session.machine_path {
+        Some(p) => p.to_string_lossy().into_owned(),
+        None => session.machine.clone(),
+    }
+}
+
+/// The nominal machine `arg` names (a URDF path or a topology code).
+pub(crate) fn load_machine(arg: &str) -> Result<Machine, ImportError> {
+    Ok(mtcal_machine::load_machine(arg, Reading::FromWorkpiece)
+        .map_err(|cause| ImportError::Machine {
+            machine: arg.to_string(),
+            cause: Box::new(cause),
+        })?
+        .machine)
 }
 
 /// The manifest's `machine`: a URDF's path relative to the session folder, or the code.
@@ -208,7 +220,18 @@ fn run_name(options: &ImportOptions<'_>) -> Result<String, ImportError> {
     Ok(name)
 }
 
-fn refuse_existing(
+/// Whether `name` can name a run and its CSV file: letters, digits, `-`, `_`, `.`, not
+/// starting with `.`.
+pub(crate) fn is_run_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.starts_with('.')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+}
+
+/// Refuses a run name the session has, or a run file that exists.
+pub(crate) fn refuse_existing(
     dir: &Path,
     manifest: &Manifest,
     name: &str,
@@ -319,7 +342,7 @@ fn manifest_run(name: &str, file: &str, axis: char) -> ManifestRun {
 }
 
 /// The entry as the manifest writes it, for the summary.
-fn entry_text(run: &ManifestRun) -> String {
+pub(crate) fn entry_text(run: &ManifestRun) -> String {
     let only = Manifest {
         machine: String::new(),
         runs: vec![run.clone()],
@@ -331,14 +354,23 @@ fn entry_text(run: &ManifestRun) -> String {
         .unwrap_or(text)
 }
 
-/// Writes the run file, then the manifest; if the manifest is refused, the new run file is
-/// removed again (and the folder, if this import created it), so nothing half is left.
-/// The run file and the manifest written together ([`mtcal_located::Outputs`]): an error
-/// leaves neither (nor a session folder it created).
+/// The run file and the manifest written together ([`write_all`]).
 fn write_both(dir: &Path, table: &RunTable, manifest: &Manifest) -> Result<PathBuf, ImportError> {
+    write_all(dir, std::slice::from_ref(table), manifest)
+}
+
+/// The run files and the manifest written together ([`mtcal_located::Outputs`]): an error
+/// leaves none of them (nor a session folder it created).
+pub(crate) fn write_all(
+    dir: &Path,
+    tables: &[RunTable],
+    manifest: &Manifest,
+) -> Result<PathBuf, ImportError> {
     let mut files = mtcal_located::Outputs::new();
     files.folder(dir);
-    files.file(&table.path, run_text(&table.path, table)?);
+    for table in tables {
+        files.file(&table.path, run_text(&table.path, table)?);
+    }
     let (path, text) = session_text(dir, manifest)?;
     files.file(&path, text);
     files.commit()?;

@@ -6,11 +6,15 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::effects::Effect;
+use crate::effects::{Effect, HeatSource, Programme, TemperatureProgramme};
 use crate::instruments::{Instrument, LaserMode, Mount};
 use crate::machine::{Machine, translation_of};
 use crate::session::{Plan, Realism, RunPlan, SetupPlan, SimError, Written, write_session};
 use crate::truth::Truth;
+use crate::volumetric::{
+    Schedule, StreamOptions, VolumetricBall, VolumetricPlan, VolumetricPoint, VolumetricWritten,
+    write_volumetric,
+};
 use crate::{paths, shipped_machine};
 
 /// The five-axis trunnion of [`Campaign::trunnion_rtest_ballbar`].
@@ -1057,4 +1061,418 @@ fn five_axis_session(
         ..realism.clone()
     };
     write_session(dir, &machine, truth, &plan, &timed)
+}
+
+/// Which load heats the machine in the phases between the measuring cycles of a volumetric
+/// thermal test ([`Campaign::volumetric_trunnion`], [`Campaign::volumetric_three_axis`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumetricLoad {
+    /// The spindle turns at [`VOLUMETRIC_SPINDLE_RPM`] (`S`): the spindle head grows towards
+    /// the table, uniformly (two first-order nodes of the speed), and the Z nut warms a little
+    /// (`T_znut`), growing the Z screw (a small dependence on Z); `T_spindle` logs the housing.
+    Spindle,
+    /// The Y drive reciprocates: its temperature (`T_ydrive`, one node of the load) turns the
+    /// spindle head about X (a lever arm that changes with Y and Z) and grows the Y scale.
+    YDrive,
+}
+
+/// The room's temperature steps during a volumetric thermal test ([`Effect::AmbientStep`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AmbientChange {
+    pub at_s: f64,
+    pub step_k: f64,
+}
+
+impl AmbientChange {
+    /// Source 000's Z-drive test: the air conditioning failed at about the 4th hour and the
+    /// hall cooled by about 4 K.
+    pub fn air_conditioning_failure() -> Self {
+        AmbientChange {
+            at_s: 4.0 * 3600.0,
+            step_k: -4.0,
+        }
+    }
+}
+
+/// A volumetric thermal test's course: the load, the cycles, what is written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumetricSpec {
+    pub load: VolumetricLoad,
+    /// Measuring cycles.
+    pub cycles: usize,
+    /// How many of the phases between cycles are loaded, from the first on; the machine rests
+    /// (cools) in the others.
+    pub loaded_phases: usize,
+    /// The room's temperature steps (`None`: constant; `T_ambient` is logged either way).
+    pub ambient_step: Option<AmbientChange>,
+    /// The withheld cycle (1-based), written as validation runs.
+    pub validate_cycle: Option<usize>,
+    /// At each ball, s (a whole number of 8 ms).
+    pub dwell_s: f64,
+    /// Each phase between cycles, s (a whole number of log intervals).
+    pub load_s: f64,
+    /// The log's interval, s.
+    pub log_interval_s: f64,
+    /// σ of the head's white sensor noise per stream sample, µm.
+    pub stream_noise_um: f64,
+    /// `None`: no `stream/` (the per-visit session and the truth are the same).
+    pub stream: Option<StreamOptions>,
+}
+
+impl VolumetricSpec {
+    /// Source 000's course: 36 cycles (about 9 h), the first 24 phases between them loaded
+    /// (6 h), then 3 h of cooling; 10 min phases, a 2 s dwell, the log every 10 s, the 24th
+    /// cycle (the last one under load) withheld, 0.2 µm of sensor noise per sample, the stream
+    /// with the end stop at 2000 µm.
+    pub fn new(load: VolumetricLoad) -> Self {
+        VolumetricSpec {
+            load,
+            cycles: 36,
+            loaded_phases: 24,
+            ambient_step: None,
+            validate_cycle: Some(24),
+            dwell_s: 2.0,
+            load_s: 600.0,
+            log_interval_s: 10.0,
+            stream_noise_um: 0.2,
+            stream: Some(StreamOptions::default()),
+        }
+    }
+
+    /// A short course for tests: `cycles` cycles, every phase between them loaded, the last
+    /// cycle withheld (with two or more), otherwise as [`VolumetricSpec::new`].
+    pub fn short(load: VolumetricLoad, cycles: usize) -> Self {
+        VolumetricSpec {
+            cycles,
+            loaded_phases: cycles,
+            validate_cycle: (cycles >= 2).then_some(cycles),
+            ..VolumetricSpec::new(load)
+        }
+    }
+}
+
+/// The machine of a volumetric thermal test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumetricMachine {
+    /// `machines/mcu630-cafyxz.urdf`: source 000's MCU 630.
+    Trunnion,
+    /// `machines/mcv754-zfyx.urdf`.
+    ThreeAxis,
+}
+
+/// The spindle speed of [`VolumetricLoad::Spindle`]'s load phases, rpm (source 000, Tab. 5).
+pub const VOLUMETRIC_SPINDLE_RPM: f64 = 7500.0;
+/// The measuring feed, mm/min (source 000, §3.5).
+pub const VOLUMETRIC_FEED_MM_PER_MIN: f64 = 2000.0;
+
+/// The room's temperature, °C.
+const AIR_C: f64 = 20.0;
+/// The structure's time constant after an ambient step, s, and its uniform displacement per K
+/// of the room (m/K, machine directions: warmer, the tool rises and moves towards +Y).
+const STRUCTURE_TAU_S: f64 = 2400.0;
+const AMBIENT_SHIFT_PER_K: [f64; 3] = [0.5e-6, 1.5e-6, 2.5e-6];
+
+/// What differs between the two machines of the test.
+struct VolumetricSite {
+    file: &'static str,
+    balls: Vec<VolumetricBall>,
+    points: Vec<VolumetricPoint>,
+    /// The head's rise between balls, mm.
+    clearance_mm: f64,
+    /// The head rotation's line (machine frame, m) and the screws' fixed ends (m).
+    pivot_y: f64,
+    pivot_z: f64,
+    y_reference: f64,
+    z_reference: f64,
+}
+
+fn ball(name: &str, ball_mm: [f64; 3]) -> VolumetricBall {
+    VolumetricBall {
+        name: name.into(),
+        ball_mm,
+    }
+}
+
+impl VolumetricSite {
+    /// Source 000 §3.5 on the MCU 630: five balls of a ball beam (UMTK-1620, every other ball:
+    /// 100 mm apart, the beam inclined on CFRP tubes: 140 → 300 mm above the table) visited at
+    /// C = 0, 120 and 240° (A = 0): 15 points, `ball<k>@C<C>`, the beam run forwards at 0 and
+    /// 240° and backwards at 120°. The cross-beam's line at mid-Y, 1.1 m above the table; the Y
+    /// screw fixed at the −Y end of the stroke, the Z screw at the top.
+    fn trunnion() -> Self {
+        let balls = vec![
+            ball("ball1", [-180.0, -40.0, 140.0]),
+            ball("ball2", [-90.0, -20.0, 180.0]),
+            ball("ball3", [0.0, 0.0, 220.0]),
+            ball("ball4", [90.0, 20.0, 260.0]),
+            ball("ball5", [180.0, 40.0, 300.0]),
+        ];
+        let mut points = Vec::new();
+        for c in [0.0, 120.0, 240.0] {
+            let order: Vec<usize> = if c == 120.0 {
+                (0..5).rev().collect()
+            } else {
+                (0..5).collect()
+            };
+            for b in order {
+                points.push(VolumetricPoint {
+                    name: format!("{}@C{c}", balls[b].name),
+                    ball: b,
+                    rotary_deg: vec![('A', 0.0), ('C', c)],
+                });
+            }
+        }
+        VolumetricSite {
+            file: TRUNNION,
+            balls,
+            points,
+            clearance_mm: 150.0,
+            pivot_y: 0.0,
+            pivot_z: 1.1,
+            y_reference: -0.41,
+            z_reference: 0.0,
+        }
+    }
+
+    /// Source 000 §3.3's modular frame on a three-axis machine: 15 balls on CFRP tubes in three
+    /// levels (six at 120 mm above the table, three at 270, six at 420, offset so that no ball
+    /// sits under another), each visited once per cycle. The head nods about the Z guideway's
+    /// line on the column (450 mm behind the spindle, 850 mm up); the Y screw fixed at the −Y
+    /// end, the Z screw at the top.
+    fn three_axis() -> Self {
+        let mut balls = Vec::new();
+        let mut put = |x: f64, y: f64, z: f64| {
+            let k = balls.len() + 1;
+            balls.push(ball(&format!("ball{k}"), [x, y, z]));
+        };
+        for (x, y) in [
+            (-250.0, -170.0),
+            (0.0, -170.0),
+            (250.0, -170.0),
+            (250.0, 170.0),
+            (0.0, 170.0),
+            (-250.0, 170.0),
+        ] {
+            put(x, y, 120.0);
+        }
+        for x in [-125.0, 0.0, 125.0] {
+            put(x, 0.0, 270.0);
+        }
+        for (x, y) in [
+            (200.0, -90.0),
+            (0.0, -90.0),
+            (-200.0, -90.0),
+            (-200.0, 90.0),
+            (0.0, 90.0),
+            (200.0, 90.0),
+        ] {
+            put(x, y, 420.0);
+        }
+        let points = balls
+            .iter()
+            .enumerate()
+            .map(|(b, ball)| VolumetricPoint {
+                name: ball.name.clone(),
+                ball: b,
+                rotary_deg: Vec::new(),
+            })
+            .collect();
+        VolumetricSite {
+            file: THREE_AXIS,
+            balls,
+            points,
+            clearance_mm: 130.0,
+            pivot_y: 0.45,
+            pivot_z: 0.85,
+            y_reference: -0.27,
+            z_reference: 0.0,
+        }
+    }
+}
+
+impl Campaign {
+    /// The machine, plan and effects of a volumetric thermal test ([`crate::volumetric`]) on
+    /// `which` as `spec` runs it, the head's path rounded as `realism`'s controller writes it.
+    /// The head passes 150 mm (trunnion) or 130 mm (three-axis) above the balls and turns the
+    /// table at that height above the highest ball. The effects, by the load's phases
+    /// ([`Schedule::between_s`], the first `spec.loaded_phases` of them loaded):
+    /// - always the air: `T_ambient` (20 °C); with [`VolumetricSpec::ambient_step`] an
+    ///   [`Effect::AmbientStep`] (the structure's node 2400 s, 0.5 / 1.5 / 2.5 µm per K along
+    ///   X / Y / Z, uniform), and every other sensor follows the step with its lag
+    ///   ([`HeatSource::after_step`]);
+    /// - [`VolumetricLoad::Spindle`]: `S` = [`VOLUMETRIC_SPINDLE_RPM`] in the loaded phases, 0
+    ///   otherwise; the head's growth towards the table ([`Effect::Thermal`] along −Z: 8 µm
+    ///   per 1000 rpm with τ = 40 min and 6 µm per 1000 rpm with τ = 2.5 h); `T_spindle`
+    ///   (20.8 °C + 1.5 K per 1000 rpm, τ = 30 min, ambient lag 20 min) logged only; the Z
+    ///   screw 2 ppm/K about Z = 0 with `T_znut` (20.5 °C + 0.7 K per 1000 rpm, τ = 1.5 h,
+    ///   ambient lag 1 h);
+    /// - [`VolumetricLoad::YDrive`]: `T_ydrive` = 20.6 °C + 15 K × a node of the load (τ =
+    ///   1.5 h; about 10 K at the cycles' duty), ambient lag 1 h; the Y scale 1.5 ppm/K about
+    ///   the −Y end of the stroke ([`Effect::ThermalScale`], which writes `T_ydrive`) and the
+    ///   head turning 3 µrad/K about the machine's line ([`Effect::HeadRotationX`], the same
+    ///   temperature): the trunnion's cross-beam at mid-Y 1.1 m above the table, the
+    ///   three-axis machine's Z guideway on the column (y = 450 mm, z = 850 mm).
+    pub fn volumetric_plan(
+        which: VolumetricMachine,
+        spec: &VolumetricSpec,
+        realism: &Realism,
+    ) -> Result<(Machine, VolumetricPlan, Vec<Effect>), SimError> {
+        let site = match which {
+            VolumetricMachine::Trunnion => VolumetricSite::trunnion(),
+            VolumetricMachine::ThreeAxis => VolumetricSite::three_axis(),
+        };
+        let urdf = shipped_machine(site.file);
+        let machine = Machine::from_urdf_file(&urdf)?;
+        // The tool point's height above the workpiece frame with every axis at zero.
+        let zero = vec![0.0; machine.n_axes()];
+        let z0_mm = translation_of(&machine.tool_in_workpiece(&zero, None)).z * 1e3;
+        let top_mm = site
+            .balls
+            .iter()
+            .map(|b| b.ball_mm[2])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let plan = VolumetricPlan {
+            machine_urdf: urdf,
+            balls: site.balls.clone(),
+            points: site.points.clone(),
+            cycles: spec.cycles,
+            validate_cycle: spec.validate_cycle,
+            feed_mm_per_min: VOLUMETRIC_FEED_MM_PER_MIN,
+            dwell_s: spec.dwell_s,
+            clearance_mm: site.clearance_mm,
+            safe_z_mm: top_mm + site.clearance_mm - z0_mm,
+            load_s: spec.load_s,
+            log_interval_s: spec.log_interval_s,
+            stream_noise_um: spec.stream_noise_um,
+            stream: spec.stream.clone(),
+        };
+        let schedule = plan.schedule(&machine, realism)?;
+        let effects = volumetric_effects(spec, &site, &schedule);
+        Ok((machine, plan, effects))
+    }
+
+    /// A volumetric thermal test on the shipped trunnion `machines/mcu630-cafyxz.urdf` (source
+    /// 000's MCU 630) with the geometric errors `truth`, into `dir`
+    /// ([`Campaign::volumetric_plan`] gives its plan and effects, [`crate::volumetric`] the
+    /// files): five balls of an artefact, one set-up each (`ball1`…`ball5`), visited at
+    /// C = 0, 120 and 240°: 15 points per cycle (about 4.3 min at 2000 mm/min).
+    pub fn volumetric_trunnion(
+        dir: &Path,
+        truth: &Truth,
+        spec: &VolumetricSpec,
+        realism: &Realism,
+    ) -> Result<VolumetricWritten, SimError> {
+        let (machine, plan, effects) =
+            Self::volumetric_plan(VolumetricMachine::Trunnion, spec, realism)?;
+        write_volumetric(dir, &machine, truth, &plan, &effects, realism)
+    }
+
+    /// A volumetric thermal test on the shipped three-axis `machines/mcv754-zfyx.urdf` with the
+    /// geometric errors `truth`, into `dir` ([`Campaign::volumetric_plan`]): 15 balls on a
+    /// frame, one set-up each (`ball1`…`ball15`), each visited once per cycle.
+    pub fn volumetric_three_axis(
+        dir: &Path,
+        truth: &Truth,
+        spec: &VolumetricSpec,
+        realism: &Realism,
+    ) -> Result<VolumetricWritten, SimError> {
+        let (machine, plan, effects) =
+            Self::volumetric_plan(VolumetricMachine::ThreeAxis, spec, realism)?;
+        write_volumetric(dir, &machine, truth, &plan, &effects, realism)
+    }
+}
+
+/// [`Campaign::volumetric_plan`]'s effects.
+fn volumetric_effects(
+    spec: &VolumetricSpec,
+    site: &VolumetricSite,
+    schedule: &Schedule,
+) -> Vec<Effect> {
+    let loaded: Vec<(f64, f64)> = schedule
+        .between_s
+        .iter()
+        .take(spec.loaded_phases)
+        .copied()
+        .collect();
+    // `level` in the loaded phases, 0 otherwise.
+    let on_off = |level: f64| {
+        Programme::Steps(
+            loaded
+                .iter()
+                .flat_map(|&(from, to)| [(from, level), (to, 0.0)])
+                .collect(),
+        )
+    };
+    // A sensor's temperature: its own rises, and the room's step after its lag.
+    let temperature = |ambient_c: f64, mut rises: Vec<HeatSource>, lag_s: f64| {
+        rises.extend(
+            spec.ambient_step
+                .map(|a| HeatSource::after_step(a.at_s, a.step_k, lag_s)),
+        );
+        TemperatureProgramme {
+            ambient_c,
+            drift_k_per_h: 0.0,
+            rises,
+        }
+    };
+    let node = |gain: f64, tau_s: f64, power: Programme| HeatSource { gain, tau_s, power };
+    let mut effects = vec![match spec.ambient_step {
+        Some(a) => Effect::AmbientStep {
+            ambient_c: AIR_C,
+            at_s: a.at_s,
+            step_k: a.step_k,
+            tau_s: STRUCTURE_TAU_S,
+            shift_per_k: AMBIENT_SHIFT_PER_K,
+            column: Some("T_ambient".into()),
+        },
+        None => Effect::TemperatureSensor {
+            column: "T_ambient".into(),
+            temperature: TemperatureProgramme::constant(AIR_C),
+        },
+    }];
+    match spec.load {
+        VolumetricLoad::Spindle => {
+            let krpm = || Programme::SpindleKrpm;
+            effects.extend([
+                Effect::SpindleSpeed {
+                    rpm: on_off(VOLUMETRIC_SPINDLE_RPM),
+                },
+                Effect::Thermal {
+                    direction: [0.0, 0.0, -1.0],
+                    sources: vec![node(8e-6, 2400.0, krpm()), node(6e-6, 9000.0, krpm())],
+                },
+                Effect::TemperatureSensor {
+                    column: "T_spindle".into(),
+                    temperature: temperature(20.8, vec![node(1.5, 1800.0, krpm())], 1200.0),
+                },
+                Effect::ThermalScale {
+                    axis: 'Z',
+                    ppm_per_k: 2.0,
+                    reference: site.z_reference,
+                    temperature: temperature(20.5, vec![node(0.7, 5400.0, krpm())], 3600.0),
+                    column: "T_znut".into(),
+                },
+            ]);
+        }
+        VolumetricLoad::YDrive => {
+            let drive = temperature(20.6, vec![node(15.0, 5400.0, on_off(1.0))], 3600.0);
+            effects.extend([
+                Effect::ThermalScale {
+                    axis: 'Y',
+                    ppm_per_k: 1.5,
+                    reference: site.y_reference,
+                    temperature: drive.clone(),
+                    column: "T_ydrive".into(),
+                },
+                Effect::HeadRotationX {
+                    pivot_y: site.pivot_y,
+                    pivot_z: site.pivot_z,
+                    urad_per_k: 3.0,
+                    temperature: drive,
+                    column: None,
+                },
+            ]);
+        }
+    }
+    effects
 }

@@ -2,7 +2,9 @@
 //! or varying along a worn screw with an unknown start), a servo lag, reversal spikes and
 //! stick-slip, thermal growth of the spindle head and of the spindle along its axis, screw
 //! pitch errors, scale expansion, table twist, sag, a carriage rocking in its guideway
-//! clearance, a dent in a guideway, the ball bar's own expansion and a set-up settling.
+//! clearance, a dent in a guideway, the spindle head turning as a cross-beam twists with a
+//! drive's temperature, a step of the room temperature, the ball bar's own expansion and a
+//! set-up settling; and temperature sensors that only log.
 //!
 //! Formulated here from the physics of each effect, not from mtcal's effect formulas. Every
 //! value is SI inside (m, rad, s, K); a field whose unit is not SI says so in its name.
@@ -23,12 +25,16 @@
 //! 2. the machine's branches are evaluated at the actual positions with the truth's geometric
 //!    errors ([`Machine::branch_pose`]): `f_T_w(a)`, `f_T_t(a)` in the machine frame `f`;
 //! 3. **tool effects** ([`Effect::Thermal`], [`Effect::Twist`], [`Effect::Sag`],
-//!    [`Effect::LateralPlay`], [`Effect::GuidewayBump`]) are a translation `d` of the tool point
-//!    relative to the workpiece in machine directions, pre-multiplied on the tool branch's pose:
-//!    `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)`. (A workpiece-side deformation such as the
-//!    twist is the same relative motion: the workpiece moving by −d is the tool moving by +d.)
-//!    [`Effect::SpindleGrowth`] is a translation `(0, 0, −g)` in the tool frame,
-//!    post-multiplied: `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a) · Trans(0, 0, −g)`.
+//!    [`Effect::LateralPlay`], [`Effect::GuidewayBump`], [`Effect::AmbientStep`]) are a
+//!    translation `d` of the tool point relative to the workpiece in machine directions,
+//!    pre-multiplied on the tool branch's pose: `w_T_t = f_T_w(a)⁻¹ · Trans(d) · f_T_t(a)`.
+//!    (A workpiece-side deformation such as the twist is the same relative motion: the
+//!    workpiece moving by −d is the tool moving by +d.) [`Effect::HeadRotationX`] turns the
+//!    tool branch about a fixed line, `H(θ) = Trans(c)·Rot_x(θ)·Trans(−c)`, pre-multiplied
+//!    after the translation (the head, grown, turns as a whole). [`Effect::SpindleGrowth`] is a
+//!    translation `(0, 0, −g)` in the tool frame, post-multiplied. Together:
+//!    `w_T_t = f_T_w(a)⁻¹ · H(θ) · Trans(d) · f_T_t(a) · Trans(0, 0, −g)` (several head
+//!    rotations multiply in plan order, `H = H_1·H_2·…`).
 //!
 //! Every instrument reads that actual pose, so the effects reach the R-test (both mounts), the
 //! ball bar, every laser mode, the tracer, displacement sensors and artefact plates alike. The
@@ -38,8 +44,10 @@
 //! so they see an effect's change within the run.
 //!
 //! # Context columns
-//! [`Effect::ThermalScale`] writes its temperature as a column `T_<name>` (°C) in every run;
-//! [`Effect::BallBarThermal`] may write the bar's temperature in its set-up's runs;
+//! [`Effect::ThermalScale`] and [`Effect::TemperatureSensor`] write their temperature as a
+//! column `T_<name>` (°C) in every run, [`Effect::HeadRotationX`] and [`Effect::AmbientStep`]
+//! when given a column; [`Effect::BallBarThermal`] may write the bar's temperature in its
+//! set-up's runs;
 //! [`Effect::SpindleSpeed`] writes `S` (rpm) in every run, exactly the programme's value at the
 //! sample time. Temperatures are what a sensor reads: the true value plus [`crate::Realism`]'s
 //! `temperature_sigma_k` of white noise (its own random stream of the realism seed), quantised
@@ -54,7 +62,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::SimError;
 use crate::instruments::{ActualPoses, Instrument, SetupPlan};
-use crate::machine::{JointKind, Machine, Side, rigid_inverse, translation};
+use crate::machine::{JointKind, Machine, Side, exp_rotation, rigid, rigid_inverse, translation};
 use crate::truth::Truth;
 
 /// A piecewise-constant function of the session time.
@@ -93,6 +101,20 @@ pub struct HeatSource {
     /// Time constant, s.
     pub tau_s: f64,
     pub power: Programme,
+}
+
+impl HeatSource {
+    /// The node a step drives: `power` 0 before `at_s` and 1 from then on, so that the node's
+    /// contribution rises as `gain·(1 − e^{−(t − at_s)/τ})` after it. A sensor (or a drive's
+    /// temperature) that follows a step of the room by `gain` K with its lag `tau_s`
+    /// ([`Effect::AmbientStep`]).
+    pub fn after_step(at_s: f64, gain: f64, tau_s: f64) -> Self {
+        HeatSource {
+            gain,
+            tau_s,
+            power: Programme::steps(&[(at_s, 1.0)]),
+        }
+    }
 }
 
 /// A temperature over the session: `T(t) = ambient_c + drift_k_per_h·t/3600 + Σ gain_i·x_i(t)`,
@@ -285,6 +307,53 @@ pub enum Effect {
     /// (`… · f_T_t(a) · Trans(0, 0, −g)`): on a head whose rotary axes tilt the tool the growth
     /// turns with it.
     SpindleGrowth { sources: Vec<HeatSource> },
+    /// The spindle head turns about a line parallel to machine X, as a cross-beam (or a
+    /// column) twists when a drive on one side of it warms: by
+    /// `θ(t) = urad_per_k·10⁻⁶·(T(t) − T(0))` (rad, right-handed about +X), `T` the drive's
+    /// temperature, about the line through `(·, pivot_y, pivot_z)` (m, machine frame; the line
+    /// stays where it is whatever the axes do). The tool branch turns about it as a whole,
+    /// pre-multiplied (module docs): `H(θ) = Trans(c)·Rot_x(θ)·Trans(−c)`,
+    /// `c = (0, pivot_y, pivot_z)`. The tool point at machine `p` moves by
+    /// `(Rot_x(θ) − I)·(p − c)`, to first order `Δy = −θ·(p_z − pivot_z)`,
+    /// `Δz = θ·(p_y − pivot_y)`: the lever arm, and with it the displacement, differs between
+    /// points of the work volume (with the pivot above them and θ > 0, points lower down move
+    /// further towards +Y), and the tool (an R-test nest on it) tilts by θ. Warmer with
+    /// `urad_per_k > 0`: θ > 0. `T` is written as `column` (`T_<name>`, °C) in every run when
+    /// given; leave it `None` when another effect writes the same drive's temperature (the
+    /// drive's [`Effect::ThermalScale`]) and give both the same programme.
+    HeadRotationX {
+        pivot_y: f64,
+        pivot_z: f64,
+        urad_per_k: f64,
+        temperature: TemperatureProgramme,
+        column: Option<String>,
+    },
+    /// The room's temperature steps by `step_k` (K) at `at_s` (s) from `ambient_c` (°C) — an
+    /// air-conditioning failure. The structure follows through one first-order node of time
+    /// constant `tau_s`: the tool point relative to the workpiece moves uniformly (the same at
+    /// every point of the work volume, a translation like [`Effect::Thermal`]'s) by
+    /// `shift_per_k·step_k·x(t)`, `x(t) = 1 − e^{−(t − at_s)/τ}` from `at_s` on (0 before),
+    /// `shift_per_k` m per K in machine directions (the room cooling by 4 K with
+    /// `shift_per_k = [0, 0, 2e-6]`: the tool ends 8 µm lower relative to the workpiece). With
+    /// `column`, an air sensor (`T_<name>`, °C) reads `ambient_c` before `at_s` and
+    /// `ambient_c + step_k` from then on, in every run. Other sensors follow the step with
+    /// lags of their own: add [`HeatSource::after_step`] to their programmes.
+    AmbientStep {
+        ambient_c: f64,
+        at_s: f64,
+        step_k: f64,
+        tau_s: f64,
+        shift_per_k: [f64; 3],
+        column: Option<String>,
+    },
+    /// A temperature sensor that only logs (a spindle housing, a ball-screw nut): its
+    /// `temperature` written as `column` (`T_<name>`, °C) in every run, as a sensor reads it.
+    /// Moves nothing: the context a thermal test records besides the temperatures that drive
+    /// planted effects.
+    TemperatureSensor {
+        column: String,
+        temperature: TemperatureProgramme,
+    },
 }
 
 /// Where the nut of an axis with [`Effect::LostMotion`] stands in its play when a run starts.
@@ -406,6 +475,13 @@ enum Shows {
     ScaleTemperature(usize),
     /// A bar's temperature (index into `bars`), °C, as a sensor reads it.
     BarTemperature(usize),
+    /// A head rotation's drive temperature (index into `rotations`), °C, as a sensor reads it.
+    RotationTemperature(usize),
+    /// The air's temperature of an ambient step (index into `ambient`), °C, as a sensor reads
+    /// it.
+    Air(usize),
+    /// A logging sensor's temperature (index into `sensors`), °C, as a sensor reads it.
+    Sensor(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -443,6 +519,56 @@ pub(crate) struct Resolved {
     bumps: Vec<Bump>,
     /// Nodes (gains in m) of each spindle growth along the tool axis.
     spindle_growth: Vec<Vec<Node>>,
+    rotations: Vec<Rotation>,
+    ambient: Vec<Ambient>,
+    /// The logging sensors' temperatures ([`Effect::TemperatureSensor`]).
+    sensors: Vec<Temperature>,
+}
+
+/// The head turning about a line parallel to X ([`Effect::HeadRotationX`]).
+#[derive(Clone, Debug)]
+struct Rotation {
+    /// A point of the line, machine frame, m.
+    pivot: Vector3<f64>,
+    rad_per_k: f64,
+    temperature: Temperature,
+}
+
+impl Rotation {
+    /// `H(θ(t)) = Trans(c)·Rot_x(θ)·Trans(−c)`.
+    fn turn(&self, t: f64) -> Matrix4<f64> {
+        let theta = self.rad_per_k * self.temperature.rise(t);
+        let r = exp_rotation(&Vector3::new(theta, 0.0, 0.0));
+        rigid(&r, &(self.pivot - r * self.pivot))
+    }
+}
+
+/// A step of the room temperature ([`Effect::AmbientStep`]).
+#[derive(Clone, Debug)]
+struct Ambient {
+    ambient_c: f64,
+    at_s: f64,
+    step_k: f64,
+    tau_s: f64,
+    /// m per K, machine directions.
+    shift_per_k: Vector3<f64>,
+}
+
+impl Ambient {
+    /// The structure's uniform displacement at `t`, m.
+    fn shift(&self, t: f64) -> Vector3<f64> {
+        let x = first_order_response(&[(self.at_s, 1.0)], self.tau_s, t);
+        self.shift_per_k * (self.step_k * x)
+    }
+
+    /// The air's temperature at `t`, °C.
+    fn air_c(&self, t: f64) -> f64 {
+        if t >= self.at_s {
+            self.ambient_c + self.step_k
+        } else {
+            self.ambient_c
+        }
+    }
 }
 
 /// A lost motion whose width varies along the stroke ([`Effect::LostMotion`]).
@@ -738,6 +864,74 @@ impl Resolved {
                 let nodes = self.nodes(sources)?;
                 self.spindle_growth.push(nodes);
             }
+            Effect::HeadRotationX {
+                pivot_y,
+                pivot_z,
+                urad_per_k,
+                temperature,
+                column,
+            } => {
+                finite("pivot_y", *pivot_y)?;
+                finite("pivot_z", *pivot_z)?;
+                finite("urad_per_k", *urad_per_k)?;
+                if let Some(name) = column {
+                    check_temperature_column(name)?;
+                    self.columns.push(Column {
+                        name: name.clone(),
+                        shows: Shows::RotationTemperature(self.rotations.len()),
+                        setup: None,
+                    });
+                }
+                self.rotations.push(Rotation {
+                    pivot: Vector3::new(0.0, *pivot_y, *pivot_z),
+                    rad_per_k: urad_per_k * 1e-6,
+                    temperature: self.temperature(temperature)?,
+                });
+            }
+            Effect::AmbientStep {
+                ambient_c,
+                at_s,
+                step_k,
+                tau_s,
+                shift_per_k,
+                column,
+            } => {
+                finite("ambient_c", *ambient_c)?;
+                finite("at_s", *at_s)?;
+                finite("step_k", *step_k)?;
+                positive("tau_s", *tau_s)?;
+                for v in shift_per_k {
+                    finite("shift_per_k", *v)?;
+                }
+                if let Some(name) = column {
+                    check_temperature_column(name)?;
+                    self.columns.push(Column {
+                        name: name.clone(),
+                        shows: Shows::Air(self.ambient.len()),
+                        setup: None,
+                    });
+                }
+                self.ambient.push(Ambient {
+                    ambient_c: *ambient_c,
+                    at_s: *at_s,
+                    step_k: *step_k,
+                    tau_s: *tau_s,
+                    shift_per_k: Vector3::from(*shift_per_k),
+                });
+            }
+            Effect::TemperatureSensor {
+                column,
+                temperature,
+            } => {
+                check_temperature_column(column)?;
+                self.columns.push(Column {
+                    name: column.clone(),
+                    shows: Shows::Sensor(self.sensors.len()),
+                    setup: None,
+                });
+                let temperature = self.temperature(temperature)?;
+                self.sensors.push(temperature);
+            }
         }
         Ok(())
     }
@@ -863,7 +1057,9 @@ impl Resolved {
             && self.spikes.is_empty()
             && self.sticks.is_empty()
             && self.bumps.is_empty()
-            && self.spindle_growth.is_empty())
+            && self.spindle_growth.is_empty()
+            && self.rotations.is_empty()
+            && self.ambient.is_empty())
     }
 
     /// What the instrument of `setup` reads besides the machine, m, at each of `times`: the
@@ -905,6 +1101,9 @@ impl Resolved {
                     Shows::Spindle => value_at(self.spindle_rpm.as_deref().unwrap_or(&[]), t),
                     Shows::ScaleTemperature(i) => self.scales[i].temperature.celsius(t),
                     Shows::BarTemperature(i) => self.bars[i].temperature.celsius(t),
+                    Shows::RotationTemperature(i) => self.rotations[i].temperature.celsius(t),
+                    Shows::Air(i) => self.ambient[i].air_c(t),
+                    Shows::Sensor(i) => self.sensors[i].celsius(t),
                 };
                 ContextValues {
                     name: c.name.clone(),
@@ -954,6 +1153,9 @@ fn kind_name(e: &Effect) -> &'static str {
         Effect::StickSlip { .. } => "stick-slip",
         Effect::GuidewayBump { .. } => "guideway-bump",
         Effect::SpindleGrowth { .. } => "spindle-growth",
+        Effect::HeadRotationX { .. } => "head-rotation-x",
+        Effect::AmbientStep { .. } => "ambient-step",
+        Effect::TemperatureSensor { .. } => "temperature-sensor",
     }
 }
 
@@ -1064,6 +1266,10 @@ pub(crate) struct SampleState<'a> {
     lateral: Vector3<f64>,
     /// The spindle's growth along the tool axis (out of the spindle), m.
     spindle: f64,
+    /// The structure's uniform displacement after ambient steps, machine frame, m.
+    air: Vector3<f64>,
+    /// The head's turn about its lines, `H = H_1·H_2·…` (`None`: no head rotation).
+    head: Option<Matrix4<f64>>,
 }
 
 impl SampleState<'_> {
@@ -1100,7 +1306,7 @@ impl SampleState<'_> {
     /// actual axis positions `a`.
     pub(crate) fn tool_shift(&self, a: &[f64]) -> Vector3<f64> {
         let e = self.effects;
-        let mut d = self.growth + self.lateral;
+        let mut d = self.growth + self.lateral + self.air;
         for b in &e.bumps {
             d += b.direction * b.rise(a[b.axis]);
         }
@@ -1114,8 +1320,9 @@ impl SampleState<'_> {
     }
 
     /// The actual tool pose in the workpiece frame at the commands `q`:
-    /// `f_T_w(a)⁻¹ · Trans(d) · f_T_t(a) · Trans(0, 0, −g)` (module docs, `g` the spindle's
-    /// growth); exactly the geometric model's pose when no effect moves the machine.
+    /// `f_T_w(a)⁻¹ · H · Trans(d) · f_T_t(a) · Trans(0, 0, −g)` (module docs, `H` the head's
+    /// turn, `g` the spindle's growth); exactly the geometric model's pose when no effect moves
+    /// the machine.
     pub(crate) fn tool_in_workpiece(
         &self,
         machine: &Machine,
@@ -1131,6 +1338,9 @@ impl SampleState<'_> {
         let mut t = machine.branch_pose(Side::Tool, &a, Some(truth));
         if d != Vector3::zeros() {
             t = translation(&d) * t;
+        }
+        if let Some(h) = &self.head {
+            t = h * t;
         }
         if self.spindle != 0.0 {
             t *= translation(&Vector3::new(0.0, 0.0, -self.spindle));
@@ -1345,6 +1555,12 @@ impl<'a> Timeline<'a> {
             .iter()
             .map(|nodes| nodes.iter().map(|n| n.at(t)).sum::<f64>())
             .sum();
+        let air = e.ambient.iter().map(|a| a.shift(t)).sum();
+        let head = (!e.rotations.is_empty()).then(|| {
+            e.rotations
+                .iter()
+                .fold(Matrix4::identity(), |h, r| h * r.turn(t))
+        });
         SampleState {
             effects: e,
             lost,
@@ -1356,6 +1572,8 @@ impl<'a> Timeline<'a> {
             stick,
             lateral,
             spindle,
+            air,
+            head,
         }
     }
 }
@@ -1608,6 +1826,45 @@ fn effect_table(machine: &Machine, e: &Effect) -> toml::Table {
         Effect::SpindleGrowth { sources } => {
             put("source", sources_value(sources, "gain_um", 1e6));
         }
+        Effect::HeadRotationX {
+            pivot_y,
+            pivot_z,
+            urad_per_k,
+            temperature,
+            column,
+        } => {
+            put("pivot_y_mm", (pivot_y * 1e3).into());
+            put("pivot_z_mm", (pivot_z * 1e3).into());
+            put("urad_per_k", (*urad_per_k).into());
+            if let Some(c) = column {
+                put("column", c.clone().into());
+            }
+            put("temperature", temperature_value(temperature));
+        }
+        Effect::AmbientStep {
+            ambient_c,
+            at_s,
+            step_k,
+            tau_s,
+            shift_per_k,
+            column,
+        } => {
+            put("ambient_c", (*ambient_c).into());
+            put("at_s", (*at_s).into());
+            put("step_k", (*step_k).into());
+            put("tau_s", (*tau_s).into());
+            put("shift_um_per_k", floats(&shift_per_k.map(|v| v * 1e6)));
+            if let Some(c) = column {
+                put("column", c.clone().into());
+            }
+        }
+        Effect::TemperatureSensor {
+            column,
+            temperature,
+        } => {
+            put("column", column.clone().into());
+            put("temperature", temperature_value(temperature));
+        }
     }
     t
 }
@@ -1651,3 +1908,5 @@ fn temperature_value(p: &TemperatureProgramme) -> toml::Value {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod volumetric_tests;

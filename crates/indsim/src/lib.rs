@@ -86,7 +86,12 @@
 //!     ([`Effect::Thermal`], [`HeatSource`], [`Programme`]), a table twist `k·x·y` along Z
 //!     ([`Effect::Twist`]), a sag `k·q²` ([`Effect::Sag`]), a carriage rocking across its
 //!     guideway clearance with the direction of motion ([`Effect::LateralPlay`]), a local dent
-//!     of a guideway ([`Effect::GuidewayBump`]);
+//!     of a guideway ([`Effect::GuidewayBump`]), the structure following a step of the room
+//!     temperature through a node, the same everywhere ([`Effect::AmbientStep`]);
+//!   - as a turn of the tool branch about a fixed line parallel to X, pre-multiplied after
+//!     the translation (`f_T_w(a)⁻¹ · H(θ) · Trans(d) · f_T_t(a)`): a cross-beam twisting with
+//!     a drive's temperature, `θ = g·(T(t) − T(0))` ([`Effect::HeadRotationX`]: the tool point
+//!     moves by `(Rot_x(θ) − I)(p − c)`, a lever arm that differs between points);
 //!   - as a translation in the tool frame (post-multiplied on the tool branch): the spindle's
 //!     growth along its own axis ([`Effect::SpindleGrowth`]), turning with a tilting head;
 //!   - on the instrument alone: the ball bar's own expansion ([`Effect::BallBarThermal`]), a
@@ -94,8 +99,10 @@
 //!
 //!   Every instrument reads the same actual pose. Context columns (after the readings and
 //!   labels): a scale's temperature `T_<name>` (°C) in every run, the bar's in its set-up's
-//!   runs, the spindle speed `S` (rpm, [`Effect::SpindleSpeed`], which heat sources may
-//!   follow) in every run; temperatures as a sensor reads them ([`Realism`]).
+//!   runs, a head rotation's drive temperature and an ambient step's air temperature when
+//!   they name a column, a logging sensor's ([`Effect::TemperatureSensor`]), the spindle speed
+//!   `S` (rpm, [`Effect::SpindleSpeed`], which heat sources may follow) in every run;
+//!   temperatures as a sensor reads them ([`Realism`]).
 //! - [`paths`]: R-test follow-the-ball sweeps, ball-bar circles, laser lines, ISO 230-2
 //!   bidirectional runs ([`paths::bidirectional`]), diagonals and step diagonals of the work
 //!   volume ([`paths::diagonal`]), tracer grids; the linear axes come from this crate's own
@@ -132,6 +139,32 @@
 //! [`Campaign::head_head_check`], [`Campaign::mixed_check`]);
 //! [`Campaign::three_axis_ballbar_planes`] is a ball-bar-only session in three planes at two
 //! feeds, its sample times following the feed ([`RunPlan::interval_s`]).
+//!
+//! # The volumetric thermal test
+//! [`Campaign::volumetric_trunnion`] and [`Campaign::volumetric_three_axis`] write source
+//! 000's volumetric thermal test (docs/VOLUMETRIC.md): an R-test head in the spindle visits 15
+//! points in cycles of about 4.3 min at 2000 mm/min (2 s dwell on each ball) with 10 min load
+//! phases between them — on the trunnion five balls of an artefact at C = 0, 120 and 240°, on
+//! the three-axis machine 15 balls on a frame —, under spindle load (a uniform growth along
+//! −Z, a little Z-screw growth) or Y-drive load (the head turning about X and the Y scale
+//! growing with the drive's temperature), optionally with a step of the room temperature
+//! ([`VolumetricSpec`], [`VolumetricLoad`], [`AmbientChange`]; [`Campaign::volumetric_plan`]
+//! gives the machine, plan and effects). [`write_volumetric`] writes any [`VolumetricPlan`]
+//! ([`volumetric`] gives the timing, the stream's samples, the noise and every file):
+//! - the per-visit session: one set-up per ball, one run `<ball>` per ball (a row per visit:
+//!   `t,<axes>,dx,dy,dz[,S][,T_<name>…]`), the withheld cycle as `<ball>-c<k>` runs with
+//!   `use = "validate"`;
+//! - `stream/`: `stream.csv` (`t,dx,dy,dz`, 500 Hz in the dwells, the end stop — the range in
+//!   every column or empty cells, [`OffBall`] — off the balls, optionally the plunges' ramps),
+//!   `cycle.nc` (the G-code of one cycle: `G90`, `G1 … F2000`, `G4 P<s>`) and `log.csv`
+//!   (`t[,S][,T_<name>…]` every 10 s). A visit's reading is the mean of the stream over its
+//!   dwell's middle half and its time the dwell's midpoint, its context the log interpolated
+//!   there: what importing the stream gives;
+//! - `truth/`: as [`write_session`]'s, plus `deformation.csv`
+//!   (`t,point,ball,cycle,dx_um,dy_um,dz_um`: every visit's true deformation
+//!   `d_j(t) = −(r_j(t) − r_j(t₀))` from the noise-free readings, µm, machine directions, `t₀`
+//!   the point's first visit), `field.csv` (the same columns: every point at each cycle's
+//!   midpoint, the field at one instant) and `volumetric.toml` (schedule and points).
 
 pub mod campaign;
 pub mod effects;
@@ -141,10 +174,13 @@ pub mod machine;
 pub mod paths;
 pub mod session;
 pub mod truth;
+pub mod volumetric;
 
 use std::path::{Path, PathBuf};
 
-pub use campaign::{Campaign, FiveAxisLayout};
+pub use campaign::{
+    AmbientChange, Campaign, FiveAxisLayout, VolumetricLoad, VolumetricMachine, VolumetricSpec,
+};
 pub use effects::{Approach, Effect, HeatSource, Programme, TemperatureProgramme};
 pub use instruments::{
     DisplacementSensor, Instrument, LaserMode, Mount, PlatePlacement, Probed, SensorDirection,
@@ -155,6 +191,10 @@ pub use session::{
     Plan, Realism, RunPlan, SetupPlan, SimError, Written, WrittenRun, write_session,
 };
 pub use truth::{AxisTruth, Truth};
+pub use volumetric::{
+    FieldValue, OffBall, Schedule, StreamOptions, Visit, VolumetricBall, VolumetricPlan,
+    VolumetricPoint, VolumetricWritten, write_volumetric,
+};
 
 /// A shipped machine of the workspace's `machines/` folder, by file name.
 pub fn shipped_machine(file: &str) -> PathBuf {

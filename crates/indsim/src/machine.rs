@@ -1,5 +1,5 @@
 //! The machine: two serial branches read from a URDF, evaluated joint by joint with plain 4 × 4
-//! homogeneous transforms, nominally or with a [`Truth`]'s errors inserted.
+//! homogeneous transforms, nominally or with a [`Truth`](crate::truth::Truth)'s errors inserted.
 //!
 //! Written from the conventions (FORMATS.md "Machine", ARCHITECTURE.md "Conventions"), not from
 //! mtcal's code: the root link is the machine frame; one branch ends in the link `workpiece`,

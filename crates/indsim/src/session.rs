@@ -339,7 +339,7 @@ pub fn write_session(
 }
 
 /// How each set-up really differs from the manifest's.
-fn draw_offsets(
+pub(crate) fn draw_offsets(
     setups: &[SetupPlan],
     realism: &Realism,
     rng: &mut ChaCha8Rng,
@@ -370,7 +370,7 @@ fn draw_offsets(
 }
 
 /// `truth/setups.toml`.
-fn sidecar_setups(offsets: &[(String, SetupOffsets)], realism: &Realism) -> String {
+pub(crate) fn sidecar_setups(offsets: &[(String, SetupOffsets)], realism: &Realism) -> String {
     let mut s = String::from("# Real set-ups: offsets from the manifest (um).\n");
     for (name, off) in offsets {
         writeln!(
@@ -413,7 +413,11 @@ fn sample_times(
 
 /// Axis positions (SI) in the file's units (mm / degrees), rounded as the controller writes
 /// them; the machine moves exactly there.
-fn to_file_units(machine: &Machine, poses: &[Vec<f64>], realism: &Realism) -> Vec<Vec<f64>> {
+pub(crate) fn to_file_units(
+    machine: &Machine,
+    poses: &[Vec<f64>],
+    realism: &Realism,
+) -> Vec<Vec<f64>> {
     poses
         .iter()
         .map(|q| {
@@ -435,7 +439,7 @@ fn to_file_units(machine: &Machine, poses: &[Vec<f64>], realism: &Realism) -> Ve
 }
 
 /// File units to SI as FORMATS.md defines them (mm → m, degrees → rad).
-fn to_si(machine: &Machine, positions: &[Vec<f64>]) -> Vec<Vec<f64>> {
+pub(crate) fn to_si(machine: &Machine, positions: &[Vec<f64>]) -> Vec<Vec<f64>> {
     positions
         .iter()
         .map(|p| {
@@ -539,7 +543,7 @@ fn add_noise(
 
 /// The context columns as written: temperatures as a sensor reads them (white noise of
 /// `temperature_sigma_k`, quantised to `temperature_resolution_k`), the spindle speed exact.
-fn sensed(
+pub(crate) fn sensed(
     context: &[ContextValues],
     realism: &Realism,
     rng: &mut ChaCha8Rng,
@@ -568,28 +572,28 @@ fn sensed(
         .collect()
 }
 
-fn round_to(v: f64, step: f64) -> f64 {
+pub(crate) fn round_to(v: f64, step: f64) -> f64 {
     (v / step).round() * step
 }
 
 /// A run's text column (at most one) and its value per sample.
-struct Labels<'a> {
-    columns: &'a [&'a str],
-    values: &'a [String],
+pub(crate) struct Labels<'a> {
+    pub(crate) columns: &'a [&'a str],
+    pub(crate) values: &'a [String],
 }
 
 /// One run file's content: `t`, the axes, the readings, the label, the context columns.
-struct Table<'a> {
-    letters: &'a [char],
-    channels: &'a [String],
-    labels: &'a Labels<'a>,
-    t: &'a [f64],
-    positions: &'a [Vec<f64>],
-    readings: &'a [Vec<f64>],
-    context: &'a [(String, Vec<f64>)],
+pub(crate) struct Table<'a> {
+    pub(crate) letters: &'a [char],
+    pub(crate) channels: &'a [String],
+    pub(crate) labels: &'a Labels<'a>,
+    pub(crate) t: &'a [f64],
+    pub(crate) positions: &'a [Vec<f64>],
+    pub(crate) readings: &'a [Vec<f64>],
+    pub(crate) context: &'a [(String, Vec<f64>)],
 }
 
-fn write_csv(path: &Path, table: &Table<'_>) -> std::io::Result<()> {
+pub(crate) fn write_csv(path: &Path, table: &Table<'_>) -> std::io::Result<()> {
     let mut s = String::from("t");
     for l in table.letters {
         write!(s, ",{l}").expect("string");
@@ -629,7 +633,7 @@ fn write_csv(path: &Path, table: &Table<'_>) -> std::io::Result<()> {
 }
 
 /// `target` relative to the folder `from` (both made absolute first).
-fn relative_path(from: &Path, target: &Path) -> std::io::Result<PathBuf> {
+pub(crate) fn relative_path(from: &Path, target: &Path) -> std::io::Result<PathBuf> {
     let from = std::fs::canonicalize(from)?;
     let target = std::fs::canonicalize(target)?;
     let a: Vec<Component> = from.components().collect();

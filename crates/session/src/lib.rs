@@ -86,7 +86,7 @@ pub use column::{Column, Columns, Scale, Storage};
 pub use error::{Location, SessionError};
 pub use manifest::{
     MANIFEST_NAME, Manifest, ManifestRun, RUN_KEYS, RunSpec, RunUse, Session, SetupRef, TOP_KEYS,
-    load_session, session_text, write_session,
+    load_session, load_session_to_extend, session_text, write_session,
 };
 pub use run::{
     CONTEXT_COLUMNS, RunColumns, RunTable, parse_run, read_run, row_line, run_text, write_run,

@@ -191,6 +191,24 @@ impl From<&RunSpec> for ManifestRun {
 /// Checks everything the manifest says, including that every run's file exists inside the
 /// session folder; it does not read the run files (see [`crate::read_run`]) or the machine.
 pub fn load_session(dir_or_manifest: &Path) -> Result<Session, SessionError> {
+    load(dir_or_manifest, Runs::Required)
+}
+
+/// [`load_session`] for a session an import adds runs to: a manifest without `[[run]]` yet
+/// (the machine and the set-ups declared, nothing recorded) is accepted, with no runs.
+pub fn load_session_to_extend(dir_or_manifest: &Path) -> Result<Session, SessionError> {
+    load(dir_or_manifest, Runs::MayBeNone)
+}
+
+/// Whether a manifest must hold a run: a session must; one an import is about to add its
+/// first runs to need not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Runs {
+    Required,
+    MayBeNone,
+}
+
+fn load(dir_or_manifest: &Path, runs_rule: Runs) -> Result<Session, SessionError> {
     let (dir, manifest) = if dir_or_manifest.is_dir() {
         (
             dir_or_manifest.to_path_buf(),
@@ -205,7 +223,7 @@ pub fn load_session(dir_or_manifest: &Path) -> Result<Session, SessionError> {
     };
     let bytes = std::fs::read(&manifest).map_err(|e| SessionError::read(&manifest, e))?;
     let text = crate::text_of(&manifest, bytes)?;
-    let parsed = parse(&text)
+    let parsed = parse(&text, runs_rule)
         .map_err(|p| SessionError::invalid(locate(&manifest, &text, p.span.start), p.message))?;
     let canon_dir = dir
         .canonicalize()
@@ -312,7 +330,7 @@ struct ParsedManifest {
 }
 
 /// Parses and checks a manifest's text; touches no files.
-fn parse(text: &str) -> Parsed<ParsedManifest> {
+fn parse(text: &str, runs_rule: Runs) -> Parsed<ParsedManifest> {
     let de = DeTable::parse(text)
         .map(Spanned::into_inner)
         .map_err(|e| syntax_problem(text, &e))?;
@@ -345,7 +363,10 @@ fn parse(text: &str) -> Parsed<ParsedManifest> {
         _ => BTreeMap::new(),
     };
     let setups = read_setups(&de, &values)?;
-    let runs = read_runs(text, &de, &values, &setups)?;
+    let runs = match (de.get("run"), runs_rule) {
+        (None, Runs::MayBeNone) => Vec::new(),
+        _ => read_runs(text, &de, &values, &setups)?,
+    };
     let identify = match (de.get("identify"), values.get("identify")) {
         (None, _) => toml::Table::new(),
         (Some(_), Some(toml::Value::Table(t))) => t.clone(),
@@ -716,7 +737,7 @@ pub fn session_text(dir: &Path, manifest: &Manifest) -> Result<(PathBuf, String)
         message,
     };
     let text = manifest.render().map_err(refuse)?;
-    if let Err(p) = parse(&text) {
+    if let Err(p) = parse(&text, Runs::Required) {
         let at = locate(&path, &text, p.span.start);
         return Err(refuse(format!(
             "it would not load (line {} of the output: {})",

@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use mtcal_session::{
-    Manifest, ManifestRun, RunUse, SessionError, SetupRef, load_session, write_session,
+    Manifest, ManifestRun, RunUse, SessionError, SetupRef, load_session, load_session_to_extend,
+    write_session,
 };
 
 /// A session folder with `manifest` and empty files `a.csv`, `b.csv`, `runs/c.csv`.
@@ -220,6 +221,21 @@ fn no_runs() {
         "no [[run]]: a session needs at least one run",
     );
     check_err("machine = \"CAFYXZ\"\nrun = []\n", 2, 7, "`run` is empty");
+}
+
+#[test]
+fn a_manifest_to_extend_may_have_no_runs_yet_but_is_checked_otherwise() {
+    let dir = folder("machine = \"CAFYXZ\"\n[setup.b1]\nball = [1.0, 2.0, 3.0]\n");
+    let session = load_session_to_extend(dir.path()).unwrap();
+    assert!(session.runs.is_empty());
+    assert_eq!(session.setups["b1"]["ball"].as_array().unwrap().len(), 3);
+    assert!(
+        load_session(dir.path()).is_err(),
+        "a session still needs a run"
+    );
+    let dir = folder("machine = \"CAFYXZ\"\nrun = []\n");
+    let e = load_session_to_extend(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("`run` is empty"), "{e}");
 }
 
 #[test]
