@@ -59,6 +59,7 @@ const LAYERS: &[&[&str]] = &[
         "mtcal-report",
         "mtcal-import",
         "mtcal-acceptance",
+        "mtcal-volumetric",
     ],
     // The identification and the simulator, each on its own (the simulator needs the
     // plugins and the effects, so it cannot sit with them).

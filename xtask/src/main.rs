@@ -21,6 +21,7 @@ mod import;
 mod plan;
 mod scale;
 mod tolerance;
+mod volumetric;
 
 #[derive(Parser)]
 #[command(
@@ -142,6 +143,11 @@ enum Command {
     /// show a machine's campaigns, the trend of a parameter (drift, step, tolerance, next
     /// check), the fleet against its tolerances (SQLite file or PostgreSQL, crates/history).
     History(history::HistoryArgs),
+    /// Evaluate a volumetric thermal test (rtest runs, ball on the table, one row per ball
+    /// visit; docs/VOLUMETRIC.md): each point's deformation over time, the mean, standard
+    /// deviation and max − min between points per cycle with their noise floors, and whether
+    /// the deformation is uniform — ISO 230-3's single-point assumption (crates/volumetric).
+    Volumetric(volumetric::VolumetricArgs),
     /// Simulate a measurement session from a machine, a truth parameter file and a test plan.
     Simulate {
         /// The test plan (TOML; see crates/simulate/src/lib.rs).
@@ -209,7 +215,8 @@ fn reading(from_tool: bool) -> Reading {
 /// What a script can read from the exit code (`--help` and the README say the same).
 const EXIT_CODES: &str = "Exit codes: 0 done, and within every check asked for; 1 done, but a \
 check failed or could not be decided (an acceptance that fails or cannot decide, a fit that did \
-not converge or does not explain the recordings) — the outputs are written; 2 bad input or \
+not converge or does not explain the recordings, a volumetric test not uniform under \
+--require-uniform) — the outputs are written; 2 bad input or \
 another error — nothing is written.";
 
 /// The work is done and its outputs written, but a check asked of it is not met: exit 1.
@@ -274,6 +281,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Import(args) => import::run(args, &mut stdout),
+        Command::Volumetric(args) => volumetric::run(args, &mut stdout),
         Command::History(args) => history::run(args, &mut stdout),
         Command::Plan { planning, out } => {
             check_paths(&[], &[&out])?;

@@ -3,7 +3,8 @@
 //! from the session files and the JSON of the same run, not from the page) and no script error.
 //!
 //! Without `/usr/bin/chromium` (Debian package `chromium`; `.ci/run` installs it) the tests
-//! say so on standard error and pass.
+//! say so on standard error and pass — unless `MTCAL_REQUIRE_CHROMIUM=1` (as `.ci/run` sets
+//! it), when they fail: CI must not pass a page nobody looked at.
 
 use mtcal_testkit::repo;
 use std::collections::BTreeSet;
@@ -18,6 +19,10 @@ fn have_chromium() -> bool {
     if Path::new(CHROMIUM).exists() {
         return true;
     }
+    assert!(
+        std::env::var("MTCAL_REQUIRE_CHROMIUM").as_deref() != Ok("1"),
+        "chromium not installed ({CHROMIUM}) and MTCAL_REQUIRE_CHROMIUM=1"
+    );
     eprintln!("skipped: chromium not installed ({CHROMIUM}; apt-get install chromium)");
     false
 }
@@ -486,5 +491,62 @@ fn the_history_page_shows_the_trends_and_the_fleet() {
     assert!(
         ec0y.to_ascii_uppercase().matches("#C02020").count() >= 2,
         "no limit lines"
+    );
+}
+
+/// `volumetric --report FILE.html` on a simulated drive-heat test: the page in Chromium ran
+/// its scripts cleanly, says "not uniform" with one table row per axis, draws one vector plot
+/// per phase asked for and the three time plots, and counted them itself.
+#[test]
+fn the_volumetric_page_shows_the_verdict_the_vectors_and_the_time_plots() {
+    if !have_chromium() {
+        return;
+    }
+    let tmp = tempfile::tempdir().expect("temporary folder");
+    let session = tmp.path().join("drive");
+    let machine =
+        mtcal_indsim::Machine::from_urdf_file(&mtcal_indsim::shipped_machine("mcu630-cafyxz.urdf"))
+            .expect("the shipped trunnion");
+    let mut spec = mtcal_indsim::VolumetricSpec::short(mtcal_indsim::VolumetricLoad::YDrive, 5);
+    spec.stream = None;
+    mtcal_indsim::Campaign::volumetric_trunnion(
+        &session,
+        &mtcal_indsim::Truth::zero(&machine),
+        &spec,
+        &mtcal_indsim::Realism::realistic(2),
+    )
+    .expect("the simulator writes the session");
+    let page = tmp.path().join("page <&>.html");
+    let out = Command::new(env!("CARGO_BIN_EXE_mtcal"))
+        .arg("volumetric")
+        .arg(&session)
+        .arg("--report")
+        .arg(&page)
+        .args(["--phase", "0.3,1.0"])
+        .output()
+        .expect("mtcal runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let dom = render(&page, tmp.path());
+    assert!(
+        dom.contains("data-report-ready=\"yes\""),
+        "the closing script did not run"
+    );
+    assert!(dom.contains("id=\"script-errors\" hidden"), "script errors");
+    let verdict = section(&dom, "verdict");
+    assert!(
+        verdict.contains("data-verdict=\"not uniform\""),
+        "{verdict}"
+    );
+    assert_eq!(verdict.matches("<tr data-axis=").count(), 3);
+    assert_eq!(svgs(section(&dom, "phases")), 2);
+    assert_eq!(svgs(section(&dom, "time")), 3);
+    section(&dom, "details");
+    assert!(
+        dom.contains("data-plots=\"5\""),
+        "the page counted other plots"
     );
 }

@@ -44,9 +44,13 @@ mod escape;
 mod history;
 mod page;
 mod plots;
+mod volumetric;
 
 pub use escape::escape;
 pub use history::{HistoryPage, render_history, write_history};
+pub use volumetric::{
+    VectorField, VectorPoint, VolumetricPage, VolumetricRow, VolumetricSeries, render_volumetric,
+};
 
 use std::path::{Path, PathBuf};
 

@@ -17,8 +17,8 @@ pub(crate) const MEASURED: RGBColor = RGBColor(0x22, 0x22, 0x22);
 pub(crate) const MODEL: RGBColor = RGBColor(0x1F, 0x77, 0xB4);
 /// The model before the physics search.
 pub(crate) const BEFORE: RGBColor = RGBColor(0xD9, 0x5F, 0x02);
-const GRID: RGBColor = RGBColor(0xBB, 0xBB, 0xBB);
-const INK: RGBColor = RGBColor(0x44, 0x44, 0x44);
+pub(crate) const GRID: RGBColor = RGBColor(0xBB, 0xBB, 0xBB);
+pub(crate) const INK: RGBColor = RGBColor(0x44, 0x44, 0x44);
 
 /// At most this many markers per residual panel; beyond it every k-th residual is drawn
 /// ([`stride`]), so a long session still gives a page of a few hundred kB.
@@ -44,7 +44,7 @@ type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 type Drawn = Result<(), DrawingAreaErrorKind<std::io::Error>>;
 
 /// Draws into a fresh SVG of `size` pixels; a backend error names the plot.
-fn svg(
+pub(crate) fn svg(
     size: (u32, u32),
     plot: &str,
     draw: impl FnOnce(&Area<'_>) -> Drawn,
@@ -66,7 +66,7 @@ type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64
 
 /// A chart on `area` in the report's style: the title as caption, room for the tick labels,
 /// axes with their descriptions `(x, y)`, ticks by [`tick`], and no grid lines.
-fn xy_chart<'a, 'b>(
+pub(crate) fn xy_chart<'a, 'b>(
     area: &'a Area<'b>,
     title: &str,
     (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
@@ -115,7 +115,7 @@ pub(crate) fn stride(n: usize) -> usize {
 }
 
 /// `lo..hi` widened to a usable range (a constant variable gets ±1, or ±1 % of its value).
-fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
+pub(crate) fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
@@ -132,7 +132,12 @@ fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn text_style(size: f64, color: &'static RGBColor, h: HPos, v: VPos) -> TextStyle<'static> {
+pub(crate) fn text_style(
+    size: f64,
+    color: &'static RGBColor,
+    h: HPos,
+    v: VPos,
+) -> TextStyle<'static> {
     TextStyle::from((FONT, size).into_font())
         .color(color)
         .pos(Pos::new(h, v))
