@@ -36,6 +36,9 @@ pub struct FitProblem<'a> {
     prepared: PreparedCache,
     /// Per set-up, its channels in groups that share their columns ([`channel_groups`]).
     groups: Vec<Vec<ChannelGroup>>,
+    /// Per run, the run whose last sample its noise filter continues from
+    /// ([`Study::continues`]).
+    continues: Vec<Option<usize>>,
 }
 
 /// Channels of a set-up whose rows have the same columns, and those columns.
@@ -216,6 +219,7 @@ impl<'a> FitProblem<'a> {
             held_out,
             prepared: Mutex::new(None),
             groups: channel_groups(study),
+            continues: study.continues(),
         }
     }
 
@@ -241,6 +245,8 @@ impl<'a> FitProblem<'a> {
             held_out: None,
             prepared: Mutex::new(None),
             groups: channel_groups(study),
+            // A run's own information: its filter starts with it.
+            continues: vec![None; study.runs.len()],
         }
     }
 
@@ -345,10 +351,19 @@ impl FitProblem<'_> {
         let nch = eval.n_channels();
         let phi: Vec<f64> = (0..nch).map(|c| study.noise(r, c).phi).collect();
         let coloured = phi.iter().any(|&p| p != 0.0);
-        let held = |i: usize| {
+        let held_in = |run: usize, i: usize| {
             self.held_out
                 .as_ref()
-                .is_some_and(|(assign, k)| assign.held(r, i, *k))
+                .is_some_and(|(assign, k)| assign.held(run, i, *k))
+        };
+        let held = |i: usize| held_in(r, i);
+        // A run that continues another one's recording continues its filter from that run's
+        // last sample (unless it is held out).
+        let mut previous = match self.continues[r] {
+            Some(p) if coloured && start == 0 && !held_in(p, study.runs[p].len() - 1) => {
+                Some((p, SampleEval::new(study, p, x, self.effects_at(x))))
+            }
+            _ => None,
         };
         // A block that starts inside a run continues the filter from the sample before it.
         let first = if coloured && start > 0 && !held(start - 1) {
@@ -365,12 +380,24 @@ impl FitProblem<'_> {
             let mut prev_jac = vec![0.0; nch * w];
             let (mut raw, mut out) = (vec![0.0; w], vec![0.0; w]);
             let mut last: Option<usize> = None;
+            let mut from_previous = false;
+            if let Some((p, peval)) = &mut previous {
+                from_previous = seed_from(
+                    peval,
+                    &study.runs[*p],
+                    group,
+                    &mut whole,
+                    &mut prev_res,
+                    &mut prev_jac,
+                );
+            }
             for i in first..end {
                 if held(i) {
                     continue;
                 }
                 eval.at(i, true);
-                let continued = coloured && i > 0 && last == Some(i - 1);
+                let continued =
+                    coloured && ((i > 0 && last == Some(i - 1)) || (i == 0 && from_previous));
                 for &c in &group.channels {
                     let raw_res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
                     if !raw_res.is_finite() {
@@ -419,6 +446,37 @@ impl FitProblem<'_> {
         }
         Ok(())
     }
+}
+
+/// Primes the noise filter of `group`'s channels with the last sample of `run` (evaluated by
+/// `eval`, the run's own): its raw residual and row. `false` (nothing primed) where the model
+/// gives no finite residual there: the chain then starts again.
+fn seed_from(
+    eval: &mut SampleEval<'_>,
+    run: &crate::study::RunSlot,
+    group: &ChannelGroup,
+    whole: &mut [f64],
+    prev_res: &mut [f64],
+    prev_jac: &mut [f64],
+) -> bool {
+    let Some(readings) = run.readings.as_ref() else {
+        return false;
+    };
+    let i = run.len() - 1;
+    eval.at(i, true);
+    let w = group.cols.len();
+    for &c in &group.channels {
+        let raw_res = (eval.pred[c] - readings.get(i, c)) * eval.inv_sigma[c];
+        if !raw_res.is_finite() {
+            return false;
+        }
+        eval.whitened_row(c, whole);
+        for (v, &k) in prev_jac[c * w..(c + 1) * w].iter_mut().zip(&group.place) {
+            *v = whole[k];
+        }
+        prev_res[c] = raw_res;
+    }
+    true
 }
 
 /// Evaluates one run's samples at one parameter vector: predictions and, on request, the

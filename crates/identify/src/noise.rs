@@ -17,7 +17,10 @@
 //! (Prais–Winsten: the first row of a run as it is, then `(rₖ − φ·rₖ₋₁)/√(1 − φ²)`), so that
 //! the fit is the generalised least-squares fit for that noise and every χ² the search
 //! computes is one of independent unit-variance innovations. A sample after a gap (a held-out
-//! block) starts the chain again.
+//! block) starts the chain again; a run that continues another one's recording
+//! ([`Study::continues`](crate::Study::continues): a thermal test cut into one file per cycle)
+//! continues its chain, so that the first row "as it is" — the run's level, at full weight —
+//! comes once per recording, not once per file.
 //!
 //! # How it is estimated
 //! From the whitened residuals `e` of a fit (stated σ), pooled over the fitted runs of the

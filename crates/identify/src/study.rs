@@ -22,6 +22,10 @@ use std::sync::{Arc, OnceLock};
 
 pub use crate::options::IDENTIFY_KEYS;
 
+/// Run ends this many sample intervals apart or closer continue one another
+/// ([`Study::continues`]).
+pub const CONTINUES_INTERVALS: f64 = 3.0;
+
 /// Default prior standard deviation of the machine coefficients the runs cannot determine
 /// (`[identify] held_prior`, µm or µrad per coefficient; [`crate::base`]).
 pub const DEFAULT_HELD_PRIOR: f64 = 3.0;
@@ -689,6 +693,38 @@ impl Study {
     /// The session as the effects see it (built once).
     pub fn view(&self) -> &Arc<SessionView> {
         self.view.get_or_init(|| Arc::new(self.build_view()))
+    }
+
+    /// Per run, the fitted run it continues, if any: one recording cut into files (the
+    /// cycles of a thermal test at one position written one file each) is one recording —
+    /// the same set-up, no axis moving in either, and the run starting within
+    /// [`CONTINUES_INTERVALS`] sample intervals of where the other ended. The noise filter
+    /// runs on across such a boundary and the search divides the recording into blocks of
+    /// its own, so a user's choice of file boundaries decides nothing.
+    pub fn continues(&self) -> Vec<Option<usize>> {
+        let view = self.view();
+        let gap = CONTINUES_INTERVALS * view.median_interval();
+        let held = |r: usize| (0..view.axes.len()).all(|a| !view.motion(r, a).moves);
+        let mut out = vec![None; self.runs.len()];
+        let mut previous: Option<usize> = None;
+        for &r in view.runs_in_time_order() {
+            if !self.runs[r].fit || self.runs[r].len() == 0 {
+                continue;
+            }
+            if let Some(p) = previous
+                && view.runs[p].setup == view.runs[r].setup
+                && held(p)
+                && held(r)
+                && let (Some(end), Some(start)) =
+                    (view.runs[p].last_time(), view.runs[r].first_time())
+                && start > end
+                && start - end <= gap
+            {
+                out[r] = Some(p);
+            }
+            previous = Some(r);
+        }
+        out
     }
 
     /// Drops the series the view keeps over the whole timeline ([`SessionView::clear_caches`]),

@@ -4,12 +4,15 @@
 //!
 //! Loaded as a user would write it, from scratch: one `displacement` set-up with five sensors
 //! of unknown direction (`chN = {}`: each modelled on its own), the first four heat/cool cycles
-//! fitted (one run each), the fifth cycle's start as a validation run with its context only
-//! (spindle speed and temperatures, no readings), the last 20 % (the speed-step sequence the
-//! published models were tested on) as the validation run to score; no `[identify]` table, no
-//! start model. `identify --search` must find its own drivers and beat the best published
-//! learned model on every channel (README of the data folder); the test prints every step's
-//! mean absolute error on the last 20 %.
+//! fitted — as one run, and again cut into one run per cycle —, the fifth cycle's start as a
+//! validation run with its context only (spindle speed and temperatures, no readings), the last
+//! 20 % (the speed-step sequence the published models were tested on) as the validation run to
+//! score; no `[identify]` table, no start model. `identify --search` must find its own drivers
+//! and beat the best published learned model on every channel (README of the data folder), and
+//! give the same answer however the recording was cut (within [`CUTS_AGREE_UM`] per channel);
+//! the test prints every step's mean absolute error on the last 20 % and each search's time.
+//! Issue 33 asks for more than is asserted here: 2.0 µm on every channel and a search under
+//! a minute on the CI machine (the printout says where it stands).
 //!
 //! Without `../shared` (or `MTCAL_SHARED_DATA`) the test says it was skipped; in CI
 //! (`MTCAL_REQUIRE_SHARED_DATA`) a missing file is a failure.
@@ -66,31 +69,45 @@ fn read(file: &Path) -> Recording {
     rec
 }
 
-/// Rows of each run: four fitted cycles, the start of the fifth (context only), the last 20 %.
-fn runs(rec: &Recording) -> Vec<(&'static str, bool, std::ops::Range<usize>)> {
+/// How the user cut the recording into files.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Cut {
+    /// One fitted run for the first four heat/cool cycles.
+    OneRun,
+    /// One fitted run per cycle.
+    FourRuns,
+}
+
+/// Rows of each run: the first four cycles fitted (one run, or one run per cycle), the start
+/// of the fifth (context only), the last 20 %.
+fn runs(rec: &Recording, cut: Cut) -> Vec<(&'static str, bool, std::ops::Range<usize>)> {
     let n = rec.t.len();
     let last = (0.8 * n as f64) as usize;
     let at = |s: f64| rec.t.partition_point(|&t| t < s);
     let cycle_end = |k: f64| at(FIRST_START_S + k * CYCLE_S);
-    vec![
-        ("cycle-1", true, 0..cycle_end(1.0)),
-        ("cycle-2", true, cycle_end(1.0)..cycle_end(2.0)),
-        ("cycle-3", true, cycle_end(2.0)..cycle_end(3.0)),
-        ("cycle-4", true, cycle_end(3.0)..cycle_end(4.0)),
-        ("cycle-5-start", false, cycle_end(4.0)..last),
-        ("speed-steps", false, last..n),
-    ]
+    let mut out = match cut {
+        Cut::OneRun => vec![("cycles-1-4", true, 0..cycle_end(4.0))],
+        Cut::FourRuns => vec![
+            ("cycle-1", true, 0..cycle_end(1.0)),
+            ("cycle-2", true, cycle_end(1.0)..cycle_end(2.0)),
+            ("cycle-3", true, cycle_end(2.0)..cycle_end(3.0)),
+            ("cycle-4", true, cycle_end(3.0)..cycle_end(4.0)),
+        ],
+    };
+    out.push(("cycle-5-start", false, cycle_end(4.0)..last));
+    out.push(("speed-steps", false, last..n));
+    out
 }
 
 /// Writes the session as a user would: machine `ZFYX` held at zero, one displacement set-up
 /// with five sensors of unknown direction, spindle speed and sixteen temperatures as context,
 /// no `[identify]` table; the fifth cycle's start without readings.
-fn write_session(dir: &Path, rec: &Recording) -> PathBuf {
+fn write_session(dir: &Path, rec: &Recording, cut: Cut) -> PathBuf {
     let mut manifest = String::from(
         "machine = \"ZFYX\"\n\n[setup.spindle]\nsigma_um = 1.0\n\
          [setup.spindle.sensors]\nch1 = {}\nch2 = {}\nch3 = {}\nch4 = {}\nch5 = {}\n\n",
     );
-    for (name, fit, rows) in runs(rec) {
+    for (name, fit, rows) in runs(rec, cut) {
         let readings = fit || name == "speed-steps";
         let _ = write!(
             manifest,
@@ -151,32 +168,30 @@ fn fmt(mae: &[f64; 5]) -> String {
         .join(" ")
 }
 
-#[test]
-fn from_scratch_the_search_beats_the_published_models_on_every_channel() {
-    let Some(file) = data_file() else {
-        eprintln!(
-            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
-        );
-        return;
-    };
-    let rec = read(&file);
-    assert_eq!(rec.t.len(), 11_115);
+/// The search from scratch on the recording cut as `cut`: the mean absolute error per channel
+/// on the last 20 % after each discovery (printed) and at the end, and the search's time.
+fn searched(rec: &Recording, cut: Cut) -> ([f64; 5], std::time::Duration) {
     let dir = tempfile::tempdir().unwrap();
-    let session = write_session(dir.path(), &rec);
+    let session = write_session(dir.path(), rec, cut);
+    let started = std::time::Instant::now();
     let loaded = Study::load(&session).unwrap();
     assert!(loaded.effects().is_empty(), "no start model");
     assert!(loaded.session.identify.is_empty(), "no [identify] table");
     let (study, base) = base::identifiable_study(loaded, &Options::default()).unwrap();
     let mut result = search(study, &SearchOptions::default()).unwrap();
+    let took = started.elapsed();
     if let Some(base) = &base {
         result.apply_base(base).unwrap();
     }
     let id = &result.identification;
-    eprintln!("{}", id.search_summary_with(false));
+    eprintln!("{cut:?}:\n{}", id.search_summary_with(false));
     // Every step's error on the unseen speed steps: the model with the first k discoveries,
     // refitted.
     let effects = result.study.effects().to_vec();
-    let mut report = String::from("MAE on the last 20 % (µm):   ch1    ch2    ch3    ch4    ch5\n");
+    let mut report = format!(
+        "{cut:?}, search {:.0} s; MAE on the last 20 % (µm):   ch1    ch2    ch3    ch4    ch5\n",
+        took.as_secs_f64()
+    );
     let mut last = [f64::INFINITY; 5];
     for k in 0..=effects.len() {
         let study = result
@@ -217,10 +232,111 @@ fn from_scratch_the_search_beats_the_published_models_on_every_channel() {
     for c in 0..5 {
         assert!(
             last[c] < PUBLISHED_MAE_UM[c],
-            "channel {}: {:.2} µm, the published model {:.2} µm\n{report}",
+            "{cut:?}, channel {}: {:.2} µm, the published model {:.2} µm\n{report}",
             c + 1,
             last[c],
             PUBLISHED_MAE_UM[c]
         );
+    }
+    (last, took)
+}
+
+/// Largest difference (µm) between the two cuts' errors on a channel: the file boundaries a
+/// user chose must not decide the answer.
+const CUTS_AGREE_UM: f64 = 0.5;
+
+#[test]
+fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_cut() {
+    let Some(file) = data_file() else {
+        eprintln!(
+            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
+        );
+        return;
+    };
+    let rec = read(&file);
+    assert_eq!(rec.t.len(), 11_115);
+    let (one, four) = std::thread::scope(|s| {
+        let one = s.spawn(|| searched(&rec, Cut::OneRun));
+        let four = searched(&rec, Cut::FourRuns);
+        (one.join().unwrap(), four)
+    });
+    eprintln!(
+        "as one run {} ({:.0} s)\nas four runs {} ({:.0} s)",
+        fmt(&one.0),
+        one.1.as_secs_f64(),
+        fmt(&four.0),
+        four.1.as_secs_f64()
+    );
+    for c in 0..5 {
+        assert!(
+            (one.0[c] - four.0[c]).abs() <= CUTS_AGREE_UM,
+            "channel {}: {:.2} µm as one run, {:.2} µm as four",
+            c + 1,
+            one.0[c],
+            four.0[c]
+        );
+    }
+}
+
+/// The fit itself, at a given noise model, is the same bits (to rounding) whether the
+/// recording is one run or four: the noise filter runs on across a boundary between runs that
+/// continue one another (`Study::continues`) instead of starting again (Prais–Winsten's first
+/// row, the level of the run as it is, once per file).
+#[test]
+fn the_fit_does_not_depend_on_how_the_recording_is_cut() {
+    let Some(file) = data_file() else {
+        eprintln!(
+            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
+        );
+        return;
+    };
+    let rec = read(&file);
+    let noise = mtcal_identify::noise::NoiseModel {
+        per_setup: vec![vec![
+            mtcal_identify::noise::ChannelNoise {
+                scale: 1.5,
+                phi: 0.8,
+                samples: 1000,
+            };
+            5
+        ]],
+    };
+    let fits: Vec<(f64, Vec<f64>, Vec<Option<usize>>)> = [Cut::OneRun, Cut::FourRuns]
+        .into_iter()
+        .map(|cut| {
+            let dir = tempfile::tempdir().unwrap();
+            let study = Study::load(&write_session(dir.path(), &rec, cut)).unwrap();
+            let study = study
+                .rebuild(Changes {
+                    noise: Some(std::sync::Arc::new(noise.clone())),
+                    ..study.changes().clone()
+                })
+                .unwrap();
+            let sol = mtcal_identify::solve_from(
+                &study,
+                &study.initial_x(),
+                &Options::default(),
+                &mut Silent,
+            )
+            .unwrap();
+            (sol.chi2, sol.x, study.continues())
+        })
+        .collect();
+    // The four cycles continue one another; the validation runs continue nothing.
+    assert_eq!(
+        fits[1].2,
+        vec![None, Some(0), Some(1), Some(2), None, None],
+        "{:?}",
+        fits[1].2
+    );
+    let (one, four) = (&fits[0], &fits[1]);
+    assert!(
+        (one.0 - four.0).abs() <= 1e-9 * one.0,
+        "χ² {} as one run, {} as four",
+        one.0,
+        four.0
+    );
+    for (a, b) in one.1.iter().zip(&four.1) {
+        assert!((a - b).abs() <= 1e-12, "{:?} vs {:?}", one.1, four.1);
     }
 }

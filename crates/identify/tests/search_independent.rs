@@ -799,3 +799,104 @@ fn a_drift_and_a_temperature_that_follows_it_are_named_together() {
     let brief = d.in_brief();
     assert!(brief.contains("CANNOT TELL IT FROM"), "{brief}");
 }
+
+/// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it: the
+/// independent simulator's Y-drive load (the Y screw's scale growing 1.5 ppm/K with the drive's
+/// temperature, the spindle head turning about X with it, 3 µrad/K about a line far above the
+/// work volume), twelve cycles of fifteen visits, realistic noise. The scale growth is a
+/// family of the search: it must be named, with the planted 1.5 ppm/K inside its 95 %
+/// interval. The head's rotation is not (no family turns the tool with a temperature yet):
+/// what it leaves must be said as unexplained or held by thermal families, never claimed as a
+/// reversal, a cyclic error, a bump, a set-up drifting or anything else that is not there.
+fn volumetric_search_is_honest(which: mtcal_indsim::VolumetricMachine, file: &str, scale: bool) {
+    use mtcal_indsim::{VolumetricLoad, VolumetricMachine, VolumetricSpec};
+    let thermal = [
+        "thermal-drift",
+        "temperature-coupling",
+        "thermal-expansion",
+        "thermal-model",
+    ];
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let machine = Machine::from_urdf_file(&shipped_machine(file)).unwrap();
+    let truth = Truth::zero(&machine);
+    let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 12);
+    let realism = Realism::realistic(7);
+    match which {
+        VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, &spec, &realism),
+        VolumetricMachine::ThreeAxis => {
+            Campaign::volumetric_three_axis(&dir, &truth, &spec, &realism)
+        }
+    }
+    .unwrap();
+    let (study, base) =
+        base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
+    let mut result = search(study, &SearchOptions::default()).unwrap();
+    if let Some(base) = &base {
+        result.apply_base(base).unwrap();
+    }
+    let id = &result.identification;
+    let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
+    eprintln!("{which:?}:\n{summary}");
+    for d in &id.discoveries {
+        assert!(
+            thermal.contains(&d.effect.as_str()),
+            "{which:?}: {} claimed\n{summary}",
+            d.label
+        );
+    }
+    if !scale {
+        return;
+    }
+    let scale = id
+        .discoveries
+        .iter()
+        .find(|d| d.effect == "thermal-expansion" && d.axis.as_deref() == Some("Y"))
+        .unwrap_or_else(|| panic!("{which:?}: the Y scale growth is not named\n{summary}"));
+    let p = &scale.parameters[0];
+    let u95 = p.u95.unwrap_or(0.0);
+    assert!(
+        (p.value - 1.5).abs() <= u95,
+        "{which:?}: {} = {} ± {} {}, planted 1.5\n{summary}",
+        p.name,
+        p.value,
+        u95,
+        p.unit
+    );
+}
+
+#[test]
+fn a_volumetric_thermal_test_on_the_trunnion_names_the_scale_growth_and_nothing_else() {
+    volumetric_search_is_honest(
+        mtcal_indsim::VolumetricMachine::Trunnion,
+        "mcu630-cafyxz.urdf",
+        true,
+    );
+}
+
+/// On the three-axis machine the balls stand at three heights and each is visited at one
+/// place: the head's rotation moves them along Y in proportion to their height. Each ball's
+/// set-up drifting would hold that (and did, three false `setup-drift ball<k>.ball_y` claims,
+/// before a set-up seen at one pose stopped being a candidate for a drift of its own). Nothing
+/// but thermal drift may be claimed.
+#[test]
+fn a_volumetric_thermal_test_on_the_three_axis_machine_claims_nothing_that_is_not_there() {
+    volumetric_search_is_honest(
+        mtcal_indsim::VolumetricMachine::ThreeAxis,
+        "mcv754-zfyx.urdf",
+        false,
+    );
+}
+
+/// Known to fail (issue 33): on the three-axis machine the Y scale growth goes unnamed — after
+/// the drifts of Y and Z its score test drops χ² by about 1 where its size (some 3 µm between
+/// the balls at ±170 mm) should give hundreds; why is not yet understood. Run with `--ignored`.
+#[test]
+#[ignore = "known miss (issue 33): the three-axis Y scale growth is not named"]
+fn a_volumetric_thermal_test_on_the_three_axis_machine_names_the_scale_growth() {
+    volumetric_search_is_honest(
+        mtcal_indsim::VolumetricMachine::ThreeAxis,
+        "mcv754-zfyx.urdf",
+        true,
+    );
+}

@@ -3,7 +3,9 @@
 //! - **`setup-drift`**: a set-up parameter (the R-test head, the ball-bar pivot, a sensor's
 //!   zero) creeps steadily from the set-up's first use, `rate·(t − t_s)` (driver `t`), or
 //!   settles, `a·(1 − e^{−(t − t_s)/τ})` (driver `t, settling`). Plant keys `setup`,
-//!   `nuisance`, and `rate_um_per_h` or `amplitude_um` and `tau_s`.
+//!   `nuisance`, and `rate_um_per_h` or `amplitude_um` and `tau_s`. Not proposed for a
+//!   set-up whose fitted samples are all at one pose of the machine (its drift and the
+//!   machine's deformation there look alike).
 //! - **`instrument-scale`**: a reading channel's gain is off, `g·reading` (an R-test sensor's
 //!   scale, a laser's wavelength compensation, a ball-bar transducer); shared by every set-up
 //!   of that instrument. Plant keys `instrument` (optional when unambiguous), `channel`,
@@ -46,7 +48,7 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             .collect();
         let span = times.iter().copied().fold(f64::NEG_INFINITY, f64::max)
             - times.iter().copied().fold(f64::INFINITY, f64::min);
-        if span.is_nan() || span <= 0.0 {
+        if span.is_nan() || span <= 0.0 || at_one_pose(view, s) {
             continue;
         }
         // A settling starts from a quarter of the set-up's use; the refit refines τ.
@@ -64,6 +66,30 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
         }
     }
     out
+}
+
+/// Whether every fitted sample of set-up `s` is at one pose of the machine (the commanded
+/// axes the same): a ball of a volumetric thermal test visited at one place, a displacement
+/// sensor at its held position. There the set-up's drift and the machine's own deformation at
+/// that place move the readings alike — no data of that set-up tell them apart —, so a drift
+/// is not claimed for the set-up: the machine's families (an axis' drift, a channel's own) say
+/// what the data show, and a field that differs from place to place without a family is said
+/// to remain unexplained. A set-up seen at several poses (a ball visited at several table
+/// angles, an R-test sweep) moves with the part it is fixed to, not with the machine's field.
+fn at_one_pose(view: &SessionView, s: usize) -> bool {
+    let mut first: Option<(usize, usize)> = None;
+    for (r, run) in view.runs.iter().enumerate() {
+        if run.setup != s || !run.fit {
+            continue;
+        }
+        for i in 0..run.len() {
+            let (r0, i0) = *first.get_or_insert((r, i));
+            if (0..view.axes.len()).any(|a| (view.q(r, i, a) - view.q(r0, i0, a)).abs() > 1e-9) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {

@@ -193,6 +193,21 @@ pub(crate) fn moves_both_ways(view: &SessionView, a: usize) -> bool {
     seen[0] && seen[1]
 }
 
+/// Whether axis `a` stands at different positions over the fitted samples (by more than a
+/// micrometre or microradian), within a run or between runs: a ball of a volumetric thermal
+/// test at each of several places, each visited at one.
+pub(crate) fn positions_vary(view: &SessionView, a: usize) -> bool {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (r, run) in view.runs.iter().enumerate().filter(|(_, r)| r.fit) {
+        for i in 0..run.len() {
+            let q = view.q(r, i, a);
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+    }
+    hi - lo > 1e-6
+}
+
 /// Whether axis `a` moves in some fitted run.
 pub(crate) fn moves(view: &SessionView, a: usize) -> bool {
     (0..view.runs.len()).any(|r| view.runs[r].fit && view.motion(r, a).moves)

@@ -32,11 +32,12 @@
 //! candidate of its own. Without a recorded temperature a scale warming in time is not
 //! proposed: over the few heights an R-test sees, it is a drift of the axis by another name.
 //! Plant keys `axis`, `driver`, `scale_ppm_per_K`, `tau_s` for the lagged form. Targets: each
-//! linear axis that moves, when some channel reads the tool pose.
+//! linear axis that stands at different places over the fitted samples (within a run or
+//! between runs: the balls of a volumetric test), when some channel reads the tool pose.
 
 use super::{
-    Aim, axis_aim, drift_taus, lag_taus, linear_axis_aims, moves, nuisance_aim, number, plant_aim,
-    plant_values, string, thermal_aims,
+    Aim, axis_aim, drift_taus, lag_taus, linear_axis_aims, nuisance_aim, number, plant_aim,
+    plant_values, positions_vary, string, thermal_aims,
 };
 use crate::Target;
 use crate::bank::{Bank, BankColumn};
@@ -231,7 +232,9 @@ fn expansion_candidates(view: &SessionView) -> Vec<Candidate> {
         let Target::Axis(a) = aim.target else {
             continue;
         };
-        if !moves(view, a) {
+        // Where the axis stands at different places (within a run or between runs), its
+        // scale shows.
+        if !positions_vary(view, a) {
             continue;
         }
         for column in &columns {

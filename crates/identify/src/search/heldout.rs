@@ -268,6 +268,18 @@ impl FoldSums {
         }
     }
 
+    /// Fills each fold's lower triangles from the upper ones the rows were added to.
+    fn mirror(&mut self) {
+        let n = self.n;
+        for m in self.a.chunks_mut(n * n).chain(self.au.chunks_mut(n * n)) {
+            for i in 0..n {
+                for j in i + 1..n {
+                    m[j * n + i] = m[i * n + j];
+                }
+            }
+        }
+    }
+
     fn add(&mut self, other: &FoldSums) {
         for (a, b) in [
             (&mut self.a, &other.a),
@@ -292,6 +304,37 @@ struct FoldTarget<'a> {
     sums: &'a mut FoldSums,
     cols: Vec<usize>,
     assign: &'a FoldOf,
+    /// The current row's non-zero entries `(parameter, value)`, whitened and in the
+    /// channel's units: a channel's row touches only its own effects' columns (a joint
+    /// thermal model per channel is 88 of them), so the outer products run over these.
+    nz: Vec<(usize, f64)>,
+    nz_raw: Vec<(usize, f64)>,
+}
+
+impl FoldTarget<'_> {
+    fn new<'a>(sums: &'a mut FoldSums, cols: Vec<usize>, assign: &'a FoldOf) -> FoldTarget<'a> {
+        FoldTarget {
+            sums,
+            cols,
+            assign,
+            nz: Vec::new(),
+            nz_raw: Vec::new(),
+        }
+    }
+}
+
+/// Adds the outer product of the sparse row `nz` (times `scale`) to the upper triangle of
+/// the `n × n` block `a` (entry `(min, max)`; [`FoldSums::mirror`] fills the lower one), and
+/// `row · res · scale` to `g`.
+fn add_outer(a: &mut [f64], g: &mut [f64], n: usize, nz: &[(usize, f64)], res: f64, scale: f64) {
+    for (k, &(i, ri)) in nz.iter().enumerate() {
+        let ri = ri * scale;
+        g[i] += ri * res;
+        for &(j, rj) in &nz[k..] {
+            let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
+            a[lo * n + hi] += ri * rj;
+        }
+    }
 }
 
 /// The folds of `options`' cross-validation on `study`: their number and the assignment.
@@ -354,38 +397,45 @@ impl RowTarget for FoldTarget<'_> {
         let k = self.assign.of(eval.run, sample);
         let sigma = 1.0 / eval.inv_sigma[channel];
         let s2 = sigma * sigma;
-        let (a, au) = (
-            &mut self.sums.a[k * n * n..(k + 1) * n * n],
-            &mut self.sums.au[k * n * n..(k + 1) * n * n],
-        );
         // The decision's sums from the prewhitened rows; the RMS in the channels' units from
         // the residuals as they are.
-        let (row, res) = (out.jac, out.res);
-        let (raw, raw_res) = (out.raw_jac, out.raw_res);
+        self.nz.clear();
+        self.nz_raw.clear();
         for (p, &i) in self.cols.iter().enumerate() {
-            let (ri, ui) = (row[p], raw[p]);
-            if ri != 0.0 {
-                for (q, &j) in self.cols.iter().enumerate() {
-                    a[i * n + j] += ri * row[q];
-                }
-                self.sums.g[k * n + i] += ri * res;
+            if out.jac[p] != 0.0 {
+                self.nz.push((i, out.jac[p]));
             }
-            if ui != 0.0 {
-                for (q, &j) in self.cols.iter().enumerate() {
-                    au[i * n + j] += ui * raw[q] * s2;
-                }
-                self.sums.gu[k * n + i] += ui * raw_res * s2;
+            if out.raw_jac[p] != 0.0 {
+                self.nz_raw.push((i, out.raw_jac[p]));
             }
         }
-        self.sums.rr[k] += res * res;
-        self.sums.rru[k] += raw_res * raw_res * s2;
-        self.sums.count[k] += 1;
+        let (block, vector) = (k * n * n..(k + 1) * n * n, k * n..(k + 1) * n);
+        let sums = &mut *self.sums;
+        add_outer(
+            &mut sums.a[block.clone()],
+            &mut sums.g[vector.clone()],
+            n,
+            &self.nz,
+            out.res,
+            1.0,
+        );
+        add_outer(
+            &mut sums.au[block],
+            &mut sums.gu[vector],
+            n,
+            &self.nz_raw,
+            out.raw_res,
+            s2,
+        );
+        sums.rr[k] += out.res * out.res;
+        sums.rru[k] += out.raw_res * out.raw_res * s2;
+        sums.count[k] += 1;
     }
 }
 
 /// The prior width of `ladder` (the same effect at every width, the study's last) whose fit
-/// predicts held-out runs best: each fitted run left out in turn (three or more; otherwise
-/// the search's folds), the others' normal equations at `solution` with the ladder's priors
+/// predicts held-out runs best: each fitted run left out in turn (three or more, unless they
+/// are one recording cut into runs; otherwise the search's folds), the others' normal equations at `solution` with the ladder's priors
 /// solved for the Gauss–Newton step (the model is linear in the effect's amplitudes), the
 /// left-out rows predicted. One pass over the data for every width and fold.
 pub(super) fn choose_width(
@@ -395,7 +445,9 @@ pub(super) fn choose_width(
     options: &SearchOptions,
 ) -> Result<usize, IdentifyError> {
     let fitted = study.runs.iter().filter(|r| r.fit).count();
-    let (folds, assign) = if fitted >= 3 {
+    // Runs that each tell something of their own: leave each out. A recording's blocks
+    // (`Timeline`) are its own whatever the files it was cut into.
+    let (folds, assign) = if fitted >= 3 && options.cross_validation != CrossValidation::Timeline {
         let mut k = 0;
         let fold = study
             .runs
@@ -425,8 +477,8 @@ pub(super) fn choose_width(
         })
         .collect();
     let m = coupled.len();
-    let mut best = (f64::INFINITY, 0);
-    for (w, effect) in ladder.iter().enumerate() {
+    let mut totals = Vec::with_capacity(ladder.len());
+    for effect in ladder {
         // Prior precision and gradient of every coupled parameter at x (the effect's at this
         // width).
         let mut precision = vec![0.0; m];
@@ -478,11 +530,29 @@ pub(super) fn choose_width(
             }
             total += q.max(0.0);
         }
-        if total < best.0 {
-            best = (total, w);
+        totals.push(total);
+    }
+    Ok(flattest_minimum(&totals))
+}
+
+/// The rung of a ladder of cross-validation errors whose neighbourhood predicts best: each
+/// error averaged with its neighbours' (weights ¼ ½ ¼, an end rung's missing neighbour
+/// counting as itself). Where the curve is flat, the folds' noise decides which rung dips
+/// lowest — a few parts in a thousand that a different cut of the same recording turns
+/// the other way —, and the rungs either side of a flat minimum predict new conditions
+/// very differently; the middle of the flat stretch does not depend on that noise.
+fn flattest_minimum(totals: &[f64]) -> usize {
+    let at = |i: usize| totals[i];
+    let mut best = (f64::INFINITY, 0);
+    for i in 0..totals.len() {
+        let lo = at(i.saturating_sub(1));
+        let hi = at((i + 1).min(totals.len() - 1));
+        let smooth = 0.25 * lo + 0.5 * at(i) + 0.25 * hi;
+        if smooth < best.0 {
+            best = (smooth, i);
         }
     }
-    Ok(best.1)
+    best.1
 }
 
 /// `−A⁺g` for a symmetric positive semi-definite `A` (`n × n`): through the eigenvectors of the
@@ -533,11 +603,7 @@ fn fold_sums(
         .map(|_| (FoldSums::new(folds, n), Vec::new()))
         .collect();
     mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
-        let mut target = FoldTarget {
-            sums,
-            cols: std::mem::take(cols),
-            assign,
-        };
+        let mut target = FoldTarget::new(sums, std::mem::take(cols), assign);
         let res =
             problem
                 .walk_rows(b, x, &mut target)
@@ -552,5 +618,28 @@ fn fold_sums(
     for (part, _) in &parts {
         total.add(part);
     }
+    total.mirror();
     Ok(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::flattest_minimum;
+
+    #[test]
+    fn the_middle_of_a_flat_minimum_not_the_rung_that_dips() {
+        // Rungs 3 and 4 within a few parts in a thousand (the folds' noise), rung 3 a hair
+        // lower; rung 4's neighbours predict better than rung 3's: 4 either way the hair goes.
+        let a = [
+            8854.0, 3920.0, 3035.0, 2607.0, 2608.0, 2916.0, 2974.0, 3217.0,
+        ];
+        let mut b = a;
+        b[3] = 2609.0;
+        assert_eq!(flattest_minimum(&a), 4);
+        assert_eq!(flattest_minimum(&b), 4);
+        // A clear minimum stays where it is, at an end too.
+        assert_eq!(flattest_minimum(&[5.0, 4.0, 1.0, 4.0, 5.0]), 2);
+        assert_eq!(flattest_minimum(&[1.0, 3.0, 5.0]), 0);
+        assert_eq!(flattest_minimum(&[7.0]), 0);
+    }
 }

@@ -20,13 +20,15 @@
 //!    is refitted) are each added to the model and refitted — in two stages, the shape
 //!    parameters (τ, pitch…) held first and then refined with everything else; a cycle's pitch
 //!    is first scanned on a grid fine enough for every phase ([`Effect::shape_scan`]), a joint
-//!    model's prior width chosen by leaving each fitted run out ([`Effect::prior_ladder`]). A
+//!    model's prior width chosen by leaving each fitted run out (or each block of one
+//!    recording), the rung whose neighbourhood predicts best ([`Effect::prior_ladder`]). A
 //!    candidate passes if its refit is physics (no parameter driven beyond its plausible range,
 //!    no new one whose interval is wider than it), the information criterion agrees
 //!    (`Δχ²/max(1, χ²_red) > Δk·ln n`, a parameter under a prior counting for the share the data
 //!    decide) **and** it predicts held-out data better: cross-validation ([`CrossValidation`]:
 //!    contiguous time blocks of every fitted run by default, whole runs, or blocks of the whole
-//!    timeline for a long recording; `[identify] heldout`), its whitened mean square lower, the
+//!    timeline for a long recording — by default for one recording cut into runs, so that the
+//!    files' boundaries decide nothing; `[identify] heldout`), its whitened mean square lower, the
 //!    gain consistent over the folds (a one-sided Wilcoxon signed-rank test on the per-fold
 //!    changes, [`SearchOptions::gain_level`]: a few nanometres gained on average and lost on
 //!    some folds is the noise of the training folds, not physics), and the later part of the

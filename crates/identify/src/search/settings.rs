@@ -77,8 +77,16 @@ pub enum CrossValidation {
 /// "very strong" (Kass & Raftery's scale for Bayes factors).
 pub const LOOKALIKE_BIC: f64 = 10.0;
 
-/// `options` with the session's `[identify] heldout` (`"blocks"`, the default; `"runs"`;
-/// `"timeline"`) and `folds` (blocks: 8 per run, 16 of a timeline).
+/// Whether the fitted runs (two or more) are one recording cut into files
+/// ([`Study::continues`]): every fitted run after the first continues the one before it.
+pub(super) fn one_recording(study: &Study) -> bool {
+    let continues = study.continues();
+    let fitted = study.runs.iter().filter(|r| r.fit && r.len() > 0).count();
+    fitted >= 2 && continues.iter().flatten().count() == fitted - 1
+}
+
+/// `options` with the session's `[identify] heldout` (`"blocks"`, the default, or
+/// `"timeline"` for one recording cut into runs; `"runs"`; `"timeline"`) and `folds` (blocks: 8 per run, 16 of a timeline).
 pub(super) fn with_session_options(
     study: &Study,
     options: &SearchOptions,
@@ -95,6 +103,10 @@ pub(super) fn with_session_options(
     };
     let keys = SearchKeys::read(&study.session)?;
     match keys.heldout.as_deref() {
+        // A recording cut into files is judged as the recording: its blocks are the same
+        // whatever the files (eight blocks of one run, or of four runs that continue one
+        // another), so a user's choice of file boundaries does not decide what is found.
+        None if one_recording(study) => out.cross_validation = CrossValidation::Timeline,
         None => {}
         Some("blocks") => out.cross_validation = CrossValidation::BlocksPerRun,
         Some("runs") => out.cross_validation = CrossValidation::Runs,
