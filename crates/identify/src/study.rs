@@ -708,7 +708,7 @@ impl Study {
         let mut out = vec![None; self.runs.len()];
         let mut previous: Option<usize> = None;
         for &r in view.runs_in_time_order() {
-            if !self.runs[r].fit || self.runs[r].len() == 0 {
+            if !self.runs[r].fit || self.runs[r].is_empty() {
                 continue;
             }
             if let Some(p) = previous

@@ -81,7 +81,7 @@ pub const LOOKALIKE_BIC: f64 = 10.0;
 /// ([`Study::continues`]): every fitted run after the first continues the one before it.
 pub(super) fn one_recording(study: &Study) -> bool {
     let continues = study.continues();
-    let fitted = study.runs.iter().filter(|r| r.fit && r.len() > 0).count();
+    let fitted = study.runs.iter().filter(|r| r.fit && !r.is_empty()).count();
     fitted >= 2 && continues.iter().flatten().count() == fitted - 1
 }
 
