@@ -164,3 +164,15 @@ fn bad_input_exits_2_and_writes_nothing() {
         assert!(!page.exists(), "{args:?}");
     }
 }
+
+/// The bundled example (README; `crates/volumetric/examples/write_example.rs` made it): the
+/// Y-drive test on the trunnion is not uniform, as its truth (`truth/field.csv`) is — the
+/// points differ by about a third of the mean deformation in Y and Z.
+#[test]
+fn the_bundled_example_is_not_uniform() {
+    let session = mtcal_testkit::repo().join("examples/volumetric/session");
+    let out = mtcal(&["volumetric", session.to_str().unwrap()]);
+    let screen = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{screen}{}", text(&out.stderr));
+    assert!(screen.starts_with("NOT UNIFORM"), "{screen}");
+}
