@@ -36,6 +36,19 @@ fn data_file() -> Option<PathBuf> {
     mtcal_testkit::shared_data("fl-thermal-spindle/data.csv")
 }
 
+/// The recording, read once per test (`None`, said on standard error, without the data).
+fn recording() -> Option<Recording> {
+    let Some(file) = data_file() else {
+        eprintln!(
+            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
+        );
+        return None;
+    };
+    let rec = read(&file);
+    assert_eq!(rec.t.len(), 11_115);
+    Some(rec)
+}
+
 /// The recording's columns.
 struct Recording {
     t: Vec<f64>,
@@ -247,14 +260,9 @@ const CUTS_AGREE_UM: f64 = 0.5;
 
 #[test]
 fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_cut() {
-    let Some(file) = data_file() else {
-        eprintln!(
-            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
-        );
+    let Some(rec) = recording() else {
         return;
     };
-    let rec = read(&file);
-    assert_eq!(rec.t.len(), 11_115);
     let (one, four) = std::thread::scope(|s| {
         let one = s.spawn(|| searched(&rec, Cut::OneRun));
         let four = searched(&rec, Cut::FourRuns);
@@ -284,13 +292,9 @@ fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_c
 /// row, the level of the run as it is, once per file).
 #[test]
 fn the_fit_does_not_depend_on_how_the_recording_is_cut() {
-    let Some(file) = data_file() else {
-        eprintln!(
-            "skipped: ../shared/data/fl-thermal-spindle/data.csv not found (set MTCAL_SHARED_DATA)"
-        );
+    let Some(rec) = recording() else {
         return;
     };
-    let rec = read(&file);
     let noise = mtcal_identify::noise::NoiseModel {
         per_setup: vec![vec![
             mtcal_identify::noise::ChannelNoise {
