@@ -341,6 +341,10 @@ struct JointState {
     q: f64,
 }
 
+/// Number of [`MachineModel::tool_motion_columns`]: shifts along the machine's X, Y and Z,
+/// turns about them.
+pub const TOOL_MOTIONS: usize = 6;
+
 /// Scratch buffers for evaluations; allocate once per thread with [`MachineModel::workspace`].
 #[derive(Clone, Debug)]
 pub struct Workspace {
@@ -968,6 +972,34 @@ impl MachineModel {
             }
         }
         ws.w_t_t
+    }
+
+    /// The tool point in the machine frame, `f_T_t`'s translation, at the pose `ws` was last
+    /// evaluated at.
+    pub fn machine_tool_point(&self, ws: &Workspace) -> Vector3<f64> {
+        ws.f_t_w.compose(&ws.w_t_t).t
+    }
+
+    /// Columns of the tool branch moving as a whole in the machine frame: shifting along the
+    /// machine's X, Y and Z, then turning about them through the origin,
+    /// `w_T_t = f_T_w⁻¹ · Δ · f_T_t` (a cross-beam or a column twisting as a drive on one
+    /// side of it warms): column-major 6 × [`TOOL_MOTIONS`] as [`Self::tool_jacobian`]'s, at
+    /// the pose `ws` was last evaluated at ([`Self::tool_jacobian`], [`Self::tool_pose`]).
+    pub fn tool_motion_columns(&self, ws: &Workspace, out: &mut [f64]) {
+        assert_eq!(out.len(), 6 * TOOL_MOTIONS, "tool motion buffer size");
+        let p = ws.w_t_t.t;
+        let w_t_f = ws.f_t_w.inverse();
+        for (k, col) in out.chunks_exact_mut(6).enumerate() {
+            let unit = Vector3::ith(k % 3, 1.0);
+            let (v, w) = if k < 3 {
+                w_t_f.adjoint(&unit, &Vector3::zeros())
+            } else {
+                w_t_f.adjoint(&Vector3::zeros(), &unit)
+            };
+            let dp = v + w.cross(&p);
+            col[..3].copy_from_slice(dp.as_slice());
+            col[3..].copy_from_slice(w.as_slice());
+        }
     }
 
     fn check_sizes(&self, q: &[f64], coeffs: &[f64]) {

@@ -372,6 +372,42 @@ proptest! {
         }
     }
 
+    /// The tool branch shifting along and turning about the machine's X, Y, Z (through its
+    /// origin), against the slow formulation with the motion multiplied in:
+    /// `w_T_t = f_T_w⁻¹ · Δ · f_T_t`.
+    #[test]
+    fn tool_motion_columns_match_the_slow_formulation((model, q, c) in any_case()) {
+        let mut ws = model.workspace();
+        let mut jac = vec![0.0; 6 * q.len()];
+        model.tool_jacobian(&q, &c, &mut ws, &mut jac);
+        let mut turns = vec![0.0; 6 * mtcal_kinematics::TOOL_MOTIONS];
+        model.tool_motion_columns(&ws, &mut turns);
+        let vals = values(&model, &q, &c);
+        let m = model.machine();
+        let w = slow_branch(m, Side::Workpiece, &q, &vals);
+        let t = slow_branch(m, Side::Tool, &q, &vals);
+        let step = 1e-6;
+        let turned = |d: f64, k: usize| {
+            let motion = if k < 3 {
+                h(Rotation3::identity(), Vector3::ith(k, d))
+            } else {
+                h(Rotation3::from_scaled_axis(Vector3::ith(k - 3, d)), Vector3::zeros())
+            };
+            w.try_inverse().unwrap() * motion * t
+        };
+        for k in 0..6 {
+            let (plus, minus) = (turned(step, k), turned(-step, k));
+            let dp = (plus.fixed_view::<3, 1>(0, 3) - minus.fixed_view::<3, 1>(0, 3)) / (2.0 * step);
+            let rp = Rotation3::from_matrix_unchecked(plus.fixed_view::<3, 3>(0, 0).into_owned());
+            let rm = Rotation3::from_matrix_unchecked(minus.fixed_view::<3, 3>(0, 0).into_owned());
+            let dw = small_log(&(rp * rm.inverse())) / (2.0 * step);
+            for r in 0..3 {
+                prop_assert!((dp[r] - turns[6 * k + r]).abs() < 1e-7, "turn {k} dp[{r}] {} vs {}", dp[r], turns[6 * k + r]);
+                prop_assert!((dw[r] - turns[6 * k + 3 + r]).abs() < 1e-7, "turn {k} w[{r}] {} vs {}", dw[r], turns[6 * k + 3 + r]);
+            }
+        }
+    }
+
     /// Reordering the parameters of the configuration changes nothing.
     #[test]
     fn reordering_parameters_changes_nothing((model, q, c) in any_case(), seed in any::<u64>()) {

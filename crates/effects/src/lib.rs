@@ -43,7 +43,7 @@ pub mod prepared;
 pub mod view;
 
 pub use basic::{Basic, Feature};
-pub use prepared::{Entry, PreparedEffects, SampleEffects, Slot};
+pub use prepared::{Entry, PreparedEffects, SampleEffects, Slot, axis_slots};
 pub use view::{AxisView, BasisOrder, Input, ModelParamView, RunView, SessionView, SetupView};
 
 use mtcal_kinematics::ParamName;
@@ -55,6 +55,15 @@ use std::sync::Arc;
 pub enum Target {
     /// Axis `a` (index into [`SessionView::axes`]) is effectively at `q + Δ` (SI).
     Axis(usize),
+    /// The tool side of the machine shifts as a whole by `Δ` (m) along the machine frame's X,
+    /// Y or Z (`k` = 0, 1, 2): the identification core carries it as it carries an axis,
+    /// through [`mtcal_kinematics::MachineModel::tool_motion_columns`] (slot
+    /// [`Slot::Axis`]`(n_axes + k)`, [`axis_slots`]).
+    ToolShift(usize),
+    /// The tool side of the machine turns as a whole by `Δ` (rad) about the machine frame's
+    /// X, Y or Z (`k` = 0, 1, 2) through its origin (a cross-beam twisting): slot
+    /// [`Slot::Axis`]`(n_axes + 3 + k)`.
+    ToolTurn(usize),
     /// Nuisance parameter `index` of set-up `setup` deviates by `Δ` (SI).
     Nuisance { setup: usize, index: usize },
     /// A reading changes by `Δ` (SI): per set-up, the channel it acts on (`None`: the term
@@ -377,6 +386,7 @@ mod tests {
                 "thermal-drift",
                 "thermal-expansion",
                 "thermal-model",
+                "thermal-tilt",
             ]
         );
         for name in names {

@@ -17,6 +17,8 @@ pub struct PreparedEffects {
     /// Per effect: indices (within the effect) of its shape parameters.
     shapes: Vec<Vec<usize>>,
     n_params: usize,
+    /// The machine's axes: a tool turn's slot comes after them.
+    n_axes: usize,
 }
 
 impl std::fmt::Debug for PreparedEffects {
@@ -76,6 +78,7 @@ impl PreparedEffects {
             offsets,
             shapes,
             n_params: o,
+            n_axes: view.axes.len(),
         }
     }
 
@@ -87,14 +90,17 @@ impl PreparedEffects {
         self.effects.is_empty()
     }
 
-    /// Scratch for [`Self::sample`], sized for `n_axes` axes and up to `max_nuisance`
-    /// nuisance parameters and `max_channels` channels per set-up.
+    /// Scratch for [`Self::sample`], sized for the machine's `n_axes` axes (and the tool
+    /// side's motions after them: [`axis_slots`]) and up to `max_nuisance` nuisance parameters
+    /// and `max_channels` channels per set-up.
     pub fn scratch(
         &self,
         n_axes: usize,
         max_nuisance: usize,
         max_channels: usize,
     ) -> SampleEffects {
+        assert_eq!(n_axes, self.n_axes, "the session's axes");
+        let n_axes = axis_slots(n_axes);
         let max_terms = self
             .effects
             .iter()
@@ -138,7 +144,7 @@ impl PreparedEffects {
             self.features[e].eval(r, i, &mut scratch.f, &mut scratch.df);
             let o = self.offsets[e];
             for (k, term) in effect.terms().iter().enumerate() {
-                if let Some(slot) = slot_of(&term.target, setup) {
+                if let Some(slot) = slot_of(&term.target, setup, self.n_axes) {
                     out.push(Entry {
                         param: o + term.amplitude,
                         slot,
@@ -170,20 +176,9 @@ impl PreparedEffects {
                 let amp_index = o + term.amplitude;
                 let amp = params[amp_index];
                 let f = out.f[k];
-                // The slot of the term's target in the three blocks, if it acts here.
-                let slot = match &term.target {
-                    Target::Axis(a) => Some(Slot::Axis(*a)),
-                    Target::Nuisance { setup: s, index } => {
-                        (*s == setup).then_some(Slot::Nuisance(*index))
-                    }
-                    Target::Channel { per_setup } => {
-                        per_setup.get(setup).copied().flatten().map(Slot::Channel)
-                    }
-                    Target::Gain { per_setup } => {
-                        per_setup.get(setup).copied().flatten().map(Slot::Gain)
-                    }
+                let Some(slot) = slot_of(&term.target, setup, self.n_axes) else {
+                    continue;
                 };
-                let Some(slot) = slot else { continue };
                 out.add(slot, None, amp * f);
                 out.add(slot, Some(amp_index), f);
                 for (s, &j) in shapes.iter().enumerate() {
@@ -194,10 +189,19 @@ impl PreparedEffects {
     }
 }
 
-/// The slot of a term's target in the runs of set-up `setup`, if it acts there.
-fn slot_of(target: &Target, setup: usize) -> Option<Slot> {
+/// The axis slots of a machine with `n_axes` axes: its axes, then the tool side's shifts along
+/// and turns about the machine's X, Y and Z ([`Target::ToolShift`], [`Target::ToolTurn`]).
+pub fn axis_slots(n_axes: usize) -> usize {
+    n_axes + mtcal_kinematics::TOOL_MOTIONS
+}
+
+/// The slot of a term's target in the runs of set-up `setup`, if it acts there, on a machine
+/// with `n_axes` axes.
+fn slot_of(target: &Target, setup: usize, n_axes: usize) -> Option<Slot> {
     match target {
         Target::Axis(a) => Some(Slot::Axis(*a)),
+        Target::ToolShift(k) => Some(Slot::Axis(n_axes + k)),
+        Target::ToolTurn(k) => Some(Slot::Axis(n_axes + 3 + k)),
         Target::Nuisance { setup: s, index } => (*s == setup).then_some(Slot::Nuisance(*index)),
         Target::Channel { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Channel),
         Target::Gain { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Gain),
@@ -207,7 +211,8 @@ fn slot_of(target: &Target, setup: usize) -> Option<Slot> {
 /// Where a term acts at one sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
-    /// An axis (index into the machine's axes).
+    /// An axis (index into the machine's axes), or after them a turn of the tool side
+    /// ([`axis_slots`]).
     Axis(usize),
     /// A nuisance parameter of the sample's set-up.
     Nuisance(usize),

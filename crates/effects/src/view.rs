@@ -75,6 +75,7 @@ impl SetupView {
             reads_pose: (0..setup.channels().len())
                 .map(|c| setup.reads_pose(c))
                 .collect(),
+            field_like: vec![false; setup.nuisance().len()],
             nuisance: setup.nuisance().to_vec(),
         }
     }
@@ -118,6 +119,12 @@ pub struct SetupView {
     /// Per channel: whether its reading depends on the tool pose (`Setup::reads_pose`).
     pub reads_pose: Vec<bool>,
     pub nuisance: Vec<Nuisance>,
+    /// Per nuisance parameter: whether, at every pose the set-up is seen at in the fitted runs,
+    /// it moves the readings as a fixed shift of the tool in the machine frame does (a ball of
+    /// a volumetric test visited at one place; its height when only a table turning about Z
+    /// takes it elsewhere). Its drift is then the machine's field there by another name. False
+    /// where nobody said (a planned session).
+    pub field_like: Vec<bool>,
 }
 
 /// One run. Its numbers are columns ([`Column`]: a study shares its own, a planned run's
@@ -417,6 +424,12 @@ pub struct SessionView {
     pub model: Vec<ModelParamView>,
     /// The effects already in the model (families may propose refinements of them).
     pub current: Vec<crate::EffectInfo>,
+    /// How far the tool point travels in the machine frame over the fitted samples, along the
+    /// machine's X, Y and Z (m, max − min; zero where nobody said): the lever arms a turn of
+    /// the tool side acts through ([`crate::Target::ToolTurn`]).
+    pub tool_reach_m: [f64; 3],
+    /// The middle of that travel (m, machine frame).
+    pub tool_middle_m: [f64; 3],
     /// Runs in time order, and where each starts in the timeline (per run, and per place in
     /// time order).
     order: Vec<usize>,
@@ -424,6 +437,10 @@ pub struct SessionView {
     starts_in_order: Vec<usize>,
     /// Samples in the timeline.
     samples: usize,
+    /// The timeline's samples in the order of their times, where it differs from the timeline
+    /// (runs that overlap in time: the balls of a volumetric test, each a run over the whole
+    /// session). Inputs and their lags evolve in time, not run after run.
+    chronological: Option<Vec<usize>>,
     /// The timeline's first and last time, and its median interval (s).
     first_time: Option<f64>,
     last_time: Option<f64>,
@@ -464,10 +481,13 @@ impl SessionView {
             runs,
             model,
             current: Vec::new(),
+            tool_reach_m: [0.0; 3],
+            tool_middle_m: [0.0; 3],
             order,
             start,
             starts_in_order,
             samples,
+            chronological: None,
             first_time,
             last_time,
             median_interval: 1.0,
@@ -475,8 +495,17 @@ impl SessionView {
             inputs: Mutex::new(HashMap::new()),
             lags: Mutex::new(HashMap::new()),
         };
+        view.chronological = view.chronological_order();
         let timeline = view.timeline();
-        if let Some(m) = median_of_positive(|| timeline.intervals()) {
+        // The recording's interval: between samples next to each other in time.
+        let median = match &view.chronological {
+            None => median_of_positive(|| timeline.intervals()),
+            Some(order) => {
+                let times: Vec<f64> = order.iter().map(|&k| timeline.get(k)).collect();
+                median_of_positive(|| times.windows(2).map(|w| w[1] - w[0]))
+            }
+        };
+        if let Some(m) = median {
             view.median_interval = m;
         }
         view
@@ -485,6 +514,17 @@ impl SessionView {
     /// The view with `current` as the effects already in the model.
     pub fn with_current(mut self, current: Vec<crate::EffectInfo>) -> Self {
         self.current = current;
+        self
+    }
+
+    /// The view with the tool point's travel in the machine frame, its least and greatest
+    /// coordinates (m; [`Self::tool_reach_m`], [`Self::tool_middle_m`]).
+    pub fn with_tool_travel(mut self, lo_m: [f64; 3], hi_m: [f64; 3]) -> Self {
+        self.tool_reach_m = std::array::from_fn(|k| (hi_m[k] - lo_m[k]).max(0.0));
+        self.tool_middle_m = std::array::from_fn(|k| {
+            let m = 0.5 * (lo_m[k] + hi_m[k]);
+            if m.is_finite() { m } else { 0.0 }
+        });
         self
     }
 
@@ -688,10 +728,17 @@ impl SessionView {
 
     fn build_input(&self, input: &Input) -> Vec<f64> {
         let column = input.column();
-        let first_value = self.order.iter().find_map(|&r| {
-            let v = self.runs[r].context_column(column)?;
-            (!v.is_empty()).then(|| v.get(0))
-        });
+        // Each timeline sample's recorded value, if its run records the column.
+        let mut recorded: Vec<Option<f64>> = Vec::with_capacity(self.samples);
+        for &r in &self.order {
+            let run = &self.runs[r];
+            match run.context_column(column) {
+                Some(v) => recorded.extend((0..run.len()).map(|i| (i < v.len()).then(|| v.get(i)))),
+                None => recorded.extend(std::iter::repeat_n(None, run.len())),
+            }
+        }
+        let in_time = self.in_time_order();
+        let first_value = in_time.iter().find_map(|&k| recorded[k]);
         let (offset, scale) = match input {
             Input::Speed | Input::SpeedSquared => (0.0, 1e-3),
             Input::Context(_) => (first_value.unwrap_or(0.0), 1.0),
@@ -700,27 +747,51 @@ impl SessionView {
             Input::Speed | Input::SpeedSquared => 0.0,
             Input::Context(_) => first_value.unwrap_or(0.0),
         };
-        let mut out = Vec::with_capacity(self.samples);
-        for &r in &self.order {
-            let run = &self.runs[r];
-            match run.context_column(column) {
-                Some(v) => {
-                    for x in (0..v.len()).map(|i| v.get(i)) {
-                        held = x;
-                        out.push((x - offset) * scale);
-                    }
-                }
-                None => out.extend(std::iter::repeat_n((held - offset) * scale, run.len())),
+        let mut out = vec![0.0; self.samples];
+        for &k in in_time.iter() {
+            if let Some(x) = recorded[k] {
+                held = x;
             }
+            out[k] = (held - offset) * scale;
         }
         if *input == Input::SpeedSquared {
             out.iter_mut().for_each(|x| *x *= *x);
         }
         if let Input::Context(_) = input {
             let timeline = self.timeline();
-            out = smoothed(&out, |k| timeline.get(k), TEMPERATURE_SMOOTHING_S);
+            let values: Vec<f64> = in_time.iter().map(|&k| out[k]).collect();
+            let smooth = smoothed(
+                &values,
+                |j| timeline.get(in_time[j]),
+                TEMPERATURE_SMOOTHING_S,
+            );
+            for (&k, v) in in_time.iter().zip(smooth) {
+                out[k] = v;
+            }
         }
         out
+    }
+
+    /// The timeline's samples in time order ([`Self::chronological`]; the timeline itself
+    /// where runs follow one another).
+    fn in_time_order(&self) -> std::borrow::Cow<'_, [usize]> {
+        match &self.chronological {
+            Some(order) => std::borrow::Cow::Borrowed(order),
+            None => std::borrow::Cow::Owned((0..self.samples).collect()),
+        }
+    }
+
+    /// The timeline's samples sorted by time (ties in timeline order), if that differs from
+    /// the timeline.
+    fn chronological_order(&self) -> Option<Vec<usize>> {
+        let timeline = self.timeline();
+        let times: Vec<f64> = timeline.iter().collect();
+        if times.windows(2).all(|w| w[0] <= w[1]) {
+            return None;
+        }
+        let mut order: Vec<usize> = (0..times.len()).collect();
+        order.sort_by(|&a, &b| times[a].total_cmp(&times[b]).then(a.cmp(&b)));
+        Some(order)
     }
 
     /// The first-order lag of `input` with time constant `tau_s`, over the timeline (cached).
@@ -735,7 +806,23 @@ impl SessionView {
             return Arc::clone(s);
         }
         let u = self.input(input);
-        let series = Arc::new(first_order_lag_over(&u, self.timeline().iter(), tau_s));
+        let series = Arc::new(match &self.chronological {
+            None => first_order_lag_over(&u, self.timeline().iter(), tau_s),
+            Some(order) => {
+                // In time order, then back to the timeline's.
+                let timeline = self.timeline();
+                let values: Vec<f64> = order.iter().map(|&k| u[k]).collect();
+                let lag =
+                    first_order_lag_over(&values, order.iter().map(|&k| timeline.get(k)), tau_s);
+                let mut y = vec![0.0; u.len()];
+                let mut dy_dtau = vec![0.0; u.len()];
+                for (j, &k) in order.iter().enumerate() {
+                    y[k] = lag.y[j];
+                    dy_dtau[k] = lag.dy_dtau[j];
+                }
+                crate::lag::LagSeries { y, dy_dtau }
+            }
+        });
         let mut cache = self.lags.lock().unwrap_or_else(|e| e.into_inner());
         let limit = (LAG_CACHE_BYTES / (16 * self.samples.max(1))).clamp(1, 257);
         if cache.len() >= limit {
@@ -1097,6 +1184,67 @@ mod tests {
                 assert_eq!(v.direction(r, 0, i), direction[i], "run {r} sample {i}");
                 assert_eq!(v.velocity(r, 0, i).to_bits(), velocity[i].to_bits());
                 assert_eq!(v.travel(r, 0, i).to_bits(), travel[i].to_bits());
+            }
+        }
+    }
+
+    /// Runs that overlap in time (the balls of a volumetric test, visited in turn over the
+    /// whole session): a temperature and its lags evolve in time, as over one run holding
+    /// every sample in time order — not run after run, which would start each run's lag
+    /// where the previous run ended, hours later.
+    #[test]
+    fn inputs_of_runs_that_overlap_in_time_follow_time() {
+        let temperature =
+            |t: f64| 20.0 + 5.0 * (1.0 - (-t / 3000.0).exp()) + 0.3 * (t / 700.0).sin();
+        let times: Vec<f64> = (0..300).map(|k| 37.0 * k as f64).collect();
+        let column = |ts: &[f64]| {
+            vec![(
+                "T_x".to_string(),
+                ts.iter().map(|&t| temperature(t)).collect(),
+            )]
+        };
+        // Three runs taking every third sample in turn.
+        let parts: Vec<Vec<f64>> = (0..3)
+            .map(|j| times.iter().copied().skip(j).step_by(3).collect())
+            .collect();
+        let runs = parts
+            .iter()
+            .enumerate()
+            .map(|(j, ts)| {
+                run(
+                    &format!("ball{j}"),
+                    ts.clone(),
+                    vec![0.0; ts.len()],
+                    column(ts),
+                )
+            })
+            .collect();
+        let overlapping = view(runs);
+        let whole = view(vec![run(
+            "all",
+            times.clone(),
+            vec![0.0; times.len()],
+            column(&times),
+        )]);
+        let input = Input::Context("T_x".into());
+        assert_eq!(overlapping.median_interval(), whole.median_interval());
+        let (u, w) = (overlapping.input(&input), whole.input(&input));
+        let (lu, lw) = (overlapping.lag(&input, 900.0), whole.lag(&input, 900.0));
+        for (j, ts) in parts.iter().enumerate() {
+            for i in 0..ts.len() {
+                let k = overlapping.timeline_index(j, i);
+                let m = 3 * i + j;
+                assert!(
+                    (u[k] - w[m]).abs() < 1e-12,
+                    "ball{j} {i}: {} vs {}",
+                    u[k],
+                    w[m]
+                );
+                assert!((lu.y[k] - lw.y[m]).abs() < 1e-12, "lag ball{j} {i}");
+                assert!(
+                    (lu.dy_dtau[k] - lw.dy_dtau[m]).abs() < 1e-15,
+                    "dlag ball{j} {i}"
+                );
             }
         }
     }

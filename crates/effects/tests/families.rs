@@ -72,6 +72,7 @@ fn view() -> Arc<SessionView> {
                         prior_sigma: None,
                     },
                 ],
+                field_like: vec![false; 2],
             },
             SetupView {
                 name: "sensors".into(),
@@ -79,6 +80,7 @@ fn view() -> Arc<SessionView> {
                 channels: vec![channel("d_s1")],
                 reads_pose: vec![false],
                 nuisance: vec![],
+                field_like: vec![],
             },
         ],
         vec![run("a", 0, 0.0), run("b", 1, 500.0)],

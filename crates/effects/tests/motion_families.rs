@@ -99,6 +99,7 @@ fn view(pose: bool, tool_length: bool, speed: bool) -> Arc<SessionView> {
                 channels: vec![channel("dx"), channel("dy"), channel("dz")],
                 reads_pose: vec![pose; 3],
                 nuisance: tool(vec![nuisance("ball_x")]),
+                field_like: vec![false; 1 + usize::from(tool_length)],
             },
             SetupView {
                 name: "bar".into(),
@@ -106,6 +107,7 @@ fn view(pose: bool, tool_length: bool, speed: bool) -> Arc<SessionView> {
                 channels: vec![channel("dr")],
                 reads_pose: vec![pose],
                 nuisance: tool(vec![nuisance("length")]),
+                field_like: vec![false; 1 + usize::from(tool_length)],
             },
         ],
         vec![

@@ -66,7 +66,9 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
             let nch = slot.setup.channels().len();
             let full: Vec<usize> = study.layout().columns_of_setup(s).collect();
             let reaches = |c: usize, t: &mtcal_effects::Target| match t {
-                mtcal_effects::Target::Axis(_) => slot.setup.reads_pose(c),
+                mtcal_effects::Target::Axis(_)
+                | mtcal_effects::Target::ToolShift(_)
+                | mtcal_effects::Target::ToolTurn(_) => slot.setup.reads_pose(c),
                 mtcal_effects::Target::Nuisance { setup, .. } => *setup == s,
                 mtcal_effects::Target::Channel { per_setup }
                 | mtcal_effects::Target::Gain { per_setup } => {
@@ -512,7 +514,8 @@ struct EffectEval {
     out: SampleEffects,
     /// The set-up's prediction before the effects' gain and direct changes.
     raw: Vec<f64>,
-    /// `∂pose/∂q` at the nominal machine, 6 × axes column-major, and its scratch.
+    /// `∂pose/∂q` at the nominal machine, 6 × axis slots column-major (the tool side's
+    /// motions after the axes), and its scratch.
     axis_jac: Vec<f64>,
     axis_scratch: crate::study::AxisJacobianScratch,
     /// Nuisance values with the effects' perturbation.
@@ -551,7 +554,7 @@ impl<'a> SampleEval<'a> {
                 twists: vec![[0.0; 6]; prepared.n_params()],
                 prepared,
                 raw: vec![0.0; nch],
-                axis_jac: vec![0.0; 6 * na],
+                axis_jac: vec![0.0; 6 * mtcal_effects::axis_slots(na)],
                 axis_scratch: study.axis_jacobian_scratch(),
                 nuis: vec![0.0; nn],
             }
@@ -861,6 +864,73 @@ fn predict_runs_with(
         worker();
     });
     out
+}
+
+/// Samples of one set-up looked at by [`field_like_nuisance`] (an even stride through more).
+const FIELD_LIKE_SAMPLES: usize = 4000;
+
+/// Per set-up and nuisance parameter: whether, at every fitted sample of the set-up, the
+/// parameter moves the readings as one fixed shift of the tool in the machine frame does —
+/// the least-squares fit of its derivative columns by the three machine-frame shift columns
+/// ([`mtcal_kinematics::MachineModel::tool_motion_columns`]) leaves nothing. A ball visited at
+/// one place, or whose height only a table turning about Z carries elsewhere: its drift there
+/// and the machine's own field move the readings alike ([`mtcal_effects::SetupView::field_like`]).
+pub(crate) fn field_like_nuisance(study: &Study) -> Vec<Vec<bool>> {
+    let x = study.initial_x();
+    let na = study.fit_model.machine().n_axes();
+    let width = 6 * mtcal_effects::axis_slots(na);
+    let mut scratch = study.axis_jacobian_scratch();
+    let mut jac = vec![0.0; width];
+    (0..study.setups.len())
+        .map(|s| {
+            let nn = study.setups[s].setup.nuisance().len();
+            // Normal equations of each parameter's column on the three shift columns.
+            let mut ata = nalgebra::Matrix3::<f64>::zeros();
+            let mut atb = vec![nalgebra::Vector3::<f64>::zeros(); nn];
+            let mut btb = vec![0.0; nn];
+            let runs: Vec<usize> = (0..study.runs.len())
+                .filter(|&r| study.runs[r].setup == s && study.runs[r].fit)
+                .collect();
+            let total: usize = runs.iter().map(|&r| study.runs[r].len()).sum();
+            if nn == 0 || total == 0 {
+                return vec![false; nn];
+            }
+            let stride = total.div_ceil(FIELD_LIKE_SAMPLES).max(1);
+            let mut k = 0usize;
+            for &r in &runs {
+                let mut eval = SampleEval::new(study, r, &x, None);
+                for i in 0..study.runs[r].len() {
+                    k += 1;
+                    if k % stride != 0 {
+                        continue;
+                    }
+                    eval.at(i, true);
+                    study.axis_jacobian(r, i, &mut scratch, &mut jac);
+                    let shifts = &jac[6 * na..6 * na + 18];
+                    for (c, dp) in eval.d_pose.iter().enumerate() {
+                        let a = nalgebra::Vector3::from_fn(|m, _| {
+                            (0..6).map(|q| dp[q] * shifts[6 * m + q]).sum::<f64>()
+                        });
+                        ata += a * a.transpose();
+                        for j in 0..nn {
+                            let b = eval.d_nuis[c * nn + j];
+                            atb[j] += a * b;
+                            btb[j] += b * b;
+                        }
+                    }
+                }
+            }
+            let pinv = ata
+                .pseudo_inverse(1e-12 * ata.norm().max(f64::MIN_POSITIVE))
+                .unwrap_or_else(|_| nalgebra::Matrix3::zeros());
+            (0..nn)
+                .map(|j| {
+                    let explained = atb[j].dot(&(pinv * atb[j]));
+                    btb[j] - explained <= 1e-8 * btb[j]
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The pose twist (translation, rotation; workpiece frame) of axis perturbations `dq` through

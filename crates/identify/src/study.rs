@@ -637,8 +637,9 @@ impl Study {
         }
     }
 
-    /// `∂pose/∂q` of the nominal machine at sample `i` of run `r` into `out` (6 × axes,
-    /// column-major): how an effect that displaces an axis moves the tool. The commanded
+    /// `∂pose/∂q` of the nominal machine at sample `i` of run `r` into `out` (6 × axis slots,
+    /// column-major: the axes, then the tool side shifting along and turning about the
+    /// machine's X, Y and Z, [`mtcal_effects::axis_slots`]): how an effect that displaces an axis moves the tool. The commanded
     /// positions are fixed: a small session keeps every sample's, a large one computes it at
     /// every call ([`AXIS_JACOBIAN_CACHE_BYTES`]; the same numbers either way).
     pub fn axis_jacobian(
@@ -659,7 +660,7 @@ impl Study {
 
     /// Every sample's axis Jacobian, per run, if they fit [`AXIS_JACOBIAN_CACHE_BYTES`].
     fn every_axis_jacobian(&self) -> Option<Vec<Vec<f64>>> {
-        let width = 6 * self.fit_model.machine().n_axes();
+        let width = 6 * mtcal_effects::axis_slots(self.fit_model.machine().n_axes());
         let samples: usize = self.runs.iter().map(RunSlot::len).sum();
         if samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES {
             return None;
@@ -686,8 +687,10 @@ impl Study {
         out: &mut [f64],
     ) {
         self.runs[r].q.row_into(i, &mut scratch.q);
+        let (axes, turns) = out.split_at_mut(6 * scratch.q.len());
         self.fit_model
-            .tool_jacobian(&scratch.q, &scratch.zeros, &mut scratch.ws, out);
+            .tool_jacobian(&scratch.q, &scratch.zeros, &mut scratch.ws, axes);
+        self.fit_model.tool_motion_columns(&scratch.ws, turns);
     }
 
     /// The session as the effects see it (built once).
@@ -755,12 +758,18 @@ impl Study {
     }
 
     fn build_view(&self) -> SessionView {
+        let (lo, hi) = self.tool_travel_m();
         let machine = self.model.machine();
         let axes = AxisView::of_machine(machine);
+        let field_like = crate::fit::field_like_nuisance(self);
         let setups = self
             .setups
             .iter()
-            .map(|s| SetupView::of(&s.name, s.plugin.name, s.setup.as_ref()))
+            .zip(field_like)
+            .map(|(s, field_like)| SetupView {
+                field_like,
+                ..SetupView::of(&s.name, s.plugin.name, s.setup.as_ref())
+            })
             .collect();
         // The study's columns, shared (not copied): the positions convert to SI as they are
         // read, bit for bit what the fit reads.
@@ -802,6 +811,29 @@ impl Study {
             .collect();
         SessionView::new(axes, setups, runs, model)
             .with_current(self.effects().iter().map(|e| e.info().clone()).collect())
+            .with_tool_travel(lo, hi)
+    }
+
+    /// The least and greatest coordinates of the nominal tool point in the machine frame over
+    /// the fitted samples (m).
+    fn tool_travel_m(&self) -> ([f64; 3], [f64; 3]) {
+        let model = &self.model;
+        let zeros = vec![0.0; model.n_coeffs()];
+        let mut ws = model.workspace();
+        let mut q = vec![0.0; model.machine().n_axes()];
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for run in self.runs.iter().filter(|r| r.fit) {
+            for i in 0..run.len() {
+                run.q.row_into(i, &mut q);
+                model.tool_pose(&q, &zeros, &mut ws);
+                let p = model.machine_tool_point(&ws);
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        (lo, hi)
     }
 
     /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.

@@ -800,21 +800,22 @@ fn a_drift_and_a_temperature_that_follows_it_are_named_together() {
     assert!(brief.contains("CANNOT TELL IT FROM"), "{brief}");
 }
 
-/// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it: the
-/// independent simulator's Y-drive load (the Y screw's scale growing 1.5 ppm/K with the drive's
-/// temperature, the spindle head turning about X with it, 3 µrad/K about a line far above the
-/// work volume), twelve cycles of fifteen visits, realistic noise. The scale growth is a
-/// family of the search: it must be named, with the planted 1.5 ppm/K inside its 95 %
-/// interval. The head's rotation is not (no family turns the tool with a temperature yet):
-/// what it leaves must be said as unexplained or held by thermal families, never claimed as a
-/// reversal, a cyclic error, a bump, a set-up drifting or anything else that is not there.
-fn volumetric_search_is_honest(which: mtcal_indsim::VolumetricMachine, file: &str, scale: bool) {
+/// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it on a
+/// short course: the independent simulator's Y-drive load (the Y screw's scale growing
+/// 1.5 ppm/K with the drive's temperature, the spindle head turning about X with it, 3 µrad/K
+/// about a line far above the work volume), twelve cycles of fifteen visits, realistic noise.
+/// Both are named with the planted values inside their 95 % intervals, and nothing but thermal
+/// effects is claimed (before the balls' runs, which overlap in time, had their temperatures
+/// evaluated in time, the three-axis machine's scale growth went unnamed; before a set-up seen
+/// at one pose stopped being a candidate for a drift of its own, its balls were said to drift).
+fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, file: &str) {
     use mtcal_indsim::{VolumetricLoad, VolumetricMachine, VolumetricSpec};
     let thermal = [
         "thermal-drift",
         "temperature-coupling",
         "thermal-expansion",
         "thermal-model",
+        "thermal-tilt",
     ];
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
@@ -837,7 +838,6 @@ fn volumetric_search_is_honest(which: mtcal_indsim::VolumetricMachine, file: &st
     }
     let id = &result.identification;
     let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
-    eprintln!("{which:?}:\n{summary}");
     for d in &id.discoveries {
         assert!(
             thermal.contains(&d.effect.as_str()),
@@ -845,58 +845,324 @@ fn volumetric_search_is_honest(which: mtcal_indsim::VolumetricMachine, file: &st
             d.label
         );
     }
-    if !scale {
-        return;
+    for (effect, on, planted) in [
+        ("thermal-expansion", "Y", 1.5),
+        ("thermal-tilt", "turn about X", 3.0),
+    ] {
+        let d = id
+            .discoveries
+            .iter()
+            .find(|d| {
+                d.effect == effect
+                    && (d.axis.as_deref() == Some(on) || d.component.as_deref() == Some(on))
+                    && d.driver.as_deref() == Some("T_ydrive")
+            })
+            .unwrap_or_else(|| panic!("{which:?}: {effect} {on} is not named\n{summary}"));
+        let p = &d.parameters[0];
+        let u95 = p.u95.unwrap_or(0.0);
+        assert!(
+            (p.value - planted).abs() <= u95,
+            "{which:?}: {} = {} ± {} {}, planted {planted}\n{summary}",
+            p.name,
+            p.value,
+            u95,
+            p.unit
+        );
     }
-    let scale = id
-        .discoveries
-        .iter()
-        .find(|d| d.effect == "thermal-expansion" && d.axis.as_deref() == Some("Y"))
-        .unwrap_or_else(|| panic!("{which:?}: the Y scale growth is not named\n{summary}"));
-    let p = &scale.parameters[0];
-    let u95 = p.u95.unwrap_or(0.0);
-    assert!(
-        (p.value - 1.5).abs() <= u95,
-        "{which:?}: {} = {} ± {} {}, planted 1.5\n{summary}",
-        p.name,
-        p.value,
-        u95,
-        p.unit
-    );
 }
 
 #[test]
-fn a_volumetric_thermal_test_on_the_trunnion_names_the_scale_growth_and_nothing_else() {
-    volumetric_search_is_honest(
+fn a_volumetric_thermal_test_on_the_trunnion_names_the_drive_s_scale_and_tilt() {
+    volumetric_search_names_the_drive(
         mtcal_indsim::VolumetricMachine::Trunnion,
         "mcu630-cafyxz.urdf",
-        true,
     );
 }
 
-/// On the three-axis machine the balls stand at three heights and each is visited at one
-/// place: the head's rotation moves them along Y in proportion to their height. Each ball's
-/// set-up drifting would hold that (and did, three false `setup-drift ball<k>.ball_y` claims,
-/// before a set-up seen at one pose stopped being a candidate for a drift of its own). Nothing
-/// but thermal drift may be claimed.
+/// On the three-axis machine the balls stand at three heights, each visited at one place: the
+/// head's turn moves them along Y in proportion to their height.
 #[test]
-fn a_volumetric_thermal_test_on_the_three_axis_machine_claims_nothing_that_is_not_there() {
-    volumetric_search_is_honest(
+fn a_volumetric_thermal_test_on_the_three_axis_machine_names_the_drive_s_scale_and_tilt() {
+    volumetric_search_names_the_drive(
         mtcal_indsim::VolumetricMachine::ThreeAxis,
         "mcv754-zfyx.urdf",
-        false,
     );
 }
 
-/// Known to fail (issue 33): on the three-axis machine the Y scale growth goes unnamed — after
-/// the drifts of Y and Z its score test drops χ² by about 1 where its size (some 3 µm between
-/// the balls at ±170 mm) should give hundreds; why is not yet understood. Run with `--ignored`.
-#[test]
-#[ignore = "known miss (issue 33): the three-axis Y scale growth is not named"]
-fn a_volumetric_thermal_test_on_the_three_axis_machine_names_the_scale_growth() {
-    volumetric_search_is_honest(
-        mtcal_indsim::VolumetricMachine::ThreeAxis,
-        "mcv754-zfyx.urdf",
-        true,
+/// A volumetric session of the independent simulator and what it planted: per planted effect,
+/// the discovery that names it (family, what it acts on, its driver) and, where the family
+/// carries the planted number, that number.
+struct VolumetricCase {
+    which: mtcal_indsim::VolumetricMachine,
+    file: &'static str,
+    load: mtcal_indsim::VolumetricLoad,
+    ambient: bool,
+    seed: u64,
+}
+
+/// One planted effect as the search should name it.
+struct Planted {
+    what: &'static str,
+    /// Whether a discovery names it: its family (or one that holds it), what it acts on, its
+    /// driver.
+    names: fn(&mtcal_identify::search::Discovery) -> bool,
+    /// Whether a discovery describes it without naming its driver (not a false claim): the
+    /// spindle's growth as a drift in time.
+    describes: fn(&mtcal_identify::search::Discovery) -> bool,
+    /// The planted value of the discovery's first parameter, where the family carries it.
+    value: Option<f64>,
+}
+
+fn planted_in(case: &VolumetricCase) -> Vec<Planted> {
+    use mtcal_indsim::VolumetricLoad;
+    let mut out = match case.load {
+        VolumetricLoad::YDrive => vec![
+            Planted {
+                what: "the Y scale growing 1.5 ppm/K with T_ydrive",
+                names: |d| {
+                    d.effect == "thermal-expansion"
+                        && d.axis.as_deref() == Some("Y")
+                        && d.driver.as_deref() == Some("T_ydrive")
+                },
+                // Where the scale is fixed is an offset that follows the temperature.
+                describes: |d| {
+                    d.effect == "temperature-coupling" && d.driver.as_deref() == Some("T_ydrive")
+                },
+                value: Some(1.5),
+            },
+            Planted {
+                what: "the head turning 3 µrad/K about X with T_ydrive",
+                names: |d| {
+                    d.effect == "thermal-tilt"
+                        && d.component.as_deref() == Some("turn about X")
+                        && d.driver.as_deref() == Some("T_ydrive")
+                },
+                describes: |_| false,
+                value: Some(3.0),
+            },
+        ],
+        VolumetricLoad::Spindle => vec![
+            // The spindle stands still at every visit: its speed is 0 in every row, and the
+            // growth shows through the spindle's temperature.
+            Planted {
+                what: "the spindle growing along Z with its heat",
+                names: |d| {
+                    d.axis.as_deref() == Some("Z")
+                        && d.driver.as_deref().is_some_and(|x| {
+                            x.split(',')
+                                .any(|p| p == "S" || p == "S^2" || p == "T_spindle")
+                        })
+                },
+                describes: |d| {
+                    d.effect == "spindle-growth"
+                        || (d.axis.as_deref() == Some("Z") && d.driver.as_deref() == Some("t"))
+                },
+                value: None,
+            },
+            Planted {
+                what: "the Z screw's scale 2 ppm/K with T_znut",
+                names: |d| {
+                    d.effect == "thermal-expansion"
+                        && d.axis.as_deref() == Some("Z")
+                        && d.driver.as_deref() == Some("T_znut")
+                },
+                // Fixed far from the balls (at Z = 0): an offset that follows T_znut.
+                describes: |d| {
+                    d.effect == "temperature-coupling" && d.driver.as_deref() == Some("T_znut")
+                },
+                value: Some(2.0),
+            },
+        ],
+    };
+    if case.ambient {
+        out.push(Planted {
+            what: "the structure following the room's step",
+            names: |d| {
+                d.driver
+                    .as_deref()
+                    .is_some_and(|x| x.split(',').any(|p| p == "T_ambient"))
+            },
+            // The room moves every axis: a drift of one in time is the step without its driver
+            // (along Z, the spindle's axis on these machines, a growth of the spindle in time
+            // is the same drift).
+            describes: |d| {
+                matches!(d.effect.as_str(), "thermal-drift" | "spindle-growth")
+                    && d.driver.as_deref() == Some("t")
+            },
+            value: None,
+        });
+    }
+    out
+}
+
+/// What the search made of one volumetric session: planted effects named (of all planted),
+/// discoveries that name nothing planted, and the withheld cycle's prediction error over the
+/// noise the fit estimated.
+fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, String) {
+    use mtcal_indsim::{AmbientChange, VolumetricMachine, VolumetricSpec};
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let machine = Machine::from_urdf_file(&shipped_machine(case.file)).unwrap();
+    let truth = Truth::zero(&machine);
+    let mut spec = VolumetricSpec::new(case.load);
+    spec.stream = None;
+    if case.ambient {
+        spec.ambient_step = Some(AmbientChange::air_conditioning_failure());
+    }
+    let realism = Realism::realistic(case.seed);
+    match case.which {
+        VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, &spec, &realism),
+        VolumetricMachine::ThreeAxis => {
+            Campaign::volumetric_three_axis(&dir, &truth, &spec, &realism)
+        }
+    }
+    .unwrap();
+    let (study, base) =
+        base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
+    let mut result = search(study, &SearchOptions::default()).unwrap();
+    if let Some(base) = &base {
+        result.apply_base(base).unwrap();
+    }
+    let id = &result.identification;
+    let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
+    let planted = planted_in(case);
+    let mut named = 0;
+    let mut notes = Vec::new();
+    for p in &planted {
+        match id.discoveries.iter().find(|d| (p.names)(d)) {
+            Some(d) => {
+                let within = p.value.is_none_or(|v| {
+                    let q = &d.parameters[0];
+                    (q.value - v).abs() <= 1.5 * q.u95.unwrap_or(0.0)
+                });
+                if within {
+                    named += 1;
+                } else {
+                    notes.push(format!("{}: {} = {:?}", p.what, d.label, d.parameters[0]));
+                }
+            }
+            None => notes.push(format!("{}: not named", p.what)),
+        }
+    }
+    let false_claims: Vec<String> = id
+        .discoveries
+        .iter()
+        .filter(|d| !planted.iter().any(|p| (p.names)(d) || (p.describes)(d)))
+        .map(|d| d.label.clone())
+        .collect();
+    // The withheld cycle: its readings' RMS prediction error over the noise the simulator
+    // added (its σ, not the manifest's, which states 0.8 of it).
+    let (mut sum, mut count) = (0.0, 0usize);
+    for v in &id.validation {
+        for c in &v.channels {
+            sum += c.rms * c.rms * c.samples as f64;
+            count += c.samples;
+        }
+    }
+    let worst = (sum / count.max(1) as f64).sqrt() / realism.noise_sigma_um;
+    let text = format!(
+        "{:?} {:?} ambient {} seed {}: {named}/{} named, false {false_claims:?}, withheld {worst:.2} × noise {notes:?}\n{summary}",
+        case.which,
+        case.load,
+        case.ambient,
+        case.seed,
+        planted.len()
     );
+    (named, planted.len(), false_claims, worst, text)
+}
+
+/// Source 000's volumetric thermal test on both machines of the independent simulator, under
+/// spindle load and Y-drive load, with and without the room's temperature stepping, three
+/// noise seeds each (24 sessions of 36 cycles): the planted physics (the spindle's growth, the
+/// Z screw's and the Y screw's scale, the head turning about X, the structure following the
+/// room) is named with its planted values in ≥ 90 % of cases and nothing else is claimed
+/// anywhere. The withheld cycle is predicted within 1.2 × the noise in at least 80 % of the
+/// sessions and within 2 × in all (measured: 20 of 24 within 1.2 ×; the trunnion under Y-drive
+/// load with the room stepping reaches 1.4–1.7 × on two seeds, its residual field following the
+/// room along Y).
+#[test]
+fn volumetric_thermal_tests_name_what_was_planted() {
+    use mtcal_indsim::{VolumetricLoad, VolumetricMachine};
+    let mut cases = Vec::new();
+    for shift in [0, 100, 200] {
+        for (which, file) in [
+            (VolumetricMachine::Trunnion, "mcu630-cafyxz.urdf"),
+            (VolumetricMachine::ThreeAxis, "mcv754-zfyx.urdf"),
+        ] {
+            for (load, ambient, seed) in [
+                (VolumetricLoad::YDrive, false, 7),
+                (VolumetricLoad::Spindle, false, 8),
+                (VolumetricLoad::YDrive, true, 9),
+                (VolumetricLoad::Spindle, true, 10),
+            ] {
+                cases.push(VolumetricCase {
+                    which,
+                    file,
+                    load,
+                    ambient,
+                    seed: seed + shift,
+                });
+            }
+        }
+    }
+    let outcomes = parallel(&cases, run_volumetric);
+    let (mut named, mut planted) = (0, 0);
+    let mut report = String::new();
+    for (n, p, _, _, text) in &outcomes {
+        named += n;
+        planted += p;
+        report.push_str(text);
+        report.push('\n');
+    }
+    let lines: Vec<&str> = report
+        .lines()
+        .filter(|l| l.contains(" named, false "))
+        .collect();
+    eprintln!("{}", lines.join("\n"));
+    assert!(
+        outcomes.iter().all(|o| o.2.is_empty()),
+        "claims of what was not planted:\n{report}"
+    );
+    assert!(
+        10 * named >= 9 * planted,
+        "{named} of {planted} named\n{report}"
+    );
+    let within = outcomes.iter().filter(|o| o.3 <= 1.2).count();
+    assert!(
+        5 * within >= 4 * outcomes.len() && outcomes.iter().all(|o| o.3 <= 2.0),
+        "withheld cycles: {within} of {} within 1.2 × the noise\n{report}",
+        outcomes.len()
+    );
+}
+
+/// Which set-up parameters move the readings as the machine's own field at the place the
+/// set-up is seen would: on the trunnion each ball is seen at three turns of C (A level), so its
+/// place across the table turns with C while its height and the tool's length stay along the
+/// machine's Z; on the three-axis machine each ball is seen at one place, and every parameter
+/// is the field there by another name. Their drift is proposed only where it is not.
+#[test]
+fn set_up_parameters_that_look_like_the_machine_s_field() {
+    use mtcal_indsim::{VolumetricLoad, VolumetricSpec};
+    let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 3);
+    for (file, turns) in [("mcu630-cafyxz.urdf", true), ("mcv754-zfyx.urdf", false)] {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("session");
+        let machine = Machine::from_urdf_file(&shipped_machine(file)).unwrap();
+        let truth = Truth::zero(&machine);
+        let realism = Realism::realistic(3);
+        if turns {
+            Campaign::volumetric_trunnion(&dir, &truth, &spec, &realism)
+        } else {
+            Campaign::volumetric_three_axis(&dir, &truth, &spec, &realism)
+        }
+        .unwrap();
+        let study = Study::load(&dir).unwrap();
+        let view = study.view();
+        for setup in &view.setups {
+            for (n, &like) in setup.nuisance.iter().zip(&setup.field_like) {
+                let expected = !turns || matches!(n.name.as_str(), "ball_z" | "tool_length");
+                assert_eq!(like, expected, "{file}: {}.{}", setup.name, n.name);
+            }
+        }
+    }
 }

@@ -4,8 +4,14 @@
 //!   zero) creeps steadily from the set-up's first use, `rate·(t − t_s)` (driver `t`), or
 //!   settles, `a·(1 − e^{−(t − t_s)/τ})` (driver `t, settling`). Plant keys `setup`,
 //!   `nuisance`, and `rate_um_per_h` or `amplitude_um` and `tau_s`. Not proposed for a
-//!   set-up whose fitted samples are all at one pose of the machine (its drift and the
-//!   machine's deformation there look alike).
+//!   parameter that moves the readings, at every pose its set-up is seen at, as a fixed shift
+//!   of the tool in the machine frame does ([`crate::SetupView::field_like`]: a ball of a
+//!   volumetric test visited at one place, or its height where only a table turning about Z
+//!   takes it elsewhere — its drift and the machine's deformation there look alike; the
+//!   machine's families say what the data show, and a field that differs from place to place
+//!   without a family is said to remain unexplained), nor for the `tool_length` of a set-up
+//!   whose tool visits other set-ups in turn (one head going from ball to ball: its length is
+//!   one for all, and its drift the spindle's).
 //! - **`instrument-scale`**: a reading channel's gain is off, `g·reading` (an R-test sensor's
 //!   scale, a laser's wavelength compensation, a ball-bar transducer); shared by every set-up
 //!   of that instrument. Plant keys `instrument` (optional when unambiguous), `channel`,
@@ -48,12 +54,18 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
             .collect();
         let span = times.iter().copied().fold(f64::NEG_INFINITY, f64::max)
             - times.iter().copied().fold(f64::INFINITY, f64::min);
-        if span.is_nan() || span <= 0.0 || at_one_pose(view, s) {
+        if span.is_nan() || span <= 0.0 {
             continue;
         }
         // A settling starts from a quarter of the set-up's use; the refit refines τ.
         let settling_tau_s = (0.25 * span).max(5.0 * view.median_interval());
+        let shared_tool = tool_visits_others(view, s);
         for (j, n) in setup.nuisance.iter().enumerate() {
+            if (shared_tool && n.name == super::spindle::TOOL_LENGTH)
+                || setup.field_like.get(j).copied().unwrap_or(false)
+            {
+                continue;
+            }
             if n.unit == mtcal_instrument::Unit::Um {
                 out.push(Candidate::Effect(Arc::new(drift(view, s, j, None))));
                 out.push(Candidate::Effect(Arc::new(drift(
@@ -68,28 +80,39 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     out
 }
 
-/// Whether every fitted sample of set-up `s` is at one pose of the machine (the commanded
-/// axes the same): a ball of a volumetric thermal test visited at one place, a displacement
-/// sensor at its held position. There the set-up's drift and the machine's own deformation at
-/// that place move the readings alike — no data of that set-up tell them apart —, so a drift
-/// is not claimed for the set-up: the machine's families (an axis' drift, a channel's own) say
-/// what the data show, and a field that differs from place to place without a family is said
-/// to remain unexplained. A set-up seen at several poses (a ball visited at several table
-/// angles, an R-test sweep) moves with the part it is fixed to, not with the machine's field.
-fn at_one_pose(view: &SessionView, s: usize) -> bool {
-    let mut first: Option<(usize, usize)> = None;
-    for (r, run) in view.runs.iter().enumerate() {
-        if run.setup != s || !run.fit {
-            continue;
-        }
-        for i in 0..run.len() {
-            let (r0, i0) = *first.get_or_insert((r, i));
-            if (0..view.axes.len()).any(|a| (view.q(r, i, a) - view.q(r0, i0, a)).abs() > 1e-9) {
-                return false;
-            }
-        }
-    }
-    true
+/// The fitted time span of set-up `s` (s), if it has fitted samples.
+fn fitted_span(view: &SessionView, s: usize) -> Option<(f64, f64)> {
+    let times: Vec<f64> = view
+        .runs
+        .iter()
+        .filter(|r| r.setup == s && r.fit)
+        .flat_map(|r| [r.first_time(), r.last_time()])
+        .flatten()
+        .collect();
+    let lo = times.iter().copied().reduce(f64::min)?;
+    let hi = times.iter().copied().reduce(f64::max)?;
+    Some((lo, hi))
+}
+
+/// Whether the tool of set-up `s` visits other set-ups in turn: another set-up with a
+/// `tool_length` is in use over the same time (the balls of a volumetric test, one head going
+/// from ball to ball). The tool's length is then one for all of them, and its drift the
+/// spindle's (`spindle-growth`), not one set-up's.
+fn tool_visits_others(view: &SessionView, s: usize) -> bool {
+    let has_tool = |k: usize| {
+        view.setups[k]
+            .nuisance
+            .iter()
+            .any(|n| n.name == super::spindle::TOOL_LENGTH)
+    };
+    let Some((lo, hi)) = fitted_span(view, s) else {
+        return false;
+    };
+    has_tool(s)
+        && (0..view.setups.len())
+            .filter(|&k| k != s && has_tool(k))
+            .filter_map(|k| fitted_span(view, k))
+            .any(|(a, b)| a < hi && lo < b)
 }
 
 fn drift_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {

@@ -16,6 +16,7 @@ mod local;
 pub(crate) mod model;
 mod spindle;
 mod thermal;
+mod tilt;
 
 use crate::basic::AmplitudeUnit;
 use crate::view::SessionView;

@@ -17,7 +17,7 @@ use crate::{Candidate, EffectFamily, EffectInfo, PlantError, Planted, Target};
 use std::sync::Arc;
 
 /// The set-up parameter the spindle's growth acts on.
-const TOOL_LENGTH: &str = "tool_length";
+pub(super) const TOOL_LENGTH: &str = "tool_length";
 
 /// Every set-up's `tool_length` (sharing the first one's unit), and that unit.
 fn targets(view: &SessionView) -> Option<(Vec<Target>, AmplitudeUnit)> {

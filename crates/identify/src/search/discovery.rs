@@ -117,7 +117,11 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                 })
                 .collect();
             let mut words = fx.describe(&values, &u95);
-            let states = fx.params().iter().filter(|p| p.nuisance).count();
+            let states = fx
+                .params()
+                .iter()
+                .filter(|p| p.nuisance && p.kind == mtcal_effects::ParamKind::Shape)
+                .count();
             if states > 0 {
                 words.push_str(&format!(
                     " (the side the axis arrived from before its first motion fitted in \
@@ -316,10 +320,12 @@ fn stage_effect_matches(stage: &Stage, fx: &Arc<dyn Effect>) -> bool {
     let Candidate::Effect(e) = &stage.ranked.candidate else {
         return false;
     };
-    e.params()
-        .iter()
-        .zip(fx.params())
-        .all(|(a, b)| a.name == b.name && a.initial == b.initial)
+    // A static coupling and its lagged form share a label: the lag has a time constant more.
+    e.params().len() == fx.params().len()
+        && e.params()
+            .iter()
+            .zip(fx.params())
+            .all(|(a, b)| a.name == b.name && a.initial == b.initial)
 }
 
 /// Machine parameters that moved by more than two standard deviations (of the final fit) when

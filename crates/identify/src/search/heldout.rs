@@ -140,7 +140,10 @@ fn fold_predictions(
     // value: a fold that holds out its stretch leaves it without data, where a Gauss–Newton
     // step (which knows no box) would throw it far outside its box.
     for (i, spec) in specs.iter_mut().enumerate() {
-        if study.effect_param(i).is_some_and(|p| p.nuisance) {
+        if study
+            .effect_param(i)
+            .is_some_and(|p| p.nuisance && p.kind == mtcal_effects::ParamKind::Shape)
+        {
             spec.fixed = true;
         }
     }

@@ -382,8 +382,8 @@ impl ScoredProblem for Scoring<'_> {
             prepared: Arc::clone(prepared),
             entries: Vec::new(),
             placed: Vec::new(),
-            pose_axis: vec![0.0; max_ch * na],
-            axis_jac: vec![0.0; 6 * na],
+            pose_axis: vec![0.0; max_ch * mtcal_effects::axis_slots(na)],
+            axis_jac: vec![0.0; 6 * mtcal_effects::axis_slots(na)],
             axis_scratch: self.study.axis_jacobian_scratch(),
         });
         let mut target = Target {
@@ -448,7 +448,7 @@ impl RowTarget for Target<'_, '_> {
 
     fn row(&mut self, row: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
         let run = &self.study.runs[eval.run];
-        let na = self.study.model.machine().n_axes();
+        let na = mtcal_effects::axis_slots(self.study.model.machine().n_axes());
         // Once per sample (rows come channel after channel, or group after group).
         if self.at != Some((eval.run, sample)) {
             self.at = Some((eval.run, sample));
