@@ -8,7 +8,7 @@ use crate::options::{StudyOptions, identify_key};
 use mtcal_effects::{
     AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
 };
-use mtcal_instrument::{Channel, InstrumentPlugin, Setup, SetupContext};
+use mtcal_instrument::{At, Channel, InstrumentPlugin, Setup, SetupContext};
 use mtcal_kinematics::Basis;
 use mtcal_kinematics::{AxisKind, MachineModel, ParamName};
 use mtcal_machine::{LoadedMachine, load_machine, params, topology::Reading};
@@ -244,6 +244,10 @@ pub struct AxisJacobianScratch {
     zeros: Vec<f64>,
     q: Vec<f64>,
 }
+
+/// Samples of one set-up looked at by `Study::field_like_nuisance` (an even stride through
+/// more).
+const FIELD_LIKE_SAMPLES: usize = 4000;
 
 /// How a rebuilt study differs from the session as written: what the physics search adds.
 #[derive(Clone, Debug, Default)]
@@ -761,7 +765,7 @@ impl Study {
         let (lo, hi) = self.tool_travel_m();
         let machine = self.model.machine();
         let axes = AxisView::of_machine(machine);
-        let field_like = crate::fit::field_like_nuisance(self);
+        let field_like = self.field_like_nuisance();
         let setups = self
             .setups
             .iter()
@@ -812,6 +816,85 @@ impl Study {
         SessionView::new(axes, setups, runs, model)
             .with_current(self.effects().iter().map(|e| e.info().clone()).collect())
             .with_tool_travel(lo, hi)
+    }
+
+    /// Per set-up and nuisance parameter: whether, at every fitted sample of the set-up, the
+    /// parameter moves the readings as one fixed shift of the tool in the machine frame does —
+    /// the least-squares fit of its derivative columns by the three machine-frame shift columns
+    /// ([`mtcal_kinematics::MachineModel::tool_motion_columns`]) leaves nothing. A ball visited
+    /// at one place, or whose height only a table turning about Z carries elsewhere: its drift
+    /// there and the machine's own field move the readings alike
+    /// ([`mtcal_effects::SetupView::field_like`]). A set-up without analytic derivatives says
+    /// no for every parameter.
+    fn field_like_nuisance(&self) -> Vec<Vec<bool>> {
+        let x = self.initial_x();
+        let coeffs = self.fit_coeffs_from(&x);
+        let model = &self.fit_model;
+        let na = model.machine().n_axes();
+        let mut ws = model.workspace();
+        let mut scratch = self.axis_jacobian_scratch();
+        let mut jac = vec![0.0; 6 * mtcal_effects::axis_slots(na)];
+        let mut q = vec![0.0; na];
+        (0..self.setups.len())
+            .map(|s| {
+                let setup = self.setups[s].setup.as_ref();
+                let (nn, nch) = (setup.nuisance().len(), setup.channels().len());
+                let nuis = self.nuisance_from(s, &x);
+                let (mut d_pose, mut d_nuis) = (vec![0.0; 6 * nch], vec![0.0; nch * nn]);
+                let runs: Vec<usize> = (0..self.runs.len())
+                    .filter(|&r| self.runs[r].setup == s && self.runs[r].fit)
+                    .collect();
+                let total: usize = runs.iter().map(|&r| self.runs[r].len()).sum();
+                if nn == 0 || total == 0 {
+                    return vec![false; nn];
+                }
+                // Normal equations of each parameter's column on the three shift columns.
+                let mut ata = nalgebra::Matrix3::<f64>::zeros();
+                let mut atb = vec![nalgebra::Vector3::<f64>::zeros(); nn];
+                let mut btb = vec![0.0; nn];
+                let stride = total.div_ceil(FIELD_LIKE_SAMPLES).max(1);
+                let mut k = 0usize;
+                for &r in &runs {
+                    let run = &self.runs[r];
+                    for i in 0..run.len() {
+                        k += 1;
+                        if k % stride != 0 {
+                            continue;
+                        }
+                        run.q.row_into(i, &mut q);
+                        let pose = model.tool_pose(&q, &coeffs, &mut ws);
+                        let at = At {
+                            q: &q,
+                            t: run.t.get(i),
+                            w_t_t: &pose,
+                            label: run.label(i),
+                        };
+                        if !setup.derivatives(&at, &nuis, &mut d_pose, &mut d_nuis) {
+                            return vec![false; nn];
+                        }
+                        self.axis_jacobian(r, i, &mut scratch, &mut jac);
+                        let shifts = &jac[6 * na..6 * na + 18];
+                        for (c, dp) in d_pose.chunks_exact(6).enumerate() {
+                            let a = nalgebra::Vector3::from_fn(|m, _| {
+                                (0..6).map(|p| dp[p] * shifts[6 * m + p]).sum::<f64>()
+                            });
+                            ata += a * a.transpose();
+                            for j in 0..nn {
+                                let b = d_nuis[c * nn + j];
+                                atb[j] += a * b;
+                                btb[j] += b * b;
+                            }
+                        }
+                    }
+                }
+                let pinv = ata
+                    .pseudo_inverse(1e-12 * ata.norm().max(f64::MIN_POSITIVE))
+                    .unwrap_or_else(|_| nalgebra::Matrix3::zeros());
+                (0..nn)
+                    .map(|j| btb[j] - atb[j].dot(&(pinv * atb[j])) <= 1e-8 * btb[j])
+                    .collect()
+            })
+            .collect()
     }
 
     /// The least and greatest coordinates of the nominal tool point in the machine frame over
