@@ -495,6 +495,9 @@ pub(crate) struct SampleEval<'a> {
     jac: Vec<f64>,
     /// The estimated coefficients are the fit model's, in its order: rows are plain copies.
     estimated_in_order: bool,
+    /// Whether some channel reads the tool pose: without one (sensors on their own) the
+    /// machine's columns stay zero and the pose needs no Jacobian.
+    reads_pose: bool,
     pub pred: Vec<f64>,
     /// `∂reading/∂pose`, one row of six per channel (whitened after the set-up wrote it).
     pub(crate) d_pose: Vec<[f64; 6]>,
@@ -568,6 +571,7 @@ impl<'a> SampleEval<'a> {
             ws: study.fit_model.workspace(),
             jac: vec![0.0; nch * study.fit_model.n_coeffs()],
             estimated_in_order: study.layout().estimated_in_order(),
+            reads_pose: (0..nch).any(|c| setup.reads_pose(c)),
             pred: vec![0.0; nch],
             d_pose: vec![[0.0; 6]; nch],
             d_nuis: vec![0.0; nch * nn],
@@ -592,7 +596,7 @@ impl<'a> SampleEval<'a> {
         let mut q_buf = std::mem::take(&mut self.q);
         run.q.row_into(i, &mut q_buf);
         let q = q_buf.as_slice();
-        let mut pose = if derivatives {
+        let mut pose = if derivatives && self.reads_pose {
             model.tool_pose_for_jacobian(q, &self.coeffs, &mut self.ws)
         } else {
             model.tool_pose(q, &self.coeffs, &mut self.ws)
@@ -647,7 +651,9 @@ impl<'a> SampleEval<'a> {
                     .iter_mut()
                     .for_each(|v| *v *= w);
             }
-            model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
+            if self.reads_pose {
+                model.project_tool_jacobian(&self.ws, &self.d_pose, &mut self.jac);
+            }
             if let Some(fx) = self.effects.as_mut() {
                 for (j, tw) in fx.twists.iter_mut().enumerate() {
                     *tw = if fx.out.axes_touched {
