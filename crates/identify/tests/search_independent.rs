@@ -800,33 +800,24 @@ fn a_drift_and_a_temperature_that_follows_it_are_named_together() {
     assert!(brief.contains("CANNOT TELL IT FROM"), "{brief}");
 }
 
-/// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it on a
-/// short course: the independent simulator's Y-drive load (the Y screw's scale growing
-/// 1.5 ppm/K with the drive's temperature, the spindle head turning about X with it, 3 µrad/K
-/// about a line far above the work volume), twelve cycles of fifteen visits, realistic noise.
-/// Both are named with the planted values inside their 95 % intervals, and nothing but thermal
-/// effects is claimed (before the balls' runs, which overlap in time, had their temperatures
-/// evaluated in time, the three-axis machine's scale growth went unnamed; before a set-up seen
-/// at one pose stopped being a candidate for a drift of its own, its balls were said to drift).
-fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, file: &str) {
-    use mtcal_indsim::{VolumetricLoad, VolumetricMachine, VolumetricSpec};
-    let thermal = [
-        "thermal-drift",
-        "temperature-coupling",
-        "thermal-expansion",
-        "thermal-model",
-        "thermal-tilt",
-    ];
+/// The independent simulator's volumetric session on `which` (`file` its URDF) from `spec`
+/// with realistic noise of `seed`, loaded as a user would and searched.
+fn searched_volumetric(
+    which: mtcal_indsim::VolumetricMachine,
+    file: &str,
+    spec: &mtcal_indsim::VolumetricSpec,
+    seed: u64,
+) -> SearchResult {
+    use mtcal_indsim::VolumetricMachine;
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
     let machine = Machine::from_urdf_file(&shipped_machine(file)).unwrap();
     let truth = Truth::zero(&machine);
-    let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 12);
-    let realism = Realism::realistic(7);
+    let realism = Realism::realistic(seed);
     match which {
-        VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, &spec, &realism),
+        VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, spec, &realism),
         VolumetricMachine::ThreeAxis => {
-            Campaign::volumetric_three_axis(&dir, &truth, &spec, &realism)
+            Campaign::volumetric_three_axis(&dir, &truth, spec, &realism)
         }
     }
     .unwrap();
@@ -836,6 +827,28 @@ fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, fil
     if let Some(base) = &base {
         result.apply_base(base).unwrap();
     }
+    result
+}
+
+/// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it on a
+/// short course: the independent simulator's Y-drive load (the Y screw's scale growing
+/// 1.5 ppm/K with the drive's temperature, the spindle head turning about X with it, 3 µrad/K
+/// about a line far above the work volume), twelve cycles of fifteen visits, realistic noise.
+/// Both are named with the planted values inside their 95 % intervals, and nothing but thermal
+/// effects is claimed (before the balls' runs, which overlap in time, had their temperatures
+/// evaluated in time, the three-axis machine's scale growth went unnamed; before a set-up seen
+/// at one pose stopped being a candidate for a drift of its own, its balls were said to drift).
+fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, file: &str) {
+    use mtcal_indsim::{VolumetricLoad, VolumetricSpec};
+    let thermal = [
+        "thermal-drift",
+        "temperature-coupling",
+        "thermal-expansion",
+        "thermal-model",
+        "thermal-tilt",
+    ];
+    let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 12);
+    let result = searched_volumetric(which, file, &spec, 7);
     let id = &result.identification;
     let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
     for d in &id.discoveries {
@@ -999,30 +1012,13 @@ fn planted_in(case: &VolumetricCase) -> Vec<Planted> {
 /// discoveries that name nothing planted, and the withheld cycle's prediction error over the
 /// noise the fit estimated.
 fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, String) {
-    use mtcal_indsim::{AmbientChange, VolumetricMachine, VolumetricSpec};
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("session");
-    let machine = Machine::from_urdf_file(&shipped_machine(case.file)).unwrap();
-    let truth = Truth::zero(&machine);
+    use mtcal_indsim::{AmbientChange, VolumetricSpec};
     let mut spec = VolumetricSpec::new(case.load);
     spec.stream = None;
     if case.ambient {
         spec.ambient_step = Some(AmbientChange::air_conditioning_failure());
     }
-    let realism = Realism::realistic(case.seed);
-    match case.which {
-        VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, &spec, &realism),
-        VolumetricMachine::ThreeAxis => {
-            Campaign::volumetric_three_axis(&dir, &truth, &spec, &realism)
-        }
-    }
-    .unwrap();
-    let (study, base) =
-        base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
-    let mut result = search(study, &SearchOptions::default()).unwrap();
-    if let Some(base) = &base {
-        result.apply_base(base).unwrap();
-    }
+    let result = searched_volumetric(case.which, case.file, &spec, case.seed);
     let id = &result.identification;
     let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
     let planted = planted_in(case);
@@ -1059,7 +1055,7 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
             count += c.samples;
         }
     }
-    let worst = (sum / count.max(1) as f64).sqrt() / realism.noise_sigma_um;
+    let worst = (sum / count.max(1) as f64).sqrt() / Realism::realistic(case.seed).noise_sigma_um;
     let text = format!(
         "{:?} {:?} ambient {} seed {}: {named}/{} named, false {false_claims:?}, withheld {worst:.2} × noise {notes:?}\n{summary}",
         case.which,

@@ -45,15 +45,10 @@ fn drift_candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
     for (s, setup) in view.setups.iter().enumerate() {
         // The set-up must be in use for a while in fitted runs: a first and a later time.
-        let times: Vec<f64> = view
-            .runs
-            .iter()
-            .filter(|r| r.setup == s && r.fit)
-            .flat_map(|r| [r.first_time(), r.last_time()])
-            .flatten()
-            .collect();
-        let span = times.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-            - times.iter().copied().fold(f64::INFINITY, f64::min);
+        let Some((first, last)) = fitted_span(view, s) else {
+            continue;
+        };
+        let span = last - first;
         if span.is_nan() || span <= 0.0 {
             continue;
         }
