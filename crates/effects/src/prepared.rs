@@ -122,6 +122,7 @@ impl PreparedEffects {
             jr: vec![0.0; np * max_channels],
             jg: vec![0.0; np * max_channels],
             axes_touched: false,
+            written: 0,
             f: vec![0.0; max_terms],
             df: vec![0.0; max_terms * max_shapes.max(1)],
         }
@@ -254,24 +255,28 @@ pub struct SampleEffects {
     pub jg: Vec<f64>,
     /// Whether any term acted on an axis (the caller needs the axis Jacobian only then).
     pub axes_touched: bool,
+    /// Which of `jq`, `jn`, `jr`, `jg` (bits 0–3) hold something since the last clear: a
+    /// sample clears only those (a joint thermal model of a channel writes `jr` alone, and
+    /// the others are hundreds of parameters wide).
+    written: u8,
     f: Vec<f64>,
     df: Vec<f64>,
 }
 
 impl SampleEffects {
     fn clear(&mut self) {
-        for v in [
-            &mut self.dq,
-            &mut self.dn,
-            &mut self.dr,
-            &mut self.gain,
-            &mut self.jq,
-            &mut self.jn,
-            &mut self.jr,
-            &mut self.jg,
-        ] {
+        for v in [&mut self.dq, &mut self.dn, &mut self.dr, &mut self.gain] {
             v.fill(0.0);
         }
+        for (bit, v) in [&mut self.jq, &mut self.jn, &mut self.jr, &mut self.jg]
+            .into_iter()
+            .enumerate()
+        {
+            if self.written & (1 << bit) != 0 {
+                v.fill(0.0);
+            }
+        }
+        self.written = 0;
         self.axes_touched = false;
     }
 
@@ -285,14 +290,24 @@ impl SampleEffects {
             }
             (Slot::Axis(a), Some(p)) => {
                 self.jq[p * self.n_axes + a] += v;
+                self.written |= 1;
                 self.axes_touched = true;
             }
             (Slot::Nuisance(j), None) => self.dn[j] += v,
-            (Slot::Nuisance(j), Some(p)) => self.jn[p * self.n_nuis + j] += v,
+            (Slot::Nuisance(j), Some(p)) => {
+                self.jn[p * self.n_nuis + j] += v;
+                self.written |= 2;
+            }
             (Slot::Channel(c), None) => self.dr[c] += v,
-            (Slot::Channel(c), Some(p)) => self.jr[p * self.n_ch + c] += v,
+            (Slot::Channel(c), Some(p)) => {
+                self.jr[p * self.n_ch + c] += v;
+                self.written |= 4;
+            }
             (Slot::Gain(c), None) => self.gain[c] += v,
-            (Slot::Gain(c), Some(p)) => self.jg[p * self.n_ch + c] += v,
+            (Slot::Gain(c), Some(p)) => {
+                self.jg[p * self.n_ch + c] += v;
+                self.written |= 8;
+            }
         }
     }
 }

@@ -174,9 +174,14 @@ impl FoldOf {
     /// Whether sample `sample` of run `run` is left out when fold `k` is held out: the fold
     /// itself, and for a forecast everything after it as well.
     pub fn held(&self, run: usize, sample: usize, k: usize) -> bool {
+        self.holds(self.of(run, sample), k)
+    }
+
+    /// Whether fold `j`'s samples are left out when fold `k` is held out.
+    pub fn holds(&self, j: usize, k: usize) -> bool {
         match self {
-            FoldOf::Forecast { .. } => self.of(run, sample) >= k,
-            _ => self.of(run, sample) == k,
+            FoldOf::Forecast { .. } => j >= k,
+            _ => j == k,
         }
     }
 }
@@ -320,6 +325,9 @@ pub(crate) struct Row<'r> {
     /// The sample before a block that starts inside a run: given only so that a target can
     /// prime its own filter, not a row of the block.
     pub seed: bool,
+    /// The sample (run, index) the noise filter continues from, when it does
+    /// (`step.continued`).
+    pub from: Option<(usize, usize)>,
 }
 
 impl RowTarget for RowSink<'_> {
@@ -349,7 +357,6 @@ impl FitProblem<'_> {
             .as_ref()
             .expect("fitted runs have readings (checked when loading)");
         let mut eval = SampleEval::new(study, r, x, self.effects_at(x));
-        let full = study.layout().columns_of_setup(run.setup).count();
         let nch = eval.n_channels();
         let phi: Vec<f64> = (0..nch).map(|c| study.noise(r, c).phi).collect();
         let coloured = phi.iter().any(|&p| p != 0.0);
@@ -373,7 +380,6 @@ impl FitProblem<'_> {
         } else {
             start
         };
-        let mut whole = vec![0.0; full];
         for group in &self.groups[run.setup] {
             target.columns(&group.cols);
             let w = group.cols.len();
@@ -384,14 +390,8 @@ impl FitProblem<'_> {
             let mut last: Option<usize> = None;
             let mut from_previous = false;
             if let Some((p, peval)) = &mut previous {
-                from_previous = seed_from(
-                    peval,
-                    &study.runs[*p],
-                    group,
-                    &mut whole,
-                    &mut prev_res,
-                    &mut prev_jac,
-                );
+                from_previous =
+                    seed_from(peval, &study.runs[*p], group, &mut prev_res, &mut prev_jac);
             }
             for i in first..end {
                 if held(i) {
@@ -412,10 +412,7 @@ impl FitProblem<'_> {
                             study.channels(r)[c].name
                         )));
                     }
-                    eval.whitened_row(c, &mut whole);
-                    for (v, &k) in raw.iter_mut().zip(&group.place) {
-                        *v = whole[k];
-                    }
+                    eval.whitened_row(c, &group.place, &mut raw);
                     let step = ArStep {
                         phi: phi[c],
                         continued,
@@ -429,6 +426,10 @@ impl FitProblem<'_> {
                     } else {
                         out.copy_from_slice(&raw);
                     }
+                    let from = continued.then(|| match (i, &previous) {
+                        (0, Some((p, _))) => (*p, study.runs[*p].len() - 1),
+                        _ => (r, i - 1),
+                    });
                     let row = Row {
                         res,
                         jac: &out,
@@ -436,6 +437,7 @@ impl FitProblem<'_> {
                         raw_jac: &raw,
                         step,
                         seed: i < start,
+                        from,
                     };
                     target.row(&row, &eval, i, c);
                     if coloured {
@@ -457,7 +459,6 @@ fn seed_from(
     eval: &mut SampleEval<'_>,
     run: &crate::study::RunSlot,
     group: &ChannelGroup,
-    whole: &mut [f64],
     prev_res: &mut [f64],
     prev_jac: &mut [f64],
 ) -> bool {
@@ -472,10 +473,7 @@ fn seed_from(
         if !raw_res.is_finite() {
             return false;
         }
-        eval.whitened_row(c, whole);
-        for (v, &k) in prev_jac[c * w..(c + 1) * w].iter_mut().zip(&group.place) {
-            *v = whole[k];
-        }
+        eval.whitened_row(c, &group.place, &mut prev_jac[c * w..(c + 1) * w]);
         prev_res[c] = raw_res;
     }
     true
@@ -751,38 +749,45 @@ impl<'a> SampleEval<'a> {
         }
     }
 
-    /// The whitened Jacobian row of channel `c` over the run's columns: estimated machine
-    /// coefficients, then the set-up's free nuisance parameters.
-    pub fn whitened_row(&self, c: usize, row: &mut [f64]) {
+    /// The whitened Jacobian row of channel `c` at the places `place` of the run's full row
+    /// (estimated machine coefficients, then the set-up's free nuisance parameters, then every
+    /// effect's parameters): only the entries a group of rows has (a joint thermal model of
+    /// five sensors: one sensor's rows need its own model's columns, not all five).
+    pub fn whitened_row(&self, c: usize, place: &[usize], row: &mut [f64]) {
         let study = self.study;
         let n = study.fit_model.n_coeffs();
         let jac = &self.jac[c * n..(c + 1) * n];
-        if self.estimated_in_order {
-            row[..n].copy_from_slice(jac);
-        } else {
-            for (o, &k) in row.iter_mut().zip(study.layout().estimated_in_fit()) {
-                *o = jac[k];
-            }
-        }
+        let estimated = study.layout().estimated_in_fit();
         let free = study.layout().free(study.runs[self.run].setup);
         let nn = self.nuis.len();
         let m = study.layout().n_machine();
-        for (j, &i) in free.iter().enumerate() {
-            row[m + j] = self.d_nuis[c * nn + i];
-        }
-        if let Some(fx) = &self.effects {
-            // Effect parameters: through the axes, the nuisance parameters and the reading.
-            let base = m + free.len();
-            let d_nuis = &self.d_nuis[c * nn..(c + 1) * nn];
-            let out = &fx.out;
-            for (j, tw) in fx.twists.iter().enumerate() {
+        let base = m + free.len();
+        let d_nuis = &self.d_nuis[c * nn..(c + 1) * nn];
+        for (o, &k) in row.iter_mut().zip(place) {
+            *o = if k < m {
+                jac[if self.estimated_in_order {
+                    k
+                } else {
+                    estimated[k]
+                }]
+            } else if k < base {
+                d_nuis[free[k - m]]
+            } else {
+                // Effect parameters: through the axes, the nuisance parameters and the reading.
+                let fx = self
+                    .effects
+                    .as_ref()
+                    .expect("a row's effect columns come with the effects");
+                let j = k - base;
+                let out = &fx.out;
+                let tw = &fx.twists[j];
                 let mut v: f64 = (0..6).map(|k| self.d_pose[c][k] * tw[k]).sum();
                 let jn = &out.jn[j * out.n_nuis..][..nn];
                 v += d_nuis.iter().zip(jn).map(|(a, b)| a * b).sum::<f64>();
                 v += (out.jr[j * out.n_ch + c] + out.jg[j * out.n_ch + c] * fx.raw[c])
                     * self.inv_sigma[c];
-                row[base + j] = v;
-            }
+                v
+            };
         }
     }
 }

@@ -217,6 +217,23 @@ impl Identification {
         study: &Study,
         solution: &Solution,
     ) -> Result<Identification, mtcal_mismatch::MismatchError> {
+        Self::build(study, solution, true)
+    }
+
+    /// The report without its mismatch analysis (the costly part: a periodogram per channel
+    /// and variable), for a state of which only the fit and the validation are read.
+    pub(crate) fn without_mismatch(
+        study: &Study,
+        solution: &Solution,
+    ) -> Result<Identification, mtcal_mismatch::MismatchError> {
+        Self::build(study, solution, false)
+    }
+
+    fn build(
+        study: &Study,
+        solution: &Solution,
+        analysed: bool,
+    ) -> Result<Identification, mtcal_mismatch::MismatchError> {
         let x = solution.x.clone();
         let mut parameters = Vec::new();
         for (i, &xi) in x.iter().enumerate() {
@@ -257,7 +274,9 @@ impl Identification {
                 continue;
             }
             let pred = crate::fit::predict_run_with(study, r, &x, prepared.clone());
-            summaries.extend(crate::mismatch::run_summary(study, r, &pred));
+            if analysed {
+                summaries.extend(crate::mismatch::run_summary(study, r, &pred));
+            }
             let fit = run_fit(study, r, &pred);
             if study.runs[r].fit {
                 runs.push(fit);

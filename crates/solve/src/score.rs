@@ -269,6 +269,11 @@ impl ScoreAcc {
         }
         for &k in &self.multi {
             let z = &extra[self.ranges[k].clone()];
+            // A candidate that does not reach this row (another sensor's joint model) adds
+            // nothing: skipped, not summed as zeros (most rows, most candidates).
+            if z.iter().all(|&v| v == 0.0) {
+                continue;
+            }
             let zz = &mut self.zz[k];
             let n = z.len();
             for i in 0..n {

@@ -10,14 +10,48 @@ use crate::findings::Heldout;
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_solve::{Silent, Solution};
+use std::cell::OnceCell;
 use std::collections::HashMap;
 
 /// One fitted model.
 pub(super) struct Fitted {
     pub(super) study: Study,
     pub(super) solution: Solution,
-    pub(super) id: Identification,
+    /// Its report, built when first asked for ([`Fitted::id`]): most fits of the search are
+    /// judged and left, and a report's mismatch analysis costs as much as a refit.
+    id: OnceCell<Identification>,
     pub(super) heldout: Heldout,
+}
+
+impl Fitted {
+    pub(super) fn new(study: Study, solution: Solution, heldout: Heldout) -> Self {
+        Self {
+            study,
+            solution,
+            id: OnceCell::new(),
+            heldout,
+        }
+    }
+
+    /// The report of this fit.
+    pub(super) fn id(&self) -> Result<&Identification, IdentifyError> {
+        if let Some(id) = self.id.get() {
+            return Ok(id);
+        }
+        let id = Identification::new(&self.study, &self.solution)?;
+        Ok(self.id.get_or_init(|| id))
+    }
+
+    /// The report of this fit, and the fit's study and solution.
+    pub(super) fn into_parts(
+        self,
+    ) -> Result<(Study, Solution, Identification, Heldout), IdentifyError> {
+        let id = match self.id.into_inner() {
+            Some(id) => id,
+            None => Identification::new(&self.study, &self.solution)?,
+        };
+        Ok((self.study, self.solution, id, self.heldout))
+    }
 }
 
 /// `fitted` on the noise its residuals show ([`crate::noise`]): every decision of the search is
@@ -64,14 +98,8 @@ pub(super) fn fit(
 ) -> Result<Fitted, IdentifyError> {
     let x0 = x0.unwrap_or_else(|| study.initial_x());
     let solution = solve(&study, &x0, options, &[])?;
-    let id = Identification::new(&study, &solution)?;
     let heldout = heldout(&study, &solution.x, options)?;
-    Ok(Fitted {
-        study,
-        solution,
-        id,
-        heldout,
-    })
+    Ok(Fitted::new(study, solution, heldout))
 }
 
 /// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at

@@ -1,6 +1,6 @@
-//! Cross-validation, the held-out check of step 2: [`heldout`] (every fold's refit from the full
-//! fit's normal equations, in one pass) and [`choose_width`] (a joint model's prior width by
-//! leaving each fitted run out). Uses the settings; gives [`Heldout`] to the fit helpers
+//! Cross-validation, the held-out check of step 2: [`heldout`] (every fold's refit from the
+//! session's rows evaluated once, reduced fold by fold) and [`choose_width`] (a joint model's
+//! prior width by leaving each fitted run out). Uses the settings; gives [`Heldout`] to the fit helpers
 //! (`fitted`) and the step.
 
 use super::settings::{CrossValidation, SearchOptions};
@@ -20,21 +20,24 @@ use std::sync::Arc;
 /// accuracy that matters here), `δ_k = −R_k⁺z_k` from the streaming QR factor of the other
 /// folds' rows ([`mtcal_solve::linearize`], with the solver's column scaling and rank rule: the
 /// normal equations would square the condition number, and a direction the data barely see
-/// would move by metres on their rounding). The left-out rows enter only through their normal
-/// equations `A_k = J_kᵀJ_k`, `g_k = J_kᵀr_k`, summed for every fold in one pass: their
-/// residuals become `r_k + J_k·δ_k`, whose sum of squares is `r_kᵀr_k + 2δ_kᵀg_k + δ_kᵀA_kδ_k`.
-/// One factor per fold and no iteration, instead of a fit per fold.
+/// would move by metres on their rounding). The session's rows are evaluated once at `x`
+/// ([`RowCache`]) and reduced, fold by fold and per column set, to their own QR factors
+/// ([`FoldFactors`]): a fold's training rows are the other folds' factors, a few hundred rows
+/// instead of the session's tens of thousands, and the same least-squares problem. The
+/// left-out rows are then predicted as they are, `r_k + J_k·δ_k`. One evaluation of the model
+/// and one small factorisation per fold, instead of a fit per fold.
 pub fn heldout(
     study: &Study,
     x: &[f64],
     options: &SearchOptions,
 ) -> Result<Heldout, IdentifyError> {
     let (folds, assign) = fold_assignment(study, options);
+    let cache = RowCache::build(study, x)?;
     let inner = fold_predictions(
         study,
         x,
         options.solver.rank_tolerance,
-        folds,
+        (&cache, &FoldFactors::new(&cache, &assign, folds)?),
         &assign,
         0..folds,
         Refit::Everything,
@@ -43,12 +46,12 @@ pub fn heldout(
         (w + f.whitened, u + f.units, c + f.count)
     });
     let forecast = match forecast_assignment(study) {
-        Some((cuts, assign)) => fold_predictions(
+        Some((cuts, forecast)) => fold_predictions(
             study,
             x,
             options.solver.rank_tolerance,
-            cuts + 1,
-            &assign,
+            (&cache, &FoldFactors::new(&cache, &forecast, cuts + 1)?),
+            &forecast,
             1..cuts + 1,
             Refit::EffectsOnly,
         )?,
@@ -116,15 +119,15 @@ fn forecast_assignment(study: &Study) -> Option<(usize, FoldOf)> {
     Some((cuts.len(), FoldOf::Forecast { offsets, cuts }))
 }
 
-/// Each fold `k` of `wanted` (of `assign`'s `folds`) left out ([`FoldOf::held`]), the model
-/// refitted on the rest by one Gauss–Newton step from `x` (what `refit` says), and the fold's
-/// samples predicted.
-/// Folds without samples are left out of the result.
+/// Each fold `k` of `wanted` (of `factors`' assignment `assign`) left out
+/// ([`FoldOf::held`]), the model refitted on the rest by one Gauss–Newton step from `x` (what
+/// `refit` says), and the fold's rows of `cache` predicted. Folds without rows are left out
+/// of the result.
 fn fold_predictions(
     study: &Study,
     x: &[f64],
     rank_tolerance: f64,
-    folds: usize,
+    (cache, factors): (&RowCache, &FoldFactors),
     assign: &FoldOf,
     wanted: std::ops::Range<usize>,
     refit: Refit,
@@ -147,18 +150,21 @@ fn fold_predictions(
             spec.fixed = true;
         }
     }
-    let total = fold_sums(study, x, folds, assign)?;
-    let mut out = Vec::new();
-    for k in wanted {
-        if total.count[k] == 0 {
+    let information = match refit {
+        Refit::EffectsOnly => factors.information(),
+        Refit::Everything => Vec::new(),
+    };
+    let mut steps: Vec<Option<Vec<f64>>> = vec![None; factors.count.len()];
+    for k in wanted.clone() {
+        if factors.count[k] == 0 {
             continue;
         }
         let specs = match refit {
-            Refit::EffectsOnly => barely_seen_held(&specs, &total, k),
+            Refit::EffectsOnly => barely_seen_held(&specs, &information, k),
             Refit::Everything => specs.clone(),
         };
         let delta = if specs.iter().any(|s| !s.fixed) {
-            let training = FitProblem::without_fold(study, Some((assign.clone(), k)));
+            let training = factors.training(assign, k);
             let lin = mtcal_solve::linearize(&training, &specs, x, 0)?;
             let delta = lin.step(rank_tolerance)?;
             // A shape (a bump's centre, a time constant) the training part barely sees can be
@@ -190,31 +196,396 @@ fn fold_predictions(
         } else {
             vec![0.0; n]
         };
-        let quad = |a: &[f64], g: &[f64], rr: f64| -> f64 {
-            let mut q = rr;
-            for i in 0..n {
-                q += 2.0 * delta[i] * g[i];
-                for j in 0..n {
-                    q += delta[i] * a[i * n + j] * delta[j];
+        steps[k] = Some(delta);
+    }
+    // Each fold's rows with its own refit's step: `r + J·δ`, prewhitened (the decision's
+    // statistic) and as they stand in the channels' units (the RMS the user reads).
+    let mut whitened = vec![0.0; steps.len()];
+    let mut units = vec![0.0; steps.len()];
+    for group in cache.blocks.iter().flatten() {
+        let w = group.cols.len();
+        for (i, row) in group.rows.iter().enumerate() {
+            let k = assign.of(row.run, row.sample);
+            let Some(delta) = &steps[k] else { continue };
+            let moved = |jac: &[f64], res: f64| {
+                res + group
+                    .cols
+                    .iter()
+                    .zip(jac)
+                    .map(|(&c, &j)| j * delta[c])
+                    .sum::<f64>()
+            };
+            whitened[k] += moved(&group.jac[i * w..(i + 1) * w], row.res).powi(2);
+            units[k] +=
+                (moved(&group.raw_jac[i * w..(i + 1) * w], row.raw_res) * row.sigma).powi(2);
+        }
+    }
+    Ok(wanted
+        .filter(|&k| steps[k].is_some())
+        .map(|k| FoldPrediction {
+            whitened: whitened[k],
+            units: units[k],
+            count: factors.count[k],
+        })
+        .collect())
+}
+
+/// The full fit's rows at one parameter vector, evaluated once for every fold's refit and
+/// prediction: a fold's training problem is the session's rows without the fold's, and the
+/// rows do not change with the fold — the model is evaluated at the same `x` — except where
+/// the noise filter continues from a sample the fold leaves out and starts again (the row as
+/// it stands). Every row is kept in both forms: prewhitened, as the fit sees it, and as it
+/// stands (whitened by its σ alone), which also gives the residual in the channel's units.
+struct RowCache {
+    n: usize,
+    /// Per block of the fit ([`FitProblem`]), its groups of rows.
+    blocks: Vec<Vec<CachedGroup>>,
+}
+
+/// A group of rows sharing their columns (one channel group of a block).
+struct CachedGroup {
+    cols: Vec<usize>,
+    rows: Vec<CachedRow>,
+    /// `rows.len() × cols.len()` each: the rows prewhitened, and as they stand.
+    jac: Vec<f64>,
+    raw_jac: Vec<f64>,
+}
+
+struct CachedRow {
+    run: usize,
+    sample: usize,
+    /// The residual prewhitened and as it stands (in units of σ), and σ (SI).
+    res: f64,
+    raw_res: f64,
+    sigma: f64,
+    /// The sample the noise filter continues from, where it does.
+    from: Option<(usize, usize)>,
+}
+
+impl RowCache {
+    /// The rows of `study` at `x` (lanes merged in block order: the same cache on any
+    /// number of cores).
+    fn build(study: &Study, x: &[f64]) -> Result<Self, IdentifyError> {
+        let problem = FitProblem::new(study);
+        let blocks = problem.n_blocks();
+        let mut parts: Vec<Vec<(usize, Vec<CachedGroup>)>> = (0..mtcal_solve::lane_count(blocks))
+            .map(|_| Vec::new())
+            .collect();
+        mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, cached| {
+            let mut target = CacheTarget { groups: Vec::new() };
+            let res = problem.walk_rows(b, x, &mut target).map_err(|source| {
+                mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
                 }
-            }
-            q.max(0.0)
-        };
-        out.push(FoldPrediction {
-            whitened: quad(
-                &total.a[k * n * n..(k + 1) * n * n],
-                &total.g[k * n..(k + 1) * n],
-                total.rr[k],
-            ),
-            units: quad(
-                &total.au[k * n * n..(k + 1) * n * n],
-                &total.gu[k * n..(k + 1) * n],
-                total.rru[k],
-            ),
-            count: total.count[k],
+            });
+            cached.push((b, target.groups));
+            res
+        })?;
+        let mut by_block: Vec<Vec<CachedGroup>> = (0..blocks).map(|_| Vec::new()).collect();
+        for (b, groups) in parts.into_iter().flatten() {
+            by_block[b] = groups;
+        }
+        Ok(Self {
+            n: study.layout().n_x(),
+            blocks: by_block,
+        })
+    }
+}
+
+/// Where [`RowCache::build`] sends a block's rows.
+struct CacheTarget {
+    groups: Vec<CachedGroup>,
+}
+
+impl RowTarget for CacheTarget {
+    fn columns(&mut self, cols: &[usize]) {
+        self.groups.push(CachedGroup {
+            cols: cols.to_vec(),
+            rows: Vec::new(),
+            jac: Vec::new(),
+            raw_jac: Vec::new(),
         });
     }
-    Ok(out)
+
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
+        if out.seed {
+            return;
+        }
+        let group = self
+            .groups
+            .last_mut()
+            .expect("a group's columns come before its rows");
+        group.jac.extend_from_slice(out.jac);
+        group.raw_jac.extend_from_slice(out.raw_jac);
+        group.rows.push(CachedRow {
+            run: eval.run,
+            sample,
+            res: out.res,
+            raw_res: out.raw_res,
+            sigma: 1.0 / eval.inv_sigma[channel],
+            from: out.from,
+        });
+    }
+}
+
+/// One assignment's rows reduced, per fold and per column set of the rows, to the triangular
+/// factor of their QR decomposition `[R | z]` (`RᵀR = JᵀJ`, `Rᵀz = Jᵀr`, by the solver's own
+/// streaming QR): a fold's training rows are then the other folds' factors — a few hundred
+/// rows where the session has tens of thousands — and the same least-squares problem. Rows
+/// whose noise filter continues from a sample of another fold are kept apart in both forms.
+struct FoldFactors {
+    n: usize,
+    /// The distinct column sets of the rows.
+    keys: Vec<Vec<usize>>,
+    /// Per key, per fold: its factor.
+    factors: Vec<Vec<Factor>>,
+    /// Per key: the rows that continue a sample of another fold.
+    boundaries: Vec<Vec<BoundaryRow>>,
+    /// Per fold: its rows.
+    count: Vec<usize>,
+}
+
+/// A QR factor's rows, `w + 1` values each (the row of `R`, then `z`).
+#[derive(Default)]
+struct Factor {
+    rows: Vec<f64>,
+}
+
+/// A row whose noise filter continues from a sample of another fold: prewhitened and as it
+/// stands (the filter starting again), `w + 1` values each.
+struct BoundaryRow {
+    fold: usize,
+    from_fold: usize,
+    chained: Vec<f64>,
+    alone: Vec<f64>,
+}
+
+impl FoldFactors {
+    fn new(cache: &RowCache, assign: &FoldOf, folds: usize) -> Result<Self, IdentifyError> {
+        let mut keys: Vec<Vec<usize>> = Vec::new();
+        let mut key_of = Vec::new();
+        let mut boundaries: Vec<Vec<BoundaryRow>> = Vec::new();
+        let mut count = vec![0; folds];
+        for group in cache.blocks.iter().flatten() {
+            let key = match keys.iter().position(|k| *k == group.cols) {
+                Some(key) => key,
+                None => {
+                    keys.push(group.cols.clone());
+                    boundaries.push(Vec::new());
+                    keys.len() - 1
+                }
+            };
+            key_of.push(key);
+            let w = group.cols.len();
+            for (i, row) in group.rows.iter().enumerate() {
+                let fold = assign.of(row.run, row.sample);
+                count[fold] += 1;
+                let Some(from_fold) = row.from.map(|(r, s)| assign.of(r, s)) else {
+                    continue;
+                };
+                if from_fold != fold {
+                    let with = |jac: &[f64], res: f64| {
+                        let mut v = jac[i * w..(i + 1) * w].to_vec();
+                        v.push(res);
+                        v
+                    };
+                    boundaries[key].push(BoundaryRow {
+                        fold,
+                        from_fold,
+                        chained: with(&group.jac, row.res),
+                        alone: with(&group.raw_jac, row.raw_res),
+                    });
+                }
+            }
+        }
+        // Every (key, fold) reduced on its own: the lanes only share out the work.
+        let jobs = keys.len() * folds;
+        let mut parts: Vec<Vec<(usize, Factor)>> = (0..mtcal_solve::lane_count(jobs))
+            .map(|_| Vec::new())
+            .collect();
+        mtcal_solve::run_lanes(jobs, &mut parts, 0, |job, out| {
+            let (key, fold) = (job / folds, job % folds);
+            let w = keys[key].len();
+            let mut rows = Vec::new();
+            for (group, _) in cache
+                .blocks
+                .iter()
+                .flatten()
+                .zip(&key_of)
+                .filter(|(_, k)| **k == key)
+            {
+                for (i, row) in group.rows.iter().enumerate() {
+                    let inside = assign.of(row.run, row.sample) == fold;
+                    let apart = row.from.is_some_and(|(r, s)| assign.of(r, s) != fold);
+                    if inside && !apart {
+                        rows.extend_from_slice(&group.jac[i * w..(i + 1) * w]);
+                        rows.push(row.res);
+                    }
+                }
+            }
+            out.push((job, reduced(w, rows)?));
+            Ok::<(), IdentifyError>(())
+        })?;
+        let mut factors: Vec<Vec<Factor>> = (0..keys.len())
+            .map(|_| (0..folds).map(|_| Factor::default()).collect())
+            .collect();
+        for (job, factor) in parts.into_iter().flatten() {
+            factors[job / folds][job % folds] = factor;
+        }
+        Ok(Self {
+            n: cache.n,
+            keys,
+            factors,
+            boundaries,
+            count,
+        })
+    }
+
+    /// The training problem of fold `k` of the assignment the factors were made for.
+    fn training<'a>(&'a self, assign: &'a FoldOf, k: usize) -> Training<'a> {
+        Training {
+            factors: self,
+            assign,
+            k,
+        }
+    }
+
+    /// Each fold's rows of `[J | r]` (its factor's and its boundary rows prewhitened) with
+    /// `f(fold, cols, row, residual)`.
+    fn for_each_row(&self, mut f: impl FnMut(usize, &[usize], &[f64], f64)) {
+        for (key, cols) in self.keys.iter().enumerate() {
+            let w = cols.len();
+            for (fold, factor) in self.factors[key].iter().enumerate() {
+                for row in factor.rows.chunks_exact(w + 1) {
+                    f(fold, cols, &row[..w], row[w]);
+                }
+            }
+            for b in &self.boundaries[key] {
+                f(b.fold, cols, &b.chained[..w], b.chained[w]);
+            }
+        }
+    }
+
+    /// Every fold's information on each parameter: the diagonal of its normal equations.
+    fn information(&self) -> Vec<Vec<f64>> {
+        let mut out = vec![vec![0.0; self.n]; self.count.len()];
+        self.for_each_row(|fold, cols, jac, _| {
+            for (&c, &j) in cols.iter().zip(jac) {
+                out[fold][c] += j * j;
+            }
+        });
+        out
+    }
+}
+
+/// `rows` (`w + 1` values each: a row of `w` columns, then its residual) reduced to their QR
+/// factor by the solver's own streaming QR.
+fn reduced(w: usize, rows: Vec<f64>) -> Result<Factor, IdentifyError> {
+    if rows.is_empty() || w == 0 {
+        return Ok(Factor::default());
+    }
+    let free: Vec<ParamSpec> = (0..w)
+        .map(|i| ParamSpec {
+            name: format!("c{i}"),
+            initial: 0.0,
+            fixed: false,
+            prior: None,
+            bounds: None,
+            group: None,
+            scale: None,
+        })
+        .collect();
+    let lin = mtcal_solve::linearize(&StackedRows { w, rows }, &free, &vec![0.0; w], 1)?;
+    let mut out = Vec::with_capacity(w * (w + 1));
+    for i in 0..w {
+        let row = &lin.r[i * w..(i + 1) * w];
+        if row.iter().any(|&v| v != 0.0) || lin.z[i] != 0.0 {
+            out.extend_from_slice(row);
+            out.push(lin.z[i]);
+        }
+    }
+    Ok(Factor { rows: out })
+}
+
+/// Rows given as they are, `w + 1` values each ([`reduced`]).
+struct StackedRows {
+    w: usize,
+    rows: Vec<f64>,
+}
+
+impl Problem for StackedRows {
+    fn n_params(&self) -> usize {
+        self.w
+    }
+    fn n_blocks(&self) -> usize {
+        1
+    }
+    fn eval_block(
+        &self,
+        _: usize,
+        _: &[f64],
+        sink: &mut mtcal_solve::RowSink<'_>,
+    ) -> Result<(), mtcal_solve::EvalError> {
+        let cols: Vec<usize> = (0..self.w).collect();
+        sink.columns(&cols);
+        for row in self.rows.chunks_exact(self.w + 1) {
+            sink.row(row[self.w], &row[..self.w]);
+        }
+        Ok(())
+    }
+}
+
+/// The training rows of one fold's refit ([`FoldFactors`]): the other folds' factors, and the
+/// rows at a fold's boundary in the form the left-out fold leaves them.
+struct Training<'a> {
+    factors: &'a FoldFactors,
+    assign: &'a FoldOf,
+    k: usize,
+}
+
+impl Problem for Training<'_> {
+    fn n_params(&self) -> usize {
+        self.factors.n
+    }
+
+    fn n_blocks(&self) -> usize {
+        self.factors.keys.len()
+    }
+
+    fn eval_block(
+        &self,
+        key: usize,
+        _: &[f64],
+        sink: &mut mtcal_solve::RowSink<'_>,
+    ) -> Result<(), mtcal_solve::EvalError> {
+        let f = self.factors;
+        let cols = &f.keys[key];
+        let w = cols.len();
+        sink.columns(cols);
+        let held = |fold: usize| self.assign.holds(fold, self.k);
+        for (fold, factor) in f.factors[key].iter().enumerate() {
+            if held(fold) {
+                continue;
+            }
+            for row in factor.rows.chunks_exact(w + 1) {
+                sink.row(row[w], &row[..w]);
+            }
+        }
+        for b in &f.boundaries[key] {
+            if held(b.fold) {
+                continue;
+            }
+            // The filter's sample is left out: it starts again here.
+            let row = if held(b.from_fold) {
+                &b.alone
+            } else {
+                &b.chained
+            };
+            sink.row(row[w], &row[..w]);
+        }
+        Ok(())
+    }
 }
 
 /// The least share of the session's information on an effect's parameter a forecast's
@@ -229,11 +600,9 @@ const FORECAST_MIN_INFORMATION: f64 = 0.02;
 /// ([`FORECAST_MIN_INFORMATION`] of the whole session's information, the diagonal of the
 /// whitened normal equations) held at the full fit: a forecast judges what the earlier part
 /// can refit, and says nothing about the rest.
-fn barely_seen_held(specs: &[ParamSpec], total: &FoldSums, k: usize) -> Vec<ParamSpec> {
-    let n = total.n;
-    let folds = total.count.len();
-    let information =
-        |i: usize, upto: usize| -> f64 { (0..upto).map(|f| total.a[f * n * n + i * n + i]).sum() };
+fn barely_seen_held(specs: &[ParamSpec], info: &[Vec<f64>], k: usize) -> Vec<ParamSpec> {
+    let information = |i: usize, upto: usize| -> f64 { info[..upto].iter().map(|f| f[i]).sum() };
+    let folds = info.len();
     let mut out = specs.to_vec();
     for (i, spec) in out.iter_mut().enumerate() {
         let full = information(i, folds);
@@ -244,16 +613,13 @@ fn barely_seen_held(specs: &[ParamSpec], total: &FoldSums, k: usize) -> Vec<Para
     out
 }
 
-/// Per fold: normal equations of the whitened rows (`a`, `g`, `rr`) and of the rows in the
-/// channels' units (`au`, `gu`, `rru`, SI), and the number of rows.
+/// Per fold: the normal equations of its prewhitened rows (`a`, `n × n`; `g`; `rr`, the sum of
+/// squared residuals) and its number of rows ([`fold_sums`]).
 struct FoldSums {
     n: usize,
     a: Vec<f64>,
     g: Vec<f64>,
     rr: Vec<f64>,
-    au: Vec<f64>,
-    gu: Vec<f64>,
-    rru: Vec<f64>,
     count: Vec<usize>,
 }
 
@@ -264,17 +630,14 @@ impl FoldSums {
             a: vec![0.0; folds * n * n],
             g: vec![0.0; folds * n],
             rr: vec![0.0; folds],
-            au: vec![0.0; folds * n * n],
-            gu: vec![0.0; folds * n],
-            rru: vec![0.0; folds],
             count: vec![0; folds],
         }
     }
 
-    /// Fills each fold's lower triangles from the upper ones the rows were added to.
+    /// Fills each fold's lower triangle from the upper one the rows were added to.
     fn mirror(&mut self) {
         let n = self.n;
-        for m in self.a.chunks_mut(n * n).chain(self.au.chunks_mut(n * n)) {
+        for m in self.a.chunks_mut(n * n) {
             for i in 0..n {
                 for j in i + 1..n {
                     m[j * n + i] = m[i * n + j];
@@ -288,9 +651,6 @@ impl FoldSums {
             (&mut self.a, &other.a),
             (&mut self.g, &other.g),
             (&mut self.rr, &other.rr),
-            (&mut self.au, &other.au),
-            (&mut self.gu, &other.gu),
-            (&mut self.rru, &other.rru),
         ] {
             for (x, y) in a.iter_mut().zip(b) {
                 *x += y;
@@ -307,37 +667,82 @@ struct FoldTarget<'a> {
     sums: &'a mut FoldSums,
     cols: Vec<usize>,
     assign: &'a FoldOf,
-    /// The current row's non-zero entries `(parameter, value)`, whitened and in the
-    /// channel's units: a channel's row touches only its own effects' columns (a joint
-    /// thermal model per channel is 88 of them), so the outer products run over these.
+    /// The current row's non-zero entries `(parameter, value)`: a channel's row touches only
+    /// its own effects' columns (a joint thermal model per channel is 88 of them), so the
+    /// outer products run over these.
     nz: Vec<(usize, f64)>,
-    nz_raw: Vec<(usize, f64)>,
 }
 
-impl FoldTarget<'_> {
-    fn new<'a>(sums: &'a mut FoldSums, cols: Vec<usize>, assign: &'a FoldOf) -> FoldTarget<'a> {
-        FoldTarget {
+impl RowTarget for FoldTarget<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        self.cols.clear();
+        self.cols.extend_from_slice(cols);
+    }
+
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, _: usize) {
+        if out.seed {
+            return;
+        }
+        let n = self.sums.n;
+        let k = self.assign.of(eval.run, sample);
+        self.nz.clear();
+        for (p, &i) in self.cols.iter().enumerate() {
+            if out.jac[p] != 0.0 {
+                self.nz.push((i, out.jac[p]));
+            }
+        }
+        let sums = &mut *self.sums;
+        let (a, g) = (
+            &mut sums.a[k * n * n..(k + 1) * n * n],
+            &mut sums.g[k * n..(k + 1) * n],
+        );
+        // The upper triangle (entry `(min, max)`; `mirror` fills the lower one).
+        for (p, &(i, ri)) in self.nz.iter().enumerate() {
+            g[i] += ri * out.res;
+            for &(j, rj) in &self.nz[p..] {
+                let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
+                a[lo * n + hi] += ri * rj;
+            }
+        }
+        sums.rr[k] += out.res * out.res;
+        sums.count[k] += 1;
+    }
+}
+
+/// Every fold's normal equations of `study`'s rows at `x` (one pass, lanes merged in order:
+/// the same sums on any number of cores).
+fn fold_sums(
+    study: &Study,
+    x: &[f64],
+    folds: usize,
+    assign: &FoldOf,
+) -> Result<FoldSums, IdentifyError> {
+    let n = study.layout().n_x();
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let mut parts: Vec<FoldSums> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| FoldSums::new(folds, n))
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
+        let mut target = FoldTarget {
             sums,
-            cols,
+            cols: Vec::new(),
             assign,
             nz: Vec::new(),
-            nz_raw: Vec::new(),
-        }
+        };
+        problem
+            .walk_rows(b, x, &mut target)
+            .map_err(|source| mtcal_solve::SolveError::Eval {
+                block: b,
+                cause: source,
+            })
+    })?;
+    let mut total = FoldSums::new(folds, n);
+    for part in &parts {
+        total.add(part);
     }
-}
-
-/// Adds the outer product of the sparse row `nz` (times `scale`) to the upper triangle of
-/// the `n × n` block `a` (entry `(min, max)`; [`FoldSums::mirror`] fills the lower one), and
-/// `row · res · scale` to `g`.
-fn add_outer(a: &mut [f64], g: &mut [f64], n: usize, nz: &[(usize, f64)], res: f64, scale: f64) {
-    for (k, &(i, ri)) in nz.iter().enumerate() {
-        let ri = ri * scale;
-        g[i] += ri * res;
-        for &(j, rj) in &nz[k..] {
-            let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
-            a[lo * n + hi] += ri * rj;
-        }
-    }
+    total.mirror();
+    Ok(total)
 }
 
 /// The folds of `options`' cross-validation on `study`: their number and the assignment.
@@ -383,56 +788,6 @@ fn fold_assignment(study: &Study, options: &SearchOptions) -> (usize, FoldOf) {
                 },
             )
         }
-    }
-}
-
-impl RowTarget for FoldTarget<'_> {
-    fn columns(&mut self, cols: &[usize]) {
-        self.cols.clear();
-        self.cols.extend_from_slice(cols);
-    }
-
-    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
-        if out.seed {
-            return;
-        }
-        let n = self.sums.n;
-        let k = self.assign.of(eval.run, sample);
-        let sigma = 1.0 / eval.inv_sigma[channel];
-        let s2 = sigma * sigma;
-        // The decision's sums from the prewhitened rows; the RMS in the channels' units from
-        // the residuals as they are.
-        self.nz.clear();
-        self.nz_raw.clear();
-        for (p, &i) in self.cols.iter().enumerate() {
-            if out.jac[p] != 0.0 {
-                self.nz.push((i, out.jac[p]));
-            }
-            if out.raw_jac[p] != 0.0 {
-                self.nz_raw.push((i, out.raw_jac[p]));
-            }
-        }
-        let (block, vector) = (k * n * n..(k + 1) * n * n, k * n..(k + 1) * n);
-        let sums = &mut *self.sums;
-        add_outer(
-            &mut sums.a[block.clone()],
-            &mut sums.g[vector.clone()],
-            n,
-            &self.nz,
-            out.res,
-            1.0,
-        );
-        add_outer(
-            &mut sums.au[block],
-            &mut sums.gu[vector],
-            n,
-            &self.nz_raw,
-            out.raw_res,
-            s2,
-        );
-        sums.rr[k] += out.res * out.res;
-        sums.rru[k] += out.raw_res * out.raw_res * s2;
-        sums.count[k] += 1;
     }
 }
 
@@ -588,41 +943,6 @@ fn solve_psd(a: &[f64], g: &[f64], n: usize) -> Vec<f64> {
         out[i] /= d[i];
     }
     out
-}
-
-/// Every fold's normal equations of `study`'s rows at `x` (one pass, lanes merged in order).
-fn fold_sums(
-    study: &Study,
-    x: &[f64],
-    folds: usize,
-    assign: &FoldOf,
-) -> Result<FoldSums, IdentifyError> {
-    let n = study.layout().n_x();
-    let problem = FitProblem::new(study);
-    let blocks = problem.n_blocks();
-    // Lanes merged in order (see `mtcal_solve::run_lanes`): the same sums on any number of cores.
-    // Each lane: its sums and a column-list buffer reused from block to block.
-    let mut parts: Vec<(FoldSums, Vec<usize>)> = (0..mtcal_solve::lane_count(blocks))
-        .map(|_| (FoldSums::new(folds, n), Vec::new()))
-        .collect();
-    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, (sums, cols)| {
-        let mut target = FoldTarget::new(sums, std::mem::take(cols), assign);
-        let res =
-            problem
-                .walk_rows(b, x, &mut target)
-                .map_err(|source| mtcal_solve::SolveError::Eval {
-                    block: b,
-                    cause: source,
-                });
-        *cols = target.cols;
-        res
-    })?;
-    let mut total = FoldSums::new(folds, n);
-    for (part, _) in &parts {
-        total.add(part);
-    }
-    total.mirror();
-    Ok(total)
 }
 
 #[cfg(test)]

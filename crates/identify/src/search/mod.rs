@@ -37,7 +37,7 @@
 //!    is not kept). The refit must have converged: a fit that creeps along a direction seen
 //!    only to second order goes on until its χ² settles, and a fit that converges neither way
 //!    decides nothing. The cross-validation is the Gauss–Newton refit of each fold from the
-//!    full fit, computed from every fold's normal equations in one pass ([`heldout`]). Of
+//!    full fit, from the session's rows evaluated once and each fold's QR factor ([`heldout`]). Of
 //!    those that pass, the lowest BIC wins: scores at grid starting values cannot tell a drift
 //!    in time from a lagged temperature that follows it, their refits can; and of two that fit
 //!    alike the one with fewer parameters — unless another predicts the held-out data clearly
@@ -170,7 +170,7 @@ pub struct SearchResult {
 pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, IdentifyError> {
     let options = &with_session_options(&study, options)?;
     let mut current = with_noise(fit(study, None, options)?, options)?;
-    let initial = current.id.clone();
+    let initial = current.id()?.clone();
     let initial_solution = current.solution.clone();
     let initial_changes = current.study.changes().clone();
     let mut report = SearchReport {
@@ -188,11 +188,11 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         // Every decision below compares χ² at optima: on a last iterate a candidate would
         // "explain" what the iteration had still to do.
         report.stopped = SearchStop::BaseNotConverged;
-        let mut identification = current.id;
+        let (study, solution, mut identification, _) = current.into_parts()?;
         identification.search = Some(report);
         return Ok(SearchResult {
-            study: current.study,
-            solution: current.solution,
+            study,
+            solution,
             identification,
             initial,
             initial_solution,
@@ -285,17 +285,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         let accepted = match winner {
             Some(w) => {
                 let (_, r, f) = passed.swap_remove(w);
-                let id = Identification::new(&f.study, &f.solution)?;
-                Some((
-                    r,
-                    f.addition,
-                    Fitted {
-                        study: f.study,
-                        solution: f.solution,
-                        id,
-                        heldout: f.heldout,
-                    },
-                ))
+                Some((r, f.addition, Fitted::new(f.study, f.solution, f.heldout)))
             }
             None => None,
         };
@@ -305,34 +295,23 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             break;
         };
         let before_params = machine_values(&current.study, &current.solution);
-        let Fitted {
-            study,
-            solution,
-            id,
-            heldout,
-        } = fitted;
+        // Of the state after the step, its fit and validation are reported.
+        let after_id = Identification::without_mismatch(&fitted.study, &fitted.solution)?;
+        let (_, before_solution, before_id, before_heldout) = current.into_parts()?;
         stages.push(Stage {
             lookalikes,
             dropped: Vec::new(),
             ranked: ranked_ok,
-            before_id: current.id,
-            before_solution: current.solution,
-            before_heldout: current.heldout,
+            before_id,
+            before_solution,
+            before_heldout,
             before_params,
-            after_heldout: heldout.clone(),
-            after_id: id.clone(),
-            after_solution: solution.clone(),
+            after_heldout: fitted.heldout.clone(),
+            after_id,
+            after_solution: fitted.solution.clone(),
             addition,
         });
-        current = with_noise(
-            Fitted {
-                study,
-                solution,
-                id,
-                heldout,
-            },
-            options,
-        )?;
+        current = with_noise(fitted, options)?;
     }
     let before_settling = stages.len();
     current = keep_what_holds(current, &mut stages, &initial_changes, options, &mut report)?;
@@ -356,14 +335,14 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     step::restore_lookalikes(&mut stages);
     report.concealed = concealed(&last_ranking);
     report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
-    report.remains = remains(&current.id, &last_ranking, &report.steps);
+    report.remains = remains(current.id()?, &last_ranking, &report.steps);
     let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();
-    let mut identification = current.id;
+    let (study, solution, mut identification, _) = current.into_parts()?;
     identification.discoveries = discoveries;
     identification.search = Some(report);
     Ok(SearchResult {
-        study: current.study,
-        solution: current.solution,
+        study,
+        solution,
         identification,
         initial,
         initial_solution,

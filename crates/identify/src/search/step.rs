@@ -541,12 +541,13 @@ fn re_expresses(study: &Study, solution: &Solution, earlier: usize) -> Option<(S
     let old: Vec<usize> = (range.start..new_first)
         .filter(|&i| kind(i).is_some_and(|(_, nuisance)| !nuisance))
         .collect();
+    let shared = SharedWith::new(&solution.covariance, n, &old);
     let mut best: Option<(usize, f64)> = None;
     for k in new_first..range.end {
         if kind(k) != Some((mtcal_effects::ParamKind::Amplitude, false)) {
             continue;
         }
-        let share = multiple_correlation(&solution.covariance, n, k, &old);
+        let share = shared.share(&solution.covariance, n, k);
         if share >= RE_EXPRESSES_SHARE && best.is_none_or(|(_, b)| share > b) {
             best = Some((k, share));
         }
@@ -562,17 +563,39 @@ fn re_expresses(study: &Study, solution: &Solution, earlier: usize) -> Option<(S
     Some((label, share))
 }
 
-/// The squared multiple correlation of estimate `k` with the estimates `others` under the
-/// covariance `cov` (`n × n`, row-major): `1 − 1/(C_kk·(C⁻¹)_kk)` over the sub-matrix of `k`
-/// and `others`; 0 where that matrix is singular.
-fn multiple_correlation(cov: &[f64], n: usize, k: usize, others: &[usize]) -> f64 {
-    let idx: Vec<usize> = std::iter::once(k).chain(others.iter().copied()).collect();
-    let m = nalgebra::DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov[idx[a] * n + idx[b]]);
-    match m.clone().try_inverse() {
-        Some(inv) if m[(0, 0)] > 0.0 && inv[(0, 0)] > 0.0 => {
-            (1.0 - 1.0 / (m[(0, 0)] * inv[(0, 0)])).clamp(0.0, 1.0)
+/// The regression of estimates on a fixed set `others` under a covariance (`n × n`,
+/// row-major), factored once: for each estimate `k`, the squared multiple correlation
+/// `c_kᵀS⁻¹c_k / C_kk` (`S` the covariance of `others`, `c_k` theirs with `k`), the share of
+/// `k`'s variance they explain; 0 where `S` is singular. One factorisation for all of a joint
+/// model's amplitudes, instead of a matrix inverse per amplitude.
+struct SharedWith {
+    others: Vec<usize>,
+    lu: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+}
+
+impl SharedWith {
+    fn new(cov: &[f64], n: usize, others: &[usize]) -> Self {
+        let m = others.len();
+        let s = nalgebra::DMatrix::from_fn(m, m, |a, b| cov[others[a] * n + others[b]]);
+        let lu = s.lu();
+        Self {
+            others: others.to_vec(),
+            lu: (m > 0 && lu.is_invertible()).then_some(lu),
         }
-        _ => 0.0,
+    }
+
+    fn share(&self, cov: &[f64], n: usize, k: usize) -> f64 {
+        let (Some(lu), ckk) = (&self.lu, cov[k * n + k]) else {
+            return 0.0;
+        };
+        if ckk <= 0.0 {
+            return 0.0;
+        }
+        let c = nalgebra::DVector::from_fn(self.others.len(), |a, _| cov[self.others[a] * n + k]);
+        match lu.solve(&c) {
+            Some(w) => (c.dot(&w) / ckk).clamp(0.0, 1.0),
+            None => 0.0,
+        }
     }
 }
 
@@ -736,7 +759,7 @@ impl Refitted {
 
 #[cfg(test)]
 mod tests {
-    use super::{multiple_correlation, signed_rank_p};
+    use super::{SharedWith, signed_rank_p};
     use nalgebra::DMatrix;
 
     /// The squared multiple correlation of the estimate `0` with the others equals the share
@@ -755,13 +778,13 @@ mod tests {
         let s = DMatrix::from_fn(3, 3, |i, j| cov[(others[i], others[j])]);
         let c = nalgebra::DVector::from_fn(3, |i, _| cov[(0, others[i])]);
         let regression = (c.transpose() * s.try_inverse().unwrap() * &c)[(0, 0)] / cov[(0, 0)];
-        let r2 = multiple_correlation(&flat, n, 0, &others);
+        let r2 = SharedWith::new(&flat, n, &others).share(&flat, n, 0);
         assert!((r2 - regression).abs() < 1e-9, "{r2} vs {regression}");
         // Uncorrelated: nothing shared; a copy of another estimate: everything.
         let diag = [1.0, 0.0, 0.0, 2.0];
-        assert_eq!(multiple_correlation(&diag, 2, 0, &[1]), 0.0);
+        assert_eq!(SharedWith::new(&diag, 2, &[1]).share(&diag, 2, 0), 0.0);
         let twin = [1.0, 1.0 - 1e-12, 1.0 - 1e-12, 1.0];
-        assert!(multiple_correlation(&twin, 2, 0, &[1]) > 0.999);
+        assert!(SharedWith::new(&twin, 2, &[1]).share(&twin, 2, 0) > 0.999);
     }
 
     #[test]
