@@ -166,8 +166,26 @@ impl PreparedEffects {
         params: &[f64],
         out: &mut SampleEffects,
     ) {
+        self.sample_only(r, setup, i, params, out, None);
+    }
+
+    /// [`Self::sample`] of the effects `only` marks (one flag per effect; all without it): a
+    /// caller that reads some channels only leaves out the effects that cannot reach them
+    /// (another sensor's joint thermal model). The others' totals and derivatives stay zero.
+    pub fn sample_only(
+        &self,
+        r: usize,
+        setup: usize,
+        i: usize,
+        params: &[f64],
+        out: &mut SampleEffects,
+        only: Option<&[bool]>,
+    ) {
         out.clear();
         for (e, effect) in self.effects.iter().enumerate() {
+            if only.is_some_and(|only| !only[e]) {
+                continue;
+            }
             let terms = effect.terms();
             let shapes = &self.shapes[e];
             let ns = shapes.len();

@@ -7,10 +7,12 @@
 //! no refit.
 //!
 //! Target: 100+ candidates against a fit of 1e5 samples in under a second.
+//! Also the cross-validation every refitted candidate is judged by (`heldout`: eight blocks
+//! of every run and three forecasts, each refitted from the full fit).
 //! `cargo bench -p mtcal-identify --bench search`; the numbers go in the README.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use mtcal_identify::search::{candidates, rank};
+use mtcal_identify::search::{SearchOptions, candidates, heldout, rank};
 use mtcal_identify::{FitProblem, Study, param_specs};
 use mtcal_solve::{Options, Silent};
 use std::hint::black_box;
@@ -95,5 +97,25 @@ fn bench_rank(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_rank);
+fn bench_heldout(c: &mut Criterion) {
+    let mut g = c.benchmark_group("search_heldout_rtest_trunnion");
+    g.sample_size(10);
+    let options = SearchOptions::default();
+    for n in [10_000usize, 100_000] {
+        let (_dir, study) = session(n);
+        let solution = mtcal_solve::solve(
+            &FitProblem::new(&study),
+            &param_specs(&study),
+            &Options::default(),
+            &mut Silent,
+        )
+        .unwrap();
+        g.bench_with_input(BenchmarkId::new("blocks-and-forecasts", n), &n, |b, _| {
+            b.iter(|| black_box(heldout(&study, &solution.x, &options).unwrap()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_rank, bench_heldout);
 criterion_main!(benches);

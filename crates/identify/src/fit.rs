@@ -45,6 +45,9 @@ pub struct FitProblem<'a> {
 #[derive(Debug, Clone)]
 struct ChannelGroup {
     channels: Vec<usize>,
+    /// Per effect, whether it reaches these channels (the others need not be evaluated for
+    /// their rows).
+    effects: Vec<bool>,
     cols: Vec<usize>,
     /// Per column, its place in the set-up's full row (machine, set-up, every effect).
     place: Vec<usize>,
@@ -80,8 +83,10 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
                 let mut place = Vec::with_capacity(full.len());
                 place.extend(0..m + n_free);
                 let mut o = study.layout().effect_offset();
+                let mut reached = Vec::with_capacity(effects.len());
                 for e in effects {
                     let any = e.terms().iter().any(|t| reaches(c, &t.target));
+                    reached.push(any);
                     for (j, p) in e.params().iter().enumerate() {
                         let used = match p.kind {
                             mtcal_effects::ParamKind::Amplitude => e
@@ -97,9 +102,15 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
                     o += e.params().len();
                 }
                 match groups.iter_mut().find(|g| g.place == place) {
-                    Some(g) => g.channels.push(c),
+                    Some(g) => {
+                        g.channels.push(c);
+                        for (a, b) in g.effects.iter_mut().zip(&reached) {
+                            *a |= b;
+                        }
+                    }
                     None => groups.push(ChannelGroup {
                         channels: vec![c],
+                        effects: reached,
                         cols: place.iter().map(|&k| full[k]).collect(),
                         place,
                     }),
@@ -382,6 +393,7 @@ impl FitProblem<'_> {
         };
         for group in &self.groups[run.setup] {
             target.columns(&group.cols);
+            eval.only_effects(&group.effects);
             let w = group.cols.len();
             // Per channel the previous sample's raw residual and row (the filter's memory).
             let mut prev_res = vec![0.0; nch];
@@ -390,6 +402,7 @@ impl FitProblem<'_> {
             let mut last: Option<usize> = None;
             let mut from_previous = false;
             if let Some((p, peval)) = &mut previous {
+                peval.only_effects(&group.effects);
                 from_previous =
                     seed_from(peval, &study.runs[*p], group, &mut prev_res, &mut prev_jac);
             }
@@ -523,6 +536,8 @@ struct EffectEval {
     nuis: Vec<f64>,
     /// Per effect parameter, the twist its axis columns give (6 each).
     twists: Vec<[f64; 6]>,
+    /// The effects evaluated (all when `None`): those that reach the channels read.
+    only: Option<Vec<bool>>,
 }
 
 impl<'a> SampleEval<'a> {
@@ -558,6 +573,7 @@ impl<'a> SampleEval<'a> {
                 axis_jac: vec![0.0; 6 * mtcal_effects::axis_slots(na)],
                 axis_scratch: study.axis_jacobian_scratch(),
                 nuis: vec![0.0; nn],
+                only: None,
             }
         });
         Self {
@@ -583,6 +599,15 @@ impl<'a> SampleEval<'a> {
         self.pred.len()
     }
 
+    /// From now on evaluates only the effects `only` marks (one flag per effect of the
+    /// study): the rest cannot reach the channels read, whose predictions and rows are then
+    /// the same; the other channels' are not.
+    fn only_effects(&mut self, only: &[bool]) {
+        if let Some(fx) = self.effects.as_mut() {
+            fx.only = Some(only.to_vec());
+        }
+    }
+
     /// Predictions at sample `i` into `pred`; with `derivatives` also the pose Jacobian and the
     /// set-up's derivatives.
     pub fn at(&mut self, i: usize, derivatives: bool) {
@@ -604,8 +629,14 @@ impl<'a> SampleEval<'a> {
         if let Some(fx) = self.effects.as_mut() {
             // The effects act on the axes (through the axis Jacobian, first order), on the
             // set-up's nuisance parameters and on the readings.
-            fx.prepared
-                .sample(self.run, run.setup, i, &fx.params, &mut fx.out);
+            fx.prepared.sample_only(
+                self.run,
+                run.setup,
+                i,
+                &fx.params,
+                &mut fx.out,
+                fx.only.as_deref(),
+            );
             if fx.out.axes_touched {
                 study.axis_jacobian(self.run, i, &mut fx.axis_scratch, &mut fx.axis_jac);
                 let twist = axis_twist(&fx.axis_jac, &fx.out.dq);

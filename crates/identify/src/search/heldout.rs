@@ -20,43 +20,51 @@ use std::sync::Arc;
 /// accuracy that matters here), `δ_k = −R_k⁺z_k` from the streaming QR factor of the other
 /// folds' rows ([`mtcal_solve::linearize`], with the solver's column scaling and rank rule: the
 /// normal equations would square the condition number, and a direction the data barely see
-/// would move by metres on their rounding). The session's rows are evaluated once at `x`
-/// ([`RowCache`]) and reduced, fold by fold and per column set, to their own QR factors
-/// ([`FoldFactors`]): a fold's training rows are the other folds' factors, a few hundred rows
-/// instead of the session's tens of thousands, and the same least-squares problem. The
-/// left-out rows are then predicted as they are, `r_k + J_k·δ_k`. One evaluation of the model
-/// and one small factorisation per fold, instead of a fit per fold.
+/// would move by metres on their rounding). The session's rows are streamed once at `x` and
+/// reduced, fold by fold and per column set, to their own QR factors ([`FoldFactors`]): a
+/// fold's training rows are the other folds' factors, a few hundred rows instead of the
+/// session's tens of thousands, and the same least-squares problem. A second pass predicts the
+/// left-out rows as they are, `r_k + J_k·δ_k`. Two passes over the data and one small
+/// factorisation per fold, instead of a fit per fold; nothing held grows with the session.
 pub fn heldout(
     study: &Study,
     x: &[f64],
     options: &SearchOptions,
 ) -> Result<Heldout, IdentifyError> {
+    let tolerance = options.solver.rank_tolerance;
     let (folds, assign) = fold_assignment(study, options);
-    let cache = RowCache::build(study, x)?;
-    let inner = fold_predictions(
+    let forecasting = forecast_assignment(study);
+    let mut assignments = vec![(&assign, folds)];
+    if let Some((cuts, forecast)) = &forecasting {
+        assignments.push((forecast, cuts + 1));
+    }
+    let factors = FoldFactors::stream(study, x, &assignments)?;
+    let mut steps = vec![fold_steps(
         study,
         x,
-        options.solver.rank_tolerance,
-        (&cache, &FoldFactors::new(&cache, &assign, folds)?),
+        tolerance,
+        &factors[0],
         &assign,
         0..folds,
         Refit::Everything,
-    )?;
+    )?];
+    if let Some((cuts, forecast)) = &forecasting {
+        steps.push(fold_steps(
+            study,
+            x,
+            tolerance,
+            &factors[1],
+            forecast,
+            1..cuts + 1,
+            Refit::EffectsOnly,
+        )?);
+    }
+    let predicted = fold_predictions(study, x, &assignments, &steps)?;
+    let inner = &predicted[0];
     let (w, u, c) = inner.iter().fold((0.0, 0.0, 0usize), |(w, u, c), f| {
         (w + f.whitened, u + f.units, c + f.count)
     });
-    let forecast = match forecast_assignment(study) {
-        Some((cuts, forecast)) => fold_predictions(
-            study,
-            x,
-            options.solver.rank_tolerance,
-            (&cache, &FoldFactors::new(&cache, &forecast, cuts + 1)?),
-            &forecast,
-            1..cuts + 1,
-            Refit::EffectsOnly,
-        )?,
-        None => Vec::new(),
-    };
+    let forecast = predicted.get(1).map_or(&[][..], Vec::as_slice);
     let mean = |f: &FoldPrediction| f.whitened / f.count as f64;
     let (fw, fc) = forecast
         .iter()
@@ -120,18 +128,17 @@ fn forecast_assignment(study: &Study) -> Option<(usize, FoldOf)> {
 }
 
 /// Each fold `k` of `wanted` (of `factors`' assignment `assign`) left out
-/// ([`FoldOf::held`]), the model refitted on the rest by one Gauss–Newton step from `x` (what
-/// `refit` says), and the fold's rows of `cache` predicted. Folds without rows are left out
-/// of the result.
-fn fold_predictions(
+/// ([`FoldOf::held`]) and the model refitted on the rest by one Gauss–Newton step from `x`
+/// (what `refit` says): the step per fold, `None` for folds without rows or not wanted.
+fn fold_steps(
     study: &Study,
     x: &[f64],
     rank_tolerance: f64,
-    (cache, factors): (&RowCache, &FoldFactors),
+    factors: &FoldFactors,
     assign: &FoldOf,
     wanted: std::ops::Range<usize>,
     refit: Refit,
-) -> Result<Vec<FoldPrediction>, IdentifyError> {
+) -> Result<Vec<Option<Vec<f64>>>, IdentifyError> {
     let mut specs = param_specs_from(study, x);
     let n = study.layout().n_x();
     if refit == Refit::EffectsOnly {
@@ -198,135 +205,7 @@ fn fold_predictions(
         };
         steps[k] = Some(delta);
     }
-    // Each fold's rows with its own refit's step: `r + J·δ`, prewhitened (the decision's
-    // statistic) and as they stand in the channels' units (the RMS the user reads).
-    let mut whitened = vec![0.0; steps.len()];
-    let mut units = vec![0.0; steps.len()];
-    for group in cache.blocks.iter().flatten() {
-        let w = group.cols.len();
-        for (i, row) in group.rows.iter().enumerate() {
-            let k = assign.of(row.run, row.sample);
-            let Some(delta) = &steps[k] else { continue };
-            let moved = |jac: &[f64], res: f64| {
-                res + group
-                    .cols
-                    .iter()
-                    .zip(jac)
-                    .map(|(&c, &j)| j * delta[c])
-                    .sum::<f64>()
-            };
-            whitened[k] += moved(&group.jac[i * w..(i + 1) * w], row.res).powi(2);
-            units[k] +=
-                (moved(&group.raw_jac[i * w..(i + 1) * w], row.raw_res) * row.sigma).powi(2);
-        }
-    }
-    Ok(wanted
-        .filter(|&k| steps[k].is_some())
-        .map(|k| FoldPrediction {
-            whitened: whitened[k],
-            units: units[k],
-            count: factors.count[k],
-        })
-        .collect())
-}
-
-/// The full fit's rows at one parameter vector, evaluated once for every fold's refit and
-/// prediction: a fold's training problem is the session's rows without the fold's, and the
-/// rows do not change with the fold — the model is evaluated at the same `x` — except where
-/// the noise filter continues from a sample the fold leaves out and starts again (the row as
-/// it stands). Every row is kept in both forms: prewhitened, as the fit sees it, and as it
-/// stands (whitened by its σ alone), which also gives the residual in the channel's units.
-struct RowCache {
-    n: usize,
-    /// Per block of the fit ([`FitProblem`]), its groups of rows.
-    blocks: Vec<Vec<CachedGroup>>,
-}
-
-/// A group of rows sharing their columns (one channel group of a block).
-struct CachedGroup {
-    cols: Vec<usize>,
-    rows: Vec<CachedRow>,
-    /// `rows.len() × cols.len()` each: the rows prewhitened, and as they stand.
-    jac: Vec<f64>,
-    raw_jac: Vec<f64>,
-}
-
-struct CachedRow {
-    run: usize,
-    sample: usize,
-    /// The residual prewhitened and as it stands (in units of σ), and σ (SI).
-    res: f64,
-    raw_res: f64,
-    sigma: f64,
-    /// The sample the noise filter continues from, where it does.
-    from: Option<(usize, usize)>,
-}
-
-impl RowCache {
-    /// The rows of `study` at `x` (lanes merged in block order: the same cache on any
-    /// number of cores).
-    fn build(study: &Study, x: &[f64]) -> Result<Self, IdentifyError> {
-        let problem = FitProblem::new(study);
-        let blocks = problem.n_blocks();
-        let mut parts: Vec<Vec<(usize, Vec<CachedGroup>)>> = (0..mtcal_solve::lane_count(blocks))
-            .map(|_| Vec::new())
-            .collect();
-        mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, cached| {
-            let mut target = CacheTarget { groups: Vec::new() };
-            let res = problem.walk_rows(b, x, &mut target).map_err(|source| {
-                mtcal_solve::SolveError::Eval {
-                    block: b,
-                    cause: source,
-                }
-            });
-            cached.push((b, target.groups));
-            res
-        })?;
-        let mut by_block: Vec<Vec<CachedGroup>> = (0..blocks).map(|_| Vec::new()).collect();
-        for (b, groups) in parts.into_iter().flatten() {
-            by_block[b] = groups;
-        }
-        Ok(Self {
-            n: study.layout().n_x(),
-            blocks: by_block,
-        })
-    }
-}
-
-/// Where [`RowCache::build`] sends a block's rows.
-struct CacheTarget {
-    groups: Vec<CachedGroup>,
-}
-
-impl RowTarget for CacheTarget {
-    fn columns(&mut self, cols: &[usize]) {
-        self.groups.push(CachedGroup {
-            cols: cols.to_vec(),
-            rows: Vec::new(),
-            jac: Vec::new(),
-            raw_jac: Vec::new(),
-        });
-    }
-
-    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
-        if out.seed {
-            return;
-        }
-        let group = self
-            .groups
-            .last_mut()
-            .expect("a group's columns come before its rows");
-        group.jac.extend_from_slice(out.jac);
-        group.raw_jac.extend_from_slice(out.raw_jac);
-        group.rows.push(CachedRow {
-            run: eval.run,
-            sample,
-            res: out.res,
-            raw_res: out.raw_res,
-            sigma: 1.0 / eval.inv_sigma[channel],
-            from: out.from,
-        });
-    }
+    Ok(steps)
 }
 
 /// One assignment's rows reduced, per fold and per column set of the rows, to the triangular
@@ -362,86 +241,6 @@ struct BoundaryRow {
 }
 
 impl FoldFactors {
-    fn new(cache: &RowCache, assign: &FoldOf, folds: usize) -> Result<Self, IdentifyError> {
-        let mut keys: Vec<Vec<usize>> = Vec::new();
-        let mut key_of = Vec::new();
-        let mut boundaries: Vec<Vec<BoundaryRow>> = Vec::new();
-        let mut count = vec![0; folds];
-        for group in cache.blocks.iter().flatten() {
-            let key = match keys.iter().position(|k| *k == group.cols) {
-                Some(key) => key,
-                None => {
-                    keys.push(group.cols.clone());
-                    boundaries.push(Vec::new());
-                    keys.len() - 1
-                }
-            };
-            key_of.push(key);
-            let w = group.cols.len();
-            for (i, row) in group.rows.iter().enumerate() {
-                let fold = assign.of(row.run, row.sample);
-                count[fold] += 1;
-                let Some(from_fold) = row.from.map(|(r, s)| assign.of(r, s)) else {
-                    continue;
-                };
-                if from_fold != fold {
-                    let with = |jac: &[f64], res: f64| {
-                        let mut v = jac[i * w..(i + 1) * w].to_vec();
-                        v.push(res);
-                        v
-                    };
-                    boundaries[key].push(BoundaryRow {
-                        fold,
-                        from_fold,
-                        chained: with(&group.jac, row.res),
-                        alone: with(&group.raw_jac, row.raw_res),
-                    });
-                }
-            }
-        }
-        // Every (key, fold) reduced on its own: the lanes only share out the work.
-        let jobs = keys.len() * folds;
-        let mut parts: Vec<Vec<(usize, Factor)>> = (0..mtcal_solve::lane_count(jobs))
-            .map(|_| Vec::new())
-            .collect();
-        mtcal_solve::run_lanes(jobs, &mut parts, 0, |job, out| {
-            let (key, fold) = (job / folds, job % folds);
-            let w = keys[key].len();
-            let mut rows = Vec::new();
-            for (group, _) in cache
-                .blocks
-                .iter()
-                .flatten()
-                .zip(&key_of)
-                .filter(|(_, k)| **k == key)
-            {
-                for (i, row) in group.rows.iter().enumerate() {
-                    let inside = assign.of(row.run, row.sample) == fold;
-                    let apart = row.from.is_some_and(|(r, s)| assign.of(r, s) != fold);
-                    if inside && !apart {
-                        rows.extend_from_slice(&group.jac[i * w..(i + 1) * w]);
-                        rows.push(row.res);
-                    }
-                }
-            }
-            out.push((job, reduced(w, rows)?));
-            Ok::<(), IdentifyError>(())
-        })?;
-        let mut factors: Vec<Vec<Factor>> = (0..keys.len())
-            .map(|_| (0..folds).map(|_| Factor::default()).collect())
-            .collect();
-        for (job, factor) in parts.into_iter().flatten() {
-            factors[job / folds][job % folds] = factor;
-        }
-        Ok(Self {
-            n: cache.n,
-            keys,
-            factors,
-            boundaries,
-            count,
-        })
-    }
-
     /// The training problem of fold `k` of the assignment the factors were made for.
     fn training<'a>(&'a self, assign: &'a FoldOf, k: usize) -> Training<'a> {
         Training {
@@ -476,6 +275,308 @@ impl FoldFactors {
             }
         });
         out
+    }
+}
+
+/// Rows gathered per fold and column set before they are reduced into its running factor: the
+/// factors grow by blocks of rows (the solver's QR is fast on blocks), and what is held stays
+/// bounded whatever the session's length.
+const REDUCE_ROWS: usize = 256;
+
+/// One fold's factor for one column set as the rows stream in: the factor of the rows so far
+/// and the rows not yet reduced into it (`w + 1` values each).
+#[derive(Default)]
+struct Running {
+    factor: Vec<f64>,
+    buffer: Vec<f64>,
+}
+
+impl Running {
+    fn push(&mut self, w: usize, jac: &[f64], res: f64) -> Result<(), IdentifyError> {
+        self.buffer.extend_from_slice(jac);
+        self.buffer.push(res);
+        if self.buffer.len() >= REDUCE_ROWS * (w + 1) {
+            self.reduce(w)?;
+        }
+        Ok(())
+    }
+
+    fn reduce(&mut self, w: usize) -> Result<(), IdentifyError> {
+        if self.buffer.is_empty() {
+            return Ok(());
+        }
+        let mut rows = std::mem::take(&mut self.factor);
+        rows.append(&mut self.buffer);
+        self.factor = reduced(w, rows)?.rows;
+        Ok(())
+    }
+}
+
+/// One lane's share of an assignment's [`FoldFactors`] as its blocks stream by.
+#[derive(Default)]
+struct LaneFactors {
+    keys: Vec<Vec<usize>>,
+    /// Per key, per fold.
+    running: Vec<Vec<Running>>,
+    boundaries: Vec<Vec<BoundaryRow>>,
+    count: Vec<usize>,
+    /// The current group's key.
+    key: usize,
+}
+
+impl LaneFactors {
+    fn columns(&mut self, cols: &[usize], folds: usize) {
+        self.key = match self.keys.iter().position(|k| k == cols) {
+            Some(key) => key,
+            None => {
+                self.keys.push(cols.to_vec());
+                self.running
+                    .push((0..folds).map(|_| Running::default()).collect());
+                self.boundaries.push(Vec::new());
+                self.keys.len() - 1
+            }
+        };
+    }
+}
+
+/// Where [`FoldFactors::stream`] sends a block's rows: every assignment's lane factors.
+struct FactorTarget<'a> {
+    assignments: &'a [(&'a FoldOf, usize)],
+    lanes: &'a mut [LaneFactors],
+    fault: Option<IdentifyError>,
+}
+
+impl RowTarget for FactorTarget<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        for (lane, &(_, folds)) in self.lanes.iter_mut().zip(self.assignments) {
+            lane.columns(cols, folds);
+        }
+    }
+
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, _: usize) {
+        if out.seed || self.fault.is_some() {
+            return;
+        }
+        for (lane, &(assign, _)) in self.lanes.iter_mut().zip(self.assignments) {
+            let key = lane.key;
+            let w = lane.keys[key].len();
+            let fold = assign.of(eval.run, sample);
+            lane.count[fold] += 1;
+            match out.from.map(|(r, i)| assign.of(r, i)) {
+                Some(from_fold) if from_fold != fold => {
+                    let with = |jac: &[f64], res: f64| {
+                        let mut v = jac.to_vec();
+                        v.push(res);
+                        v
+                    };
+                    lane.boundaries[key].push(BoundaryRow {
+                        fold,
+                        from_fold,
+                        chained: with(out.jac, out.res),
+                        alone: with(out.raw_jac, out.raw_res),
+                    });
+                }
+                _ => {
+                    if let Err(e) = lane.running[key][fold].push(w, out.jac, out.res) {
+                        self.fault = Some(e);
+                        return;
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl FoldFactors {
+    /// The factors of `study`'s rows at `x` for each assignment `(assign, folds)`, in one pass
+    /// over the data (lanes merged in order: the same factors on any number of cores).
+    fn stream(
+        study: &Study,
+        x: &[f64],
+        assignments: &[(&FoldOf, usize)],
+    ) -> Result<Vec<FoldFactors>, IdentifyError> {
+        let problem = FitProblem::new(study);
+        let blocks = problem.n_blocks();
+        let fresh = || -> Vec<LaneFactors> {
+            assignments
+                .iter()
+                .map(|&(_, folds)| LaneFactors {
+                    count: vec![0; folds],
+                    ..LaneFactors::default()
+                })
+                .collect()
+        };
+        let mut parts: Vec<Vec<LaneFactors>> = (0..mtcal_solve::lane_count(blocks))
+            .map(|_| fresh())
+            .collect();
+        mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, lanes| {
+            let mut target = FactorTarget {
+                assignments,
+                lanes,
+                fault: None,
+            };
+            problem.walk_rows(b, x, &mut target).map_err(|source| {
+                IdentifyError::from(mtcal_solve::SolveError::Eval {
+                    block: b,
+                    cause: source,
+                })
+            })?;
+            target.fault.map_or(Ok(()), Err)
+        })?;
+        let mut out = Vec::with_capacity(assignments.len());
+        for (a, &(_, folds)) in assignments.iter().enumerate() {
+            let mut keys: Vec<Vec<usize>> = Vec::new();
+            let mut stacked: Vec<Vec<Vec<f64>>> = Vec::new();
+            let mut boundaries: Vec<Vec<BoundaryRow>> = Vec::new();
+            let mut count = vec![0; folds];
+            for lanes in &mut parts {
+                let lane = std::mem::take(&mut lanes[a]);
+                for (c, n) in count.iter_mut().zip(&lane.count) {
+                    *c += n;
+                }
+                for ((cols, running), bounds) in
+                    lane.keys.into_iter().zip(lane.running).zip(lane.boundaries)
+                {
+                    let key = match keys.iter().position(|k| *k == cols) {
+                        Some(key) => key,
+                        None => {
+                            keys.push(cols);
+                            stacked.push(vec![Vec::new(); folds]);
+                            boundaries.push(Vec::new());
+                            keys.len() - 1
+                        }
+                    };
+                    let w = keys[key].len();
+                    for (fold, mut r) in running.into_iter().enumerate() {
+                        r.reduce(w)?;
+                        stacked[key][fold].append(&mut r.factor);
+                    }
+                    boundaries[key].extend(bounds);
+                }
+            }
+            let mut factors = Vec::with_capacity(keys.len());
+            for (cols, per_fold) in keys.iter().zip(stacked) {
+                let mut f = Vec::with_capacity(folds);
+                for rows in per_fold {
+                    f.push(reduced(cols.len(), rows)?);
+                }
+                factors.push(f);
+            }
+            out.push(FoldFactors {
+                n: study.layout().n_x(),
+                keys,
+                factors,
+                boundaries,
+                count,
+            });
+        }
+        Ok(out)
+    }
+}
+
+/// Each assignment's folds predicted with their own refit's step (`steps`, per assignment and
+/// fold: [`fold_steps`]): the rows of `study` at `x` streamed once more, `r + J·δ` prewhitened
+/// (the decision's statistic) and as they stand in the channels' units (the RMS the user
+/// reads). Folds without a step are left out.
+fn fold_predictions(
+    study: &Study,
+    x: &[f64],
+    assignments: &[(&FoldOf, usize)],
+    steps: &[Vec<Option<Vec<f64>>>],
+) -> Result<Vec<Vec<FoldPrediction>>, IdentifyError> {
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let zeros = || -> Vec<Vec<(f64, f64, usize)>> {
+        assignments
+            .iter()
+            .map(|&(_, folds)| vec![(0.0, 0.0, 0); folds])
+            .collect()
+    };
+    let mut parts: Vec<Vec<Vec<(f64, f64, usize)>>> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| zeros())
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
+        let mut target = PredictTarget {
+            assignments,
+            steps,
+            sums,
+            cols: Vec::new(),
+        };
+        problem
+            .walk_rows(b, x, &mut target)
+            .map_err(|source| mtcal_solve::SolveError::Eval {
+                block: b,
+                cause: source,
+            })
+    })?;
+    let mut total = zeros();
+    for part in &parts {
+        for (t, p) in total.iter_mut().zip(part) {
+            for (a, b) in t.iter_mut().zip(p) {
+                a.0 += b.0;
+                a.1 += b.1;
+                a.2 += b.2;
+            }
+        }
+    }
+    Ok(total
+        .into_iter()
+        .zip(steps)
+        .map(|(sums, steps)| {
+            sums.into_iter()
+                .zip(steps)
+                .filter(|(_, step)| step.is_some())
+                .map(|((whitened, units, count), _)| FoldPrediction {
+                    whitened,
+                    units,
+                    count,
+                })
+                .collect()
+        })
+        .collect())
+}
+
+/// Where [`fold_predictions`] sends a block's rows: per assignment and fold, the sums of
+/// squares of the stepped residuals, whitened and in the channels' units, and the rows.
+struct PredictTarget<'a> {
+    assignments: &'a [(&'a FoldOf, usize)],
+    steps: &'a [Vec<Option<Vec<f64>>>],
+    sums: &'a mut [Vec<(f64, f64, usize)>],
+    cols: Vec<usize>,
+}
+
+impl RowTarget for PredictTarget<'_> {
+    fn columns(&mut self, cols: &[usize]) {
+        self.cols.clear();
+        self.cols.extend_from_slice(cols);
+    }
+
+    fn row(&mut self, out: &Row<'_>, eval: &SampleEval<'_>, sample: usize, channel: usize) {
+        if out.seed {
+            return;
+        }
+        let sigma = 1.0 / eval.inv_sigma[channel];
+        for ((&(assign, _), steps), sums) in self
+            .assignments
+            .iter()
+            .zip(self.steps)
+            .zip(self.sums.iter_mut())
+        {
+            let k = assign.of(eval.run, sample);
+            let Some(delta) = &steps[k] else { continue };
+            let moved = |jac: &[f64], res: f64| {
+                res + self
+                    .cols
+                    .iter()
+                    .zip(jac)
+                    .map(|(&c, &j)| j * delta[c])
+                    .sum::<f64>()
+            };
+            let s = &mut sums[k];
+            s.0 += moved(out.jac, out.res).powi(2);
+            s.1 += (moved(out.raw_jac, out.raw_res) * sigma).powi(2);
+            s.2 += 1;
+        }
     }
 }
 
