@@ -59,18 +59,24 @@ ball = [100.0, 0.0, 300.0]
     (dir, study)
 }
 
+/// [`session`] and its fit.
+fn fitted(samples: usize) -> (tempfile::TempDir, Study, mtcal_solve::Solution) {
+    let (dir, study) = session(samples);
+    let solution = mtcal_solve::solve(
+        &FitProblem::new(&study),
+        &param_specs(&study),
+        &Options::default(),
+        &mut Silent,
+    )
+    .unwrap();
+    (dir, study, solution)
+}
+
 fn bench_rank(c: &mut Criterion) {
     let mut g = c.benchmark_group("search_rank_rtest_trunnion");
     g.sample_size(10);
     for n in [10_000usize, 100_000] {
-        let (_dir, study) = session(n);
-        let solution = mtcal_solve::solve(
-            &FitProblem::new(&study),
-            &param_specs(&study),
-            &Options::default(),
-            &mut Silent,
-        )
-        .unwrap();
+        let (_dir, study, solution) = fitted(n);
         let all = candidates(&study, None);
         let columns: usize = all
             .iter()
@@ -102,14 +108,7 @@ fn bench_heldout(c: &mut Criterion) {
     g.sample_size(10);
     let options = SearchOptions::default();
     for n in [10_000usize, 100_000] {
-        let (_dir, study) = session(n);
-        let solution = mtcal_solve::solve(
-            &FitProblem::new(&study),
-            &param_specs(&study),
-            &Options::default(),
-            &mut Silent,
-        )
-        .unwrap();
+        let (_dir, study, solution) = fitted(n);
         g.bench_with_input(BenchmarkId::new("blocks-and-forecasts", n), &n, |b, _| {
             b.iter(|| black_box(heldout(&study, &solution.x, &options).unwrap()))
         });

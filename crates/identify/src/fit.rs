@@ -604,7 +604,9 @@ impl<'a> SampleEval<'a> {
     /// the same; the other channels' are not.
     fn only_effects(&mut self, only: &[bool]) {
         if let Some(fx) = self.effects.as_mut() {
-            fx.only = Some(only.to_vec());
+            let flags = fx.only.get_or_insert_with(Vec::new);
+            flags.clear();
+            flags.extend_from_slice(only);
         }
     }
 

@@ -42,6 +42,25 @@ fn session(dir: &Path, effect: &str) -> std::path::PathBuf {
     dir.join("s")
 }
 
+/// Each residual (SI) of fold `k` of `folds` (blocks of every fitted run) predicted at `x`,
+/// with its channel's σ.
+fn held_out(study: &Study, x: &[f64], folds: usize, k: usize, mut f: impl FnMut(f64, f64)) {
+    let pred = predict_runs(study, x, |r| study.runs[r].fit);
+    for (r, p) in pred.iter().enumerate() {
+        let Some(p) = p else { continue };
+        let run = &study.runs[r];
+        let readings = run.readings.as_ref().unwrap();
+        let channels = study.channels(r);
+        let nch = channels.len();
+        let n = run.len();
+        for i in (0..n).filter(|&i| Folds::fold_of(folds, i, n) == k) {
+            for (c, ch) in channels.iter().enumerate() {
+                f(p[i * nch + c] - readings.get(i, c), ch.sigma);
+            }
+        }
+    }
+}
+
 #[test]
 fn one_pass_cross_validation_equals_refitting_every_fold() {
     let dir = tempfile::tempdir().unwrap();
@@ -75,22 +94,10 @@ fn one_pass_cross_validation_equals_refitting_every_fold() {
         )
         .unwrap();
         assert!(sol.converged, "fold {k}: {:?}", sol.termination);
-        let pred = predict_runs(&study, &sol.x, |r| study.runs[r].fit);
-        for (r, p) in pred.iter().enumerate() {
-            let Some(p) = p else { continue };
-            let run = &study.runs[r];
-            let readings = run.readings.as_ref().unwrap();
-            let channels = study.channels(r);
-            let nch = channels.len();
-            let n = run.len();
-            for i in (0..n).filter(|&i| Folds::fold_of(folds, i, n) == k) {
-                for (c, ch) in channels.iter().enumerate() {
-                    let d = (p[i * nch + c] - readings.get(i, c)) / ch.sigma;
-                    sum += d * d;
-                    count += 1;
-                }
-            }
-        }
+        held_out(&study, &sol.x, folds, k, |d, sigma| {
+            sum += (d / sigma).powi(2);
+            count += 1;
+        });
     }
     let slow = sum / count as f64;
     assert_eq!(fast.samples, count);
@@ -157,29 +164,11 @@ fn with_coloured_noise_each_fold_is_refitted_as_the_fit_without_it() {
         let stepped: Vec<f64> = fit.x.iter().zip(&delta).map(|(x, d)| x + d).collect();
         let refit = mtcal_solve::solve(&problem, &specs, &Options::default(), &mut Silent).unwrap();
         assert!(refit.converged, "fold {k}: {:?}", refit.termination);
-        for (x, sum) in [(&stepped, &mut step_sum), (&refit.x, &mut refit_sum)] {
-            let pred = predict_runs(&study, x, |r| study.runs[r].fit);
-            for (r, p) in pred.iter().enumerate() {
-                let Some(p) = p else { continue };
-                let run = &study.runs[r];
-                let readings = run.readings.as_ref().unwrap();
-                let nch = study.channels(r).len();
-                let n = run.len();
-                for i in (0..n).filter(|&i| Folds::fold_of(folds, i, n) == k) {
-                    for c in 0..nch {
-                        *sum += (p[i * nch + c] - readings.get(i, c)).powi(2);
-                    }
-                }
-            }
-        }
-        count += (0..study.runs.len())
-            .filter(|&r| study.runs[r].fit)
-            .map(|r| {
-                let n = study.runs[r].len();
-                (0..n).filter(|&i| Folds::fold_of(folds, i, n) == k).count()
-                    * study.channels(r).len()
-            })
-            .sum::<usize>();
+        held_out(&study, &stepped, folds, k, |d, _| step_sum += d * d);
+        held_out(&study, &refit.x, folds, k, |d, _| {
+            refit_sum += d * d;
+            count += 1;
+        });
     }
     let rms = |sum: f64| (sum / count as f64).sqrt() * 1e6;
     assert_eq!(fast.samples, count);

@@ -208,6 +208,30 @@ fn fold_steps(
     Ok(steps)
 }
 
+/// `study`'s rows at `x`, every block of its fit walked into one of the lane targets `fresh`
+/// makes (`mtcal_solve::run_lanes`: lane `l` takes blocks `l, l + L, …` in order), returned in
+/// lane order: the caller merges them in that order, the same sums on any number of cores.
+fn walk_lanes<T: RowTarget + Send>(
+    study: &Study,
+    x: &[f64],
+    fresh: impl Fn() -> T,
+) -> Result<Vec<T>, IdentifyError> {
+    let problem = FitProblem::new(study);
+    let blocks = problem.n_blocks();
+    let mut lanes: Vec<T> = (0..mtcal_solve::lane_count(blocks))
+        .map(|_| fresh())
+        .collect();
+    mtcal_solve::run_lanes(blocks, &mut lanes, 0, |b, target| {
+        problem
+            .walk_rows(b, x, target)
+            .map_err(|source| mtcal_solve::SolveError::Eval {
+                block: b,
+                cause: source,
+            })
+    })?;
+    Ok(lanes)
+}
+
 /// One assignment's rows reduced, per fold and per column set of the rows, to the triangular
 /// factor of their QR decomposition `[R | z]` (`RᵀR = JᵀJ`, `Rᵀz = Jᵀr`, by the solver's own
 /// streaming QR): a fold's training rows are then the other folds' factors — a few hundred
@@ -342,7 +366,8 @@ impl LaneFactors {
 /// Where [`FoldFactors::stream`] sends a block's rows: every assignment's lane factors.
 struct FactorTarget<'a> {
     assignments: &'a [(&'a FoldOf, usize)],
-    lanes: &'a mut [LaneFactors],
+    /// Per assignment.
+    lanes: Vec<LaneFactors>,
     fault: Option<IdentifyError>,
 }
 
@@ -395,42 +420,28 @@ impl FoldFactors {
         x: &[f64],
         assignments: &[(&FoldOf, usize)],
     ) -> Result<Vec<FoldFactors>, IdentifyError> {
-        let problem = FitProblem::new(study);
-        let blocks = problem.n_blocks();
-        let fresh = || -> Vec<LaneFactors> {
-            assignments
+        let mut parts = walk_lanes(study, x, || FactorTarget {
+            assignments,
+            lanes: assignments
                 .iter()
                 .map(|&(_, folds)| LaneFactors {
                     count: vec![0; folds],
                     ..LaneFactors::default()
                 })
-                .collect()
-        };
-        let mut parts: Vec<Vec<LaneFactors>> = (0..mtcal_solve::lane_count(blocks))
-            .map(|_| fresh())
-            .collect();
-        mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, lanes| {
-            let mut target = FactorTarget {
-                assignments,
-                lanes,
-                fault: None,
-            };
-            problem.walk_rows(b, x, &mut target).map_err(|source| {
-                IdentifyError::from(mtcal_solve::SolveError::Eval {
-                    block: b,
-                    cause: source,
-                })
-            })?;
-            target.fault.map_or(Ok(()), Err)
+                .collect(),
+            fault: None,
         })?;
+        if let Some(fault) = parts.iter_mut().find_map(|t| t.fault.take()) {
+            return Err(fault);
+        }
         let mut out = Vec::with_capacity(assignments.len());
         for (a, &(_, folds)) in assignments.iter().enumerate() {
             let mut keys: Vec<Vec<usize>> = Vec::new();
             let mut stacked: Vec<Vec<Vec<f64>>> = Vec::new();
             let mut boundaries: Vec<Vec<BoundaryRow>> = Vec::new();
             let mut count = vec![0; folds];
-            for lanes in &mut parts {
-                let lane = std::mem::take(&mut lanes[a]);
+            for part in &mut parts {
+                let lane = std::mem::take(&mut part.lanes[a]);
                 for (c, n) in count.iter_mut().zip(&lane.count) {
                     *c += n;
                 }
@@ -484,34 +495,21 @@ fn fold_predictions(
     assignments: &[(&FoldOf, usize)],
     steps: &[Vec<Option<Vec<f64>>>],
 ) -> Result<Vec<Vec<FoldPrediction>>, IdentifyError> {
-    let problem = FitProblem::new(study);
-    let blocks = problem.n_blocks();
     let zeros = || -> Vec<Vec<(f64, f64, usize)>> {
         assignments
             .iter()
             .map(|&(_, folds)| vec![(0.0, 0.0, 0); folds])
             .collect()
     };
-    let mut parts: Vec<Vec<Vec<(f64, f64, usize)>>> = (0..mtcal_solve::lane_count(blocks))
-        .map(|_| zeros())
-        .collect();
-    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
-        let mut target = PredictTarget {
-            assignments,
-            steps,
-            sums,
-            cols: Vec::new(),
-        };
-        problem
-            .walk_rows(b, x, &mut target)
-            .map_err(|source| mtcal_solve::SolveError::Eval {
-                block: b,
-                cause: source,
-            })
+    let parts = walk_lanes(study, x, || PredictTarget {
+        assignments,
+        steps,
+        sums: zeros(),
+        cols: Vec::new(),
     })?;
     let mut total = zeros();
     for part in &parts {
-        for (t, p) in total.iter_mut().zip(part) {
+        for (t, p) in total.iter_mut().zip(&part.sums) {
             for (a, b) in t.iter_mut().zip(p) {
                 a.0 += b.0;
                 a.1 += b.1;
@@ -541,7 +539,7 @@ fn fold_predictions(
 struct PredictTarget<'a> {
     assignments: &'a [(&'a FoldOf, usize)],
     steps: &'a [Vec<Option<Vec<f64>>>],
-    sums: &'a mut [Vec<(f64, f64, usize)>],
+    sums: Vec<Vec<(f64, f64, usize)>>,
     cols: Vec<usize>,
 }
 
@@ -765,7 +763,7 @@ impl FoldSums {
 
 /// Sends a block's rows into their fold's sums.
 struct FoldTarget<'a> {
-    sums: &'a mut FoldSums,
+    sums: FoldSums,
     cols: Vec<usize>,
     assign: &'a FoldOf,
     /// The current row's non-zero entries `(parameter, value)`: a channel's row touches only
@@ -792,7 +790,7 @@ impl RowTarget for FoldTarget<'_> {
                 self.nz.push((i, out.jac[p]));
             }
         }
-        let sums = &mut *self.sums;
+        let sums = &mut self.sums;
         let (a, g) = (
             &mut sums.a[k * n * n..(k + 1) * n * n],
             &mut sums.g[k * n..(k + 1) * n],
@@ -819,28 +817,15 @@ fn fold_sums(
     assign: &FoldOf,
 ) -> Result<FoldSums, IdentifyError> {
     let n = study.layout().n_x();
-    let problem = FitProblem::new(study);
-    let blocks = problem.n_blocks();
-    let mut parts: Vec<FoldSums> = (0..mtcal_solve::lane_count(blocks))
-        .map(|_| FoldSums::new(folds, n))
-        .collect();
-    mtcal_solve::run_lanes(blocks, &mut parts, 0, |b, sums| {
-        let mut target = FoldTarget {
-            sums,
-            cols: Vec::new(),
-            assign,
-            nz: Vec::new(),
-        };
-        problem
-            .walk_rows(b, x, &mut target)
-            .map_err(|source| mtcal_solve::SolveError::Eval {
-                block: b,
-                cause: source,
-            })
+    let parts = walk_lanes(study, x, || FoldTarget {
+        sums: FoldSums::new(folds, n),
+        cols: Vec::new(),
+        assign,
+        nz: Vec::new(),
     })?;
     let mut total = FoldSums::new(folds, n);
     for part in &parts {
-        total.add(part);
+        total.add(&part.sums);
     }
     total.mirror();
     Ok(total)
