@@ -113,26 +113,36 @@ fn a_planted_backlash_is_a_discovery_in_the_json() {
 }
 
 /// The bundled example of the search: a warming machine with backlash. Both are found, and the
-/// validation run (never fitted) is predicted far better with them than without.
+/// validation run (never fitted) is predicted far better with them than without. The search
+/// refits a step's candidates side by side: on one thread or three, the same JSON, byte for
+/// byte.
 #[test]
 fn the_warm_example_finds_the_drift_and_the_backlash() {
     let repo = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));
     let dir = tempfile::tempdir().unwrap();
-    let json_path = dir.path().join("out.json");
-    mtcal(
-        repo,
-        [
-            OsStr::new("identify"),
-            OsStr::new("--quiet"),
-            OsStr::new("--search"),
-            OsStr::new("examples/five-axis-warm/session"),
-            OsStr::new("--json"),
-            json_path.as_os_str(),
-        ],
+    let searched = |threads: &str| {
+        let json_path = dir.path().join(format!("out-{threads}.json"));
+        mtcal(
+            repo,
+            [
+                OsStr::new("identify"),
+                OsStr::new("--quiet"),
+                OsStr::new("--search"),
+                OsStr::new("examples/five-axis-warm/session"),
+                OsStr::new("--threads"),
+                OsStr::new(threads),
+                OsStr::new("--json"),
+                json_path.as_os_str(),
+            ],
+        );
+        std::fs::read_to_string(json_path).unwrap()
+    };
+    let text = searched("3");
+    assert!(
+        searched("1") == text,
+        "identify --search writes the same JSON on one thread as on three"
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out.json")).unwrap())
-            .unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
     // Each discovery names the planted effect, or lists it among the explanations these data
     // cannot tell it from (on a trunnion the tool never tilts: the spindle growing along its
     // axis and a drift of Z are one column, and the search names both, claiming neither).

@@ -44,7 +44,9 @@ pub mod view;
 
 pub use basic::{Basic, Feature};
 pub use prepared::{Entry, PreparedEffects, SampleEffects, Slot, axis_slots};
-pub use view::{AxisView, BasisOrder, Input, ModelParamView, RunView, SessionView, SetupView};
+pub use view::{
+    AxisView, BasisOrder, Input, ModelParamView, RunView, SeriesCache, SessionView, SetupView,
+};
 
 use mtcal_kinematics::ParamName;
 use std::fmt;

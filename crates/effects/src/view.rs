@@ -446,6 +446,16 @@ pub struct SessionView {
     last_time: Option<f64>,
     median_interval: f64,
     motion: Vec<Vec<AxisMotion>>,
+    cache: Arc<SeriesCache>,
+}
+
+/// The inputs and lag series computed from a session's runs ([`SessionView::input`],
+/// [`SessionView::lag`]). They depend on the runs alone, so the views of one session's studies
+/// can share one ([`SessionView::with_series_cache`]): a search rebuilds its study for every
+/// candidate it refits, and a joint thermal model's lags would otherwise be computed again for
+/// each.
+#[derive(Debug, Default)]
+pub struct SeriesCache {
     inputs: Mutex<HashMap<Input, Arc<Vec<f64>>>>,
     lags: Mutex<HashMap<(Input, u64), Arc<LagSeries>>>,
 }
@@ -492,8 +502,7 @@ impl SessionView {
             last_time,
             median_interval: 1.0,
             motion,
-            inputs: Mutex::new(HashMap::new()),
-            lags: Mutex::new(HashMap::new()),
+            cache: Arc::default(),
         };
         view.chronological = view.chronological_order();
         let timeline = view.timeline();
@@ -509,6 +518,13 @@ impl SessionView {
             view.median_interval = m;
         }
         view
+    }
+
+    /// The view reading and keeping its inputs and lag series in `cache`, which must hold only
+    /// series of views over the same runs (a study and its rebuilds).
+    pub fn with_series_cache(mut self, cache: Arc<SeriesCache>) -> Self {
+        self.cache = cache;
+        self
     }
 
     /// The view with `current` as the effects already in the model.
@@ -717,7 +733,7 @@ impl SessionView {
     /// speed never recorded). A temperature is read through a zero-phase smoothing of 10 s
     /// ([`TEMPERATURE_SMOOTHING_S`]); a spindle speed as recorded (it steps).
     pub fn input(&self, input: &Input) -> Arc<Vec<f64>> {
-        let mut cache = self.inputs.lock().unwrap_or_else(|e| e.into_inner());
+        let mut cache = self.cache.inputs.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(s) = cache.get(input) {
             return Arc::clone(s);
         }
@@ -798,6 +814,7 @@ impl SessionView {
     pub fn lag(&self, input: &Input, tau_s: f64) -> Arc<LagSeries> {
         let key = (input.clone(), tau_s.to_bits());
         if let Some(s) = self
+            .cache
             .lags
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -823,7 +840,7 @@ impl SessionView {
                 crate::lag::LagSeries { y, dy_dtau }
             }
         });
-        let mut cache = self.lags.lock().unwrap_or_else(|e| e.into_inner());
+        let mut cache = self.cache.lags.lock().unwrap_or_else(|e| e.into_inner());
         let limit = (LAG_CACHE_BYTES / (16 * self.samples.max(1))).clamp(1, 257);
         if cache.len() >= limit {
             cache.clear();
@@ -835,8 +852,13 @@ impl SessionView {
     /// Drops the cached inputs and lag series (after scoring a batch of candidates; effects
     /// prepared before keep theirs).
     pub fn clear_caches(&self) {
-        self.lags.lock().unwrap_or_else(|e| e.into_inner()).clear();
-        self.inputs
+        self.cache
+            .lags
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
+        self.cache
+            .inputs
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .clear();

@@ -6,7 +6,7 @@ use crate::checks::cell;
 use crate::layout::{ParamLayout, ParamSlot};
 use crate::options::{StudyOptions, identify_key};
 use mtcal_effects::{
-    AxisView, BasisOrder, Effect, ModelParamView, RunView, SessionView, SetupView,
+    AxisView, BasisOrder, Effect, ModelParamView, RunView, SeriesCache, SessionView, SetupView,
 };
 use mtcal_instrument::{At, Channel, InstrumentPlugin, Setup, SetupContext};
 use mtcal_kinematics::Basis;
@@ -227,6 +227,9 @@ pub struct Study {
     /// [`AXIS_JACOBIAN_CACHE_BYTES`] (decided on first use); shared by the studies rebuilt with
     /// the same reduced model.
     axis_jacobians: Arc<OnceLock<Option<Vec<Vec<f64>>>>>,
+    /// The inputs and lag series of the session's runs, shared by the studies rebuilt from
+    /// this one (they depend on the runs alone).
+    series: Arc<SeriesCache>,
 }
 
 /// The nominal axis Jacobians of every sample are kept when they take at most this (a session
@@ -374,6 +377,7 @@ impl Study {
         if same_model {
             study.axis_jacobians = Arc::clone(&self.axis_jacobians);
         }
+        study.series = Arc::clone(&self.series);
         Ok(study)
     }
 
@@ -542,6 +546,7 @@ impl Study {
             changes,
             view: OnceLock::new(),
             axis_jacobians: Arc::new(OnceLock::new()),
+            series: Arc::default(),
         })
     }
 
@@ -814,6 +819,7 @@ impl Study {
             })
             .collect();
         SessionView::new(axes, setups, runs, model)
+            .with_series_cache(Arc::clone(&self.series))
             .with_current(self.effects().iter().map(|e| e.info().clone()).collect())
             .with_tool_travel(lo, hi)
     }

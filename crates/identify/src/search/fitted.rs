@@ -10,8 +10,8 @@ use crate::findings::Heldout;
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_solve::{Silent, Solution};
-use std::cell::OnceCell;
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 /// One fitted model.
 pub(super) struct Fitted {
@@ -19,7 +19,7 @@ pub(super) struct Fitted {
     pub(super) solution: Solution,
     /// Its report, built when first asked for ([`Fitted::id`]): most fits of the search are
     /// judged and left, and a report's mismatch analysis costs as much as a refit.
-    id: OnceCell<Identification>,
+    id: OnceLock<Identification>,
     pub(super) heldout: Heldout,
 }
 
@@ -28,7 +28,7 @@ impl Fitted {
         Self {
             study,
             solution,
-            id: OnceCell::new(),
+            id: OnceLock::new(),
             heldout,
         }
     }

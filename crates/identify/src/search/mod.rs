@@ -146,7 +146,7 @@ use keep::keep_what_holds;
 use mtcal_solve::Solution;
 use rank::rank_with;
 use settings::with_session_options;
-use step::{Refitted, Stage, choose_tries, same_explanation, scanned, try_candidate};
+use step::{Refitted, Stage, choose_tries, same_explanation, try_all};
 
 /// What [`search`] returns: the final study (the session with the discoveries added), its
 /// fit, and the report (with `discoveries` and `search` filled).
@@ -230,9 +230,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         }
         let mut trials = Vec::new();
         let mut passed: Vec<(usize, Ranked, Refitted)> = Vec::new();
-        for r in tries {
-            let r = scanned(&current, r, options)?;
-            let (trial, fitted) = try_candidate(&current, &r, options)?;
+        for (r, trial, fitted) in try_all(&current, tries, options)? {
             if let Some(f) = fitted {
                 passed.push((trials.len(), r, f));
             }

@@ -166,17 +166,65 @@ pub(super) fn choose_tries(ranked: &[Ranked], tries: usize) -> Vec<Ranked> {
     out
 }
 
+/// One refitted candidate: where its refit started (after the shape scan), the trial as
+/// reported, and the refit if it passed.
+pub(super) type Tried = (Ranked, Trial, Option<Refitted>);
+
+/// Scans and refits each of `tries` against `current` ([`scanned`], [`try_candidate`]), side by
+/// side on the solver's threads. Each try reads only `current` and computes alone, so the
+/// outcomes — in the order of `tries` — are the same on any number of threads; the error of
+/// the first failing try in that order is returned.
+pub(super) fn try_all(
+    current: &Fitted,
+    tries: Vec<Ranked>,
+    options: &SearchOptions,
+) -> Result<Vec<Tried>, IdentifyError> {
+    let n = tries.len();
+    let threads = match options.solver.threads {
+        0 => std::thread::available_parallelism().map_or(1, |t| t.get()),
+        t => t,
+    }
+    .clamp(1, n.max(1));
+    let one = |r: Ranked| -> Result<Tried, IdentifyError> {
+        let r = scanned(current, r, options)?;
+        let (trial, fitted) = try_candidate(current, &r, options)?;
+        Ok((r, trial, fitted))
+    };
+    let mut done: Vec<(usize, Result<Tried, IdentifyError>)> = Vec::with_capacity(n);
+    if threads == 1 {
+        done.extend(tries.into_iter().map(one).enumerate());
+    } else {
+        let queue = std::sync::Mutex::new(tries.into_iter().enumerate());
+        std::thread::scope(|s| {
+            let worker = || {
+                let mut out = Vec::new();
+                // A poisoned queue means another worker panicked: re-raised at join.
+                while let Ok(Some((k, r))) = queue.lock().map(|mut q| q.next()) {
+                    out.push((k, one(r)));
+                }
+                out
+            };
+            let handles: Vec<_> = (1..threads).map(|_| s.spawn(worker)).collect();
+            done.extend(worker());
+            for h in handles {
+                match h.join() {
+                    Ok(out) => done.extend(out),
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            }
+        });
+    }
+    done.sort_by_key(|(k, _)| *k);
+    done.into_iter().map(|(_, t)| t).collect()
+}
+
 /// `r` from the best of its shape scan ([`Effect::shape_scan`]: a cycle's pitch on a grid
 /// fine enough that no phase is off by more than an eighth of a turn), scored against the
 /// current fit; `r` itself if it has none or none scores higher. The scan picks where the
 /// refit starts; whether the candidate is kept is decided as for any other.
 ///
 /// [`Effect::shape_scan`]: mtcal_effects::Effect::shape_scan
-pub(super) fn scanned(
-    current: &Fitted,
-    r: Ranked,
-    options: &SearchOptions,
-) -> Result<Ranked, IdentifyError> {
+fn scanned(current: &Fitted, r: Ranked, options: &SearchOptions) -> Result<Ranked, IdentifyError> {
     let Candidate::Effect(e) = &r.candidate else {
         return Ok(r);
     };
@@ -207,7 +255,7 @@ pub(super) fn scanned(
 }
 
 /// Adds `ranked`'s candidate to the current model, refits, and decides.
-pub(super) fn try_candidate(
+fn try_candidate(
     current: &Fitted,
     ranked: &Ranked,
     options: &SearchOptions,
