@@ -64,3 +64,64 @@ fn the_five_axis_example_names_only_its_genuine_null_spaces() {
         assert!(p.is_some_and(|p| p.u95 < 2.0), "{name}: {p:?}");
     }
 }
+
+/// The prediction bands of the searched warm example (a drift with its time constant, a
+/// backlash, the R-test's own parameters) from the fit's analytic rows equal those from
+/// central differences of the whole prediction, parameter by parameter (steps of 10⁻⁴ σ): the
+/// rows before the noise filter are `∂reading/∂x`, weights and all undone. Fails with a row
+/// left in units of the noise or an effect's column put at another parameter's place.
+#[test]
+fn prediction_bands_from_the_fit_s_rows_are_the_finite_difference_bands() {
+    use mtcal_identify::search::{SearchOptions, search};
+    use mtcal_identify::{Study, band, base, predict_run};
+    let session =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/five-axis-warm/session");
+    let (study, _) =
+        base::identifiable_study(Study::load(&session).unwrap(), &Default::default()).unwrap();
+    let result = search(study, &SearchOptions::default()).unwrap();
+    let (study, solution) = (&result.study, &result.solution);
+    assert!(
+        !study.effects().is_empty(),
+        "the search found the planted effects"
+    );
+    let inflation = band::noise_inflation(study, solution);
+    let free: Vec<usize> = (0..solution.x.len())
+        .filter(|&i| solution.sigma[i].is_some_and(|s| s > 0.0))
+        .collect();
+    let mut compared = 0;
+    for r in (0..study.runs.len()).filter(|&r| !study.runs[r].fit) {
+        let analytic = band::prediction_u95(study, solution, r);
+        let columns: Vec<Vec<f64>> = free
+            .iter()
+            .map(|&i| {
+                let h = 1e-4 * solution.sigma[i].unwrap();
+                let mut x = solution.x.clone();
+                x[i] += h;
+                let up = predict_run(study, r, &x);
+                x[i] -= 2.0 * h;
+                let down = predict_run(study, r, &x);
+                up.iter()
+                    .zip(&down)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect()
+            })
+            .collect();
+        let widest = analytic.iter().copied().fold(0.0, f64::max);
+        for (s, &u) in analytic.iter().enumerate() {
+            let mut var = 0.0;
+            for (a, ga) in columns.iter().enumerate() {
+                for (b, gb) in columns.iter().enumerate() {
+                    var += ga[s] * solution.cov(free[a], free[b]) * gb[s];
+                }
+            }
+            let fd = 1.96 * (var * inflation).max(0.0).sqrt();
+            assert!(
+                (u - fd).abs() <= 1e-4 * widest,
+                "run {}, reading {s}: {u:e} from the rows, {fd:e} from differences",
+                study.runs[r].name
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared > 100, "{compared} readings compared");
+}
