@@ -17,7 +17,7 @@ const BLOCKS_BELOW_SHARE: f64 = 0.5;
 /// (columns, in that order) and `Uᵀ z`. Where `rs` is block diagonal after a permutation — the
 /// connected components of its pattern, [`BLOCKS_BELOW_SHARE`] — each block's SVD is taken
 /// alone and the decompositions merged: the same factorisation, to rounding.
-fn svd_by_blocks(rs: &Mat<f64>, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>, Vec<f64>), SolveError> {
+fn svd_by_blocks(rs: &Mat<f64>, z: &[f64]) -> Result<Decomposed, SolveError> {
     let n = rs.nrows();
     let blocks = blocks_of(rs);
     let largest = blocks.iter().map(Vec::len).max().unwrap_or(0);
@@ -57,7 +57,15 @@ fn svd_by_blocks(rs: &Mat<f64>, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>, Vec<f6
             .sum();
     }
     let s = order.iter().map(|o| o.0).collect();
-    Ok((s, v, c))
+    Ok(Decomposed { s, v, c })
+}
+
+/// What [`svd_by_blocks`] gives: the singular values (descending), the right singular vectors
+/// (columns, in that order) and `Uᵀ z`.
+struct Decomposed {
+    s: Vec<f64>,
+    v: Mat<f64>,
+    c: Vec<f64>,
 }
 
 /// The connected components of the pattern of the upper-triangular `rs` (columns `i` and `j`
@@ -146,7 +154,7 @@ impl Analysis {
                 "the scaled Jacobian factor is not finite".into(),
             ));
         }
-        let (s, mut v, c) = svd_by_blocks(&rs, &lin.z)?;
+        let Decomposed { s, mut v, c } = svd_by_blocks(&rs, &lin.z)?;
         let smax = s.first().copied().unwrap_or(0.0);
         let rank = s
             .iter()
@@ -397,7 +405,7 @@ mod tests {
         }
         let z: Vec<f64> = (0..n).map(|_| rand()).collect();
         assert!(blocks_of(&rs).len() >= 4, "{:?}", blocks_of(&rs));
-        let (s, v, c) = svd_by_blocks(&rs, &z).unwrap();
+        let Decomposed { s, v, c } = svd_by_blocks(&rs, &z).unwrap();
         let whole = rs.svd().unwrap();
         let s_whole: Vec<f64> = whole.S().column_vector().iter().copied().collect();
         let u = whole.U();
