@@ -80,10 +80,10 @@ fn prediction_u95_inflated(
         .collect();
     let m = study.runs[r].len() * study.channels(r).len();
     // G (readings × parameters): ∂prediction/∂x, the fit's own rows.
-    let g = DMatrix::from_row_slice(
+    let g = DMatrix::from_vec(
         m,
         free.len(),
-        &prediction_jacobian(study, r, &solution.x, &free),
+        prediction_jacobian(study, r, &solution.x, &free),
     );
     let c = DMatrix::from_fn(free.len(), free.len(), |a, b| {
         solution.cov(free[a], free[b])

@@ -850,10 +850,11 @@ pub(crate) fn prepared_effects(study: &Study, x: &[f64]) -> Option<Arc<PreparedE
     prepared_at(study, x, None)
 }
 
-/// `∂reading/∂x[cols[k]]` of every reading of run `r` at `x` (row-major readings × `cols`,
-/// readings in the order of [`predict_run`]): the fit's own rows before the noise filter and
-/// the weights (analytic where the set-up and the effects give derivatives), one pass over the
-/// run instead of two predictions per parameter.
+/// `∂reading/∂x[cols[k]]` of every reading of run `r` at `x` (column-major readings × `cols`,
+/// readings in the order of [`predict_run`]; a matrix as nalgebra keeps it, without a copy):
+/// the fit's own rows before the noise filter and the weights (analytic where the set-up and
+/// the effects give derivatives), one pass over the run instead of two predictions per
+/// parameter.
 pub(crate) fn prediction_jacobian(study: &Study, r: usize, x: &[f64], cols: &[usize]) -> Vec<f64> {
     let mut of_param = vec![usize::MAX; x.len()];
     for (k, &i) in cols.iter().enumerate() {
@@ -861,8 +862,8 @@ pub(crate) fn prediction_jacobian(study: &Study, r: usize, x: &[f64], cols: &[us
     }
     let n = study.runs[r].len();
     let nch = study.channels(r).len();
-    let w = cols.len();
-    let mut out = vec![0.0; n * nch * w];
+    let m = n * nch;
+    let mut out = vec![0.0; m * cols.len()];
     let mut eval = SampleEval::new(study, r, x, prepared_effects(study, x));
     for group in &channel_groups(study)[study.runs[r].setup] {
         eval.only_effects(&group.effects);
@@ -873,10 +874,9 @@ pub(crate) fn prediction_jacobian(study: &Study, r: usize, x: &[f64], cols: &[us
             for &c in &group.channels {
                 eval.whitened_row(c, &group.place, &mut row);
                 let sigma = 1.0 / eval.inv_sigma[c];
-                let o = &mut out[(i * nch + c) * w..][..w];
                 for (&k, &v) in to.iter().zip(&row) {
                     if k != usize::MAX {
-                        o[k] = v * sigma;
+                        out[k * m + i * nch + c] = v * sigma;
                     }
                 }
             }
