@@ -266,11 +266,11 @@ impl Effect for Bank {
         let inputs = describe_inputs(&self.columns);
         format!(
             "a joint thermal model of {}: {} columns ({inputs}), each a first-order response, \
-             fitted together with a prior of {:.2} {u} per column; the largest contributions over \
+             fitted together with a prior of {}; the largest contributions over \
              the fitted runs: {}",
             self.target_words,
             self.columns.len(),
-            self.width * k,
+            self.prior_words().unwrap_or_default(),
             parts
                 .iter()
                 .take(4)
@@ -288,6 +288,14 @@ impl Effect for Bank {
                 _ => None,
             })
             .collect()
+    }
+
+    fn prior_words(&self) -> Option<String> {
+        Some(format!(
+            "{:.2} {} per column",
+            self.width * self.unit.1,
+            self.unit.0
+        ))
     }
 
     fn prior_ladder(&self) -> Vec<Arc<dyn Effect>> {

@@ -164,6 +164,11 @@ pub trait Effect: fmt::Debug + Send + Sync {
     fn prior_ladder(&self) -> Vec<Arc<dyn Effect>> {
         Vec::new()
     }
+    /// The width of the prior its [`Effect::prior_ladder`] steps through, in words ("0.30 um
+    /// per column"); `None` for an effect without one.
+    fn prior_words(&self) -> Option<String> {
+        None
+    }
 }
 
 /// An effect's features at fixed shape parameters.

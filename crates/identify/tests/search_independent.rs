@@ -1040,6 +1040,16 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
             None => notes.push(format!("{}: not named", p.what)),
         }
     }
+    // A joint model is widened when the search proposes it again, never stacked on itself
+    // (a second bank of the same columns, withdrawn piece by piece, once left the model at
+    // the first one's narrow prior).
+    for d in &id.discoveries {
+        assert!(
+            !(d.effect == "thermal-model" && d.label.contains(" #")),
+            "{} stacked on itself\n{summary}",
+            d.label
+        );
+    }
     let false_claims: Vec<String> = id
         .discoveries
         .iter()
@@ -1072,10 +1082,11 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
 /// noise seeds each (24 sessions of 36 cycles): the planted physics (the spindle's growth, the
 /// Z screw's and the Y screw's scale, the head turning about X, the structure following the
 /// room) is named with its planted values in ≥ 90 % of cases and nothing else is claimed
-/// anywhere. The withheld cycle is predicted within 1.2 × the noise in at least 80 % of the
-/// sessions and within 2 × in all (measured: 20 of 24 within 1.2 ×; the trunnion under Y-drive
-/// load with the room stepping reaches 1.4–1.7 × on two seeds, its residual field following the
-/// room along Y).
+/// anywhere. The withheld cycle is predicted within 1.2 × the noise in at least 90 % of the
+/// sessions and within 1.5 × in all (measured: 22 of 24 within 1.2 ×, the others 1.23 and
+/// 1.27 ×, both the trunnion under Y-drive load; before a joint model's width was chosen with
+/// the machine held when a ball is left out, and widened rather than stacked on itself, 20 of
+/// 24, the trunnion with the room stepping at 1.4–1.7 ×).
 #[test]
 fn volumetric_thermal_tests_name_what_was_planted() {
     use mtcal_indsim::{VolumetricLoad, VolumetricMachine};
@@ -1101,6 +1112,11 @@ fn volumetric_thermal_tests_name_what_was_planted() {
             }
         }
     }
+    // One session alone, to look at it (`VOLUMETRIC_SEED=109 VERBOSE=1`).
+    if let Ok(seed) = std::env::var("VOLUMETRIC_SEED") {
+        let seed: u64 = seed.parse().unwrap();
+        cases.retain(|c| c.seed == seed);
+    }
     let outcomes = parallel(&cases, run_volumetric);
     let (mut named, mut planted) = (0, 0);
     let mut report = String::new();
@@ -1125,7 +1141,7 @@ fn volumetric_thermal_tests_name_what_was_planted() {
     );
     let within = outcomes.iter().filter(|o| o.3 <= 1.2).count();
     assert!(
-        5 * within >= 4 * outcomes.len() && outcomes.iter().all(|o| o.3 <= 2.0),
+        10 * within >= 9 * outcomes.len() && outcomes.iter().all(|o| o.3 <= 1.5),
         "withheld cycles: {within} of {} within 1.2 × the noise\n{report}",
         outcomes.len()
     );

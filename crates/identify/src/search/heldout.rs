@@ -911,10 +911,18 @@ pub(super) fn choose_width(
     let sums = fold_sums(study, x, folds, &assign)?;
     let specs = param_specs_from(study, x);
     let first = n - ladder[0].params().len();
+    // A run left out may be the one that determines some directions of the machine or its own
+    // set-up (a ball of a volumetric test): refitted on the others, a step along a direction
+    // they barely see moves parameters by millimetres and the run's prediction with them,
+    // whatever the prior. Then, as in a forecast ([`Refit::EffectsOnly`]), only the effects
+    // move; the machine and the set-ups keep the full fit's values.
+    let effects = study.layout().effects();
+    let effects_only = matches!(assign, FoldOf::Run(_));
     // Only the parameters that share rows with the effect's take part in the refit of a fold
     // (the rest, another sensor's model, keep their fitted values: what they do does not
     // depend on this effect's prior).
     let coupled: Vec<usize> = (0..n)
+        .filter(|&i| !effects_only || effects.contains(&i))
         .filter(|&i| {
             i >= first
                 || (first..n).any(|j| (0..folds).any(|k| sums.a[k * n * n + i * n + j] != 0.0))

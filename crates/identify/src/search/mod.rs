@@ -283,15 +283,32 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         let accepted = match winner {
             Some(w) => {
                 let (_, r, f) = passed.swap_remove(w);
-                Some((r, f.addition, Fitted::new(f.study, f.solution, f.heldout)))
+                Some((
+                    r,
+                    f.addition,
+                    f.widens,
+                    Fitted::new(f.study, f.solution, f.heldout),
+                ))
             }
             None => None,
         };
-        let Some((ranked_ok, addition, fitted)) = accepted else {
+        let Some((ranked_ok, addition, widens, fitted)) = accepted else {
             report.stopped = SearchStop::NoneImproved;
             last_ranking = Some(ranked);
             break;
         };
+        if let Some(old) = widens {
+            // A bank in the model at a wider prior: its stage holds the wider one.
+            for stage in &mut stages {
+                if let step::AddedChange::Effect(e) = &stage.addition.change
+                    && std::sync::Arc::ptr_eq(e, &old)
+                {
+                    stage.addition.change = addition.change.clone();
+                }
+            }
+            current = with_noise(fitted, options)?;
+            continue;
+        }
         let before_params = machine_values(&current.study, &current.solution);
         // Of the state after the step, its fit and validation are reported.
         let after_id = Identification::without_mismatch(&fitted.study, &fitted.solution)?;

@@ -18,6 +18,7 @@ use crate::{IdentifyError, param_specs};
 use mtcal_effects::Candidate;
 use mtcal_solve::Solution;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// One accepted step.
 pub(super) struct Stage {
@@ -270,6 +271,11 @@ fn try_candidate(
         accepted: false,
         why: String::new(),
     };
+    if let Candidate::Effect(e) = &ranked.candidate
+        && let Some(old) = bank_in_model(&changes, e)
+    {
+        return widen(current, ranked, &old, trial, options);
+    }
     match &ranked.candidate {
         Candidate::Model(m) if m.extra_order == 0 => changes.estimate.push(m.param),
         Candidate::Model(m) => changes.raise.push((m.param, m.extra_order)),
@@ -322,6 +328,129 @@ fn try_candidate(
         );
         return Ok((trial, None));
     }
+    judge(current, ranked, study, solution, &x0, trial, None, options)
+}
+
+/// The bank in the model that `e` proposes again (the same label, a prior ladder).
+fn bank_in_model(
+    changes: &Changes,
+    e: &Arc<dyn mtcal_effects::Effect>,
+) -> Option<Arc<dyn mtcal_effects::Effect>> {
+    if e.prior_ladder().is_empty() {
+        return None;
+    }
+    changes
+        .effects
+        .iter()
+        .find(|f| f.info().label == e.info().label && !f.prior_ladder().is_empty())
+        .cloned()
+}
+
+/// The width of a bank's prior (its first column's prior standard deviation).
+fn prior_width(e: &dyn mtcal_effects::Effect) -> f64 {
+    e.params().first().and_then(|p| p.prior).unwrap_or(0.0)
+}
+
+/// A joint model proposed again while it is in the model (`old`): a second bank of the same
+/// columns beside the first would be the first at a wider prior (two Gaussian priors on one
+/// column add their variances), found piecemeal and withdrawn piece by piece, each piece's
+/// amplitudes alone within their interval of zero. The proposal is the bank in the model at a
+/// wider prior instead: the width chosen by the cross-validation among the present one and
+/// the wider ones ([`choose_width`]), judged as any candidate is, the information criterion
+/// counting the effective parameters the wider prior frees.
+fn widen(
+    current: &Fitted,
+    ranked: &Ranked,
+    old: &Arc<dyn mtcal_effects::Effect>,
+    mut trial: Trial,
+    options: &SearchOptions,
+) -> Result<(Trial, Option<Refitted>), IdentifyError> {
+    let now = prior_width(old.as_ref());
+    let mut ladder = vec![Arc::clone(old)];
+    ladder.extend(
+        old.prior_ladder()
+            .into_iter()
+            .filter(|e| prior_width(e.as_ref()) > now * (1.0 + 1e-9)),
+    );
+    if ladder.len() == 1 {
+        trial.why = "in the model already, at its widest prior".to_string();
+        return Ok((trial, None));
+    }
+    // The model as it is, the bank last (as `choose_width` reads it).
+    let mut changes = current.study.changes().clone();
+    changes.effects.retain(|f| !Arc::ptr_eq(f, old));
+    changes.effects.push(Arc::clone(old));
+    let reordered = current.study.rebuild(changes)?;
+    let at = Solution {
+        x: carry_over(&current.study, &current.solution.x, &reordered),
+        ..current.solution.clone()
+    };
+    let k = choose_width(&reordered, &at, &ladder, options)?;
+    if k == 0 {
+        trial.why = format!(
+            "in the model already; the cross-validation keeps its prior of {}",
+            width_words(old.as_ref())
+        );
+        return Ok((trial, None));
+    }
+    let mut changes = reordered.changes().clone();
+    changes.effects.pop();
+    changes.effects.push(Arc::clone(&ladder[k]));
+    let study = reordered.rebuild(changes)?;
+    let solution = match solve(&study, &at.x, options, &[]) {
+        Ok(s) if s.converged => s,
+        Ok(s) => {
+            trial.why = format!(
+                "the refit did not converge ({:?} after {} iterations)",
+                s.termination, s.iterations
+            );
+            return Ok((trial, None));
+        }
+        Err(e) => {
+            trial.why = format!("the refit failed: {e}");
+            return Ok((trial, None));
+        }
+    };
+    let (trial, refitted) = judge(
+        current,
+        ranked,
+        study,
+        solution,
+        &at.x,
+        trial,
+        Some(old),
+        options,
+    )?;
+    let mut trial = trial;
+    if trial.accepted {
+        trial.why = format!(
+            "its prior widened from {} to {}: {}",
+            width_words(old.as_ref()),
+            width_words(ladder[k].as_ref()),
+            trial.why
+        );
+    }
+    Ok((trial, refitted))
+}
+
+/// A bank's prior width in words.
+fn width_words(e: &dyn mtcal_effects::Effect) -> String {
+    e.prior_words().unwrap_or_else(|| "its width".to_string())
+}
+
+/// Judges a converged refit of `current` with `ranked`'s candidate (`widens`: the bank in
+/// the model it widens): physics, information criterion, held-out prediction.
+#[allow(clippy::too_many_arguments)]
+fn judge(
+    current: &Fitted,
+    ranked: &Ranked,
+    study: Study,
+    solution: Solution,
+    x0: &[f64],
+    mut trial: Trial,
+    widens: Option<&Arc<dyn mtcal_effects::Effect>>,
+    options: &SearchOptions,
+) -> Result<(Trial, Option<Refitted>), IdentifyError> {
     // Refined together, a second thermal node's τ may slide onto the first one's, where the
     // two amplitudes grow without bound in opposite directions: then the earlier effects keep
     // the shapes they were found with and only the new one's is refined.
@@ -338,7 +467,7 @@ fn try_candidate(
                         .is_some_and(|p| p.kind == mtcal_effects::ParamKind::Shape)
                 })
                 .collect();
-            match solve(&study, &x0, options, &earlier) {
+            match solve(&study, x0, options, &earlier) {
                 Ok(held) if implausible(current, &study, &held).is_none() => held,
                 _ => solution,
             }
@@ -347,7 +476,10 @@ fn try_candidate(
     };
     let before = &current.solution;
     let drop = before.chi2 - solution.chi2;
-    let added = added_dof(current, &study, &solution);
+    let added = match widens {
+        Some(old) => widened_dof(current, old, &study, &solution),
+        None => added_dof(current, &study, &solution),
+    };
     let scale = solution.chi2_reduced.max(1.0);
     let penalty = added * (solution.n_rows.max(2) as f64).ln();
     if drop / scale <= penalty {
@@ -394,7 +526,15 @@ fn try_candidate(
         return Ok((trial, None));
     }
     trial.accepted = true;
-    let addition = addition_of(current, &study, &ranked.candidate);
+    let addition = match widens {
+        Some(_) => Addition {
+            change: AddedChange::Effect(Arc::clone(
+                study.changes().effects.last().expect("the widened bank"),
+            )),
+            params: Vec::new(),
+        },
+        None => addition_of(current, &study, &ranked.candidate),
+    };
     // Kept until the step's winner is chosen: without the lag series of its fit.
     study.clear_view_caches();
     trial.why = format!(
@@ -413,6 +553,7 @@ fn try_candidate(
             heldout: held,
             added_dof: added,
             addition,
+            widens: widens.cloned(),
         }),
     ))
 }
@@ -501,6 +642,41 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
 /// The degrees of freedom `study` (the current model with a candidate added) spends beyond
 /// `current`'s: one per new parameter, less for one under a prior (a ridge's column counts
 /// `1 − σ²_fit/σ²_prior`, the share of it the data rather than the prior decide); at least 1.
+/// The effective parameters a wider prior frees: over the bank's amplitudes (the study's
+/// last effect), `1 − (posterior σ / prior σ)²` now less the same in `current`.
+fn widened_dof(
+    current: &Fitted,
+    old: &Arc<dyn mtcal_effects::Effect>,
+    study: &Study,
+    solution: &Solution,
+) -> f64 {
+    let effective = |prior: Option<f64>, post: Option<f64>| match (prior, post) {
+        (Some(prior), Some(post)) => (1.0 - (post / prior).powi(2)).clamp(0.0, 1.0),
+        _ => 0.0,
+    };
+    let before: HashMap<String, f64> = (0..current.study.layout().n_x())
+        .filter_map(|i| {
+            let prior = current.study.effect_param(i)?.prior;
+            let post = current.solution.sigma[i];
+            Some((current.study.param_info(i).name, effective(prior, post)))
+        })
+        .collect();
+    let n = study.layout().n_x();
+    let mut dof = 0.0;
+    for i in n - old.params().len()..n {
+        let now = effective(
+            study.effect_param(i).and_then(|d| d.prior),
+            solution.sigma[i],
+        );
+        dof += now
+            - before
+                .get(&study.param_info(i).name)
+                .copied()
+                .unwrap_or(0.0);
+    }
+    dof.max(0.0)
+}
+
 fn added_dof(current: &Fitted, study: &Study, solution: &Solution) -> f64 {
     let mut dof = 0.0;
     for i in current.study.layout().n_x()..study.layout().n_x() {
@@ -771,6 +947,9 @@ pub(super) struct Refitted {
     /// The parameters the candidate added, as the information criterion counts them.
     pub(super) added_dof: f64,
     pub(super) addition: Addition,
+    /// The bank in the model this refit widens ([`widen`]): the step changes that stage's
+    /// effect instead of adding one.
+    pub(super) widens: Option<Arc<dyn mtcal_effects::Effect>>,
 }
 
 /// What `candidate` added to `current`'s model to make `study`.
