@@ -263,11 +263,9 @@ fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_c
     let Some(rec) = recording() else {
         return;
     };
-    let (one, four) = std::thread::scope(|s| {
-        let one = s.spawn(|| searched(&rec, Cut::OneRun));
-        let four = searched(&rec, Cut::FourRuns);
-        (one.join().unwrap(), four)
-    });
+    // One after the other, each with the machine's every core, as a user runs it.
+    let one = searched(&rec, Cut::OneRun);
+    let four = searched(&rec, Cut::FourRuns);
     eprintln!(
         "as one run {} ({:.0} s)\nas four runs {} ({:.0} s)",
         fmt(&one.0),
