@@ -916,32 +916,16 @@ fn predict_runs_with(
             tasks.push((r, k * PREDICT_CHUNK, chunk));
         }
     }
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(tasks.len())
-        .max(1);
-    let queue = std::sync::Mutex::new(tasks.into_iter());
-    let worker = || {
-        loop {
-            let task = queue.lock().map(|mut q| q.next());
-            // A poisoned queue means another worker panicked: its panic is re-raised at join.
-            let Ok(Some((r, first, chunk))) = task else {
-                return;
-            };
-            let mut eval = SampleEval::new(study, r, x, prepared.clone());
-            let nch = eval.n_channels();
-            for (j, row) in chunk.chunks_exact_mut(nch).enumerate() {
-                eval.at(first + j, false);
-                row.copy_from_slice(&eval.pred);
-            }
+    let predict = |(r, first, chunk): (usize, usize, &mut [f64])| {
+        let mut eval = SampleEval::new(study, r, x, prepared.clone());
+        let nch = eval.n_channels();
+        for (j, row) in chunk.chunks_exact_mut(nch).enumerate() {
+            eval.at(first + j, false);
+            row.copy_from_slice(&eval.pred);
         }
+        Ok::<(), std::convert::Infallible>(())
     };
-    std::thread::scope(|s| {
-        for _ in 1..threads {
-            s.spawn(worker);
-        }
-        worker();
-    });
+    let Ok(_) = mtcal_solve::map_in_order(tasks, 0, predict);
     out
 }
 

@@ -146,7 +146,7 @@ pub const INVISIBLE: f64 = 1e-3;
 pub fn visible(norm: f64, floor: f64) -> bool {
     norm > INVISIBLE * floor
 }
-pub use lanes::{LANES, lane_count, run_lanes};
+pub use lanes::{LANES, lane_count, map_in_order, run_lanes};
 pub use score::{Score, ScoreSink, ScoredProblem, holm, score_candidates};
 pub use solver::{linearize, solve};
 

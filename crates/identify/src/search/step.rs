@@ -180,43 +180,12 @@ pub(super) fn try_all(
     tries: Vec<Ranked>,
     options: &SearchOptions,
 ) -> Result<Vec<Tried>, IdentifyError> {
-    let n = tries.len();
-    let threads = match options.solver.threads {
-        0 => std::thread::available_parallelism().map_or(1, |t| t.get()),
-        t => t,
-    }
-    .clamp(1, n.max(1));
     let one = |r: Ranked| -> Result<Tried, IdentifyError> {
         let r = scanned(current, r, options)?;
         let (trial, fitted) = try_candidate(current, &r, options)?;
         Ok((r, trial, fitted))
     };
-    let mut done: Vec<(usize, Result<Tried, IdentifyError>)> = Vec::with_capacity(n);
-    if threads == 1 {
-        done.extend(tries.into_iter().map(one).enumerate());
-    } else {
-        let queue = std::sync::Mutex::new(tries.into_iter().enumerate());
-        std::thread::scope(|s| {
-            let worker = || {
-                let mut out = Vec::new();
-                // A poisoned queue means another worker panicked: re-raised at join.
-                while let Ok(Some((k, r))) = queue.lock().map(|mut q| q.next()) {
-                    out.push((k, one(r)));
-                }
-                out
-            };
-            let handles: Vec<_> = (1..threads).map(|_| s.spawn(worker)).collect();
-            done.extend(worker());
-            for h in handles {
-                match h.join() {
-                    Ok(out) => done.extend(out),
-                    Err(panic) => std::panic::resume_unwind(panic),
-                }
-            }
-        });
-    }
-    done.sort_by_key(|(k, _)| *k);
-    done.into_iter().map(|(_, t)| t).collect()
+    mtcal_solve::map_in_order(tries, options.solver.threads, one)
 }
 
 /// `r` from the best of its shape scan ([`Effect::shape_scan`]: a cycle's pitch on a grid
