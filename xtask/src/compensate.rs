@@ -41,6 +41,11 @@ pub(crate) struct CompensateArgs {
     /// mid-stroke, rotary axes 0).
     #[arg(long)]
     hold: Option<String>,
+    /// SINUMERIK EEC: the axes' reference point, mm (mtcal's axis coordinates): each linear
+    /// axis' table is made zero there, as the K3 manual asks (no jump when compensation
+    /// starts); a rotary axis' table is zero at 0°. The card lists what each table removed.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    reference_mm: f64,
     #[command(flatten)]
     control: ControlArgs,
 }
@@ -246,6 +251,7 @@ impl ControlArgs {
             reversal_um: None,
             hold_q,
             siemens: siemens_limits(self),
+            reference_mm: 0.0,
             fanuc: fanuc_control(self),
             heidenhain: match self.heidenhain_control {
                 HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
@@ -264,6 +270,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let settings = Settings {
         joint_offset_mm: args.joint_offset_mm,
         reversal_um: args.reversal_um,
+        reference_mm: args.reference_mm,
         ..args
             .control
             .settings(hold_q, args.spacing_mm, args.spacing_deg)

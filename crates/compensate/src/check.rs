@@ -163,6 +163,7 @@ mod tests {
             reversal_um: None,
             hold_q: crate::default_hold(machine),
             siemens: crate::SiemensLimits::default(),
+            reference_mm: 0.0,
             fanuc: crate::FanucControl::new(
                 crate::FanucSeries::Series30i,
                 crate::IncrementSystem::IsB,

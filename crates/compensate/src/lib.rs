@@ -196,12 +196,13 @@ pub use pitch::{
 };
 pub use rotary::{RotaryTable, rotary_table, rotation_direction};
 pub use siemens::{
-    CEC_FILE_NAME, CecDirection, CecTable, EEC_FILE_NAME, EecTable, SIEMENS_DEFAULT_CEC_TABLES,
-    SIEMENS_DEFAULT_MAX_VALUE, SIEMENS_DEFAULT_POINTS, SiemensError, SiemensLimits, cec_card,
-    eec_card, eec_from_pitch, equidistant_nodes_mm, read_siemens_cec, read_siemens_cec_str,
-    read_siemens_eec, read_siemens_eec_str, siemens_axis_names, siemens_cec_table,
-    siemens_cec_tables, siemens_cec_text, siemens_eec_rotary_table, siemens_eec_table,
-    siemens_eec_tables, siemens_eec_text, siemens_note, write_siemens_cec, write_siemens_eec,
+    CEC_FILE_NAME, CecDirection, CecTable, EEC_FILE_NAME, EecReference, EecTable,
+    SIEMENS_DEFAULT_CEC_TABLES, SIEMENS_DEFAULT_MAX_VALUE, SIEMENS_DEFAULT_POINTS, SiemensError,
+    SiemensLimits, cec_card, eec_card, eec_from_pitch, equidistant_nodes_mm, read_siemens_cec,
+    read_siemens_cec_str, read_siemens_eec, read_siemens_eec_str, siemens_axis_names,
+    siemens_cec_table, siemens_cec_tables, siemens_cec_text, siemens_eec_rotary_table,
+    siemens_eec_table, siemens_eec_tables, siemens_eec_text, siemens_note, write_siemens_cec,
+    write_siemens_eec,
 };
 pub use siemens_carr::{
     CARR_CHAIN_TOL_MM, CARR_MAX_NAME, CARR_MAX_OFFSET_MM, CarrData, CarrError, CarrKind, carr_card,

@@ -54,6 +54,10 @@ pub struct Settings {
     pub hold_q: Vec<f64>,
     /// SINUMERIK tables: the control's limits (MD38000, MD18342).
     pub siemens: crate::SiemensLimits,
+    /// SINUMERIK EEC: the reference point where each linear axis' table is zero (mm, mtcal's
+    /// axis coordinates; a rotary axis' table is zero at 0°), as K3 asks (no jump when the
+    /// compensation starts).
+    pub reference_mm: f64,
     /// Fanuc pitch error compensation: the series, increment system and limits.
     pub fanuc: crate::FanucControl,
     /// Heidenhain `.COM` tables: the control's limits (TNC 4xx or MANUALplus 620).
@@ -324,22 +328,29 @@ fn write_siemens_eec(
             .axis_index(a)
             .is_some_and(|i| machine.axes()[i].kind() == AxisKind::Rotary)
     };
+    let linear = |a: char| {
+        crate::siemens_eec_table(model, coeffs, a, spacing, hold, &names)
+            .map(|t| t.relative_to(settings.reference_mm))
+    };
+    let rotary = |a: char| rotary(a).map(|t| t.relative_to(0.0));
     let tables = match axis {
         Some(a) if is_rotary(a) => vec![rotary(a)?],
-        Some(a) => vec![crate::siemens_eec_table(
-            model, coeffs, a, spacing, hold, &names,
-        )?],
-        None => {
-            let mut tables = crate::siemens_eec_tables(model, coeffs, spacing, hold, &names)?;
-            for a in machine
-                .axes()
-                .iter()
-                .filter(|a| a.kind() == AxisKind::Rotary)
-            {
-                tables.push(rotary(a.letter().as_char())?);
-            }
-            tables
-        }
+        Some(a) => vec![linear(a)?],
+        None => machine
+            .axes()
+            .iter()
+            .filter(|a| a.kind() == AxisKind::Linear)
+            .chain(
+                machine
+                    .axes()
+                    .iter()
+                    .filter(|a| a.kind() == AxisKind::Rotary),
+            )
+            .map(|a| match a.kind() {
+                AxisKind::Rotary => rotary(a.letter().as_char()),
+                _ => linear(a.letter().as_char()),
+            })
+            .collect::<Result<_, _>>()?,
     };
     let card = crate::eec_card(&tables, &names);
     let note = crate::siemens_note(machine, hold);
@@ -540,6 +551,7 @@ mod tests {
             reversal_um: None,
             hold_q: crate::default_hold(model.machine()),
             siemens: crate::SiemensLimits::default(),
+            reference_mm: 0.0,
             fanuc: crate::FanucControl::new(
                 crate::FanucSeries::Series30i,
                 crate::IncrementSystem::IsC,
@@ -732,15 +744,58 @@ mod tests {
         assert!(c.values.iter().any(|v| v.abs() > 1e-6), "{:?}", c.values);
         let a = eec.iter().find(|t| t.axis == "A1").expect("a table of A");
         assert!(!a.is_modulo);
-        // The value is the error: the control's correction −value turns C onto the command.
+        // The value is the error: the control's correction −value turns C onto the command;
+        // zero at 0° (K3's reference point).
         let table = crate::rotary_table(&model, &coeffs, 'C', 360.0 / 15.0, &s.hold_q).unwrap();
+        let error_deg = |p: f64| (-table.correction_at_urad(p) * 1e-6).to_degrees();
         for (p, v) in c.positions.iter().zip(&c.values) {
-            let expected_deg = (-table.correction_at_urad(*p) * 1e-6).to_degrees();
+            let expected_deg = error_deg(*p) - error_deg(0.0);
             assert!(
                 (v - expected_deg).abs() < 1e-6,
                 "{p}: {v} vs {expected_deg}"
             );
         }
+    }
+
+    /// K3 asks for the value 0 at the reference point: each linear axis' table is the
+    /// absolute error less its value at `reference_mm` (a constant shift the work offset
+    /// absorbs), zero there as the control interpolates it, and the card says where and how
+    /// much was removed.
+    #[test]
+    fn siemens_eec_tables_are_zero_at_the_reference_point() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, mut coeffs) = model("ZFYX");
+        for (k, c) in coeffs.iter_mut().enumerate() {
+            *c = 3e-6 * ((k as f64) * 0.9).cos();
+        }
+        let mut s = settings(&model);
+        s.spacing_mm = 40.0;
+        let names = crate::siemens_axis_names(model.machine());
+        let absolute =
+            crate::siemens_eec_table(&model, &coeffs, 'X', s.spacing_mm, &s.hold_q, &names)
+                .unwrap();
+        let reference_mm = absolute.positions[1] + 13.0;
+        let at = absolute.value_at(reference_mm);
+        assert!(
+            at.abs() > 1e-4,
+            "an error to remove at the reference: {at} mm"
+        );
+        s.reference_mm = reference_mm;
+        let path = dir.path().join("eec.ini");
+        let what = Compensation::SiemensEec { axis: Some('X') };
+        write_compensation(&model, &coeffs, &path, what, &s).unwrap();
+        let read = crate::read_siemens_eec(&path, &s.siemens).unwrap();
+        assert_eq!(read[0].positions, absolute.positions);
+        for (v, a) in read[0].values.iter().zip(&absolute.values) {
+            assert!((v - (a - at)).abs() <= 1e-6, "{v} vs {a} − {at}");
+        }
+        assert!(read[0].value_at(reference_mm).abs() <= 1e-6);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let said = format!(
+            "$AA_ENC_COMP[0,N,X1] zero at {reference_mm} mm ({:+.3} um removed)",
+            at * 1e3
+        );
+        assert!(text.contains(&said), "{said}\n{text}");
     }
 
     #[test]

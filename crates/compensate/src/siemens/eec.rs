@@ -34,6 +34,18 @@ pub struct EecTable {
     pub values: Vec<f64>,
     /// `$AA_ENC_COMP_IS_MODULO`: the table repeats with period MAX − MIN (rotary axes).
     pub is_modulo: bool,
+    /// Where the table was made zero ([`EecTable::relative_to`]); `None` for the absolute
+    /// error (and for a table read from a file, which does not say).
+    pub reference: Option<EecReference>,
+}
+
+/// Where an EEC table is zero and what that removed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EecReference {
+    /// The reference point: mm on a linear axis, degrees on a rotary axis.
+    pub position: f64,
+    /// The table's value there before, subtracted from every point (mm or degrees).
+    pub removed: f64,
 }
 
 impl EecTable {
@@ -51,6 +63,7 @@ impl EecTable {
             positions,
             values,
             is_modulo,
+            reference: None,
         }
     }
 
@@ -99,6 +112,8 @@ impl EecTable {
         for v in &mut self.values {
             *v -= at;
         }
+        let removed = at + self.reference.map_or(0.0, |r| r.removed);
+        self.reference = Some(EecReference { position, removed });
         self
     }
 }
@@ -269,16 +284,48 @@ pub fn eec_card(tables: &[EecTable], names: &[AxisMap]) -> ConventionCard {
              of each table (changing MD38000 reformats the static user memory at the next power \
              on: back it up first)"
                 .into(),
-            "compensate after MD32700 = 1, power on and referencing the axis; K3 recommends the \
-             value 0 at the reference point to avoid a jump at activation: this file holds the \
-             absolute modelled error (the work offset absorbs the constant; \
-             EecTable::relative_to removes it)"
-                .into(),
+            referenced(tables, names),
             "not hold errors across the axis, squareness, angular errors except through their \
              Abbe offsets at the held positions (comment `held`), nor a difference between the \
              directions of travel"
                 .into(),
         ],
+    }
+}
+
+/// What the card says of the tables' reference points: K3 (leadscrew/encoder error
+/// compensation) asks for the value 0 at the reference point, so that the axis does not jump
+/// when compensation starts.
+fn referenced(tables: &[EecTable], names: &[AxisMap]) -> String {
+    let start = "compensate after MD32700 = 1, power on and referencing the axis; K3 wants the \
+                 value 0 at the reference point (no jump at activation)";
+    let points: Option<Vec<String>> = tables
+        .iter()
+        .map(|t| {
+            let r = t.reference?;
+            let (unit, small) = if any_rotary(names, std::iter::once(t.axis.as_str())) {
+                ("deg", "mdeg")
+            } else {
+                ("mm", "um")
+            };
+            Some(format!(
+                "{} zero at {} {unit} ({:+.3} {small} removed)",
+                t.name(),
+                r.position,
+                r.removed * 1e3
+            ))
+        })
+        .collect();
+    match points {
+        Some(p) if !p.is_empty() => format!(
+            "{start}: each table is referenced so — {} — and the constant removed shifts the \
+             axis, which the work offset absorbs",
+            p.join("; ")
+        ),
+        _ => format!(
+            "{start}: this file holds the absolute modelled error (the work offset absorbs \
+             the constant; `compensate --reference-mm` references each table)"
+        ),
     }
 }
 
@@ -536,6 +583,7 @@ impl Acc {
             positions,
             values,
             is_modulo,
+            reference: None,
         };
         table.check(limits).map_err(located)?;
         Ok(table)

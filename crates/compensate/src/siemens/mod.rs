@@ -63,7 +63,11 @@
 //!   workpiece along the axis' own positive travel direction at equidistant points over its
 //!   stroke, every other axis at `hold_q` ([`crate::default_hold`]): the ISO 230-2 positioning
 //!   error the pitch table ([`crate::pitch_table`]) negates. The step is the largest one not above
-//!   the requested spacing that divides the stroke ([`equidistant_nodes_mm`]).
+//!   the requested spacing that divides the stroke ([`equidistant_nodes_mm`]). K3 wants "the
+//!   compensation value at the reference point" to be zero (so the axis does not jump when
+//!   compensation starts): `compensate` writes each table less its value at the reference
+//!   point ([`EecTable::relative_to`]; `Settings::reference_mm`, a rotary axis at 0°) and the
+//!   card lists the constant removed — a shift of the axis the work offset absorbs.
 //! - CEC ([`siemens_cec_table`]): for an input axis `i` and a different output axis `o`, the error
 //!   along `o`'s travel direction while `i` moves, the other axes held, **minus its value with
 //!   `i` at its held position**. The tables are therefore zero at the held point and add to the
@@ -84,9 +88,9 @@ pub use cec::{
     siemens_cec_table, siemens_cec_tables, siemens_cec_text, write_siemens_cec,
 };
 pub use eec::{
-    EEC_FILE_NAME, EecTable, eec_card, eec_from_pitch, read_siemens_eec, read_siemens_eec_str,
-    siemens_eec_rotary_table, siemens_eec_table, siemens_eec_tables, siemens_eec_text,
-    write_siemens_eec,
+    EEC_FILE_NAME, EecReference, EecTable, eec_card, eec_from_pitch, read_siemens_eec,
+    read_siemens_eec_str, siemens_eec_rotary_table, siemens_eec_table, siemens_eec_tables,
+    siemens_eec_text, write_siemens_eec,
 };
 
 use crate::text::Source;
