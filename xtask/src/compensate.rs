@@ -83,6 +83,10 @@ pub(crate) struct ControlArgs {
     /// Fanuc: the increment system, `is-b` (0.001 mm) or `is-c` (0.0001 mm).
     #[arg(long, default_value = "is-b")]
     increment: IncrementArg,
+    /// Fanuc: most points of one axis from 3621 to 3622 (default 128, the limit a public
+    /// summary gives; no Fanuc manual read states it: set your control's).
+    #[arg(long)]
+    fanuc_axis_points: Option<u32>,
     /// Heidenhain .COM tables: the control, `tnc4xx` (≤ 256 entries, spacing a power of two
     /// of 0.1 µm) or `manualplus620`.
     #[arg(long, default_value = "tnc4xx")]
@@ -233,7 +237,11 @@ fn fanuc_control(args: &ControlArgs) -> mtcal_compensate::FanucControl {
         IncrementArg::IsB => IncrementSystem::IsB,
         IncrementArg::IsC => IncrementSystem::IsC,
     };
-    mtcal_compensate::FanucControl::new(series, increment)
+    let mut control = mtcal_compensate::FanucControl::new(series, increment);
+    if let Some(n) = args.fanuc_axis_points {
+        control.axis_points = n;
+    }
+    control
 }
 
 impl ControlArgs {

@@ -69,7 +69,9 @@
 //!   units; Series 30i (and 0i-D/F) take 3624/3625 as real mm or degrees. Per-point range:
 //!   ±7 on 16/18 (the range usually given for the older series; no manual page stating it
 //!   was reachable), ±32767 assumed on 30i; a pool of 1024 points on both (the research note
-//!   gives it for 16/18). All are settings ([`FanucControl`]).
+//!   gives it for 16/18); at most 128 points per axis from 3621 to 3622 (cnc.wiki, a secondary
+//!   source that names no series: [`AXIS_POINTS_SOURCE`]). All are settings ([`FanucControl`]),
+//!   and the card states the per-axis limit with its source.
 //! - 3605 is not written: it is a bit parameter whose other bits belong to other functions,
 //!   and the manuals read disagree on the digit order of bit data on tape. The card tells the
 //!   user to set 3605#0.
@@ -131,6 +133,13 @@ impl FanucSeries {
         1024
     }
 
+    /// Most points of one axis between its farthest points (3621 … 3622): 128, the limit a
+    /// public summary of the parameters gives ([`AXIS_POINTS_SOURCE`]) without naming a
+    /// series; no Fanuc manual read states it, so it is a setting and the card says so.
+    pub fn default_axis_points(self) -> u32 {
+        128
+    }
+
     fn parameter_marker(self) -> &'static str {
         match self {
             FanucSeries::Series16 => "",
@@ -185,6 +194,11 @@ impl IncrementSystem {
     }
 }
 
+/// Where the per-axis point limit comes from, as the card and the error say it.
+pub const AXIS_POINTS_SOURCE: &str = "cnc.wiki \"fanuc-pitch-error-compensation\" (a secondary \
+     source: \"maximum of 128 compensation points between extremes\"; no Fanuc manual read \
+     states the limit, which may differ by series)";
+
 /// The control: its series, increment system and limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FanucControl {
@@ -194,6 +208,9 @@ pub struct FanucControl {
     pub value_limit: i64,
     /// Points in the shared pool (numbers 0 to `pool_size − 1`).
     pub pool_size: u32,
+    /// Most points of one axis from its farthest negative point to its farthest positive one
+    /// (3621 … 3622): [`FanucSeries::default_axis_points`].
+    pub axis_points: u32,
 }
 
 impl FanucControl {
@@ -204,6 +221,7 @@ impl FanucControl {
             increment,
             value_limit: series.default_value_limit(),
             pool_size: series.default_pool_size(),
+            axis_points: series.default_axis_points(),
         }
     }
 }
@@ -506,6 +524,12 @@ pub enum FanucError {
         reference_value: i64,
         last_value: i64,
     },
+    #[error(
+        "axis {axis}: {points} points from 3621 to 3622, more than the {max} per axis this \
+         control is taken to hold ({AXIS_POINTS_SOURCE}); a wider interval (--spacing-mm) \
+         gives fewer, or --fanuc-axis-points sets your control's limit"
+    )]
+    TooManyAxisPoints { axis: char, points: i64, max: u32 },
     #[error("axis {axis}: {points} points, more than the pool of {pool} holds")]
     TooManyPoints { axis: char, points: i64, pool: u32 },
     #[error("axis {axis}: points {from} to {to} run outside the pool (0 to {last})")]
@@ -906,6 +930,13 @@ fn validate_table(control: &FanucControl, t: &FanucTable) -> Result<(), FanucErr
         t.last_point as i64,
         t.reference_point as i64,
     );
+    if last - first + 1 > control.axis_points as i64 {
+        return Err(FanucError::TooManyAxisPoints {
+            axis,
+            points: last - first + 1,
+            max: control.axis_points,
+        });
+    }
     if last < first || t.values.len() as i64 != last - first + 1 {
         return Err(layout(format!(
             "3621 = {first} to 3622 = {last} needs {} values, the table has {}",
@@ -1287,12 +1318,12 @@ pub fn fanuc_card(control: &FanucControl, conversions: &[FanucConversion]) -> Co
             },
             references.join(", ")
         ),
-        control_will: control_will(conversions),
+        control_will: control_will(control, conversions),
     }
 }
 
 /// The card's sentences on what the control does with the file.
-fn control_will(conversions: &[FanucConversion]) -> Vec<String> {
+fn control_will(control: &FanucControl, conversions: &[FanucConversion]) -> Vec<String> {
     let mut will = vec![
         "need power off and on after 3620–3627 change, and a reference position return after \
          the values change: the table is counted from the reference position"
@@ -1306,6 +1337,11 @@ fn control_will(conversions: &[FanucConversion]) -> Vec<String> {
         "add nothing beyond the farthest points (3621 − 1 and 3622): the strips of stroke \
          shorter than one interval beyond them keep the end total"
             .to_string(),
+        format!(
+            "hold at most {} points per axis from 3621 to 3622 — the limit checked here, from \
+             {AXIS_POINTS_SOURCE}; --fanuc-axis-points sets your control's",
+            control.axis_points
+        ),
         "read pitch data blocks as N(10000 + point)P(value) and, on Series 30i, parameter \
          blocks marked Q1 (B-63950EN) and pitch data marked Q0 (assumed by analogy: check \
          against a record punched by your control before loading)"

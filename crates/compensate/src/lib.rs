@@ -169,9 +169,9 @@ mod trt;
 
 pub use check::{Checked, check_compensation};
 pub use fanuc::{
-    FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout, FanucRequest, FanucReverse,
-    FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export, fanuc_from_pitch,
-    fanuc_from_rotary, fanuc_parameter_text, fanuc_pitch_table, fanuc_values_csv,
+    AXIS_POINTS_SOURCE, FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout,
+    FanucRequest, FanucReverse, FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export,
+    fanuc_from_pitch, fanuc_from_rotary, fanuc_parameter_text, fanuc_pitch_table, fanuc_values_csv,
     read_fanuc_parameters, validate_fanuc, write_fanuc,
 };
 pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};

@@ -725,6 +725,29 @@ fn the_validator_refuses_what_the_control_would() {
         ),
         "{e}"
     );
+    // One axis' points from 3621 to 3622: at most 128 unless the control is set otherwise
+    // (a public summary's limit; the card and the error name the source). A 820 mm stroke at
+    // 5 mm is 164 intervals.
+    let fine = linear_table(grid(165, 5.0));
+    let e = convert_err(&fine, &c30, &layout);
+    assert!(
+        matches!(e, FanucError::TooManyAxisPoints { points, max: 128, .. } if points > 128),
+        "{e}"
+    );
+    assert!(e.to_string().contains("cnc.wiki"), "{e}");
+    let roomy = FanucControl {
+        axis_points: 200,
+        ..c30
+    };
+    let conv = fanuc_from_pitch(&fine, &roomy, &FanucAxis::new('X', 1, false), &layout).unwrap();
+    let card = fanuc_card(&roomy, std::slice::from_ref(&conv));
+    assert!(
+        card.control_will
+            .iter()
+            .any(|w| w.contains("at most 200 points per axis") && w.contains("cnc.wiki")),
+        "{:?}",
+        card.control_will
+    );
     let x = fanuc_from_pitch(&long, &c30, &FanucAxis::new('X', 1, false), &layout)
         .unwrap()
         .table;
