@@ -955,8 +955,118 @@ impl Refitted {
 
 #[cfg(test)]
 mod tests {
-    use super::{SharedWith, signed_rank_p};
+    use super::{SharedWith, prior_width, signed_rank_p, try_candidate};
+    use crate::search::fitted::fit;
+    use crate::search::rank::{candidates, rank_with};
+    use crate::search::settings::SearchOptions;
+    use mtcal_effects::Candidate;
     use nalgebra::DMatrix;
+    use std::fmt::Write as _;
+    use std::sync::Arc;
+
+    /// A displacement sensor following a heated node through a 20-minute lag (5 µm/K, the
+    /// node 10 K warm when loaded) beside a room sensor: 12 h at 30 s, loaded 3 h on, 3 h off.
+    fn heated_session(dir: &std::path::Path) {
+        let lag = |x: &[f64], dt: f64, tau: f64| {
+            let a = (-dt / tau).exp();
+            let mut y = 0.0;
+            x.iter()
+                .map(|&v| {
+                    y = a * y + (1.0 - a) * v;
+                    y
+                })
+                .collect::<Vec<f64>>()
+        };
+        let dt = 30.0;
+        let t: Vec<f64> = (0..1440).map(|i| i as f64 * dt).collect();
+        let power: Vec<f64> = t
+            .iter()
+            .map(|&s| f64::from(u8::from((s / 10_800.0) as u64 % 2 == 0)))
+            .collect();
+        let heat = lag(&power, dt, 1800.0);
+        let reading = lag(&heat, dt, 1200.0);
+        let mut csv = String::from("t,X,Y,Z,T_heat,T_room,d_ch1\n");
+        for i in 0..t.len() {
+            let noise = 0.2 * ((i as f64 * 12.9898).sin() * 43_758.545).fract();
+            let _ = writeln!(
+                csv,
+                "{},0,0,0,{},{},{}",
+                t[i],
+                20.0 + 10.0 * heat[i],
+                20.0 + 0.3 * (t[i] / 20_000.0).sin(),
+                50.0 * reading[i] + noise
+            );
+        }
+        std::fs::write(dir.join("run.csv"), csv).unwrap();
+        std::fs::write(
+            dir.join("session.toml"),
+            "machine = \"ZFYX\"\n\n[setup.probe]\nsigma_um = 0.2\n[setup.probe.sensors]\n\
+             ch1 = {}\n\n[[run]]\nname = \"run\"\ninstrument = \"displacement\"\n\
+             file = \"run.csv\"\nuse = \"fit\"\nsetup = \"probe\"\n",
+        )
+        .unwrap();
+    }
+
+    /// A joint model in the model at far too narrow a prior (its narrowest rung: 0.03 µm per
+    /// column against a 50 µm response), proposed again, is widened: the refit holds one bank of
+    /// that label at a wider width, replacing the stage's — not a second bank beside it (which
+    /// the final check would withdraw piece by piece, leaving the narrow one).
+    #[test]
+    fn a_joint_model_proposed_again_is_widened_not_stacked() {
+        let dir = tempfile::tempdir().unwrap();
+        heated_session(dir.path());
+        let study = crate::Study::load(dir.path()).unwrap();
+        let options = SearchOptions::default();
+        let family = ["thermal-model".to_string()];
+        let bank = candidates(&study, Some(&family))
+            .into_iter()
+            .find_map(|c| match c {
+                Candidate::Effect(e) => Some(e),
+                Candidate::Model(_) => None,
+            })
+            .expect("a joint thermal model is proposed");
+        let narrow = Arc::clone(&bank.prior_ladder()[0]);
+        let mut changes = study.changes().clone();
+        changes.effects.push(Arc::clone(&narrow));
+        let current = fit(study.rebuild(changes).unwrap(), None, &options).unwrap();
+        let ranked = rank_with(
+            &current.study,
+            &current.solution,
+            candidates(&current.study, Some(&family)),
+            options.alpha,
+            options.cache_bytes,
+        )
+        .unwrap();
+        let again = ranked
+            .iter()
+            .find(|r| r.candidate.label() == narrow.info().label)
+            .expect("the bank proposed again");
+        let (trial, refit) = try_candidate(&current, again, &options).unwrap();
+        assert!(trial.accepted, "{}", trial.why);
+        assert!(
+            trial
+                .why
+                .starts_with("its prior widened from 0.03 um per column to"),
+            "{}",
+            trial.why
+        );
+        let refit = refit.unwrap();
+        assert!(
+            refit
+                .widens
+                .as_ref()
+                .is_some_and(|w| Arc::ptr_eq(w, &narrow))
+        );
+        let banks: Vec<_> = refit
+            .study
+            .changes()
+            .effects
+            .iter()
+            .filter(|e| e.info().label.starts_with(&narrow.info().label))
+            .collect();
+        assert_eq!(banks.len(), 1, "one bank of the label");
+        assert!(prior_width(banks[0].as_ref()) > 10.0 * prior_width(narrow.as_ref()));
+    }
 
     /// The squared multiple correlation of the estimate `0` with the others equals the share
     /// of its variance a regression on them explains, `c_kᵀ·S⁻¹·c_k / C_kk` (the regression
