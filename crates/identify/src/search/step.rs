@@ -282,22 +282,26 @@ fn try_candidate(
             }
         }
     }
-    let solution = match solve(&study, &x0, options, &[]) {
-        Ok(s) => s,
-        Err(e) => {
-            trial.why = format!("the refit failed: {e}");
-            return Ok((trial, None));
+    match converged_refit(&study, &x0, options) {
+        Ok(solution) => judge(current, ranked, study, solution, &x0, trial, None, options),
+        Err(why) => {
+            trial.why = why;
+            Ok((trial, None))
         }
-    };
-    if !solution.converged {
-        // Nothing is claimed on a fit that did not converge: its numbers are a last iterate.
-        trial.why = format!(
-            "the refit did not converge ({:?} after {} iterations)",
-            solution.termination, solution.iterations
-        );
-        return Ok((trial, None));
     }
-    judge(current, ranked, study, solution, &x0, trial, None, options)
+}
+
+/// The refit of `study` from `x0` if it converged; else why not. Nothing is claimed on a fit
+/// that did not converge: its numbers are a last iterate.
+fn converged_refit(study: &Study, x0: &[f64], options: &SearchOptions) -> Result<Solution, String> {
+    match solve(study, x0, options, &[]) {
+        Ok(s) if s.converged => Ok(s),
+        Ok(s) => Err(format!(
+            "the refit did not converge ({:?} after {} iterations)",
+            s.termination, s.iterations
+        )),
+        Err(e) => Err(format!("the refit failed: {e}")),
+    }
 }
 
 /// The bank in the model that `e` proposes again (the same label, a prior ladder).
@@ -366,17 +370,10 @@ fn widen(
     changes.effects.pop();
     changes.effects.push(Arc::clone(&ladder[k]));
     let study = reordered.rebuild(changes)?;
-    let solution = match solve(&study, &at.x, options, &[]) {
-        Ok(s) if s.converged => s,
-        Ok(s) => {
-            trial.why = format!(
-                "the refit did not converge ({:?} after {} iterations)",
-                s.termination, s.iterations
-            );
-            return Ok((trial, None));
-        }
-        Err(e) => {
-            trial.why = format!("the refit failed: {e}");
+    let solution = match converged_refit(&study, &at.x, options) {
+        Ok(s) => s,
+        Err(why) => {
+            trial.why = why;
             return Ok((trial, None));
         }
     };
