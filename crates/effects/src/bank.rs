@@ -18,9 +18,19 @@
 //! - [`BankColumn::Lag`]: its first-order lag at τ ([`crate::lag`]).
 //!
 //! # The prior
-//! Column `j` has a prior standard deviation `width / sd_j` on its amplitude (`sd_j` the
-//! column's spread over the fitted samples): every column may contribute about `width` to the
-//! target before the data must insist.
+//! Column `j` has a prior standard deviation `width / size_j` on its amplitude, `size_j` the
+//! RMS over the fitted samples of the column's departure from the reference state (a
+//! temperature from its first reading, the speed from standstill, a rise from the start;
+//! every column is zero there): every column may add about `width` to the target's thermal
+//! displacement before the data must insist.
+//!
+//! The size is taken from the reference state, not about the column's mean, because the
+//! displacement a thermal model predicts is the departure from that state: a temperature that
+//! drifted steadily through the fitted runs wiggles little about its mean, and scaled by its
+//! wiggle its gain could carry the whole drift many times over — and take it further when a
+//! new load drives the temperature beyond anything fitted (on the real 46-hour spindle test,
+//! the speed steps heat the motor 1.5 K above the fitted cycles: ch5's error there went from
+//! 2.2 to 1.2 µm, ch3's from 1.1 to 0.7).
 
 use crate::lag::LagSeries;
 use crate::view::{Input, SessionView};
@@ -106,8 +116,9 @@ pub struct Bank {
     params: Vec<ParamDef>,
     terms: Vec<Term>,
     columns: Vec<BankColumn>,
-    /// Per column, its spread over the fitted samples (the column's own units).
-    spread: Vec<f64>,
+    /// Per column, the RMS of its departure from the reference state over the fitted samples
+    /// (the column's own units).
+    size: Vec<f64>,
     /// The prior's width: what one column may contribute to the target (SI).
     width: f64,
     /// The target in words (`channel d_ch1`, `Z`).
@@ -134,12 +145,12 @@ impl Bank {
         width: f64,
     ) -> Self {
         let mut kept = Vec::new();
-        let mut spread = Vec::new();
+        let mut size = Vec::new();
         for c in columns {
-            let s = fitted_spread(&c.series(view), view);
+            let s = fitted_size(&c.series(view), view);
             if s > 0.0 && s.is_finite() {
                 kept.push(c);
-                spread.push(s);
+                size.push(s);
             }
         }
         let terms = (0..kept.len())
@@ -153,7 +164,7 @@ impl Bank {
             params: Vec::new(),
             terms,
             columns: kept,
-            spread,
+            size,
             width,
             target_words,
             unit,
@@ -162,13 +173,13 @@ impl Bank {
         bank
     }
 
-    /// The parameters and terms from the columns, spreads and width.
+    /// The parameters and terms from the columns, sizes and width.
     fn define(&mut self) {
         let (u, k) = (self.unit.0.clone(), self.unit.1);
         self.params = self
             .columns
             .iter()
-            .zip(&self.spread)
+            .zip(&self.size)
             .map(|(c, s)| ParamDef {
                 name: format!("{}_{u}{}", c.name(), c.per_unit().replace('/', "_per_")),
                 unit: format!("{u}{}", c.per_unit()),
@@ -195,8 +206,10 @@ impl Bank {
     }
 }
 
-/// The RMS deviation from its mean of `series` over the fitted runs' samples.
-fn fitted_spread(series: &Series, view: &SessionView) -> f64 {
+/// The size of `series` over the fitted runs' samples: the RMS of its departure from the
+/// reference state (its value; every column is zero there), or 0 when it does not vary (a
+/// column the fitted runs cannot tell from the offsets).
+fn fitted_size(series: &Series, view: &SessionView) -> f64 {
     let (mut n, mut sum, mut sum2) = (0usize, 0.0, 0.0);
     for (r, run) in view.runs.iter().enumerate() {
         if !run.fit {
@@ -213,7 +226,12 @@ fn fitted_spread(series: &Series, view: &SessionView) -> f64 {
         return 0.0;
     }
     let mean = sum / n as f64;
-    (sum2 / n as f64 - mean * mean).max(0.0).sqrt()
+    let varies = sum2 / n as f64 - mean * mean > 1e-12 * (sum2 / n as f64);
+    if varies {
+        (sum2 / n as f64).sqrt()
+    } else {
+        0.0
+    }
 }
 
 impl Effect for Bank {
@@ -237,12 +255,12 @@ impl Effect for Bank {
     }
 
     fn describe(&self, values: &[f64], u95: &[Option<f64>]) -> String {
-        // The largest contributions (gain × spread), in the target's unit.
+        // The largest contributions (gain × size), in the target's unit.
         let (u, k) = (&self.unit.0, self.unit.1);
         let mut parts: Vec<(f64, String)> = self
             .columns
             .iter()
-            .zip(&self.spread)
+            .zip(&self.size)
             .zip(values.iter().zip(u95))
             .map(|((c, s), (v, u95))| {
                 let size = v * s * k;
