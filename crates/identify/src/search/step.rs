@@ -1065,6 +1065,59 @@ mod tests {
         assert!(prior_width(banks[0].as_ref()) > 10.0 * prior_width(narrow.as_ref()));
     }
 
+    /// A joint model's prior measures each column from the reference state (a temperature's
+    /// first reading): the heated temperature and the room's both wander away from their
+    /// start, by different shapes, so their priors per kelvin stand in the inverse ratio of
+    /// their RMS departures from the start — not of their wiggles about their means, which
+    /// would let a steadily drifting column's gain carry the whole drift more freely.
+    #[test]
+    fn a_joint_models_prior_measures_each_column_from_the_reference_state() {
+        let dir = tempfile::tempdir().unwrap();
+        heated_session(dir.path());
+        let study = crate::Study::load(dir.path()).unwrap();
+        let family = ["thermal-model".to_string()];
+        let bank = candidates(&study, Some(&family))
+            .into_iter()
+            .find_map(|c| match c {
+                Candidate::Effect(e) => Some(e),
+                Candidate::Model(_) => None,
+            })
+            .expect("a joint thermal model is proposed");
+        // The recorded temperatures, read back from the file the session holds: RMS from the
+        // first reading, and about the mean.
+        let text = std::fs::read_to_string(dir.path().join("run.csv")).unwrap();
+        let sizes = |column: usize| {
+            let v: Vec<f64> = text
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').nth(column).unwrap().parse().unwrap())
+                .collect();
+            let n = v.len() as f64;
+            let rms = |c: f64| (v.iter().map(|x| (x - c).powi(2)).sum::<f64>() / n).sqrt();
+            (rms(v[0]), rms(v.iter().sum::<f64>() / n))
+        };
+        let (heat, room) = (sizes(4), sizes(5));
+        let prior = |name: &str| {
+            bank.params()
+                .iter()
+                .find(|p| p.name == name)
+                .and_then(|p| p.prior)
+                .unwrap_or_else(|| panic!("the static column {name}"))
+        };
+        let ratio = prior("T_heat_um_per_K") / prior("T_room_um_per_K");
+        let from_start = room.0 / heat.0;
+        let about_mean = room.1 / heat.1;
+        assert!(
+            (about_mean / from_start - 1.0).abs() > 0.2,
+            "{from_start} {about_mean}"
+        );
+        assert!(
+            (ratio / from_start - 1.0).abs() < 0.01,
+            "priors in the ratio {ratio}: from the start {from_start}, about the means \
+             {about_mean}"
+        );
+    }
+
     /// The squared multiple correlation of the estimate `0` with the others equals the share
     /// of its variance a regression on them explains, `c_kᵀ·S⁻¹·c_k / C_kk` (the regression
     /// formulation, not the inverse's corner element); and 0 and 1 at the ends.
