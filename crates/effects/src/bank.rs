@@ -19,18 +19,20 @@
 //!
 //! # The prior
 //! Column `j` has a prior standard deviation `width / size_j` on its amplitude, `size_j` the
-//! RMS over the fitted samples of the column's departure from the reference state (a
-//! temperature from its first reading, the speed from standstill, a rise from the start;
-//! every column is zero there): every column may add about `width` to the target's thermal
-//! displacement before the data must insist.
+//! RMS over the fitted samples of an input column's departure from the reference state (a
+//! temperature from its first reading, the speed from standstill; every input column is zero
+//! there), a rise's spread about its mean: every column may add about `width` to the
+//! target's thermal displacement before the data must insist.
 //!
-//! The size is taken from the reference state, not about the column's mean, because the
-//! displacement a thermal model predicts is the departure from that state: a temperature that
+//! An input's size is taken from the reference state, not about the column's mean, because
+//! the displacement a thermal model predicts is the departure from that state: a temperature that
 //! drifted steadily through the fitted runs wiggles little about its mean, and scaled by its
 //! wiggle its gain could carry the whole drift many times over — and take it further when a
 //! new load drives the temperature beyond anything fitted (on the real 46-hour spindle test,
 //! the speed steps heat the motor 1.5 K above the fitted cycles: ch5's error there went from
-//! 2.2 to 1.2 µm, ch3's from 1.1 to 0.7).
+//! 2.2 to 1.2 µm, ch3's from 1.1 to 0.7). A rise is a function of time alone, bounded by 1 and
+//! ended where the fitted runs end it: nothing new drives it beyond them, and its size is its
+//! spread about its mean over the fitted samples.
 
 use crate::lag::LagSeries;
 use crate::view::{Input, SessionView};
@@ -116,8 +118,7 @@ pub struct Bank {
     params: Vec<ParamDef>,
     terms: Vec<Term>,
     columns: Vec<BankColumn>,
-    /// Per column, the RMS of its departure from the reference state over the fitted samples
-    /// (the column's own units).
+    /// Per column, its size over the fitted samples ([`fitted_size`]; the column's own units).
     size: Vec<f64>,
     /// The prior's width: what one column may contribute to the target (SI).
     width: f64,
@@ -147,7 +148,7 @@ impl Bank {
         let mut kept = Vec::new();
         let mut size = Vec::new();
         for c in columns {
-            let s = fitted_size(&c.series(view), view);
+            let s = fitted_size(&c.series(view), view, !matches!(c, BankColumn::Rise(_)));
             if s > 0.0 && s.is_finite() {
                 kept.push(c);
                 size.push(s);
@@ -206,10 +207,11 @@ impl Bank {
     }
 }
 
-/// The size of `series` over the fitted runs' samples: the RMS of its departure from the
-/// reference state (its value; every column is zero there), or 0 when it does not vary (a
-/// column the fitted runs cannot tell from the offsets).
-fn fitted_size(series: &Series, view: &SessionView) -> f64 {
+/// The size of `series` over the fitted runs' samples: with `from_reference`, the RMS of its
+/// departure from the reference state (its value; every input column is zero there), else
+/// its RMS about its mean; 0 when it does not vary (a column the fitted runs cannot tell from
+/// the offsets).
+fn fitted_size(series: &Series, view: &SessionView, from_reference: bool) -> f64 {
     let (mut n, mut sum, mut sum2) = (0usize, 0.0, 0.0);
     for (r, run) in view.runs.iter().enumerate() {
         if !run.fit {
@@ -226,11 +228,13 @@ fn fitted_size(series: &Series, view: &SessionView) -> f64 {
         return 0.0;
     }
     let mean = sum / n as f64;
-    let varies = sum2 / n as f64 - mean * mean > 1e-12 * (sum2 / n as f64);
-    if varies {
+    let spread = (sum2 / n as f64 - mean * mean).max(0.0);
+    if spread <= 1e-12 * (sum2 / n as f64) {
+        0.0
+    } else if from_reference {
         (sum2 / n as f64).sqrt()
     } else {
-        0.0
+        spread.sqrt()
     }
 }
 
