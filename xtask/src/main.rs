@@ -480,11 +480,22 @@ fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
 
 /// The coefficients of the parameter file `params` for `model`.
 fn load_params(model: &MachineModel, params: &Path, out: &mut impl Write) -> Result<Vec<f64>> {
+    Ok(load_identified(model, params, out)?.0)
+}
+
+/// The coefficients of the parameter file `params` for `model`, and, when it is an identify
+/// JSON, what the identification gave (its account of what went in said on `out`).
+fn load_identified(
+    model: &MachineModel,
+    params: &Path,
+    out: &mut impl Write,
+) -> Result<(Vec<f64>, Option<mtcal_machine::from_identify::FromIdentify>)> {
     let context = || format!("cannot read parameter file {}", params.display());
     let text = std::fs::read_to_string(params).with_context(context)?;
     if !mtcal_machine::from_identify::is_json(&text) {
-        return mtcal_machine::params::parse_params(&text, params, model.errors())
-            .with_context(context);
+        let coeffs = mtcal_machine::params::parse_params(&text, params, model.errors())
+            .with_context(context)?;
+        return Ok((coeffs, None));
     }
     // An identify JSON: what the identification gave a number, said on the screen.
     let from = mtcal_machine::from_identify::read_identify_json(&text, params, model.errors())
@@ -492,7 +503,7 @@ fn load_params(model: &MachineModel, params: &Path, out: &mut impl Write) -> Res
     for line in from.account(&params.display().to_string()) {
         writeln!(out, "{line}")?;
     }
-    Ok(from.coeffs)
+    Ok((from.coeffs.clone(), Some(from)))
 }
 
 /// The machine's model and the coefficients of a parameter file (a TOML parameter file or an

@@ -217,3 +217,135 @@ fn an_unconverged_identification_is_refused() {
     assert!(err.contains("did not converge"), "{err}");
     assert!(!grid.exists());
 }
+
+/// The reversal of a pitch table file read back: `(position_mm, reverse − forward µm)` per
+/// node of a LinuxCNC table (`nominal forward reverse`, mm).
+fn reversal_columns(path: &Path) -> Vec<(f64, f64)> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            (v[0], (v[2] - v[1]) * 1e3)
+        })
+        .collect()
+}
+
+/// A backlash the search found (the warm five-axis example: 3 µm of lost motion in X) goes
+/// into the bidirectional table of its axis with ISO 230-2's sign — the axis lags behind the
+/// command, so `B = x̄↑ − x̄↓` is minus the backlash: reverse = forward − backlash at every node
+/// — and the card says where it came from; a file that has no table of that axis (SINUMERIK
+/// EEC) says it does not hold it; a reversal whose interval reaches zero is left out, and so
+/// is one the user's `--reversal-um` replaces.
+#[test]
+fn a_found_reversal_goes_into_the_bidirectional_table_of_its_axis() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let json = d.join("id.json");
+    ok(&mtcal(&[
+        "identify",
+        "examples/five-axis-warm/session",
+        "--search",
+        "--quiet",
+        "--json",
+        json.to_str().unwrap(),
+    ]));
+    let text = std::fs::read_to_string(&json).unwrap();
+    let id: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let found = id["discoveries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| x["effect"] == "reversal" && x["axis"] == "X")
+        .expect("the search finds X's lost motion");
+    let param = |name: &str| {
+        found["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .map(|p| p["value"].as_f64().unwrap())
+    };
+    let backlash_um = param("backlash_um").unwrap();
+    assert!((backlash_um - 3.0).abs() < 1.0, "{backlash_um}");
+    let change_um = param("backlash_change_um").unwrap_or(0.0);
+    let m = "examples/five-axis-warm/session/machine.urdf";
+    let comp = |params: &Path, extra: &[&str], out: &Path| {
+        let mut args = vec![
+            "compensate",
+            m,
+            "--params",
+            params.to_str().unwrap(),
+            "--format",
+            "linuxcnc",
+            "--axis",
+            "X",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        ok(&mtcal(&args))
+    };
+    let table = d.join("x.comp");
+    let screen = comp(&json, &[], &table);
+    assert!(
+        screen.contains("in the reverse table of axis X"),
+        "{screen}"
+    );
+    let (lo, hi) = (-350.0, 350.0);
+    let rows = reversal_columns(&table);
+    assert!(rows.len() > 2);
+    for (x, b_um) in &rows {
+        let u = (2.0 * x - lo - hi) / (hi - lo);
+        let want = -(backlash_um + change_um * u);
+        assert!(
+            (b_um - want).abs() < 2e-3,
+            "at {x} mm: reverse − forward {b_um} µm, the found reversal {want} µm"
+        );
+    }
+    let card = std::fs::read_to_string(d.join("x.comp.card.txt")).unwrap();
+    assert!(card.contains("reversal X"), "{card}");
+    // The SINUMERIK EEC tables have no direction: named, not held.
+    let eec = d.join("eec.ini");
+    let screen = ok(&mtcal(&[
+        "compensate",
+        m,
+        "--params",
+        json.to_str().unwrap(),
+        "--format",
+        "siemens-eec",
+        "--out",
+        eec.to_str().unwrap(),
+    ]));
+    assert!(
+        screen.contains("not in this file (no bidirectional table of axis X"),
+        "{screen}"
+    );
+    // The user's value replaces it.
+    let given = d.join("given.comp");
+    let screen = comp(&json, &["--reversal-um", "-1.5"], &given);
+    assert!(screen.contains("not used, --reversal-um given"), "{screen}");
+    assert!(
+        reversal_columns(&given)
+            .iter()
+            .all(|(_, b)| (b + 1.5).abs() < 2e-3)
+    );
+    // Its interval widened to reach zero: left out, the table one-way.
+    let mut wide = id.clone();
+    for x in wide["discoveries"].as_array_mut().unwrap() {
+        if x["effect"] == "reversal" {
+            for p in x["parameters"].as_array_mut().unwrap() {
+                p["u95"] = serde_json::json!(10.0);
+            }
+        }
+    }
+    let wide_json = d.join("wide.json");
+    std::fs::write(&wide_json, serde_json::to_string(&wide).unwrap()).unwrap();
+    let one_way = d.join("one-way.comp");
+    let screen = comp(&wide_json, &[], &one_way);
+    assert!(
+        screen.contains("left out, the identification did not determine it"),
+        "{screen}"
+    );
+    assert!(reversal_columns(&one_way).iter().all(|(_, b)| *b == 0.0));
+}

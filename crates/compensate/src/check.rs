@@ -161,6 +161,7 @@ mod tests {
             spacing_deg: 30.0,
             joint_offset_mm: 0.0,
             reversal_um: None,
+            reversals: Vec::new(),
             hold_q: crate::default_hold(machine),
             siemens: crate::SiemensLimits::default(),
             reference_mm: 0.0,

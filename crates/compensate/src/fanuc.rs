@@ -411,6 +411,9 @@ pub struct FanucConversion {
     pub reference_compensation: f64,
     /// Where the numbers came from (machine, held axes), for the values table.
     pub note: String,
+    /// Where a bidirectional table's reversal came from, for the card (the user's value, an
+    /// identification's discovery).
+    pub reversal_source: Option<String>,
 }
 
 /// Why the control would refuse or misread a table.
@@ -659,6 +662,7 @@ fn convert(
         table,
         reference_compensation: rel.base,
         note: String::new(),
+        reversal_source: None,
     })
 }
 
@@ -1368,8 +1372,13 @@ fn control_will(control: &FanucControl, conversions: &[FanucConversion]) -> Vec<
             will.push(format!(
                 "use axis {}'s points from 3626 while it moves in the negative direction once \
                  3605#0 = 1 (A-77810E); set 3605#0 by hand: the file does not write 3605, whose \
-                 other bits belong to other functions",
-                a.letter
+                 other bits belong to other functions; negative = positive + B (ISO 230-2 \
+                 reversal value B = x̄↑ − x̄↓){}",
+                a.letter,
+                c.reversal_source
+                    .as_ref()
+                    .map(|s| format!(", from {s}"))
+                    .unwrap_or_default()
             ));
         }
     }
@@ -1384,8 +1393,9 @@ pub struct FanucRequest {
     /// axis without limits).
     pub interval: f64,
     pub layout: FanucLayout,
-    /// Linear axes: the signed ISO 230-2 reversal value B (µm) for a bidirectional table.
-    pub reversal_um: Option<f64>,
+    /// Linear axes: the reversal ([`crate::Reversal`]: the signed ISO 230-2 reversal value B,
+    /// µm, which may change along the stroke) for a bidirectional table.
+    pub reversal: Option<crate::Reversal>,
 }
 
 /// The tables of `requests` from the model, their points laid out one axis after the other
@@ -1430,13 +1440,13 @@ fn export_one(
             a.reference_position,
             hold_q,
         )?;
-        let table = match req.reversal_um {
-            Some(b) => table.with_reversal_um(b),
+        let table = match &req.reversal {
+            Some(r) => table.with_reversal(r, crate::stroke_mm(model.machine(), a.letter)?),
             None => table,
         };
         return fanuc_from_pitch(&table, control, a, layout);
     }
-    if req.reversal_um.is_some() {
+    if req.reversal.is_some() {
         let message = "mtcal writes rotary tables unidirectional only".to_string();
         return Err(FanucError::Layout {
             axis: a.letter,

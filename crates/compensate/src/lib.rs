@@ -45,7 +45,10 @@
 //!   takes the model's compensation for forward (positive) travel and adds the signed ISO
 //!   230-2 reversal value `B = x̄↑ − x̄↓` (µm; mean positional deviation approaching in the
 //!   positive direction minus that in the negative direction) for reverse travel:
-//!   `reverse = forward + B`. A pure lost motion `b` gives `B = −b`.
+//!   `reverse = forward + B`. A pure lost motion `b` gives `B = −b`. `B` is the user's
+//!   (`Settings::reversal_um`) or an identification's ([`Settings::reversals`]: a `reversal`
+//!   discovery of the axis, which may change along the stroke, [`Reversal`]); the card says
+//!   which.
 //!
 //! # Formats
 //!
@@ -191,8 +194,8 @@ pub use parameters::{
     read_error_parameters, write_error_parameters,
 };
 pub use pitch::{
-    LINUXCNC_MAX_TRIPLETS, PitchFormat, PitchTable, Travel, pitch_table, read_linuxcnc_comp,
-    read_pitch_csv, travel_direction, write_linuxcnc_comp, write_pitch_csv,
+    AxisReversal, LINUXCNC_MAX_TRIPLETS, PitchFormat, PitchTable, Reversal, Travel, pitch_table,
+    read_linuxcnc_comp, read_pitch_csv, travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
 pub use rotary::{RotaryTable, rotary_table, rotation_direction};
 pub use siemens::{
@@ -342,6 +345,12 @@ fn check_inputs(
 }
 
 /// Index and stroke (m) of linear axis `letter`.
+/// Linear axis `letter`'s limits, mm (the stroke a [`Reversal`] along the stroke spans).
+pub(crate) fn stroke_mm(machine: &Machine, letter: char) -> Result<(f64, f64), CompensateError> {
+    let (_, lo, hi) = linear_axis(machine, letter)?;
+    Ok((lo * 1e3, hi * 1e3))
+}
+
 fn linear_axis(machine: &Machine, letter: char) -> Result<(usize, f64, f64), CompensateError> {
     let i = machine
         .axis_index(letter)

@@ -38,6 +38,18 @@ pub enum Compensation {
     HeidenhainKinematicsComp,
 }
 
+impl Compensation {
+    /// Whether the file can hold a reversal of linear axis `axis` (a bidirectional table of
+    /// it: a pitch table of the axis, or Fanuc's of the axis or of every axis).
+    pub fn holds_reversal_of(&self, axis: char) -> bool {
+        match *self {
+            Compensation::PitchTable { axis: a, .. } => a == axis,
+            Compensation::Fanuc { axis: a } => a.is_none_or(|a| a == axis),
+            _ => false,
+        }
+    }
+}
+
 /// The settings of a compensation file; each kind uses those it needs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
@@ -47,8 +59,13 @@ pub struct Settings {
     pub spacing_deg: f64,
     /// Pitch tables: the controller's joint position minus mtcal's axis position, mm.
     pub joint_offset_mm: f64,
-    /// Pitch tables: the signed ISO 230-2 reversal value B, µm (a bidirectional table).
+    /// Pitch tables: the signed ISO 230-2 reversal value B, µm (a bidirectional table), as the
+    /// user gave it: it applies to the table's axis (Fanuc: every linear axis written) and
+    /// takes the place of a reversal in `reversals`.
     pub reversal_um: Option<f64>,
+    /// Reversals an identification found, per axis: each bidirectional pitch table (LinuxCNC,
+    /// CSV, Fanuc) of such an axis holds its reversal, and its card says where it came from.
+    pub reversals: Vec<crate::AxisReversal>,
     /// Positions (SI) of the axes a pitch table or grid does not move ([`crate::default_hold`]
     /// with the user's changes).
     pub hold_q: Vec<f64>,
@@ -441,11 +458,19 @@ fn write_fanuc(
                 settings.spacing_mm
             },
             layout: crate::FanucLayout::default(),
-            reversal_um: settings.reversal_um.filter(|_| !fanuc_axis.rotary),
+            reversal: reversal_of(settings, fanuc_axis.letter)
+                .map(|(r, _)| r)
+                .filter(|_| !fanuc_axis.rotary),
         })
         .collect();
-    let conversions =
+    let mut conversions =
         crate::fanuc_export(model, coeffs, &requests, &settings.fanuc, &settings.hold_q)?;
+    for c in conversions
+        .iter_mut()
+        .filter(|c| c.table.is_bidirectional())
+    {
+        c.reversal_source = reversal_of(settings, c.table.axis.letter).map(|(_, source)| source);
+    }
     let mut name = path.as_os_str().to_owned();
     name.push(".values.csv");
     let values = PathBuf::from(name);
@@ -499,6 +524,22 @@ fn write_card_beside(path: &Path, card: &ConventionCard) -> Result<PathBuf, Comp
     Ok(beside)
 }
 
+/// The reversal a bidirectional table of `axis` holds and where it comes from: the user's
+/// `reversal_um`, else the one an identification found for the axis.
+fn reversal_of(settings: &Settings, axis: char) -> Option<(crate::Reversal, String)> {
+    if let Some(b) = settings.reversal_um {
+        return Some((
+            crate::Reversal::constant(b),
+            format!("the reversal value given ({b:+} µm)"),
+        ));
+    }
+    settings
+        .reversals
+        .iter()
+        .find(|r| r.axis == axis)
+        .map(|r| (r.reversal, r.source.clone()))
+}
+
 fn write_pitch_table(
     model: &MachineModel,
     coeffs: &[f64],
@@ -508,12 +549,17 @@ fn write_pitch_table(
     settings: &Settings,
 ) -> Result<(Written, ConventionCard), CompensateError> {
     let mut table = crate::pitch_table(model, coeffs, axis, settings.spacing_mm, &settings.hold_q)?;
-    if let Some(b) = settings.reversal_um {
-        table = table.with_reversal_um(b);
+    let reversal = reversal_of(settings, axis);
+    if let Some((r, _)) = &reversal {
+        table = table.with_reversal(r, crate::stroke_mm(model.machine(), axis)?);
     }
     table = table.shifted_mm(settings.joint_offset_mm);
-    let bidirectional = table.reverse_um.is_some();
-    let card = crate::pitch::card(format, axis, settings.joint_offset_mm, bidirectional);
+    let card = crate::pitch::card(
+        format,
+        axis,
+        settings.joint_offset_mm,
+        reversal.as_ref().map(|(_, source)| source.as_str()),
+    );
     match format {
         PitchFormat::LinuxCnc => crate::write_linuxcnc_comp(path, &table)?,
         PitchFormat::Csv => {
@@ -525,7 +571,7 @@ fn write_pitch_table(
         format,
         axis,
         nodes: table.len(),
-        bidirectional,
+        bidirectional: reversal.is_some(),
     };
     Ok((written, card))
 }
@@ -549,6 +595,7 @@ mod tests {
             spacing_deg: 30.0,
             joint_offset_mm: 0.0,
             reversal_um: None,
+            reversals: Vec::new(),
             hold_q: crate::default_hold(model.machine()),
             siemens: crate::SiemensLimits::default(),
             reference_mm: 0.0,

@@ -39,6 +39,46 @@ pub struct PitchTable {
     pub note: String,
 }
 
+/// A linear axis' reversal for a bidirectional table: the signed ISO 230-2 reversal value
+/// `B = x̄↑ − x̄↓` (µm) at the middle of the axis' stroke and its change from there to the
+/// positive end (lost motion that grows along the stroke, a worn screw): `B(x) = middle +
+/// change·û`, `û = (2x − lo − hi)/(hi − lo)` over the axis' limits — the form of mtcal's
+/// `reversal` effect along the stroke. An axis that lags by half its backlash `b` behind the
+/// command in the direction it last moved has `x̄↑ = −b/2`, `x̄↓ = +b/2`: `B = −b`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reversal {
+    pub middle_um: f64,
+    pub change_um: f64,
+}
+
+impl Reversal {
+    /// The same reversal value everywhere.
+    pub fn constant(b_um: f64) -> Self {
+        Reversal {
+            middle_um: b_um,
+            change_um: 0.0,
+        }
+    }
+
+    /// `B` at axis position `x_mm` on the stroke `(lo, hi)` (mm).
+    pub fn at_um(&self, x_mm: f64, (lo, hi): (f64, f64)) -> f64 {
+        if self.change_um == 0.0 {
+            return self.middle_um;
+        }
+        self.middle_um + self.change_um * (2.0 * x_mm - lo - hi) / (hi - lo)
+    }
+}
+
+/// A reversal of one axis found by an identification (a `reversal` discovery of the physics
+/// search), for the bidirectional tables of that axis, and the words that say where it came
+/// from (the card and the screen).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AxisReversal {
+    pub axis: char,
+    pub reversal: Reversal,
+    pub source: String,
+}
+
 impl PitchTable {
     /// The table in the controller's joint coordinates when its zero differs from the model's
     /// axis zero: every node position plus `joint_offset_mm` (LinuxCNC's joint position minus
@@ -57,8 +97,21 @@ impl PitchTable {
 
     /// The bidirectional table: forward as now, reverse = forward + `reversal_um`, the signed
     /// ISO 230-2 reversal value `B = x̄↑ − x̄↓` in µm (a lost motion `b` is `B = −b`).
-    pub fn with_reversal_um(mut self, reversal_um: f64) -> Self {
-        self.reverse_um = Some(self.forward_um.iter().map(|f| f + reversal_um).collect());
+    pub fn with_reversal_um(self, reversal_um: f64) -> Self {
+        self.with_reversal(&Reversal::constant(reversal_um), (0.0, 1.0))
+    }
+
+    /// The bidirectional table of a reversal that may change along the stroke: reverse =
+    /// forward + `B(x)` at each node ([`Reversal::at_um`]; `stroke_mm` the axis' limits, the
+    /// nodes' positions still mtcal's axis positions).
+    pub fn with_reversal(mut self, reversal: &Reversal, stroke_mm: (f64, f64)) -> Self {
+        self.reverse_um = Some(
+            self.positions_mm
+                .iter()
+                .zip(&self.forward_um)
+                .map(|(&x, f)| f + reversal.at_um(x, stroke_mm))
+                .collect(),
+        );
         self
     }
 
@@ -334,7 +387,7 @@ pub(crate) fn card(
     format: PitchFormat,
     axis: char,
     joint_offset_mm: f64,
-    bidirectional: bool,
+    reversal_source: Option<&str>,
 ) -> ConventionCard {
     let control = if joint_offset_mm == 0.0 {
         format!("{axis} (same zero)")
@@ -382,12 +435,47 @@ pub(crate) fn card(
             ]);
         }
     }
-    if bidirectional {
-        card.control_will.push(
+    if let Some(source) = reversal_source {
+        card.control_will.push(format!(
             "use the forward values while the axis moves in +, the reverse values in −: \
-             reverse = forward + B (ISO 230-2 reversal value)"
-                .into(),
-        );
+             reverse = forward + B (ISO 230-2 reversal value B = x̄↑ − x̄↓), from {source}"
+        ));
     }
     card
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A lost motion growing along the stroke (mtcal's `reversal` along the stroke: `B` at the
+    /// middle, `ΔB` to the positive end) gives each node its own reverse offset, linear in the
+    /// position over the axis' limits — not over the table's nodes, which may not reach them.
+    #[test]
+    fn a_reversal_along_the_stroke_gives_each_node_its_own_offset() {
+        let table = PitchTable {
+            axis: 'X',
+            positions_mm: vec![-100.0, 0.0, 50.0, 100.0],
+            forward_um: vec![1.0, 2.0, 3.0, 4.0],
+            reverse_um: None,
+            note: String::new(),
+        };
+        let r = Reversal {
+            middle_um: -3.0,
+            change_um: -1.0,
+        };
+        let bi = table.with_reversal(&r, (-200.0, 200.0));
+        let reverse = bi.reverse_um.clone().unwrap();
+        for ((x, f), rev) in bi.positions_mm.iter().zip(&bi.forward_um).zip(&reverse) {
+            let want = f - 3.0 - x / 200.0;
+            assert!((rev - want).abs() < 1e-12, "at {x} mm: {rev}, want {want}");
+        }
+        // A constant one is the old bidirectional table.
+        let constant = PitchTable {
+            reverse_um: None,
+            ..bi.clone()
+        }
+        .with_reversal_um(-2.5);
+        assert_eq!(constant.reverse_um.unwrap(), vec![-1.5, -0.5, 0.5, 1.5]);
+    }
 }

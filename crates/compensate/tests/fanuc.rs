@@ -272,7 +272,7 @@ fn request(letter: char, number: u32, rotary: bool, interval: f64) -> FanucReque
         axis: FanucAxis::new(letter, number, rotary),
         interval,
         layout: FanucLayout::default(),
-        reversal_um: None,
+        reversal: None,
     }
 }
 
@@ -287,7 +287,7 @@ fn the_parameter_record_reads_back_into_the_same_tables() {
     ] {
         let control = FanucControl::new(series, increment);
         let mut x = request('X', 1, false, 10.0);
-        x.reversal_um = Some(-3.0);
+        x.reversal = Some(Reversal::constant(-3.0));
         let mut z = request('Z', 3, false, 50.0);
         z.layout.first_point = Some(700);
         let requests = [
@@ -425,7 +425,7 @@ mod application {
             let coeffs = random_coeffs(&model, seed, 5e-6);
             let control = FanucControl::new(FanucSeries::Series30i, IncrementSystem::IsC);
             let mut requests = linear_requests(&model, pick, fracs);
-            requests[0].reversal_um = Some(reversal_um);
+            requests[0].reversal = Some(Reversal::constant(reversal_um));
             let conversions = axes_of_export(&model, &coeffs, &control, &requests);
             let tables: Vec<FanucTable> = conversions.iter().map(|c| c.table.clone()).collect();
             let tape = read_tape(&fanuc_parameter_text(&control, &tables).unwrap());
@@ -434,7 +434,7 @@ mod application {
             for r in &requests {
                 prop_assert_eq!(magnification_of(&tape, r.axis.number), 1.0);
                 let tol = (0.5 * du * 1e3 + 1e-6).min(TOL_UM);
-                largest = largest.max(check_linear(&model, &coeffs, &tape, &r.axis, du, r.reversal_um, tol));
+                largest = largest.max(check_linear(&model, &coeffs, &tape, &r.axis, du, r.reversal.map(|r| r.middle_um), tol));
             }
             prop_assert!(largest > 1.0, "errors too small to test: {largest} µm");
         }
@@ -543,7 +543,7 @@ fn a_negative_reference_return_moves_3627_to_the_positive_set() {
     let coeffs = random_coeffs(&model, 41, 5e-6);
     let control = FanucControl::new(FanucSeries::Series30i, IncrementSystem::IsC);
     let mut x = request('X', 1, false, 25.0);
-    x.reversal_um = Some(4.0);
+    x.reversal = Some(Reversal::constant(4.0));
     x.axis.reference_return = Travel::Reverse;
     let c = &axes_of_export(&model, &coeffs, &control, &[x])[0];
     let t = &c.table;

@@ -807,14 +807,14 @@ fn searched_volumetric(
     file: &str,
     spec: &mtcal_indsim::VolumetricSpec,
     seed: u64,
-) -> SearchResult {
+) -> (SearchResult, mtcal_indsim::VolumetricWritten) {
     use mtcal_indsim::VolumetricMachine;
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
     let machine = Machine::from_urdf_file(&shipped_machine(file)).unwrap();
     let truth = Truth::zero(&machine);
     let realism = Realism::realistic(seed);
-    match which {
+    let written = match which {
         VolumetricMachine::Trunnion => Campaign::volumetric_trunnion(&dir, &truth, spec, &realism),
         VolumetricMachine::ThreeAxis => {
             Campaign::volumetric_three_axis(&dir, &truth, spec, &realism)
@@ -827,7 +827,7 @@ fn searched_volumetric(
     if let Some(base) = &base {
         result.apply_base(base).unwrap();
     }
-    result
+    (result, written)
 }
 
 /// The volumetric thermal test of source 000 (docs/VOLUMETRIC.md) as the search sees it on a
@@ -848,7 +848,7 @@ fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, fil
         "thermal-tilt",
     ];
     let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 12);
-    let result = searched_volumetric(which, file, &spec, 7);
+    let (result, _) = searched_volumetric(which, file, &spec, 7);
     let id = &result.identification;
     let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
     for d in &id.discoveries {
@@ -1018,7 +1018,7 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
     if case.ambient {
         spec.ambient_step = Some(AmbientChange::air_conditioning_failure());
     }
-    let result = searched_volumetric(case.which, case.file, &spec, case.seed);
+    let (result, written) = searched_volumetric(case.which, case.file, &spec, case.seed);
     let id = &result.identification;
     let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
     let planted = planted_in(case);
@@ -1066,6 +1066,21 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
         }
     }
     let worst = (sum / count.max(1) as f64).sqrt() / Realism::realistic(case.seed).noise_sigma_um;
+    // The noise in the withheld readings themselves: written less noise-free, per visit.
+    let (mut sum, mut count) = (0.0, 0usize);
+    for v in written
+        .visits
+        .iter()
+        .filter(|v| id.validation.iter().any(|r| r.name == v.run))
+    {
+        for k in 0..3 {
+            sum += (v.written_um[k] - v.clean_um[k]).powi(2);
+            count += 1;
+        }
+    }
+    let realised =
+        (sum / count.max(1) as f64).sqrt() / Realism::realistic(case.seed).noise_sigma_um;
+    notes.push(format!("the withheld readings' own noise {realised:.2} σ"));
     let text = format!(
         "{:?} {:?} ambient {} seed {}: {named}/{} named, false {false_claims:?}, withheld {worst:.2} × noise {notes:?}\n{summary}",
         case.which,

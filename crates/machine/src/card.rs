@@ -176,6 +176,8 @@ pub fn ascii(text: &str) -> String {
             '≈' => out.push('~'),
             '↑' => out.push_str("(+)"),
             '↓' => out.push_str("(-)"),
+            // A combining mark (the bar of x̄) over the letter before it: the letter alone.
+            '\u{0304}' => {}
             '²' => out.push_str("^2"),
             '’' | '‘' => out.push('\''),
             '“' | '”' => out.push('"'),
@@ -226,5 +228,14 @@ mod tests {
         assert!(ascii_text.is_ascii(), "{ascii_text}");
         assert!(ascii_text.contains("X -> X") && ascii_text.contains("translations um"));
         assert_eq!(ascii_text.lines().count(), lines.len());
+    }
+
+    /// ISO 230-2's `x̄↑ − x̄↓` (a combining bar over the x) reads as `x(+) - x(-)`, no `?`.
+    #[test]
+    fn a_barred_letter_keeps_its_letter_in_ascii() {
+        assert_eq!(
+            ascii("B = x̄↑ − x̄↓, ± 0.1 µm"),
+            "B = x(+) - x(-), +/- 0.1 um"
+        );
     }
 }

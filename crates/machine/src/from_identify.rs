@@ -36,8 +36,64 @@ pub struct FromIdentify {
     pub not_given: Vec<String>,
     /// What the session could not separate, as the identification words it.
     pub combinations: Vec<String>,
-    /// The discoveries of the physics search (not compensated by a static file).
+    /// The discoveries of the physics search (labels); a static file holds none of them but
+    /// a reversal of a linear axis, which a bidirectional pitch table can ([`Self::reversals`]).
     pub discoveries: Vec<String>,
+    /// The reversals of linear axes the search found, with their numbers.
+    pub reversals: Vec<FoundReversal>,
+}
+
+/// A `reversal` discovery of a linear axis: the axis lags by half its backlash behind the
+/// commanded position in the direction it last moved, the backlash `B + ΔB·û` along the
+/// stroke (`û` the position normalised to `[−1, 1]` over the axis' limits; `ΔB` 0 for a
+/// constant one).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FoundReversal {
+    /// The discovery's label (`reversal X (along X)`).
+    pub label: String,
+    pub axis: char,
+    /// `B` at the middle of the stroke and its u95, µm.
+    pub backlash_um: f64,
+    pub backlash_u95_um: Option<f64>,
+    /// `ΔB`, from the middle to the positive end, and its u95, µm (0 and `None` when the
+    /// discovery has no change along the stroke).
+    pub change_um: f64,
+    pub change_u95_um: Option<f64>,
+}
+
+impl FoundReversal {
+    /// Whether the identification determined the backlash: an interval given, and zero
+    /// outside it.
+    pub fn determined(&self) -> bool {
+        self.backlash_u95_um
+            .is_some_and(|u| u.is_finite() && u < self.backlash_um.abs())
+    }
+
+    /// Whether its change along the stroke is determined likewise.
+    pub fn change_determined(&self) -> bool {
+        self.change_u95_um
+            .is_some_and(|u| u.is_finite() && u < self.change_um.abs())
+    }
+
+    /// The discovery in words: `reversal X (along X) of the identification: backlash 8.0 ±
+    /// 0.4 µm (mid-stroke), changing by +1.2 ± 0.3 µm to the positive end`.
+    pub fn words(&self) -> String {
+        let pm = |u: Option<f64>| u.map(|u| format!(" ± {u:.1}")).unwrap_or_default();
+        let mut text = format!(
+            "`{}` of the identification: backlash {:.1}{} µm",
+            self.label,
+            self.backlash_um,
+            pm(self.backlash_u95_um)
+        );
+        if self.change_um != 0.0 {
+            text.push_str(&format!(
+                " at mid-stroke, changing by {:+.1}{} µm to the positive end",
+                self.change_um,
+                pm(self.change_u95_um)
+            ));
+        }
+        text
+    }
 }
 
 #[derive(Deserialize)]
@@ -68,6 +124,47 @@ struct JsonCombination {
 #[derive(Deserialize)]
 struct JsonDiscovery {
     label: String,
+    #[serde(default)]
+    effect: String,
+    #[serde(default)]
+    axis: Option<String>,
+    #[serde(default)]
+    parameters: Vec<JsonDiscoveryParameter>,
+}
+
+#[derive(Deserialize)]
+struct JsonDiscoveryParameter {
+    name: String,
+    value: f64,
+    unit: String,
+    u95: Option<f64>,
+}
+
+/// The reversal a discovery holds, if it is one of a linear axis (µm).
+fn found_reversal(d: &JsonDiscovery) -> Option<FoundReversal> {
+    let letter = d.axis.as_deref()?;
+    let mut chars = letter.chars();
+    let (Some(axis), None) = (chars.next(), chars.next()) else {
+        return None;
+    };
+    if d.effect != "reversal" {
+        return None;
+    }
+    let param = |name: &str| {
+        d.parameters
+            .iter()
+            .find(|p| p.name == name && p.unit == "um" && p.value.is_finite())
+    };
+    let b = param("backlash_um")?;
+    let change = param("backlash_change_um");
+    Some(FoundReversal {
+        label: d.label.clone(),
+        axis,
+        backlash_um: b.value,
+        backlash_u95_um: b.u95,
+        change_um: change.map_or(0.0, |c| c.value),
+        change_u95_um: change.and_then(|c| c.u95),
+    })
 }
 
 #[derive(Deserialize)]
@@ -163,6 +260,7 @@ pub fn read_identify_json(
         used,
         not_given,
         combinations: json.unidentifiable.into_iter().map(|c| c.why).collect(),
+        reversals: json.discoveries.iter().filter_map(found_reversal).collect(),
         discoveries: json.discoveries.into_iter().map(|d| d.label).collect(),
     })
 }
@@ -187,7 +285,8 @@ impl FromIdentify {
         }
         if !self.discoveries.is_empty() {
             out.push(format!(
-                "  discoveries of the physics search, not in a static compensation: {}",
+                "  discoveries of the physics search, not in a static compensation (a \
+                 bidirectional pitch table holds a linear axis' reversal): {}",
                 self.discoveries.join("; ")
             ));
         }
