@@ -1009,9 +1009,9 @@ fn planted_in(case: &VolumetricCase) -> Vec<Planted> {
 }
 
 /// What the search made of one volumetric session: planted effects named (of all planted),
-/// discoveries that name nothing planted, and the withheld cycle's prediction error over the
-/// noise the fit estimated.
-fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, String) {
+/// discoveries that name nothing planted, the withheld cycle's RMS prediction error over the
+/// simulator's noise σ and over the RMS of the noise in the withheld readings themselves.
+fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, [f64; 2], String) {
     use mtcal_indsim::{AmbientChange, VolumetricSpec};
     let mut spec = VolumetricSpec::new(case.load);
     spec.stream = None;
@@ -1078,9 +1078,12 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
             count += 1;
         }
     }
-    let realised =
-        (sum / count.max(1) as f64).sqrt() / Realism::realistic(case.seed).noise_sigma_um;
-    notes.push(format!("the withheld readings' own noise {realised:.2} σ"));
+    let sigma = Realism::realistic(case.seed).noise_sigma_um;
+    let realised = (sum / count.max(1) as f64).sqrt() / sigma;
+    let own = worst / realised;
+    notes.push(format!(
+        "the withheld readings' own noise {realised:.2} σ: the error {own:.2} × it"
+    ));
     let text = format!(
         "{:?} {:?} ambient {} seed {}: {named}/{} named, false {false_claims:?}, withheld {worst:.2} × noise {notes:?}\n{summary}",
         case.which,
@@ -1089,7 +1092,7 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
         case.seed,
         planted.len()
     );
-    (named, planted.len(), false_claims, worst, text)
+    (named, planted.len(), false_claims, [worst, own], text)
 }
 
 /// Source 000's volumetric thermal test on both machines of the independent simulator, under
@@ -1098,10 +1101,15 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, f64, Str
 /// Z screw's and the Y screw's scale, the head turning about X, the structure following the
 /// room) is named with its planted values in ≥ 90 % of cases and nothing else is claimed
 /// anywhere. The withheld cycle is predicted within 1.2 × the noise in at least 90 % of the
-/// sessions and within 1.5 × in all (measured: 22 of 24 within 1.2 ×, the others 1.23 and
-/// 1.27 ×, both the trunnion under Y-drive load; before a joint model's width was chosen with
-/// the machine held when a ball is left out, and widened rather than stacked on itself, 20 of
-/// 24, the trunnion with the room stepping at 1.4–1.7 ×).
+/// sessions and within 1.5 × in all, the noise taken as the simulator's σ and as the RMS of
+/// the noise the withheld readings hold (45 coloured, quantised readings: 0.80 to 1.29 σ by
+/// themselves). Measured over σ: 22 of 24 within 1.2 ×, the others 1.23 and 1.28 ×, both the
+/// trunnion under Y-drive load (seed 107's 1.23 σ is 0.95 × its readings' own noise of 1.29 σ:
+/// its search finds exactly what was planted); over the readings' own noise: 23 of 24, the
+/// other 1.22 × (the trunnion under spindle load whose Z screw's scale goes unnamed). Before a
+/// joint model's width was chosen with the machine held when a ball is left out, and widened
+/// rather than stacked on itself, 20 of 24 over σ, the trunnion with the room stepping at
+/// 1.4–1.7 ×.
 #[test]
 fn volumetric_thermal_tests_name_what_was_planted() {
     use mtcal_indsim::{VolumetricLoad, VolumetricMachine};
@@ -1154,12 +1162,16 @@ fn volumetric_thermal_tests_name_what_was_planted() {
         10 * named >= 9 * planted,
         "{named} of {planted} named\n{report}"
     );
-    let within = outcomes.iter().filter(|o| o.3 <= 1.2).count();
-    assert!(
-        10 * within >= 9 * outcomes.len() && outcomes.iter().all(|o| o.3 <= 1.5),
-        "withheld cycles: {within} of {} within 1.2 × the noise\n{report}",
-        outcomes.len()
-    );
+    // Over the noise's σ, and over the noise the withheld readings hold (a cycle's 45
+    // coloured, quantised readings are 0.8 to 1.3 σ of noise by themselves).
+    for (k, over) in ["σ", "the noise in them"].iter().enumerate() {
+        let within = outcomes.iter().filter(|o| o.3[k] <= 1.2).count();
+        assert!(
+            10 * within >= 9 * outcomes.len() && outcomes.iter().all(|o| o.3[k] <= 1.5),
+            "withheld cycles: {within} of {} within 1.2 × {over}\n{report}",
+            outcomes.len()
+        );
+    }
 }
 
 /// Which set-up parameters move the readings as the machine's own field at the place the
