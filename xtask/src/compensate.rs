@@ -258,6 +258,7 @@ impl ControlArgs {
             joint_offset_mm: 0.0,
             reversal_um: None,
             reversals: Vec::new(),
+            made_from: Vec::new(),
             hold_q,
             siemens: siemens_limits(self),
             reference_mm: 0.0,
@@ -272,19 +273,34 @@ impl ControlArgs {
 
 pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let model = crate::build_model(&args.machine.load()?)?;
-    let (coeffs, identified) = crate::load_identified(&model, &args.params, out)?;
+    let crate::Identified {
+        coeffs,
+        from: identified,
+        account,
+    } = crate::load_identified(&model, &args.params, out)?;
     let defaults = mtcal_compensate::default_hold(model.machine());
     let hold = args.hold.as_deref().unwrap_or("");
     let hold_q = mtcal_machine::axis_text::held_positions(model.machine(), defaults, hold)?;
     let what = args.control.compensation()?;
+    // What the identification gave and what became of it: on the screen (its account above,
+    // the reversals here) and on the card.
+    let mut made_from = account;
     let reversals = match &identified {
-        Some(from) => found_reversals(from, what, args.reversal_um, out)?,
+        Some(from) => {
+            let (reversals, said) = found_reversals(from, what, args.reversal_um);
+            for line in &said {
+                writeln!(out, "{line}")?;
+            }
+            made_from.extend(said);
+            reversals
+        }
         None => Vec::new(),
     };
     let settings = Settings {
         joint_offset_mm: args.joint_offset_mm,
         reversal_um: args.reversal_um,
         reversals,
+        made_from,
         reference_mm: args.reference_mm,
         ..args
             .control
@@ -325,49 +341,46 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
 }
 
 /// The reversals of linear axes an identification found that the file `what` can hold
-/// (bidirectional tables), each said on `out` with what becomes of it: held, left out because
-/// the identification did not determine it, given by `--reversal-um` instead, or not held by
-/// this format. A reversal whose backlash is within its interval of zero is left out; a change
-/// along the stroke within its interval of zero is left out of one that is put in.
+/// (bidirectional tables), and a line for each saying what becomes of it: held, left out
+/// because the identification did not determine it, given by `--reversal-um` instead, or not
+/// held by this format. A reversal whose backlash is within its interval of zero is left out;
+/// a change along the stroke within its interval of zero is left out of one that is put in.
 fn found_reversals(
     from: &mtcal_machine::from_identify::FromIdentify,
     what: Compensation,
     reversal_um: Option<f64>,
-    out: &mut impl Write,
-) -> Result<Vec<mtcal_compensate::AxisReversal>> {
+) -> (Vec<mtcal_compensate::AxisReversal>, Vec<String>) {
     let mut kept = Vec::new();
+    let mut said = Vec::new();
     for r in &from.reversals {
         let words = r.words();
         if !what.holds_reversal_of(r.axis) {
-            writeln!(
-                out,
+            said.push(format!(
                 "  {words}: not in this file (no bidirectional table of axis {} in it)",
                 r.axis
-            )?;
+            ));
             continue;
         }
         if reversal_um.is_some() {
-            writeln!(out, "  {words}: not used, --reversal-um given")?;
+            said.push(format!("  {words}: not used, --reversal-um given"));
             continue;
         }
         if !r.determined() {
-            writeln!(
-                out,
+            said.push(format!(
                 "  {words}: left out, the identification did not determine it (zero is within \
                  its interval)"
-            )?;
+            ));
             continue;
         }
         let change_um = if r.change_determined() {
             -r.change_um
         } else {
             if r.change_um != 0.0 {
-                writeln!(
-                    out,
+                said.push(format!(
                     "  {}: its change along the stroke is within its interval of zero and left \
                      out",
                     r.label
-                )?;
+                ));
             }
             0.0
         };
@@ -376,19 +389,18 @@ fn found_reversals(
             middle_um: -r.backlash_um,
             change_um,
         };
-        writeln!(
-            out,
+        said.push(format!(
             "  {words}: in the reverse table of axis {} (ISO 230-2 reversal value B = {:+.1} µm \
              at mid-stroke)",
             r.axis, reversal.middle_um
-        )?;
+        ));
         kept.push(mtcal_compensate::AxisReversal {
             axis: r.axis,
             reversal,
             source: words,
         });
     }
-    Ok(kept)
+    (kept, said)
 }
 
 /// `check-compensation`: reads the file back, checks it against the control's limits and

@@ -164,7 +164,7 @@ fn params_file(
         errors,
     )?;
     let mut text: String = from
-        .account("of this session")
+        .account("")
         .iter()
         .map(|l| format!("# {l}\n"))
         .collect();

@@ -480,30 +480,48 @@ fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
 
 /// The coefficients of the parameter file `params` for `model`.
 fn load_params(model: &MachineModel, params: &Path, out: &mut impl Write) -> Result<Vec<f64>> {
-    Ok(load_identified(model, params, out)?.0)
+    Ok(load_identified(model, params, out)?.coeffs)
 }
 
-/// The coefficients of the parameter file `params` for `model`, and, when it is an identify
-/// JSON, what the identification gave (its account of what went in said on `out`).
+/// A parameter file read, and what an identification behind it says.
+struct Identified {
+    coeffs: Vec<f64>,
+    /// The identification, when the file is its JSON.
+    from: Option<mtcal_machine::from_identify::FromIdentify>,
+    /// Its account of what went in and what was left out, for the cards: from the JSON, or
+    /// the header `identify --params-out` gave the parameter file (empty without one).
+    account: Vec<String>,
+}
+
+/// The coefficients of the parameter file `params` for `model`, and, when an identification
+/// gave them, what it gave (a JSON's account of what went in said on `out`).
 fn load_identified(
     model: &MachineModel,
     params: &Path,
     out: &mut impl Write,
-) -> Result<(Vec<f64>, Option<mtcal_machine::from_identify::FromIdentify>)> {
+) -> Result<Identified> {
+    use mtcal_machine::from_identify as fi;
     let context = || format!("cannot read parameter file {}", params.display());
     let text = std::fs::read_to_string(params).with_context(context)?;
-    if !mtcal_machine::from_identify::is_json(&text) {
+    if !fi::is_json(&text) {
         let coeffs = mtcal_machine::params::parse_params(&text, params, model.errors())
             .with_context(context)?;
-        return Ok((coeffs, None));
+        return Ok(Identified {
+            coeffs,
+            from: None,
+            account: fi::account_in_header(&text),
+        });
     }
     // An identify JSON: what the identification gave a number, said on the screen.
-    let from = mtcal_machine::from_identify::read_identify_json(&text, params, model.errors())
-        .with_context(context)?;
+    let from = fi::read_identify_json(&text, params, model.errors()).with_context(context)?;
     for line in from.account(&params.display().to_string()) {
         writeln!(out, "{line}")?;
     }
-    Ok((from.coeffs.clone(), Some(from)))
+    Ok(Identified {
+        coeffs: from.coeffs.clone(),
+        account: from.account(""),
+        from: Some(from),
+    })
 }
 
 /// The machine's model and the coefficients of a parameter file (a TOML parameter file or an

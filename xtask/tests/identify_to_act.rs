@@ -186,6 +186,31 @@ fn what_the_session_could_not_determine_is_left_out_and_said() {
         "{toml}"
     );
     assert!(toml.contains("EZ0A = 0"), "{toml}");
+    // The card in the file says it too (the same from the JSON and from the parameter file
+    // its header came with: the files are byte-identical above).
+    let grid = std::fs::read_to_string(d.join("json").join("grid.csv")).unwrap();
+    let made_from: Vec<&str> = grid
+        .lines()
+        .skip_while(|l| !l.contains("made from"))
+        .take_while(|l| l.starts_with('#'))
+        .collect();
+    assert!(
+        made_from.first().is_some_and(|l| l
+            .contains("made from               parameters from the identification: 10 identified")),
+        "{grid}"
+    );
+    assert!(
+        made_from
+            .iter()
+            .any(|l| l.contains("not separated, left out: moving EZ0A")),
+        "{made_from:?}"
+    );
+    assert!(
+        made_from
+            .iter()
+            .any(|l| l.contains("left at zero") && l.contains("EZ0A")),
+        "{made_from:?}"
+    );
 }
 
 /// A fit stopped before it converged gives no parameters to act on.

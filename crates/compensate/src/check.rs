@@ -162,6 +162,7 @@ mod tests {
             joint_offset_mm: 0.0,
             reversal_um: None,
             reversals: Vec::new(),
+            made_from: Vec::new(),
             hold_q: crate::default_hold(machine),
             siemens: crate::SiemensLimits::default(),
             reference_mm: 0.0,

@@ -1295,6 +1295,7 @@ pub fn fanuc_card(control: &FanucControl, conversions: &[FanucConversion]) -> Co
         .collect();
     let du = control.increment.detection_unit();
     ConventionCard {
+        made_from: Vec::new(),
         format: format!(
             "Fanuc pitch error compensation, {} parameter record (3620–3627 and pitch data \
              N10000 + point)",
@@ -1548,10 +1549,14 @@ pub fn write_fanuc(
     values_path: &Path,
     control: &FanucControl,
     conversions: &[FanucConversion],
+    made_from: &[String],
 ) -> Result<ConventionCard, CompensateError> {
     let tables: Vec<FanucTable> = conversions.iter().map(|c| c.table.clone()).collect();
     let record = fanuc_parameter_text(control, &tables)?;
-    let card = fanuc_card(control, conversions);
+    let card = ConventionCard {
+        made_from: made_from.to_vec(),
+        ..fanuc_card(control, conversions)
+    };
     write_file(parameter_path, &record)?;
     write_file(values_path, &fanuc_values_csv(control, conversions, &card))?;
     Ok(card)

@@ -342,6 +342,7 @@ fn assemble(
 /// The card of the 3-D error grid.
 pub(crate) fn card(machine: &Machine) -> ConventionCard {
     ConventionCard {
+        made_from: Vec::new(),
         format: "mtcal CSV 3-D error grid".into(),
         quantity: Quantity::Error,
         sign: "dx_um, dy_um, dz_um = actual − nominal tool point relative to the workpiece, \

@@ -66,6 +66,9 @@ pub struct Settings {
     /// Reversals an identification found, per axis: each bidirectional pitch table (LinuxCNC,
     /// CSV, Fanuc) of such an axis holds its reversal, and its card says where it came from.
     pub reversals: Vec<crate::AxisReversal>,
+    /// What the numbers were made from (an identification's account of what went in and what
+    /// it left out), for every card: [`ConventionCard::made_from`].
+    pub made_from: Vec<String>,
     /// Positions (SI) of the axes a pitch table or grid does not move ([`crate::default_hold`]
     /// with the user's changes).
     pub hold_q: Vec<f64>,
@@ -223,7 +226,7 @@ pub fn write_compensation(
             let mut spec = GridSpec::new(machine, [settings.spacing_mm; 3]);
             spec.hold_q = settings.hold_q.clone();
             let mut grid = crate::error_grid(model, coeffs, &spec)?;
-            let card = crate::grid::card(machine);
+            let card = made_from(crate::grid::card(machine), settings);
             append_card(&mut grid.note, &card);
             crate::write_grid_csv(path, &grid)?;
             let nodes = [grid.x_mm.len(), grid.y_mm.len(), grid.z_mm.len()];
@@ -232,7 +235,7 @@ pub fn write_compensation(
         Compensation::Parameters(format) => {
             let params =
                 crate::error_parameters(model, coeffs, settings.spacing_mm, settings.spacing_deg)?;
-            crate::write_error_parameters(path, machine, &params, format)?;
+            crate::write_error_parameters(path, machine, &params, format, &settings.made_from)?;
             let tables = params
                 .params
                 .iter()
@@ -243,13 +246,19 @@ pub fn write_compensation(
                 tables,
                 locations: params.params.len() - tables,
             };
-            (written, crate::parameters::card(machine, format))
+            (
+                written,
+                made_from(crate::parameters::card(machine, format), settings),
+            )
         }
         Compensation::TrtPivots => {
             let pivots = crate::trt_pivots_with_nominal(model, coeffs)?;
             let kinematics = pivots.kind.name();
             let not_representable = pivots.not_representable.len();
-            let card = crate::trt::card(machine, kinematics, not_representable);
+            let card = made_from(
+                crate::trt::card(machine, kinematics, not_representable),
+                settings,
+            );
             let mut text = crate::trt_hal_text(&pivots, machine.name());
             text.push_str(&card.file_lines("# "));
             mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| {
@@ -273,12 +282,12 @@ pub fn write_compensation(
         Compensation::SiemensCarr => {
             let name: String = machine.name().chars().take(crate::CARR_MAX_NAME).collect();
             let data = crate::carr_data(model, coeffs, 1, &name)?;
-            crate::write_carr(path, &data, machine.name())?;
+            crate::write_carr(path, &data, machine.name(), &settings.made_from)?;
             let written = Written::SiemensCarr {
                 kind: data.kind.letter(),
                 not_representable: data.not_representable.len(),
             };
-            (written, crate::carr_card(&data))
+            (written, made_from(crate::carr_card(&data), settings))
         }
         Compensation::Fanuc { axis } => {
             let (written, card, values) = write_fanuc(model, coeffs, path, axis, settings)?;
@@ -294,7 +303,8 @@ pub fn write_compensation(
                 &settings.hold_q,
                 &settings.heidenhain,
             )?;
-            let files = crate::write_heidenhain_com(path, &set, &settings.heidenhain)?;
+            let files =
+                crate::write_heidenhain_com(path, &set, &settings.heidenhain, &settings.made_from)?;
             let written = Written::ControlFiles {
                 what: "Heidenhain .CMA and .COM tables",
                 files: files.len(),
@@ -302,12 +312,20 @@ pub fn write_compensation(
                 points: set.total_points(),
             };
             beside.extend(heidenhain_beside(path, files));
-            (written, crate::heidenhain_com_card(&set))
+            (
+                written,
+                made_from(crate::heidenhain_com_card(&set), settings),
+            )
         }
         Compensation::HeidenhainKinematicsComp => {
             let (mm, deg) = (settings.spacing_mm, settings.spacing_deg);
             let kc = crate::kinematics_comp(model, coeffs, mm, deg)?;
-            let files = crate::write_kinematics_comp(path, &kc, &crate::KcLimits::default())?;
+            let files = crate::write_kinematics_comp(
+                path,
+                &kc,
+                &crate::KcLimits::default(),
+                &settings.made_from,
+            )?;
             let written = Written::ControlFiles {
                 what: "Heidenhain KinematicsComp listing and tables",
                 files: files.len(),
@@ -315,7 +333,10 @@ pub fn write_compensation(
                 points: kc.tables.iter().map(|t| t.positions.len()).sum(),
             };
             beside.extend(heidenhain_beside(path, files));
-            (written, crate::kinematics_comp_card(&kc))
+            (
+                written,
+                made_from(crate::kinematics_comp_card(&kc), settings),
+            )
         }
     };
     Ok(Exported {
@@ -369,7 +390,7 @@ fn write_siemens_eec(
             })
             .collect::<Result<_, _>>()?,
     };
-    let card = crate::eec_card(&tables, &names);
+    let card = made_from(crate::eec_card(&tables, &names), settings);
     let note = crate::siemens_note(machine, hold);
     crate::write_siemens_eec(path, &tables, &card, &note, &settings.siemens)?;
     let written = Written::ControlTables {
@@ -401,7 +422,7 @@ fn write_siemens_cec(
             t.index = k;
         }
     }
-    let card = crate::cec_card(&tables, &names);
+    let card = made_from(crate::cec_card(&tables, &names), settings);
     let note = crate::siemens_note(machine, hold);
     crate::write_siemens_cec(path, &tables, &card, &note, &settings.siemens)?;
     let written = Written::ControlTables {
@@ -474,7 +495,13 @@ fn write_fanuc(
     let mut name = path.as_os_str().to_owned();
     name.push(".values.csv");
     let values = PathBuf::from(name);
-    let card = crate::write_fanuc(path, &values, &settings.fanuc, &conversions)?;
+    let card = crate::write_fanuc(
+        path,
+        &values,
+        &settings.fanuc,
+        &conversions,
+        &settings.made_from,
+    )?;
     let written = Written::ControlTables {
         file: "Fanuc pitch error compensation record",
         tables: conversions.len(),
@@ -501,6 +528,14 @@ fn heidenhain_beside(path: &Path, files: Vec<PathBuf>) -> Vec<(PathBuf, &'static
             (f, what)
         })
         .collect()
+}
+
+/// `card` with what the numbers were made from ([`Settings::made_from`]).
+fn made_from(card: ConventionCard, settings: &Settings) -> ConventionCard {
+    ConventionCard {
+        made_from: settings.made_from.clone(),
+        ..card
+    }
 }
 
 /// Adds `card` to a file's comment note (the writer prefixes each line).
@@ -554,11 +589,14 @@ fn write_pitch_table(
         table = table.with_reversal(r, crate::stroke_mm(model.machine(), axis)?);
     }
     table = table.shifted_mm(settings.joint_offset_mm);
-    let card = crate::pitch::card(
-        format,
-        axis,
-        settings.joint_offset_mm,
-        reversal.as_ref().map(|(_, source)| source.as_str()),
+    let card = made_from(
+        crate::pitch::card(
+            format,
+            axis,
+            settings.joint_offset_mm,
+            reversal.as_ref().map(|(_, source)| source.as_str()),
+        ),
+        settings,
     );
     match format {
         PitchFormat::LinuxCnc => crate::write_linuxcnc_comp(path, &table)?,
@@ -596,6 +634,7 @@ mod tests {
             joint_offset_mm: 0.0,
             reversal_um: None,
             reversals: Vec::new(),
+            made_from: Vec::new(),
             hold_q: crate::default_hold(model.machine()),
             siemens: crate::SiemensLimits::default(),
             reference_mm: 0.0,

@@ -264,6 +264,7 @@ pub fn write_error_parameters(
     machine: &Machine,
     params: &ErrorParameters,
     format: ParameterFormat,
+    made_from: &[String],
 ) -> Result<(), CompensateError> {
     for p in &params.params {
         if let ParameterValue::Table { args, .. } = &p.value
@@ -280,7 +281,11 @@ pub fn write_error_parameters(
         ParameterFormat::IsgCsv => isg_text(machine, params),
         ParameterFormat::Etalon => etalon_text(machine, params),
     };
-    text.push_str(&card(machine, format).file_lines("// "));
+    let card = ConventionCard {
+        made_from: made_from.to_vec(),
+        ..card(machine, format)
+    };
+    text.push_str(&card.file_lines("// "));
     write_file(path, &text)
 }
 
@@ -702,6 +707,7 @@ pub(crate) fn card(machine: &Machine, format: ParameterFormat) -> ConventionCard
         ParameterFormat::Etalon => "Etalon Exchange Format (Vendor), ETALON_EXCHANGE",
     };
     ConventionCard {
+        made_from: Vec::new(),
         format: name.into(),
         quantity: Quantity::Error,
         sign: "ISO 230-1: functional errors of the tool relative to the workpiece in machine \

@@ -395,6 +395,7 @@ pub(crate) fn card(
         format!("{axis} (joint position = axis position {joint_offset_mm:+} mm)")
     };
     let mut card = ConventionCard {
+        made_from: Vec::new(),
         format: String::new(),
         quantity: Quantity::Correction,
         sign: String::new(),

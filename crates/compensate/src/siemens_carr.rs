@@ -796,6 +796,7 @@ pub fn carr_card(data: &CarrData) -> ConventionCard {
     }
     let kind = data.kind.letter();
     ConventionCard {
+        made_from: Vec::new(),
         format: format!(
             "SINUMERIK 840D sl CYCLE800 swivel data record {} ($TC_CARR, orientable toolholder), \
              kinematics {kind} ({})",
@@ -847,7 +848,11 @@ pub fn carr_card(data: &CarrData) -> ConventionCard {
 
 /// The part program that sets the record: header and card as `;` comments, the assignments,
 /// `M30`. Refuses a record [`CarrData::validate`] refuses.
-pub fn carr_text(data: &CarrData, machine_name: &str) -> Result<String, CompensateError> {
+pub fn carr_text(
+    data: &CarrData,
+    machine_name: &str,
+    made_from: &[String],
+) -> Result<String, CompensateError> {
     data.validate()?;
     let n = data.number;
     let mut t = String::new();
@@ -863,7 +868,11 @@ pub fn carr_text(data: &CarrData, machine_name: &str) -> Result<String, Compensa
         data.axes[0],
         data.axes[1]
     );
-    t.push_str(&carr_card(data).lines("; "));
+    let card = ConventionCard {
+        made_from: made_from.to_vec(),
+        ..carr_card(data)
+    };
+    t.push_str(&card.lines("; "));
     if let Some(nom) = &data.nominal {
         let _ = writeln!(t, "; nominal machine, for comparison:");
         for (name, v) in OFFSET_NAMES.iter().zip(&nom.offsets_mm) {
@@ -965,8 +974,13 @@ pub fn carr_text(data: &CarrData, machine_name: &str) -> Result<String, Compensa
 }
 
 /// Writes [`carr_text`] to `path`, atomically.
-pub fn write_carr(path: &Path, data: &CarrData, machine_name: &str) -> Result<(), CompensateError> {
-    let text = carr_text(data, machine_name)?;
+pub fn write_carr(
+    path: &Path,
+    data: &CarrData,
+    machine_name: &str,
+    made_from: &[String],
+) -> Result<(), CompensateError> {
+    let text = carr_text(data, machine_name, made_from)?;
     write_file(path, &text)
 }
 

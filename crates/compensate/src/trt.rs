@@ -301,6 +301,7 @@ pub(crate) fn card(
     not_representable: usize,
 ) -> ConventionCard {
     ConventionCard {
+        made_from: Vec::new(),
         format: format!("LinuxCNC HAL settings of {kinematics}"),
         quantity: Quantity::Geometry,
         sign: "pivot points of the actual rotary axis lines in joint coordinates".into(),

@@ -307,7 +307,7 @@ fn the_parameter_record_reads_back_into_the_same_tables() {
         assert_eq!(tables[3].revolution_units, None);
         let params = dir.path().join(format!("{}.txt", increment.name()));
         let values = dir.path().join("values.csv");
-        let card = write_fanuc(&params, &values, &control, &conversions).unwrap();
+        let card = write_fanuc(&params, &values, &control, &conversions, &[]).unwrap();
         let axes: Vec<FanucAxis> = requests.iter().map(|r| r.axis).collect();
         let back = read_fanuc_parameters(&params, &control, &axes).unwrap();
         assert_eq!(back, tables, "{}", series.name());

@@ -182,7 +182,7 @@ fn check_com_cancels(name: &str, draws: &[f64]) {
     let set = heidenhain_com_set(&model, &coeffs, 25.0, &hold, &ComLimits::tnc_4xx()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let cma = dir.path().join("CONFIG.CMA");
-    write_heidenhain_com(&cma, &set, &ComLimits::tnc_4xx()).unwrap();
+    write_heidenhain_com(&cma, &set, &ComLimits::tnc_4xx(), &[]).unwrap();
     let (comp, norm, largest) = com_residuals(&model, &coeffs, &cma, &hold);
     // Values are written to 0.1 µm, so each component is off by at most half of it (one
     // rounding per component) plus the model's change over the correction: the error's slope
@@ -229,7 +229,7 @@ fn com_tables_round_trip() {
     assert_eq!(set.tables.len(), 3);
     let dir = tempfile::tempdir().unwrap();
     let cma = dir.path().join("CONFIG.CMA");
-    let written = write_heidenhain_com(&cma, &set, &limits).unwrap();
+    let written = write_heidenhain_com(&cma, &set, &limits, &[]).unwrap();
     let names: Vec<String> = written
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
@@ -260,7 +260,7 @@ fn com_tables_round_trip() {
         }
     }
     validate_heidenhain_com(&back, &limits).unwrap();
-    let e = write_heidenhain_com(&dir.path().join("config.txt"), &set, &limits).unwrap_err();
+    let e = write_heidenhain_com(&dir.path().join("config.txt"), &set, &limits, &[]).unwrap_err();
     assert!(e.to_string().contains("ending in .CMA"), "{e}");
     // Rows 2^17 × 0.1 µm = 13.1072 mm apart (the largest power of two under 20 mm).
     let step = back.tables[0].positions_mm[1] - back.tables[0].positions_mm[0];
@@ -800,7 +800,7 @@ fn kc_residuals(name: &str, draws: &[f64], poses: usize) -> (f64, f64, f64) {
     let kc = kinematics_comp(&model, &coeffs, 40.0, 30.0).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("KINCOMP.TAB");
-    write_kinematics_comp(&path, &kc, &KcLimits::default()).unwrap();
+    write_kinematics_comp(&path, &kc, &KcLimits::default(), &[]).unwrap();
     let description = control_description(&std::fs::read_to_string(&path).unwrap());
     let mut tables = BTreeMap::new();
     for e in &description {
@@ -887,7 +887,7 @@ fn kinematics_comp_round_trips_and_counts() {
     assert_eq!((comptab, coord, machaxis), (30, 22, 5));
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("kincomp.tab");
-    let written = write_kinematics_comp(&path, &kc, &KcLimits::default()).unwrap();
+    let written = write_kinematics_comp(&path, &kc, &KcLimits::default(), &[]).unwrap();
     assert_eq!(written.len(), 7);
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.starts_with("BEGIN KINCOMP.TAB MM\nNR"), "{text}");

@@ -51,7 +51,7 @@ fn check_round_trip(name: &str, seed: u64, format: ParameterFormat) {
     let params = error_parameters(&model, &coeffs, 25.0, 15.0).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("errors.txt");
-    write_error_parameters(&path, model.machine(), &params, format).unwrap();
+    write_error_parameters(&path, model.machine(), &params, format, &[]).unwrap();
     let back = read_error_parameters(&path, format).unwrap();
 
     // Same names in the same order, values within the print precision.
@@ -154,7 +154,14 @@ fn units_and_signs_are_the_documented_ones() {
     let params = error_parameters(&model, &coeffs, 50.0, 15.0).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("errors.csv");
-    write_error_parameters(&path, model.machine(), &params, ParameterFormat::IsgCsv).unwrap();
+    write_error_parameters(
+        &path,
+        model.machine(),
+        &params,
+        ParameterFormat::IsgCsv,
+        &[],
+    )
+    .unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("ERRORS (not compensations)"));
     let data: Vec<&str> = text.lines().filter(|l| !l.starts_with("//")).collect();

@@ -228,7 +228,7 @@ fn worst(d: &[(Vector3<f64>, Vector3<f64>)]) -> (f64, f64) {
 
 fn text_of(model: &MachineModel, coeffs: &[f64]) -> (CarrData, String) {
     let data = carr_data(model, coeffs, 3, "mtcal five-axis").unwrap();
-    let text = carr_text(&data, model.machine().name()).unwrap();
+    let text = carr_text(&data, model.machine().name(), &[]).unwrap();
     (data, text)
 }
 
@@ -270,7 +270,7 @@ proptest! {
         let (held, rest) = split(&model, &coeffs);
         let (data, text) = text_of(&model, &coeffs);
         let rec = record_of(&text);
-        let nominal = record_of(&carr_text(data.nominal.as_deref().unwrap(), name).unwrap());
+        let nominal = record_of(&carr_text(data.nominal.as_deref().unwrap(), name, &[]).unwrap());
         let residual = differences(&model, &coeffs, &rec, 40, seed ^ 2);
         // What the errors not held cause alone: the nominal record against the model with them.
         let alone = differences(&model, &rest, &nominal, 40, seed ^ 2);
@@ -305,7 +305,7 @@ fn the_nominal_record_misses_identified_location_errors_the_test_can_fail() {
         let model = load(name);
         let coeffs = random_coeffs(&model, 5, false);
         let (data, _) = text_of(&model, &coeffs);
-        let nominal_text = carr_text(data.nominal.as_deref().unwrap(), name).unwrap();
+        let nominal_text = carr_text(data.nominal.as_deref().unwrap(), name, &[]).unwrap();
         let (dp, _) = worst(&differences(
             &model,
             &coeffs,
@@ -313,7 +313,7 @@ fn the_nominal_record_misses_identified_location_errors_the_test_can_fail() {
             60,
             9,
         ));
-        let text = carr_text(&data, name).unwrap();
+        let text = carr_text(&data, name, &[]).unwrap();
         let (ok, ok_turn) = worst(&differences(&model, &coeffs, &record_of(&text), 60, 9));
         eprintln!(
             "{name}: {ok:.1e} µm ({ok_turn:.1e} µrad) with mtcal's record, {dp:.1} µm with the \
@@ -391,7 +391,7 @@ fn records_round_trip_through_the_file() {
         let data = carr_data(&model, &coeffs, 7, "swivel 7").unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("carr.mpf");
-        write_carr(&path, &data, name).unwrap();
+        write_carr(&path, &data, name, &[]).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.is_ascii());
         assert!(text.trim_end().ends_with("M30"));
@@ -416,7 +416,7 @@ fn the_validator_refuses_what_the_control_would_refuse_or_misread() {
     let check = |d: CarrData, want: &str| {
         let e = d.validate().unwrap_err().to_string();
         assert!(e.contains(want), "{e}");
-        let e = carr_text(&d, "m").unwrap_err().to_string();
+        let e = carr_text(&d, "m", &[]).unwrap_err().to_string();
         assert!(e.contains(want), "{e}");
     };
     let mut d = sample();
@@ -525,7 +525,7 @@ fn read_error(text: &str) -> String {
 
 /// The sample's file with the first `replace` replaced by `with`.
 fn edited(replace: &str, with: &str) -> String {
-    let text = carr_text(&sample(), "m").unwrap();
+    let text = carr_text(&sample(), "m", &[]).unwrap();
     assert!(text.contains(replace), "{replace}");
     text.replacen(replace, with, 1)
 }
@@ -537,7 +537,7 @@ fn line_of(text: &str, needle: &str) -> usize {
 
 #[test]
 fn bad_files_are_refused_with_file_line_and_column() {
-    let text = carr_text(&sample(), "m").unwrap();
+    let text = carr_text(&sample(), "m", &[]).unwrap();
     let at = |needle: &str| line_of(&text, needle);
     let cases: Vec<(String, String)> = vec![
         (
@@ -639,7 +639,7 @@ fn bad_files_are_refused_with_file_line_and_column() {
 
 #[test]
 fn the_reader_accepts_block_numbers_blanks_and_several_assignments_per_line() {
-    let text = carr_text(&sample(), "m").unwrap();
+    let text = carr_text(&sample(), "m", &[]).unwrap();
     let mut loose = String::new();
     for (k, line) in text.lines().enumerate() {
         let code = line.split(';').next().unwrap().trim();

@@ -65,6 +65,10 @@ pub struct ConventionCard {
     /// What the control will do with the file: how it applies it, how to activate it, what it
     /// cannot hold. One sentence each.
     pub control_will: Vec<String>,
+    /// What the numbers were made from, when an identification gave them: what went in, what
+    /// it could not determine and left out, what became of its discoveries. One line each.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub made_from: Vec<String>,
 }
 
 /// mtcal's squareness definition (ISO 230-1 signs), shared by the cards of files that carry
@@ -92,6 +96,7 @@ impl ConventionCard {
     /// The card of mtcal's own parameters (identification JSON, report, parameter files).
     pub fn mtcal_parameters(machine: &Machine) -> ConventionCard {
         ConventionCard {
+            made_from: Vec::new(),
             format: "mtcal ISO 230-1 error parameters".into(),
             quantity: Quantity::Error,
             sign: "ISO 230-1: a component error is the tool's deviation relative to the \
@@ -146,6 +151,9 @@ impl ConventionCard {
                 if k == 0 { "the control will" } else { "" },
                 sentence.clone(),
             ));
+        }
+        for (k, line) in self.made_from.iter().enumerate() {
+            rows.push((if k == 0 { "made from" } else { "" }, line.clone()));
         }
         rows
     }

@@ -265,12 +265,37 @@ pub fn read_identify_json(
     })
 }
 
+/// The account of an identification ([`FromIdentify::account`] with no source) a parameter
+/// file carries as its header (`identify --params-out`): its leading comment lines from the
+/// first, which names the identification, without the `# `. Empty for a file without one.
+pub fn account_in_header(text: &str) -> Vec<String> {
+    let mut lines = text
+        .trim_start_matches('\u{feff}')
+        .lines()
+        .map_while(|l| l.strip_prefix("# "));
+    match lines.next() {
+        Some(first) if first.starts_with("parameters from the identification:") => {
+            std::iter::once(first)
+                .chain(lines.take_while(|l| l.starts_with("  ")))
+                .map(str::to_string)
+                .collect()
+        }
+        _ => Vec::new(),
+    }
+}
+
 impl FromIdentify {
     /// What went in and what did not, for the screen (and a card), lines without an end;
-    /// `source` names the identification (its file).
+    /// `source` names the identification (its file; empty for a card or a parameter file's
+    /// header, which must read the same whichever file carried the identification).
     pub fn account(&self, source: &str) -> Vec<String> {
+        let source = if source.is_empty() {
+            String::new()
+        } else {
+            format!(" {source}")
+        };
         let mut out = vec![format!(
-            "parameters from the identification {source}: {} identified, each with its u95, put in",
+            "parameters from the identification{source}: {} identified, each with its u95, put in",
             self.used.len()
         )];
         if !self.not_given.is_empty() {
@@ -291,5 +316,32 @@ impl FromIdentify {
             ));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The account `identify --params-out` writes as the parameter file's header reads back
+    /// line for line (so a card made from the file says what one made from the JSON says); a
+    /// file without one, or whose comments say something else, gives none.
+    #[test]
+    fn the_account_in_a_parameter_files_header_reads_back() {
+        let from = FromIdentify {
+            coeffs: vec![0.0],
+            used: vec![("EC0Y".into(), 1.5, Some(0.2), "urad".into())],
+            not_given: vec!["EZ0A".into()],
+            combinations: vec!["only their sum is observed".into()],
+            discoveries: vec!["reversal X (X)".into()],
+            reversals: Vec::new(),
+        };
+        let account = from.account("");
+        assert!(account[0].starts_with("parameters from the identification: 1 identified"));
+        let header: String = account.iter().map(|l| format!("# {l}\n")).collect();
+        let file = format!("{header}# mtcal parameter values: translations in um\n[values]\n");
+        assert_eq!(account_in_header(&file), account);
+        assert!(account_in_header("# mtcal parameter values\n[values]\n").is_empty());
+        assert!(account_in_header("[values]\nEC0Y = 1\n").is_empty());
     }
 }

@@ -465,6 +465,7 @@ pub fn write_heidenhain_com(
     cma_path: &Path,
     set: &ComSet,
     limits: &ComLimits,
+    made_from: &[String],
 ) -> Result<Vec<PathBuf>, CompensateError> {
     validate_heidenhain_com(set, limits)?;
     let cma_name = table_file_name(cma_path, "CMA")?;
@@ -480,7 +481,10 @@ pub fn write_heidenhain_com(
     written.push(super::write_card(
         cma_path,
         &cma_name,
-        &heidenhain_com_card(set),
+        &ConventionCard {
+            made_from: made_from.to_vec(),
+            ..heidenhain_com_card(set)
+        },
         &set.note,
     )?);
     Ok(written)
@@ -717,6 +721,7 @@ pub fn heidenhain_com_card(set: &ComSet) -> ConventionCard {
     letters.sort_by_key(|c| "XYZUVWABC".find(*c));
     letters.dedup();
     ConventionCard {
+        made_from: Vec::new(),
         format: "Heidenhain nonlinear axis error compensation: .COM tables (NR, AXISPOS, one \
                  column per corrected axis) assigned to their input axis by a .CMA file"
             .into(),

@@ -569,6 +569,7 @@ pub fn write_kinematics_comp(
     path: &Path,
     kc: &KinematicsComp,
     limits: &KcLimits,
+    made_from: &[String],
 ) -> Result<Vec<PathBuf>, CompensateError> {
     validate_kinematics_comp(kc, limits)?;
     let name = path
@@ -594,7 +595,10 @@ pub fn write_kinematics_comp(
     written.push(super::write_card(
         path,
         &name,
-        &kinematics_comp_card(kc),
+        &ConventionCard {
+            made_from: made_from.to_vec(),
+            ..kinematics_comp_card(kc)
+        },
         &kc.note,
     )?);
     Ok(written)
@@ -893,6 +897,7 @@ pub fn kinematics_comp_card(kc: &KinematicsComp) -> ConventionCard {
         })
         .collect();
     ConventionCard {
+        made_from: Vec::new(),
         format: "Heidenhain iTNC 530 KinematicsComp: entries of the kinematics description \
                  (NR DOC KEY AXIS COORD COMPTAB) from the tool to the table, component errors as \
                  COMPTAB references to columns C1–C6 of one .COM table per axis, location errors \

@@ -254,6 +254,7 @@ pub fn cec_card(tables: &[CecTable], names: &[AxisMap]) -> ConventionCard {
             .flat_map(|t| [t.input_axis.as_str(), t.output_axis.as_str()])
     };
     ConventionCard {
+        made_from: Vec::new(),
         format: format!("SINUMERIK 840D sl sag / angularity compensation (CEC), {CEC_FILE_NAME}"),
         quantity: Quantity::Error,
         sign: "$AN_CEC[t,N] is the output axis' error along its positive direction (tool \

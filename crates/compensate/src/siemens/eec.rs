@@ -253,6 +253,7 @@ pub fn eec_card(tables: &[EecTable], names: &[AxisMap]) -> ConventionCard {
     let used = || tables.iter().map(|t| t.axis.as_str());
     let rotary = any_rotary(names, used());
     ConventionCard {
+        made_from: Vec::new(),
         format: format!(
             "SINUMERIK 840D sl measuring system error compensation (MSEC/LEC), {EEC_FILE_NAME}"
         ),
