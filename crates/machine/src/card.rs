@@ -152,8 +152,12 @@ impl ConventionCard {
                 sentence.clone(),
             ));
         }
-        for (k, line) in self.made_from.iter().enumerate() {
-            rows.push((if k == 0 { "made from" } else { "" }, line.clone()));
+        let made_from = self
+            .made_from
+            .iter()
+            .flat_map(|l| wrapped(l, MADE_FROM_WIDTH));
+        for (k, line) in made_from.enumerate() {
+            rows.push((if k == 0 { "made from" } else { "" }, line));
         }
         rows
     }
@@ -164,6 +168,31 @@ impl ConventionCard {
     pub fn file_lines(&self, prefix: &str) -> String {
         ascii(&self.lines(prefix))
     }
+}
+
+/// The widest line of an account on a card (characters after the key): a list of a hundred
+/// parameters left out is folded, not written as one line of a kilobyte a control's editor or
+/// its block length may not take.
+const MADE_FROM_WIDTH: usize = 100;
+
+/// `line` folded at spaces into lines of at most `width` characters (a word longer stays
+/// whole), each continuation indented two spaces more than the line.
+fn wrapped(line: &str, width: usize) -> Vec<String> {
+    let indent = line.len() - line.trim_start().len();
+    let mut out: Vec<String> = Vec::new();
+    let mut current = line[..indent].to_string();
+    for word in line.split_whitespace() {
+        let bare = current.trim_start().is_empty();
+        if !bare && current.chars().count() + 1 + word.chars().count() > width {
+            out.push(std::mem::replace(&mut current, " ".repeat(indent + 2)));
+        }
+        if !current.trim_start().is_empty() {
+            current.push(' ');
+        }
+        current.push_str(word);
+    }
+    out.push(current);
+    out
 }
 
 /// `text` with the card's non-ASCII signs spelled in ASCII and anything else left replaced
@@ -245,5 +274,24 @@ mod tests {
             ascii("B = x̄↑ − x̄↓, ± 0.1 µm"),
             "B = x(+) - x(-), +/- 0.1 um"
         );
+    }
+
+    /// An account line longer than the card's width folds at spaces, keeping every word, each
+    /// continuation indented under it.
+    #[test]
+    fn a_long_account_line_folds_at_spaces() {
+        let names: Vec<String> = (0..60).map(|k| format!("EXX.K{k}")).collect();
+        let line = format!("  left at zero: {}", names.join(", "));
+        let folded = wrapped(&line, 40);
+        assert!(folded.len() > 5, "{folded:?}");
+        assert!(folded.iter().all(|l| l.chars().count() <= 40), "{folded:?}");
+        assert!(folded[0].starts_with("  left at zero: EXX.K0,"));
+        assert!(
+            folded[1..].iter().all(|l| l.starts_with("    EXX.K")),
+            "{folded:?}"
+        );
+        let words: Vec<&str> = folded.iter().flat_map(|l| l.split_whitespace()).collect();
+        assert_eq!(words, line.split_whitespace().collect::<Vec<_>>());
+        assert_eq!(wrapped("short", 40), vec!["short".to_string()]);
     }
 }
