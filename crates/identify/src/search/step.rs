@@ -1004,6 +1004,17 @@ mod tests {
         .unwrap();
     }
 
+    /// The joint thermal model the search proposes for `study`.
+    fn joint_model(study: &crate::Study) -> Arc<dyn mtcal_effects::Effect> {
+        candidates(study, Some(&["thermal-model".to_string()]))
+            .into_iter()
+            .find_map(|c| match c {
+                Candidate::Effect(e) => Some(e),
+                Candidate::Model(_) => None,
+            })
+            .expect("a joint thermal model is proposed")
+    }
+
     /// A joint model in the model at far too narrow a prior (its narrowest rung: 0.03 µm per
     /// column against a 50 µm response), proposed again, is widened: the refit holds one bank of
     /// that label at a wider width, replacing the stage's — not a second bank beside it (which
@@ -1015,13 +1026,7 @@ mod tests {
         let study = crate::Study::load(dir.path()).unwrap();
         let options = SearchOptions::default();
         let family = ["thermal-model".to_string()];
-        let bank = candidates(&study, Some(&family))
-            .into_iter()
-            .find_map(|c| match c {
-                Candidate::Effect(e) => Some(e),
-                Candidate::Model(_) => None,
-            })
-            .expect("a joint thermal model is proposed");
+        let bank = joint_model(&study);
         let narrow = Arc::clone(&bank.prior_ladder()[0]);
         let mut changes = study.changes().clone();
         changes.effects.push(Arc::clone(&narrow));
@@ -1075,14 +1080,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         heated_session(dir.path());
         let study = crate::Study::load(dir.path()).unwrap();
-        let family = ["thermal-model".to_string()];
-        let bank = candidates(&study, Some(&family))
-            .into_iter()
-            .find_map(|c| match c {
-                Candidate::Effect(e) => Some(e),
-                Candidate::Model(_) => None,
-            })
-            .expect("a joint thermal model is proposed");
+        let bank = joint_model(&study);
         // The recorded temperatures, read back from the file the session holds: RMS from the
         // first reading, and about the mean.
         let text = std::fs::read_to_string(dir.path().join("run.csv")).unwrap();
