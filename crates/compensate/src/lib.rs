@@ -181,9 +181,9 @@ pub use grid::{ErrorGrid, GridSpec, error_grid, read_grid_csv, write_grid_csv};
 pub use heidenhain::{
     COM_RESOLUTION_MM, ComLimits, ComSet, ComTable, HeidenhainLimit, KcEntry, KcKey, KcLimits,
     KcTable, KcValue, KinematicsComp, SpacingRule, card_path, heidenhain_com_card,
-    heidenhain_com_set, kinematics_comp, kinematics_comp_card, read_com_table, read_heidenhain_com,
-    read_kinematics_comp, validate_heidenhain_com, validate_kinematics_comp, write_heidenhain_com,
-    write_kinematics_comp,
+    heidenhain_com_set, kinematics_comp, kinematics_comp_card, kinematics_comp_cma, read_com_table,
+    read_heidenhain_com, read_kinematics_comp, validate_heidenhain_com, validate_kinematics_comp,
+    write_heidenhain_com, write_kinematics_comp,
 };
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,

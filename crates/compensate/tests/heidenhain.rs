@@ -618,7 +618,9 @@ enum Entry {
     Trans {
         axis: char,
         value: Value,
-        inverse: bool,
+        /// The axis the entry goes with, as the card tells the user: the last letter of its
+        /// DOC (`-EYX`, `X0C`, `-X0C`).
+        owner: char,
     },
     MachAxis(char),
     MachBase,
@@ -648,7 +650,7 @@ fn control_description(text: &str) -> Vec<Entry> {
                 Entry::Trans {
                     axis: r[3].chars().next().unwrap(),
                     value,
-                    inverse: r[1].starts_with('-'),
+                    owner: r[1].chars().last().unwrap(),
                 }
             }
             other => panic!("unknown KEY {other}"),
@@ -658,11 +660,15 @@ fn control_description(text: &str) -> Vec<Entry> {
 
 /// A KinematicsComp table: AXISPOS and C1–C6 rows.
 fn control_kc_table(text: &str) -> (Vec<f64>, Vec<[f64; 6]>) {
-    let (_, rows) = tokens(text);
-    let pos = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    let (header, rows) = tokens(text);
+    let at = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let pos = rows
+        .iter()
+        .map(|r| r[at("AXISPOS")].parse().unwrap())
+        .collect();
     let cols = rows
         .iter()
-        .map(|r| std::array::from_fn(|k| r[2 + k].parse().unwrap()))
+        .map(|r| std::array::from_fn(|k| r[at(&format!("C{}", k + 1))].parse().unwrap()))
         .collect();
     (pos, cols)
 }
@@ -697,20 +703,23 @@ fn homogeneous(r: &mtcal_kinematics::rigid::Rigid) -> Matrix4<f64> {
 
 /// Pose of the tool in the table frame from the description at axis positions `q` (SI):
 /// the nominal chain (the control's own entries) with the description's entries inserted
-/// before and after each MachAxis; `with_errors` false leaves them out.
+/// before and after each MachAxis, each axis standing at `q` plus its positioning error from
+/// the `.CMA`'s tables (`positioning`, SI); `with_errors` false leaves both out.
 fn chain_tool_in_table(
     model: &MachineModel,
     description: &[Entry],
     tables: &BTreeMap<String, (Vec<f64>, Vec<[f64; 6]>)>,
+    positioning: &[f64],
     q: &[f64],
     with_errors: bool,
 ) -> Matrix4<f64> {
     let m = model.machine();
     let motion = |i: usize| {
         let ax = &m.axes()[i];
+        let at = q[i] + if with_errors { positioning[i] } else { 0.0 };
         match ax.kind() {
-            AxisKind::Linear => translation(ax.direction() * q[i]),
-            AxisKind::Rotary => rotation(*ax.direction(), q[i]),
+            AxisKind::Linear => translation(ax.direction() * at),
+            AxisKind::Rotary => rotation(*ax.direction(), at),
         }
     };
     let value = |axis_index: usize, v: &Value| match v {
@@ -726,8 +735,8 @@ fn chain_tool_in_table(
             interpolate(pos, &col, at)
         }
     };
-    // Split the description at its MachAxis/MachBase entries: an axis' error entries are those
-    // before it, its location inverses (DOC `-…`) those right after it.
+    // Split the description at its MachAxis/MachBase entries: an axis' entries are those
+    // before it and those right after it whose DOC names it.
     let mut t = homogeneous(m.branch(Side::Tool).end())
         .try_inverse()
         .unwrap();
@@ -750,7 +759,8 @@ fn chain_tool_in_table(
             Entry::Trans { axis, value: v, .. } => trans(*axis, value(i, v)),
             _ => unreachable!(),
         };
-        while let Entry::Trans { .. } = &description[*k] {
+        while let Entry::Trans { owner, .. } = &description[*k] {
+            assert_eq!(*owner, ax.letter().as_char(), "entry {k} before its axis");
             if with_errors {
                 *t *= inserted(&description[*k]);
             }
@@ -765,7 +775,9 @@ fn chain_tool_in_table(
             Side::Tool => motion(i).try_inverse().unwrap(),
             Side::Workpiece => motion(i),
         };
-        while let Some(Entry::Trans { inverse: true, .. }) = description.get(*k) {
+        while let Some(Entry::Trans { owner, .. }) = description.get(*k)
+            && *owner == ax.letter().as_char()
+        {
             if with_errors {
                 *t *= inserted(&description[*k]);
             }
@@ -814,6 +826,30 @@ fn kc_residuals(name: &str, draws: &[f64], poses: usize) -> (f64, f64, f64) {
         }
     }
     let m = model.machine();
+    let assigned = control_tables(&dir.path().join("KINCOMP.CMA"));
+    assert_eq!(
+        assigned.len(),
+        m.n_axes(),
+        "the .CMA assigns every axis' table"
+    );
+    // In file units (mm or degrees) and back to SI, by the axis' kind.
+    let file_unit = |i: usize| match m.axes()[i].kind() {
+        AxisKind::Linear => 1e3,
+        AxisKind::Rotary => 1f64.to_degrees(),
+    };
+    // Each axis' positioning error (SI) at `q`: the columns named after it, summed over the
+    // active tables at their input axes' positions, as the nonlinear compensation adds them.
+    let positioning = |q: &[f64]| {
+        let mut v = vec![0.0; m.n_axes()];
+        for (input, t) in &assigned {
+            let k = m.axis_index(*input).unwrap();
+            for (axis, column) in &t.columns {
+                let j = m.axis_index(*axis).unwrap();
+                v[j] += interpolate(&t.positions_mm, column, q[k] * file_unit(k)) / file_unit(j);
+            }
+        }
+        v
+    };
     // Each axis' rows (SI), from its table.
     let rows: Vec<Vec<f64>> = m
         .axes()
@@ -837,12 +873,13 @@ fn kc_residuals(name: &str, draws: &[f64], poses: usize) -> (f64, f64, f64) {
             .map(|r| r[(rng.unit() * r.len() as f64) as usize % r.len()])
             .collect();
         let nominal = m.tool_in_workpiece(&q);
-        let bare = chain_tool_in_table(&model, &description, &tables, &q, false);
+        let v = positioning(&q);
+        let bare = chain_tool_in_table(&model, &description, &tables, &v, &q, false);
         assert!(
             (bare - homogeneous(&nominal)).amax() < 1e-12,
             "the test's nominal chain is the machine's"
         );
-        let chain = chain_tool_in_table(&model, &description, &tables, &q, true);
+        let chain = chain_tool_in_table(&model, &description, &tables, &v, &q, true);
         let e = model.pose_error(&q, &coeffs, &mut ws);
         let p = chain.fixed_view::<3, 1>(0, 3).into_owned();
         worst_um = worst_um.max((p - nominal.t - e.translation).norm() * 1e6);
@@ -882,13 +919,15 @@ fn kinematics_comp_round_trips_and_counts() {
     let coeffs = coeffs_from(&model, &draws, false);
     let kc = kinematics_comp(&model, &coeffs, 50.0, 30.0).unwrap();
     let (comptab, coord, machaxis) = kc.counts();
-    // Six columns per axis; the 8 rotary location errors and 3 squareness errors each before
-    // and (negated) after their axis.
-    assert_eq!((comptab, coord, machaxis), (30, 22, 5));
+    // Five columns per axis (positioning is in the axis' own column); the 8 rotary location
+    // errors and 3 squareness errors each before and (negated) after their axis.
+    assert_eq!((comptab, coord, machaxis), (25, 22, 5));
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("kincomp.tab");
     let written = write_kinematics_comp(&path, &kc, &KcLimits::default(), &[]).unwrap();
-    assert_eq!(written.len(), 7);
+    // Five tables, the .CMA, the description and its card.
+    assert_eq!(written.len(), 8);
+    assert!(written.contains(&dir.path().join("kincomp.cma")));
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.starts_with("BEGIN KINCOMP.TAB MM\nNR"), "{text}");
     let back = read_kinematics_comp(&path).unwrap();
@@ -911,6 +950,10 @@ fn kinematics_comp_round_trips_and_counts() {
                 assert!((x - y).abs() <= 0.6e-7, "{} C{}: {x} vs {y}", a.name, k + 1);
             }
         }
+        assert!(a.positioning.iter().any(|v| v.abs() > 1e-4), "{}", a.name);
+        for (x, y) in a.positioning.iter().zip(&b.positioning) {
+            assert!((x - y).abs() <= 0.6e-7, "{} {}: {x} vs {y}", a.name, a.axis);
+        }
     }
     validate_kinematics_comp(&back, &KcLimits::default()).unwrap();
     let card = std::fs::read_to_string(dir.path().join("kincomp.tab.card.txt")).unwrap();
@@ -920,67 +963,130 @@ fn kinematics_comp_round_trips_and_counts() {
     );
 }
 
-/// Signs and units on hand-made errors (MCU 630: X on the tool side, C on the workpiece side):
-/// EX0C = +10 µm is a COORD entry `Trans X +0.0100000` before MachAxis C and `-0.0100000` after
-/// it; EYX = +3 µm at every X gives C2 = −0.0030 mm in KC_X.COM (a tool-side linear axis' entry
-/// is the inverse of the functional error).
-#[test]
-fn kinematics_comp_units_and_signs() {
-    let model = load("mcu630-cafyxz.urdf");
-    let mut coeffs = vec![0.0; model.n_coeffs()];
-    let x0c = model.errors().find(&"EX0C".parse().unwrap()).unwrap();
-    coeffs[x0c.offset] = 10e-6;
-    let eyx = model
-        .errors()
-        .find(&"EYX".parse().unwrap())
-        .unwrap()
-        .clone();
-    let Role::Component { basis, .. } = &eyx.role else {
-        panic!("EYX is a component")
+/// A parabola of `amplitude` (SI) over axis `axis`' stroke as the coefficients of component
+/// `name` (its basis has no constant or slope when squareness carries them: a parabola fits any
+/// basis of degree two), and the curve itself.
+fn set_parabola(
+    model: &MachineModel,
+    coeffs: &mut [f64],
+    name: &str,
+    axis: char,
+    amplitude: f64,
+) -> impl Fn(f64) -> f64 + use<> {
+    let p = model.errors().find(&name.parse().unwrap()).unwrap().clone();
+    let Role::Component { basis, .. } = &p.role else {
+        panic!("{name} is a component")
     };
-    let (lo, hi) = model.machine().axes()[model.machine().axis_index('X').unwrap()]
+    let (lo, hi) = model.machine().axes()[model.machine().axis_index(axis).unwrap()]
         .limits()
         .unwrap();
-    // EYX's basis has no constant or slope (squareness carries them): fit a parabola.
-    let curve: Vec<(f64, f64)> = (0..21)
-        .map(|k| {
-            let x = lo + (hi - lo) * k as f64 / 20.0;
-            let u = (2.0 * x - lo - hi) / (hi - lo);
-            (x, 3e-6 * (3.0 * u * u - 1.0) / 2.0)
-        })
+    let curve = move |x: f64| {
+        let u = (2.0 * x - lo - hi) / (hi - lo);
+        amplitude * (3.0 * u * u - 1.0) / 2.0
+    };
+    let points: Vec<(f64, f64)> = (0..21)
+        .map(|k| lo + (hi - lo) * k as f64 / 20.0)
+        .map(|x| (x, curve(x)))
         .collect();
-    let c = basis.fit(&curve).unwrap();
-    coeffs[eyx.offset..eyx.offset + eyx.len].copy_from_slice(&c);
-    let kc = kinematics_comp(&model, &coeffs, 50.0, 30.0).unwrap();
-    let at = |doc: &str| {
-        kc.entries
+    let c = basis.fit(&points).unwrap();
+    coeffs[p.offset..p.offset + p.len].copy_from_slice(&c);
+    curve
+}
+
+/// Signs and units on hand-made errors, one convention: each DOC names what its entry holds,
+/// signed, in mtcal's ISO 230-1 values. MCU 630 (X on the tool side, C on the workpiece side):
+/// EX0C = +10 µm is `X0C` `Trans X +0.0100000` before MachAxis C and `-X0C` `-0.0100000` after
+/// it; EYX = +3 µm·P₂ gives C2 = −EYX under DOC `-EYX`, before MachAxis X (a tool-side linear
+/// axis' errors move with its carriage, on the tool's side); EXX (about 2 µm) is in KC_X.COM's
+/// column X as +EXX, and C1 is zero and referenced by no entry. MCV 754 (X on the workpiece
+/// side): the same EYX and EXX give the same columns, the entries after MachAxis X.
+#[test]
+fn kinematics_comp_units_and_signs() {
+    for (name, x_side) in [
+        ("mcu630-cafyxz.urdf", Side::Tool),
+        ("mcv754-zfyx.urdf", Side::Workpiece),
+    ] {
+        let model = load(name);
+        let mut coeffs = vec![0.0; model.n_coeffs()];
+        if let Some(x0c) = model.errors().find(&"EX0C".parse().unwrap()) {
+            coeffs[x0c.offset] = 10e-6;
+        }
+        let eyx = set_parabola(&model, &mut coeffs, "EYX", 'X', 3e-6);
+        // EXX's basis starts at zero at the axis' first node: compare with the values mtcal
+        // reports for it (the same nodes).
+        let _ = set_parabola(&model, &mut coeffs, "EXX", 'X', 2e-6);
+        let reported = error_parameters(&model, &coeffs, 50.0, 30.0).unwrap();
+        let exx_mm = reported
+            .params
             .iter()
-            .position(|e| e.doc == doc)
-            .unwrap_or_else(|| panic!("no {doc}"))
-    };
-    let c_axis = kc
-        .entries
-        .iter()
-        .position(|e| e.key == KcKey::MachAxis && e.axis == Some('C'))
-        .unwrap();
-    assert!(at("X0C") < c_axis && at("-X0C") > c_axis);
-    let coord = |doc: &str| match kc.entries[at(doc)].value {
-        KcValue::Coord(v) => v,
-        ref other => panic!("{doc}: {other:?}"),
-    };
-    assert!((coord("X0C") - 0.01).abs() < 1e-12, "{}", coord("X0C"));
-    assert!((coord("-X0C") + 0.01).abs() < 1e-12, "{}", coord("-X0C"));
-    assert_eq!(kc.entries[at("X0C")].axis, Some('X'));
-    let x = kc.tables.iter().find(|t| t.axis == 'X').unwrap();
-    for (k, &p) in x.positions.iter().enumerate() {
-        let u = (2.0 * p * 1e-3 - lo - hi) / (hi - lo);
-        let eyx_mm = 3e-3 * (3.0 * u * u - 1.0) / 2.0;
-        assert!(
-            (x.columns[1][k] + eyx_mm).abs() < 1e-9,
-            "C2 at {p}: {}",
-            x.columns[1][k]
+            .find_map(|p| match &p.value {
+                ParameterValue::Table { values, .. } if p.name.to_string() == "EXX" => {
+                    Some(values.clone())
+                }
+                _ => None,
+            })
+            .unwrap();
+        assert!(exx_mm.iter().any(|v| v.abs() > 1e-3), "{exx_mm:?}");
+        let kc = kinematics_comp(&model, &coeffs, 50.0, 30.0).unwrap();
+        let at = |doc: &str| {
+            kc.entries
+                .iter()
+                .position(|e| e.doc == doc)
+                .unwrap_or_else(|| panic!("{name}: no {doc}"))
+        };
+        let machaxis = |a: char| {
+            kc.entries
+                .iter()
+                .position(|e| e.key == KcKey::MachAxis && e.axis == Some(a))
+                .unwrap()
+        };
+        if x_side == Side::Tool {
+            let c_axis = machaxis('C');
+            assert!(at("X0C") < c_axis && at("-X0C") > c_axis);
+            let coord = |doc: &str| match kc.entries[at(doc)].value {
+                KcValue::Coord(v) => v,
+                ref other => panic!("{doc}: {other:?}"),
+            };
+            assert!((coord("X0C") - 0.01).abs() < 1e-12, "{}", coord("X0C"));
+            assert!((coord("-X0C") + 0.01).abs() < 1e-12, "{}", coord("-X0C"));
+            assert_eq!(kc.entries[at("X0C")].axis, Some('X'));
+        }
+        // The entry of C2 is `-EYX`, on the carriage's side of MachAxis X.
+        let e = &kc.entries[at("-EYX")];
+        assert_eq!(
+            e.value,
+            KcValue::Comptab {
+                table: "KC_X.COM".into(),
+                column: 2
+            }
         );
-        assert!(x.columns[0][k].abs() < 1e-12 && x.columns[3][k].abs() < 1e-12);
+        assert_eq!(e.axis, Some('Y'));
+        match x_side {
+            Side::Tool => assert!(at("-EYX") < machaxis('X'), "{name}"),
+            Side::Workpiece => assert!(at("-EYX") > machaxis('X'), "{name}"),
+        }
+        assert!(
+            !kc.entries.iter().any(|e| e.doc.ends_with("EXX")
+                || matches!(&e.value, KcValue::Comptab { table, column: 1 } if table == "KC_X.COM")),
+            "{name}: positioning has no COMPTAB entry"
+        );
+        let x = kc.tables.iter().find(|t| t.axis == 'X').unwrap();
+        for (k, &p) in x.positions.iter().enumerate() {
+            let at_m = p * 1e-3;
+            let (eyx_mm, exx_mm) = (eyx(at_m) * 1e3, exx_mm[k]);
+            assert!(
+                (x.columns[1][k] + eyx_mm).abs() < 1e-9,
+                "{name} C2 at {p}: {} for EYX {eyx_mm}",
+                x.columns[1][k]
+            );
+            assert!(
+                (x.positioning[k] - exx_mm).abs() < 1e-9,
+                "{name} X at {p}: {} for EXX {exx_mm}",
+                x.positioning[k]
+            );
+            assert_eq!(x.columns[0][k], 0.0);
+            assert!(x.columns[3][k].abs() < 1e-12);
+        }
     }
 }
 
@@ -998,12 +1104,12 @@ fn kinematics_comp_validators_refuse_what_the_control_refuses() {
     let kc = kinematics_comp(&model, &coeffs, 50.0, 30.0).unwrap();
     validate_kinematics_comp(&kc, &KcLimits::default()).unwrap();
     let tight = KcLimits {
-        max_comptab_with_machaxis: 34,
+        max_comptab_with_machaxis: 29,
         ..KcLimits::default()
     };
     let e = kc_limit_error(&kc, &tight);
     assert!(
-        e.contains("30 COMPTAB entries and 5 MachAxis") && e.contains("34"),
+        e.contains("25 COMPTAB entries and 5 MachAxis") && e.contains("29"),
         "{e}"
     );
     let few = KcLimits {
@@ -1019,6 +1125,19 @@ fn kinematics_comp_validators_refuse_what_the_control_refuses() {
     big.tables[0].columns[4][2] = 0.5;
     let e = kc_limit_error(&big, &KcLimits::default());
     assert!(e.contains("C5, row 2") && e.contains("0.5 degrees"), "{e}");
+    // A positioning error in µm written as mm, in the column named after the axis.
+    let mut positioning = kc.clone();
+    let t = positioning
+        .tables
+        .iter_mut()
+        .find(|t| t.axis == 'Y')
+        .unwrap();
+    t.positioning[1] = 4.0;
+    let e = kc_limit_error(&positioning, &KcLimits::default());
+    assert!(
+        e.contains("KC_Y.COM") && e.contains("Y, row 1") && e.contains("4 mm"),
+        "{e}"
+    );
     let mut um = kc.clone();
     let k = um
         .entries
@@ -1046,10 +1165,12 @@ fn kinematics_comp_reader_names_file_line_and_column() {
     let read = read_kinematics_comp;
     let head = "BEGIN K.TAB MM\nNR DOC  KEY      AXIS COORD     COMPTAB\n";
     let table = "BEGIN KC_X.COM MM\nNR AXISPOS C1  C2  C3  C4  C5  C6\n0  0.0     0.0 0.0 0.0 0.0 0.0 0.0\n[END]\n";
+    let cma = "BEGIN K.CMA MM\nNR X        ACTIVE\n0  KC_X.COM *\n[END]\n";
     let files = |body: &'static str| -> Vec<(&'static str, String)> {
         vec![
             ("K.TAB", format!("{head}{body}[END]\n")),
             ("KC_X.COM", table.to_string()),
+            ("K.CMA", cma.to_string()),
         ]
     };
     let check = |body: &'static str, at: (&str, usize, usize), says: &str| {
@@ -1084,15 +1205,9 @@ fn kinematics_comp_reader_names_file_line_and_column() {
     );
     check("0  EXX  Trans    X    1.0x\n", ("K.TAB", 3, 23), "`1.0x`");
     check(
-        "0  EXX  Trans    X              KC_X.COM:C1\n",
-        ("K.TAB", 3, 33),
-        "after the last MachAxis",
-    );
-    check(
-        "0  EXX  Trans    X              KC_X.COM:C1\n1  axis MachAxis X\n\
-         2  EXY  Trans    Y              KC_X.COM:C2\n3  axis MachAxis Y\n",
-        ("K.TAB", 5, 33),
-        "belongs to one axis",
+        "0  axis MachAxis X\n1  -EYY Trans    X              KC_Y.COM:C1\n",
+        ("K.TAB", 4, 33),
+        "KC_Y.COM is not assigned to an axis by the active line of",
     );
     check(
         "0  base MachBase X\n",
@@ -1104,11 +1219,15 @@ fn kinematics_comp_reader_names_file_line_and_column() {
         ("K.TAB", 3, 23),
         "no COORD for MachAxis",
     );
-    // A table the description names but that is missing: the error names it.
+    // A table the `.CMA` assigns but that is missing, and a missing `.CMA`: the error names
+    // the file.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("K.TAB");
-    let body = "0  EXX  Trans    X              KC_Y.COM:C1\n1  axis MachAxis X\n";
+    let body = "0  -EYX Trans    Y              KC_X.COM:C2\n1  axis MachAxis X\n";
     std::fs::write(&path, format!("{head}{body}[END]\n")).unwrap();
     let e = read_kinematics_comp(&path).unwrap_err().to_string();
-    assert!(e.contains("KC_Y.COM"), "{e}");
+    assert!(e.contains("K.CMA"), "{e}");
+    std::fs::write(dir.path().join("K.CMA"), cma).unwrap();
+    let e = read_kinematics_comp(&path).unwrap_err().to_string();
+    assert!(e.contains("KC_X.COM"), "{e}");
 }

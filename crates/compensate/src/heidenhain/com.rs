@@ -476,7 +476,12 @@ pub fn write_heidenhain_com(
         write_file(&path, &com_text(t))?;
         written.push(path);
     }
-    write_file(cma_path, &cma_text(&cma_name, set))?;
+    let assigned: Vec<(char, &str)> = set
+        .tables
+        .iter()
+        .map(|t| (t.input_axis, t.name.as_str()))
+        .collect();
+    write_file(cma_path, &cma_text(&cma_name, &assigned))?;
     written.push(cma_path.to_path_buf());
     written.push(super::write_card(
         cma_path,
@@ -492,7 +497,7 @@ pub fn write_heidenhain_com(
 
 /// The table name of `path` as its `BEGIN` line gives it: the file name in capitals, which
 /// must end in `.suffix`.
-fn table_file_name(path: &Path, suffix: &str) -> Result<String, CompensateError> {
+pub(super) fn table_file_name(path: &Path, suffix: &str) -> Result<String, CompensateError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_uppercase())
@@ -533,13 +538,14 @@ fn com_text(t: &ComTable) -> String {
     })
 }
 
-fn cma_text(cma_name: &str, set: &ComSet) -> String {
+/// A `.CMA` with one active line assigning each table (file name) to its input axis.
+pub(super) fn cma_text(cma_name: &str, tables: &[(char, &str)]) -> String {
     let mut columns = vec!["NR".to_string()];
-    columns.extend(set.tables.iter().map(|t| t.input_axis.to_string()));
+    columns.extend(tables.iter().map(|(axis, _)| axis.to_string()));
     columns.push("ACTIVE".into());
     let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     let mut row = vec!["0".to_string()];
-    row.extend(set.tables.iter().map(|t| t.name.clone()));
+    row.extend(tables.iter().map(|(_, name)| name.to_string()));
     row.push("*".into());
     table_text(&TableOut {
         name: cma_name,
@@ -627,6 +633,19 @@ fn com_from(
 /// Reads a `.CMA` file and the `.COM` tables of its active line (the line with `*` in ACTIVE),
 /// from the `.CMA`'s folder. Every problem names the file, line and column.
 pub fn read_heidenhain_com(cma_path: &Path) -> Result<ComSet, CompensateError> {
+    let dir = cma_path.parent().unwrap_or(Path::new(""));
+    let mut tables = Vec::new();
+    for (axis, name) in read_cma(cma_path)? {
+        tables.push(read_com_table(&dir.join(name), axis)?);
+    }
+    Ok(ComSet {
+        tables,
+        note: String::new(),
+    })
+}
+
+/// The active line of a `.CMA` file: each input axis with the name of its `.COM` table.
+pub(super) fn read_cma(cma_path: &Path) -> Result<Vec<(char, String)>, CompensateError> {
     let text = read_file(cma_path)?;
     let src = Source { file: cma_path };
     let table = parse_table(&src, &text, "CMA")?;
@@ -685,8 +704,7 @@ pub fn read_heidenhain_com(cma_path: &Path) -> Result<ComSet, CompensateError> {
             "expected one active line (`*` in ACTIVE), found none",
         ));
     };
-    let dir = cma_path.parent().unwrap_or(Path::new(""));
-    let mut tables = Vec::new();
+    let mut assigned = Vec::new();
     for &(k, axis) in &axes {
         let cell = row.cells[k];
         if cell.text.is_empty() {
@@ -703,12 +721,9 @@ pub fn read_heidenhain_com(cma_path: &Path) -> Result<ComSet, CompensateError> {
                 format!("expected a .COM table name, found `{}`", cell.text),
             ));
         }
-        tables.push(read_com_table(&dir.join(cell.text), axis)?);
+        assigned.push((axis, cell.text.to_string()));
     }
-    Ok(ComSet {
-        tables,
-        note: String::new(),
-    })
+    Ok(assigned)
 }
 
 /// The convention card of the `.COM` tables of `set`.

@@ -4,6 +4,7 @@
 //! `heidenhain`.
 
 use super::HeidenhainLimit;
+use super::com::{cma_text, read_cma, table_file_name};
 use super::table::{TableIn, TableOut, axis_positions, parse_table, table_text};
 use crate::parameters::{ParameterValue, error_parameters};
 use crate::text::{Field, Source};
@@ -13,7 +14,6 @@ use mtcal_kinematics::rigid::{Rigid, axis_rotation, exp_so3};
 use mtcal_kinematics::{AxisKind, Direction, MachineModel, ParamName, Side};
 use mtcal_machine::card::{ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO};
 use nalgebra::{Matrix3, Vector3};
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// What a kinematics entry is (the KEY column).
@@ -69,6 +69,10 @@ pub struct KcTable {
     pub axis: char,
     /// AXISPOS: mm (linear axis) or degrees (rotary axis), ascending.
     pub positions: Vec<f64>,
+    /// The column named after the axis (one of the manual's "columns 1–18"): the axis'
+    /// positioning error at each row, mm or degrees in mtcal's axis coordinate, as the
+    /// nonlinear axis-error compensation holds it (the control moves the axis by −value).
+    pub positioning: Vec<f64>,
     /// C1–C3 translations along X, Y, Z (mm), C4–C6 rotations about X, Y, Z (degrees): the
     /// chain transformation `Trans X(C1)·Trans Y(C2)·Trans Z(C3)·Trans A(C4)·Trans B(C5)·
     /// Trans C(C6)` at each position.
@@ -137,11 +141,11 @@ impl Default for KcLimits {
 
 const TRANS_AXES: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
 
-/// The KinematicsComp description of `model` with coefficients `coeffs` (SI): each axis' six
-/// component errors as the chain transformation placed just before its `MachAxis` (columns
-/// C1–C6 of `KC_<axis>.COM`, rows at the nodes [`error_parameters`] uses: `spacing_mm` apart
-/// over a linear stroke, `spacing_deg` over a rotary axis' range), its location errors as COORD
-/// entries around it. Needs joint frames parallel to the machine frame at the zero pose (the
+/// The KinematicsComp description of `model` with coefficients `coeffs` (SI): each axis' five
+/// component errors other than positioning as the chain transformation beside its `MachAxis`
+/// (columns of `KC_<axis>.COM`, rows at the nodes [`error_parameters`] uses: `spacing_mm` apart
+/// over a linear stroke, `spacing_deg` over a rotary axis' range), its positioning error in the
+/// table's column named after the axis, its location errors as COORD entries around it. Needs joint frames parallel to the machine frame at the zero pose (the
 /// chain's Trans X/Y/Z/A/B/C are along machine directions). Set-up parameters are left out.
 pub fn kinematics_comp(
     model: &MachineModel,
@@ -334,12 +338,49 @@ fn location_factor(locations: &[(Direction, f64)]) -> Rigid {
     elementary(t, abc)
 }
 
-/// The transformation just before axis `i`'s `MachAxis` (chain from the tool to the table,
-/// each entry the next element's pose in the current frame) that makes the chain the model's:
-/// the inverse of the axis' functional error `E = (exp(ε), δ)`, moved across the axis' motion
-/// where the model has it on the other side (workpiece-side linear axes, tool-side rotary
-/// axes).
-fn chain_factor(model: &MachineModel, i: usize, q: f64, c: &[f64; 6], l: &Rigid) -> Rigid {
+/// Which side of its `MachAxis` an axis' error entries stand on: where mtcal's model (ISO
+/// 230-1) defines the error. A linear axis' errors move with its carriage (before the axis for a
+/// tool-side axis, after it for a workpiece-side one, in the chain from the tool to the table); a
+/// rotary axis' errors are measured in the frame that does not turn (the base's side). There the
+/// axis' factor is the inverse of its functional error exactly, so no Abbe terms enter the
+/// columns and each column is the negated error its DOC names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Placement {
+    Before,
+    After,
+}
+
+fn placement(kind: AxisKind, side: Side) -> Placement {
+    match (kind, side) {
+        (AxisKind::Linear, Side::Tool) | (AxisKind::Rotary, Side::Workpiece) => Placement::Before,
+        (AxisKind::Linear, Side::Workpiece) | (AxisKind::Rotary, Side::Tool) => Placement::After,
+    }
+}
+
+/// An axis' motion by `s` (m or rad) in its joint frame.
+fn motion(kind: AxisKind, a: &Vector3<f64>, s: f64) -> Rigid {
+    match kind {
+        AxisKind::Linear => Rigid::translation(a * s),
+        AxisKind::Rotary => Rigid::rotation(axis_rotation(a, s)),
+    }
+}
+
+/// Column `k` (0–5) of a factor as the chain writes it: translation (m) or angle (rad).
+fn column_of(f: &Rigid, k: usize) -> f64 {
+    if k < 3 {
+        f.t[k]
+    } else {
+        euler_xyz(&f.r)[k - 3]
+    }
+}
+
+/// Axis `i`'s error factor at position `q` with its positioning error taken out: the chain's
+/// transformation `F` (the inverse of the functional error `E = (exp(ε), δ)`, on the side
+/// [`placement`] gives) and the positioning error `v` (m or rad, in the axis' own coordinate)
+/// such that the axis standing at `q + v` with `F` beside it is the model's axis at `q`, and
+/// `F` has no component in the axis' own column. The `.COM` column named after the axis holds
+/// `v`, as the manual assigns positioning errors to columns 1–18 (p.686).
+fn split_factor(model: &MachineModel, i: usize, c: &[f64; 6], l: &Rigid) -> (Rigid, f64) {
     let ax = &model.machine().axes()[i];
     let e_inv = Rigid::new(
         exp_so3(&Vector3::new(c[3], c[4], c[5])),
@@ -347,14 +388,29 @@ fn chain_factor(model: &MachineModel, i: usize, q: f64, c: &[f64; 6], l: &Rigid)
     )
     .inverse();
     let a = ax.direction();
-    let across = match (ax.kind(), ax.side()) {
-        (AxisKind::Linear, Side::Tool) | (AxisKind::Rotary, Side::Workpiece) => return e_inv,
-        (AxisKind::Linear, Side::Workpiece) => Rigid::translation(l.r * a * q),
-        (AxisKind::Rotary, Side::Tool) => l
-            .compose(&Rigid::rotation(axis_rotation(a, -q)))
-            .compose(&l.inverse()),
+    let own = ax.own_cartesian() + if ax.kind() == AxisKind::Rotary { 3 } else { 0 };
+    // In the chain from the tool, a tool-side axis moves by −q, a workpiece-side one by +q.
+    let sigma = match ax.side() {
+        Side::Tool => 1.0,
+        Side::Workpiece => -1.0,
     };
-    across.compose(&e_inv).compose(&across.inverse())
+    let split = |v: f64| {
+        let shift = l
+            .compose(&motion(ax.kind(), a, sigma * v))
+            .compose(&l.inverse());
+        match placement(ax.kind(), ax.side()) {
+            Placement::Before => e_inv.compose(&shift),
+            Placement::After => shift.compose(&e_inv),
+        }
+    };
+    // The own column moves by σ·a_own per unit of v to first order; Newton converges in two
+    // steps (the rest is a product of two errors).
+    let slope = sigma * a[own % 3];
+    let mut v = 0.0;
+    for _ in 0..4 {
+        v -= column_of(&split(v), own) / slope;
+    }
+    (split(v), v)
 }
 
 fn axis_entries(
@@ -368,29 +424,37 @@ fn axis_entries(
     let letter = ax.letter().as_char();
     let name = format!("KC_{letter}.COM");
     let l = location_factor(&errors.locations);
-    let si = match ax.kind() {
-        AxisKind::Linear => 1.0 / MM,
-        AxisKind::Rotary => 1f64.to_radians(),
+    let unit = match ax.kind() {
+        AxisKind::Linear => MM,
+        AxisKind::Rotary => 1f64.to_degrees(),
     };
+    let own = ax.own_cartesian() + if ax.kind() == AxisKind::Rotary { 3 } else { 0 };
     let mut columns: [Vec<f64>; 6] = Default::default();
-    for (p, c) in errors.positions.iter().zip(&errors.components) {
-        let f = chain_factor(model, i, p * si, c, &l);
-        let abc = euler_xyz(&f.r);
-        for k in 0..3 {
-            columns[k].push(f.t[k] * MM);
-            columns[3 + k].push(abc[k].to_degrees());
+    let mut positioning = Vec::with_capacity(errors.positions.len());
+    for c in &errors.components {
+        let (f, v) = split_factor(model, i, c, &l);
+        positioning.push(v * unit);
+        for (k, column) in columns.iter_mut().enumerate() {
+            // The own column is zero to the last bit the Newton steps leave (1e-20).
+            let x = if k == own { 0.0 } else { column_of(&f, k) };
+            column.push(if k < 3 { x * MM } else { x.to_degrees() });
         }
     }
-    for (k, &t) in TRANS_AXES.iter().enumerate() {
-        entries.push(KcEntry {
-            doc: ParamName::component(Direction::ALL[k], ax.letter()).to_string(),
+    let components: Vec<KcEntry> = (0..6)
+        .filter(|&k| k != own)
+        .map(|k| KcEntry {
+            doc: format!("-{}", ParamName::component(Direction::ALL[k], ax.letter())),
             key: KcKey::Trans,
-            axis: Some(t),
+            axis: Some(TRANS_AXES[k]),
             value: KcValue::Comptab {
                 table: name.clone(),
                 column: k + 1,
             },
-        });
+        })
+        .collect();
+    let place = placement(ax.kind(), ax.side());
+    if place == Placement::Before {
+        entries.extend(components.iter().cloned());
     }
     let coord = |d: Direction, v: f64| {
         if d.is_rotation() {
@@ -421,10 +485,14 @@ fn axis_entries(
             value: KcValue::Coord(-coord(d, v)),
         });
     }
+    if place == Placement::After {
+        entries.extend(components);
+    }
     tables.push(KcTable {
         name,
         axis: letter,
         positions: errors.positions.clone(),
+        positioning,
         columns,
     });
 }
@@ -518,6 +586,14 @@ fn validate_table(t: &KcTable, limits: &KcLimits) -> Result<(), HeidenhainLimit>
     if t.positions.is_empty() {
         return Err(shape("a table needs at least one row".into()));
     }
+    if t.positioning.len() != t.positions.len() {
+        return Err(shape(format!(
+            "column {} has {} values for {} positions",
+            t.axis,
+            t.positioning.len(),
+            t.positions.len()
+        )));
+    }
     for (k, c) in t.columns.iter().enumerate() {
         if c.len() != t.positions.len() {
             return Err(shape(format!(
@@ -540,17 +616,27 @@ fn validate_table(t: &KcTable, limits: &KcLimits) -> Result<(), HeidenhainLimit>
             });
         }
     }
-    for (k, c) in t.columns.iter().enumerate() {
-        let (max, unit) = if k < 3 {
+    let own = if "ABC".contains(t.axis) {
+        (limits.max_abs_deg, "degrees")
+    } else {
+        (limits.max_abs_mm, "mm")
+    };
+    let columns = t.columns.iter().enumerate().map(|(k, c)| {
+        let limit = if k < 3 {
             (limits.max_abs_mm, "mm")
         } else {
             (limits.max_abs_deg, "degrees")
         };
+        (format!("C{}", k + 1), c, limit)
+    });
+    for (column, c, (max, unit)) in
+        std::iter::once((t.axis.to_string(), &t.positioning, own)).chain(columns)
+    {
         for (row, &value) in c.iter().enumerate() {
             if !value.is_finite() || value.abs() > max {
                 return Err(HeidenhainLimit::ValueTooLarge {
                     table: t.name.clone(),
-                    column: format!("C{}", k + 1),
+                    column: column.clone(),
                     row,
                     value,
                     max,
@@ -562,9 +648,10 @@ fn validate_table(t: &KcTable, limits: &KcLimits) -> Result<(), HeidenhainLimit>
     Ok(())
 }
 
-/// Writes the tables of `kc` beside `path` (`KC_X.COM` …), then the description listing
-/// (`path`, a `.TAB`), then the convention card (`card_path(path)`), each atomically, after
-/// checking `kc` against `limits`. Returns the files written.
+/// Writes the tables of `kc` beside `path` (`KC_X.COM` …), the `.CMA` that activates their
+/// positioning columns (`path` with the suffix `.CMA`), then the description listing (`path`, a
+/// `.TAB`), then the convention card (`card_path(path)`), each atomically, after checking `kc`
+/// against `limits`. Returns the files written.
 pub fn write_kinematics_comp(
     path: &Path,
     kc: &KinematicsComp,
@@ -572,17 +659,9 @@ pub fn write_kinematics_comp(
     made_from: &[String],
 ) -> Result<Vec<PathBuf>, CompensateError> {
     validate_kinematics_comp(kc, limits)?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_uppercase())
-        .unwrap_or_default();
-    if !(name.ends_with(".TAB") && name.len() > 4 && name.is_ascii() && !name.contains(' ')) {
-        return Err(HeidenhainLimit::Shape {
-            table: path.display().to_string(),
-            what: "the description needs an ASCII file name without blanks ending in .TAB".into(),
-        }
-        .into());
-    }
+    let name = table_file_name(path, "TAB")?;
+    let cma_path = kinematics_comp_cma(path);
+    let cma_name = table_file_name(&cma_path, "CMA")?;
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut written = Vec::new();
     for t in &kc.tables {
@@ -590,6 +669,13 @@ pub fn write_kinematics_comp(
         write_file(&p, &kc_table_text(t))?;
         written.push(p);
     }
+    let assigned: Vec<(char, &str)> = kc
+        .tables
+        .iter()
+        .map(|t| (t.axis, t.name.as_str()))
+        .collect();
+    write_file(&cma_path, &cma_text(&cma_name, &assigned))?;
+    written.push(cma_path);
     write_file(path, &listing_text(&name, kc))?;
     written.push(path.to_path_buf());
     written.push(super::write_card(
@@ -602,6 +688,15 @@ pub fn write_kinematics_comp(
         &kc.note,
     )?);
     Ok(written)
+}
+
+/// The `.CMA` written beside a description: its name with the suffix `.CMA` (`.cma` when the
+/// description's suffix is in lower case).
+pub fn kinematics_comp_cma(path: &Path) -> PathBuf {
+    let lower = path
+        .extension()
+        .is_some_and(|e| e.to_string_lossy().chars().any(|c| c.is_ascii_lowercase()));
+    path.with_extension(if lower { "cma" } else { "CMA" })
 }
 
 /// The written precision: 7 decimals (0.1 nm; 1.7 nrad in degrees).
@@ -618,13 +713,14 @@ fn number(v: f64) -> String {
 }
 
 fn kc_table_text(t: &KcTable) -> String {
-    let columns = ["NR", "AXISPOS", "C1", "C2", "C3", "C4", "C5", "C6"];
+    let own = t.axis.to_string();
+    let columns = ["NR", "AXISPOS", &own, "C1", "C2", "C3", "C4", "C5", "C6"];
     let rows = t
         .positions
         .iter()
         .enumerate()
         .map(|(r, p)| {
-            let mut row = vec![r.to_string(), format!("{p:.6}")];
+            let mut row = vec![r.to_string(), format!("{p:.6}"), number(t.positioning[r])];
             row.extend(t.columns.iter().map(|c| number(c[r])));
             row
         })
@@ -665,8 +761,9 @@ fn listing_text(name: &str, kc: &KinematicsComp) -> String {
     })
 }
 
-/// Reads a KinematicsComp description (`.TAB`) and the `.COM` tables its COMPTAB entries name,
-/// from its folder. Every problem names the file, line and column.
+/// Reads a KinematicsComp description (`.TAB`), the `.CMA` beside it
+/// ([`kinematics_comp_cma`]) and the `.COM` tables the `.CMA` assigns, from its folder. Every
+/// problem names the file, line and column.
 pub fn read_kinematics_comp(path: &Path) -> Result<KinematicsComp, CompensateError> {
     let text = read_file(path)?;
     let src = Source { file: path };
@@ -679,10 +776,8 @@ pub fn read_kinematics_comp(path: &Path) -> Result<KinematicsComp, CompensateErr
     let (key, axis, coord, comptab) = (col("KEY")?, col("AXIS")?, col("COORD")?, col("COMPTAB")?);
     let doc = table.column("DOC");
     let mut entries = Vec::with_capacity(table.rows.len());
-    // Tables by name: the line that first uses each (the tables' order).
-    let mut used: BTreeMap<String, usize> = BTreeMap::new();
-    let mut pending: Vec<(String, usize, Field<'_>)> = Vec::new();
-    let mut owner: BTreeMap<String, char> = BTreeMap::new();
+    // Each table the description uses, with the first line and column that names it.
+    let mut used: Vec<(String, usize, usize)> = Vec::new();
     for row in &table.rows {
         let c = |k: usize| row.cells[k];
         let k = match c(key).text {
@@ -699,29 +794,10 @@ pub fn read_kinematics_comp(path: &Path) -> Result<KinematicsComp, CompensateErr
         };
         let a = entry_axis(&src, row.line, c(axis), k)?;
         let value = entry_value(&src, row.line, k, c(coord), c(comptab))?;
-        if let KcValue::Comptab { table: t, .. } = &value {
-            used.entry(t.clone()).or_insert(row.line);
-            pending.push((t.clone(), row.line, c(comptab)));
-        }
-        if k == KcKey::MachAxis {
-            let letter = a.expect("MachAxis has an axis");
-            for (t, line, f) in pending.drain(..) {
-                match owner.get(&t) {
-                    Some(&other) if other != letter => {
-                        return Err(src.error(
-                            line,
-                            f.column,
-                            format!(
-                                "{t} is used before MachAxis {letter} here and before MachAxis \
-                                 {other} elsewhere: a table belongs to one axis"
-                            ),
-                        ));
-                    }
-                    _ => {
-                        owner.insert(t, letter);
-                    }
-                }
-            }
+        if let KcValue::Comptab { table: t, .. } = &value
+            && !used.iter().any(|(u, ..)| u == t)
+        {
+            used.push((t.clone(), row.line, c(comptab).column));
         }
         entries.push(KcEntry {
             doc: doc.map_or(String::new(), |d| c(d).text.to_string()),
@@ -730,20 +806,39 @@ pub fn read_kinematics_comp(path: &Path) -> Result<KinematicsComp, CompensateErr
             value,
         });
     }
-    if let Some((t, line, f)) = pending.first() {
+    // The `.CMA` beside the description assigns each table to the axis its rows follow.
+    let cma = kinematics_comp_cma(path);
+    let assigned = read_cma(&cma)?;
+    let owner = |t: &str| {
+        assigned
+            .iter()
+            .find(|(_, name)| name.eq_ignore_ascii_case(t))
+            .map(|(axis, _)| *axis)
+    };
+    if let Some((t, line, column)) = used.iter().find(|(t, ..)| owner(t).is_none()) {
         return Err(src.error(
             *line,
-            f.column,
-            format!("{t} is used after the last MachAxis: its entries must come before an axis"),
+            *column,
+            format!(
+                "{t} is not assigned to an axis by the active line of {}",
+                cma.display()
+            ),
         ));
     }
+    let mut used: Vec<String> = used.into_iter().map(|(t, ..)| t).collect();
+    // The tables in the order the description first uses them, then any the `.CMA` adds (a
+    // table of positioning errors alone).
+    for (_, name) in &assigned {
+        if !used.iter().any(|u| u.eq_ignore_ascii_case(name)) {
+            used.push(name.clone());
+        }
+    }
     let dir = path.parent().unwrap_or(Path::new(""));
-    let mut tables = Vec::with_capacity(owner.len());
-    for (name, axis) in owner {
+    let mut tables = Vec::with_capacity(used.len());
+    for name in used {
+        let axis = owner(&name).expect("every used table is assigned");
         tables.push(read_kc_table(&dir.join(&name), axis)?);
     }
-    // Order the tables as the description first uses them.
-    tables.sort_by_key(|t| used.get(&t.name).copied());
     Ok(KinematicsComp {
         entries,
         tables,
@@ -841,7 +936,7 @@ fn entry_value(
     }
 }
 
-/// Reads a KinematicsComp `.COM` table of `axis`: NR, AXISPOS, C1–C6.
+/// Reads a KinematicsComp `.COM` table of `axis`: NR, AXISPOS, the axis' column, C1–C6.
 fn read_kc_table(path: &Path, axis: char) -> Result<KcTable, CompensateError> {
     let text = read_file(path)?;
     let src = Source { file: path };
@@ -861,6 +956,8 @@ fn kc_table_from(
             .ok_or_else(|| src.error(hn, 1, format!("expected a column {name}")))
     };
     let pos = need("AXISPOS")?;
+    // The axis' own column (positioning) is optional: files of mtcal before it had none.
+    let own = table.column(&axis.to_string());
     let mut cols = [0usize; 6];
     for (k, c) in cols.iter_mut().enumerate() {
         *c = need(&format!("C{}", k + 1))?;
@@ -868,7 +965,12 @@ fn kc_table_from(
     let nr = table.column("NR");
     let positions = axis_positions(src, table, nr, pos)?;
     let mut columns: [Vec<f64>; 6] = Default::default();
+    let mut positioning = Vec::with_capacity(table.rows.len());
     for row in &table.rows {
+        positioning.push(match own {
+            Some(c) => src.number(row.line, row.cells[c])?,
+            None => 0.0,
+        });
         for (k, &c) in cols.iter().enumerate() {
             columns[k].push(src.number(row.line, row.cells[c])?);
         }
@@ -880,6 +982,7 @@ fn kc_table_from(
         name: table.name.clone(),
         axis,
         positions,
+        positioning,
         columns,
     })
 }
@@ -901,17 +1004,25 @@ pub fn kinematics_comp_card(kc: &KinematicsComp) -> ConventionCard {
         format: "Heidenhain iTNC 530 KinematicsComp: entries of the kinematics description \
                  (NR DOC KEY AXIS COORD COMPTAB) from the tool to the table, component errors as \
                  COMPTAB references to columns C1–C6 of one .COM table per axis, location errors \
-                 as COORD values"
+                 as COORD values, positioning errors in the table's column named after its axis \
+                 (assigned by a .CMA)"
             .into(),
         quantity: Quantity::Error,
         sign: "the entries describe the actual machine in the control's chain from the tool to \
                the table, each Trans the pose of what follows in the current frame (as the \
-               manual's description places the B pivot +250.051 mm from the tool, p.670); \
-               location errors keep their ISO 230-1 value before the axis and are negated after \
-               it (p.684); the six COMPTAB columns of an axis are the transformation placed \
-               before its MachAxis, which is the inverse of mtcal's functional error (C1 ≈ −EXX, \
-               C2 ≈ −EYX …), for workpiece-side linear and tool-side rotary axes carried across \
-               the axis' motion (adding the Abbe terms of its angular errors)"
+               manual's description places the B pivot +250.051 mm from the tool, p.670). One \
+               convention for every entry: its DOC names the ISO 230-1 quantity its value is, \
+               with its sign, in mtcal's values. COORD `X0C` before the axis holds +X0C and \
+               `-X0C` after it −X0C (the scheme of p.684); a COMPTAB entry `-EYX` holds −EYX \
+               (exactly the inverse of the axis' functional error written as Trans \
+               X·Y·Z·A·B·C; to first order the negated errors), as in a chain read from the tool \
+               an axis' error enters inverted. The manual labels C1–C6 by the errors (EYX …, \
+               p.680) and adds EBX and B0X in one column (p.684), so its component columns may \
+               carry the opposite sign to mtcal's: check one error on the machine before relying \
+               on the sign. Positioning errors (EXX, ECC …) are in the column named after the \
+               axis, as the manual assigns them (columns 1–18, p.686): the error, actual − \
+               nominal in mtcal's axis coordinate, which the control's axis compensation \
+               subtracts"
             .into(),
         squareness: format!(
             "{SQUARENESS_ISO}; written as COORD rotations before the linear axis and their \
@@ -919,14 +1030,23 @@ pub fn kinematics_comp_card(kc: &KinematicsComp) -> ConventionCard {
         ),
         rotary_direction: ROTARY_RIGHT_HAND.into(),
         axis_mapping,
-        units: "COORD and C1–C3 in mm, COORD rotations and C4–C6 in degrees (7 decimals); \
-                AXISPOS in mm (linear) or degrees (rotary) of mtcal's axis positions"
+        units: "COORD, C1–C3 and a linear axis' own column in mm, COORD rotations, C4–C6 and a \
+                rotary axis' own column in degrees (7 decimals); AXISPOS in mm (linear) or \
+                degrees (rotary) of mtcal's axis positions"
             .into(),
         control_will: vec![
             "use the entries only once they are inserted into the machine's kinematics \
              description with KinematicsComp enabled: the nominal Trans and MachAxis entries \
-             are the control's own and are not written, each axis' error entries go directly \
-             before its MachAxis"
+             are the control's own and are not written; each axis' entries stand where mtcal's \
+             model defines its error: a linear axis' components move with its carriage (before \
+             a tool-side axis' MachAxis, after a workpiece-side one's), a rotary axis' are on \
+             the side that does not turn (before a table axis, after a head axis), the \
+             location errors around the MachAxis"
+                .into(),
+            "take the positioning errors from the column named after each axis once the .CMA \
+             written beside the description is active (one line assigning KC_<axis>.COM to \
+             each axis, nonlinear axis compensation on); do not also activate the X.COM … set \
+             of heidenhain-com, which holds the same positioning errors"
                 .into(),
             "correct the tool centre point through its kinematics model, at a rate set by \
              MP4070 (p.671)"

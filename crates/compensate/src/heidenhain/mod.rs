@@ -66,29 +66,39 @@
 //!   set), plausible values (|value| ≤ 1 mm, else probably µm written as mm).
 //!
 //! # KinematicsComp ([`kinematics_comp`])
+//! - **What goes where** (the manual's assignment, p.680/p.686): a linear axis' straightness and
+//!   angular errors (EYX, EZX, EAX, EBX, ECX) and a rotary axis' radial, axial and tilt errors
+//!   (EXC, EYC, EZC, EAC, EBC) as COMPTAB entries; its positioning error (EXX, ECC, with a rotary
+//!   axis' zero offset EC0C) in the table's column named after the axis, "corrected as usual in
+//!   columns 1–18 of the COM files", activated by a `.CMA` written beside the description;
+//!   location errors as COORD entries around the axis.
 //! - **Description** (`<name>.TAB`): entries `NR DOC KEY AXIS COORD COMPTAB` in the order of
 //!   the chain from the tool to the table: for each tool-side axis from the tool inwards, then
-//!   `MachBase`, then each workpiece-side axis outwards: the axis' six component-error entries
-//!   `Trans X/Y/Z/A/B/C` (COMPTAB `KC_<axis>.COM:C1` … `:C6`), its location errors as `Trans`
-//!   with COORD (ISO value, DOC `X0C`), `MachAxis <axis>`, then the location errors negated in
-//!   reverse order (DOC `-X0C`). The nominal `Trans`/`MachAxis` entries are the control's own and
-//!   are not written: the error entries go directly before, the inverses directly after, the
-//!   matching `MachAxis`. With all errors known, the inverse component entries of the manual's
-//!   isolated scheme (p.684, "−EYX where X = 0") are not needed and not written.
-//! - **Chain**: as the iTNC 530 description runs from the tool reference point and its example
-//!   places the B pivot at `Trans Z 250.051` from it, an entry is taken as the pose of what
-//!   follows in the current frame (`tool_T_table = T₁·T₂·…`), `Trans A/B/C` right-handed. In
-//!   this chain mtcal's model puts each axis' error factor as the inverse of its functional
-//!   error `E = (exp(ε), δ)` (ISO 230-1 values in machine X/Y/Z); tool-side linear and
-//!   workpiece-side rotary axes have it directly before the axis, the others (workpiece-side
-//!   linear, tool-side rotary) after their motion: it is carried across the motion (conjugated,
-//!   adding the Abbe terms of its angular errors), so that every axis' entries stand before it
-//!   as the manual recommends. C1–C6 at each row are that factor exactly, written as
-//!   `Trans X·Trans Y·Trans Z·Trans A·Trans B·Trans C` (a rotary axis' own-direction location
-//!   errors, EZ0C/EC0C, are added to its components, as mtcal's model does). To first order a
-//!   column is minus the ISO error (C2 ≈ −EYX) plus, for the carried axes, the Abbe terms.
-//! - **Tables** `KC_<axis>.COM`: `NR AXISPOS C1 … C6`, AXISPOS in mm or degrees at the nodes of
-//!   [`crate::error_parameters`], C1–C3 in mm, C4–C6 in degrees, 7 decimals.
+//!   `MachBase`, then each workpiece-side axis outwards: its location errors as `Trans` with
+//!   COORD (ISO value, DOC `X0C`), `MachAxis <axis>`, the location errors negated in reverse
+//!   order (DOC `-X0C`), and its five component entries `Trans` with COMPTAB `KC_<axis>.COM:Cn`
+//!   on the side where mtcal's model defines the error: a linear axis' move with its carriage
+//!   (before a tool-side axis, after a workpiece-side one), a rotary axis' are measured in the
+//!   frame that does not turn (before a table axis, after a head axis). There the entries are
+//!   the inverse of the axis' functional error exactly, with no Abbe terms. The nominal
+//!   `Trans`/`MachAxis` entries are the control's own and are not written. With all errors
+//!   known, the inverse component entries of the manual's isolated scheme (p.684, "−EYX where
+//!   X = 0") are not needed and not written.
+//! - **Sign, one convention**: each entry's DOC names the ISO 230-1 quantity its value is, with
+//!   its sign, in mtcal's values: `X0C` holds +X0C, `-X0C` −X0C, and a COMPTAB entry `-EYX`
+//!   holds −EYX to first order. The chain is read as the iTNC 530 description runs, from the
+//!   tool reference point, with the B pivot at `Trans Z 250.051` from it: an entry is the pose
+//!   of what follows in the current frame (`tool_T_table = T₁·T₂·…`), `Trans A/B/C`
+//!   right-handed, so an axis' error enters inverted. C1–C6 at each row are that inverse
+//!   exactly, written as `Trans X·Trans Y·Trans Z·Trans A·Trans B·Trans C`; the own column
+//!   (C1 of X, C6 of C) is zero and not referenced, its content moved to the positioning column
+//!   (the axis standing at `q + value` reproduces the model, so the control subtracts it, as for
+//!   the `.COM` set above). The manual labels the columns by the errors (EYX …) and adds EBX
+//!   and B0X in one column of its reduced scheme: its components may carry the opposite sign;
+//!   the card says so.
+//! - **Tables** `KC_<axis>.COM`: `NR AXISPOS <axis> C1 … C6`, AXISPOS in mm or degrees at the
+//!   nodes of [`crate::error_parameters`], the axis column and C1–C3 in mm (degrees for a rotary
+//!   axis' own column), C4–C6 in degrees, 7 decimals.
 //! - **Limits** ([`KcLimits`]): COMPTAB + MachAxis ≤ 100, COORD ≤ 50 (p.686), plausible values.
 //!   controllers.md says "≤ 100 COMPTAB entries"; the manual counts the MachAxis entries in.
 //!
@@ -99,9 +109,10 @@
 //! - The unit line `MM` on every table, including the `.CMA`; the reader accepts it missing.
 //! - KinematicsComp: the chain's direction of composition (above), the COMPTAB reference syntax
 //!   `FILE.COM:Cn` (the manual's text shows it only garbled), the `.COM` layout of its tables
-//!   (AXISPOS, C1–C6), degrees in C4–C6 (as COORD rotations in description tables), and that
-//!   the description's frames are parallel to mtcal's machine frame at the zero pose (the
-//!   export refuses machines whose joint frames are turned there).
+//!   (AXISPOS, the axis column, C1–C6) and their activation by a `.CMA`, degrees in C4–C6 (as
+//!   COORD rotations in description tables), and that the description's frames are parallel
+//!   to mtcal's machine frame at the zero pose (the export refuses machines whose joint frames
+//!   are turned there).
 //!
 //! # Cards
 //! Heidenhain tables have no comment syntax, so each written set gets its
@@ -118,7 +129,8 @@ pub use com::{
 };
 pub use kinematics_comp::{
     KcEntry, KcKey, KcLimits, KcTable, KcValue, KinematicsComp, kinematics_comp,
-    kinematics_comp_card, read_kinematics_comp, validate_kinematics_comp, write_kinematics_comp,
+    kinematics_comp_card, kinematics_comp_cma, read_kinematics_comp, validate_kinematics_comp,
+    write_kinematics_comp,
 };
 
 use std::path::{Path, PathBuf};
