@@ -478,9 +478,9 @@ fn tallies(case: &Case) -> Vec<(&'static str, Tally)> {
     // SINUMERIK EEC: the axis' error, which the control subtracts; zero at the reference
     // point (the axis' 0).
     let path = case.write(Compensation::SiemensEec { axis: None }, "eec.ini");
-    let tables = read_siemens_eec(&path, &case.settings.siemens).unwrap();
+    let eec = read_siemens_eec(&path, &case.settings.siemens).unwrap();
     let mut tally = Tally::default();
-    for t in &tables {
+    for t in &eec {
         let axis = t.axis.chars().next().unwrap();
         let i = m.axis_index(axis).unwrap();
         let command = |q: &[f64]| {
@@ -492,6 +492,37 @@ fn tallies(case: &Case) -> Vec<(&'static str, Tally)> {
         check_axis_table(case, &mut tally, axis, &nodes, Some(0.0), command, 0.0005);
     }
     out.push(("siemens-eec", tally));
+
+    // SINUMERIK EEC and CEC together: each CEC table's value (the output axis' error along
+    // its input axis, zero at the held position) subtracted from the output axis' command as
+    // the EEC's; the three lines through the held position, every component, relative to the
+    // held position (the EEC tables' constants go to the work offset).
+    let cec_path = case.write(Compensation::SiemensCec { input: None }, "cec.ini");
+    let cec = read_siemens_cec(&cec_path, &case.settings.siemens).unwrap();
+    let letter = |name: &str| m.axis_index(name.chars().next().unwrap()).unwrap();
+    let command = |q: &[f64]| {
+        let mut c = q.to_vec();
+        for t in &eec {
+            let i = letter(&t.axis);
+            c[i] -= t.value_at(q[i] * 1e3) * 1e-3;
+        }
+        for t in &cec {
+            let (i, o) = (letter(&t.input_axis), letter(&t.output_axis));
+            c[o] -= t.value_at(q[i] * 1e3) * 1e-3;
+        }
+        c
+    };
+    let hold = &case.settings.hold_q;
+    let mut tally = Tally::default();
+    for t in &eec {
+        let i = letter(&t.axis);
+        for p in case.reachable(i, &t.positions) {
+            let q = along(hold, i, p);
+            let reference = Some((hold.as_slice(), &command(hold)[..]));
+            check_point_from(case, &mut tally, &q, &command(&q), reference, 0.0005);
+        }
+    }
+    out.push(("siemens-eec+cec", tally));
 
     // Heidenhain .COM: every table's columns are errors the control subtracts from the axis
     // they name, at the position of the table's input axis; the three lines through the held
@@ -571,10 +602,28 @@ fn tallies(case: &Case) -> Vec<(&'static str, Tally)> {
 
 /// One node, every component of the tool point's residual.
 fn check_point(case: &Case, tally: &mut Tally, q: &[f64], c: &[f64], resolution_um: f64) {
-    let r = case.residual_um(q, c);
-    let before = case.uncompensated_um(q);
+    check_point_from(case, tally, q, c, None, resolution_um);
+}
+
+/// [`check_point`], relative to the residual at `reference` (pose and command) when a table
+/// made zero somewhere leaves a constant shift to the work offset.
+fn check_point_from(
+    case: &Case,
+    tally: &mut Tally,
+    q: &[f64],
+    c: &[f64],
+    reference: Option<(&[f64], &[f64])>,
+    resolution_um: f64,
+) {
+    let mut r = case.residual_um(q, c);
+    let mut before = case.uncompensated_um(q);
+    if let Some((q_ref, c_ref)) = reference {
+        r -= case.residual_um(q_ref, c_ref);
+        before -= case.uncompensated_um(q_ref);
+    }
     for k in 0..3 {
         let d = Vector3::ith(k, 1.0);
-        tally.add(r[k], before[k], case.id.u95_um(q, None, &d), resolution_um);
+        let u95 = case.id.u95_um(q, reference.map(|(q_ref, _)| q_ref), &d);
+        tally.add(r[k], before[k], u95, resolution_um);
     }
 }
