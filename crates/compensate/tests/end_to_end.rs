@@ -27,8 +27,19 @@
 //!   that its model of the machine puts the tool on the target; checked on a grid over the
 //!   workspace, all three components.
 //! - **a grid of tool-point errors** (CSV): the target moved by minus the interpolated error.
+//! - **the rotary axes' lines in the control's kinematics** (LinuxCNC's table-table pivots,
+//!   CYCLE800's `$TC_CARR`), on the five-axis trunnion measured by R-test and ball bar: the
+//!   rotary axes stay where the program puts them and X, Y, Z move so that the control's
+//!   kinematics put the tool on the target; the residual less what the truth's other errors do
+//!   at the node lies within the u95 of the rotary lines.
+//!
+//! Each control's side (how it reads its file and moves the axes) is written in the test
+//! modules `heidenhain_control`, `carr_control` and `trt_control` from the manuals, or here
+//! from the format's documented meaning, on the crate's readers.
 
+mod carr_control;
 mod heidenhain_control;
+mod trt_control;
 
 use heidenhain_control::KcControl;
 use mtcal_compensate::*;
@@ -37,8 +48,8 @@ use mtcal_indsim::campaign::Campaign;
 use mtcal_indsim::machine::{Machine as SimMachine, translation_of};
 use mtcal_indsim::session::Realism;
 use mtcal_indsim::truth::Truth;
-use mtcal_kinematics::MachineModel;
 use mtcal_kinematics::model::Role;
+use mtcal_kinematics::{AxisKind, MachineModel};
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 
@@ -54,8 +65,9 @@ struct Identified {
 }
 
 impl Identified {
-    /// The tool-point error's gradient (machine X/Y/Z rows) in the fitted parameters, at `q`.
-    fn gradient(&self, q: &[f64]) -> Vec<[f64; 3]> {
+    /// The tool-point error's gradient (machine X/Y/Z rows) in the fitted parameters, at `q`:
+    /// through the machine errors `kept` keeps.
+    fn gradient(&self, q: &[f64], kept: &dyn Fn(&Role) -> bool) -> Vec<[f64; 3]> {
         let n = self.model.n_coeffs();
         let mut jac = vec![0.0; 6 * n];
         let mut ws = self.model.workspace();
@@ -63,7 +75,7 @@ impl Identified {
             .pose_error_jacobian(q, &self.coeffs, &mut ws, &mut jac);
         let mut g = vec![[0.0; 3]; self.solution.x.len()];
         for p in self.model.errors().params() {
-            if !matches!(p.role, Role::Component { .. } | Role::Location { .. }) {
+            if !matches!(p.role, Role::Component { .. } | Role::Location { .. }) || !kept(&p.role) {
                 continue;
             }
             for k in p.offset..p.offset + p.len {
@@ -80,8 +92,19 @@ impl Identified {
     /// u95 (µm) of the modelled tool-point error along `d` at `q`, or of its change from
     /// `reference` to `q`.
     fn u95_um(&self, q: &[f64], reference: Option<&[f64]>, d: &Vector3<f64>) -> f64 {
-        let at = self.gradient(q);
-        let from = reference.map(|r| self.gradient(r));
+        self.u95_of_um(q, reference, d, &|_| true)
+    }
+
+    /// [`Self::u95_um`] of the part of the error the machine errors `kept` make.
+    fn u95_of_um(
+        &self,
+        q: &[f64],
+        reference: Option<&[f64]>,
+        d: &Vector3<f64>,
+        kept: &dyn Fn(&Role) -> bool,
+    ) -> f64 {
+        let at = self.gradient(q, kept);
+        let from = reference.map(|r| self.gradient(r, kept));
         let g: Vec<f64> = (0..at.len())
             .map(|i| {
                 let diff = |r: usize| at[i][r] - from.as_ref().map_or(0.0, |f| f[i][r]);
@@ -101,6 +124,8 @@ impl Identified {
 /// The simulated session, its truth and the identification.
 struct Case {
     _dir: tempfile::TempDir,
+    /// The machine coefficients the identify JSON gives no number.
+    not_given: Vec<String>,
     out: std::path::PathBuf,
     sim: SimMachine,
     truth: Truth,
@@ -137,6 +162,48 @@ fn case(seed: u64) -> Case {
         }
     }
     std::fs::write(session.join("machine.errors.toml"), model).unwrap();
+    let case = identified(dir, sim, truth);
+    // Every machine error gets a number (what is held is of the set-ups).
+    assert!(
+        case.not_given.is_empty(),
+        "the session determines every error: {:?}",
+        case.not_given
+    );
+    case
+}
+
+/// The trunnion (a C table on an A cradle) with the random truth of `seed`, measured by R-test
+/// and ball bar ([`Campaign::trunnion_rtest_ballbar_with`]) and identified in the eleven
+/// location and squareness errors such an R-test check determines, less where the A line
+/// passes in Z (the balls' heights take it); the truth has those ten alone, without the rotary
+/// lines' tilts unless `tilts`.
+fn trunnion_case(seed: u64, tilts: bool) -> Case {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session");
+    let sim =
+        SimMachine::from_urdf_file(&mtcal_indsim::shipped_machine("mcu630-cafyxz.urdf")).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut truth = Truth::random(&sim, &mut rng, 1.0);
+    for axis in truth.axes.iter_mut() {
+        axis.component = [[0.0; 4]; 6];
+    }
+    truth.axes[sim.index('A').unwrap()].location[2] = 0.0;
+    if !tilts {
+        for letter in ['A', 'C'] {
+            truth.axes[sim.index(letter).unwrap()].location[3..].fill(0.0);
+        }
+    }
+    Campaign::trunnion_rtest_ballbar_with(&session, &truth, &Realism::realistic(seed)).unwrap();
+    mtcal_testkit::sessions::as_a_user_has_it(
+        &session,
+        Some(r#"["EC0Y", "EB0Z", "EA0Z", "EY0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C"]"#),
+    );
+    identified(dir, sim, truth)
+}
+
+/// The session in `dir/session` identified as `mtcal identify` does.
+fn identified(dir: tempfile::TempDir, sim: SimMachine, truth: Truth) -> Case {
+    let session = dir.path().join("session");
     let prepared = Prepared::load(&session, PipelineOptions::default()).unwrap();
     let outcome = prepared.run(&mut mtcal_solve::Silent).unwrap();
     assert!(outcome.solution.converged, "the fit converges");
@@ -147,13 +214,6 @@ fn case(seed: u64) -> Case {
     let json_path = dir.path().join("id.json");
     let from = mtcal_machine::from_identify::read_identify_json(&json, &json_path, model.errors())
         .unwrap();
-    // Every machine error gets a number (what is held is of the set-ups).
-    assert!(
-        from.not_given.is_empty(),
-        "the session determines every error: {:?} {:?}",
-        from.not_given,
-        from.combinations
-    );
     let mut x_index = vec![None; model.n_coeffs()];
     for (i, &k) in study.layout().estimated().iter().enumerate() {
         x_index[k] = Some(i);
@@ -176,6 +236,7 @@ fn case(seed: u64) -> Case {
     };
     Case {
         _dir: dir,
+        not_given: from.not_given,
         out,
         sim,
         truth,
@@ -326,13 +387,22 @@ impl Tally {
         self.u95_sum += other.u95_sum;
     }
 
-    fn check(&self, name: &str) {
+    fn rms_um(&self) -> (f64, f64) {
         let n = self.components as f64;
-        let (rms, before) = (
+        (
             (self.residual_ss / n).sqrt(),
             (self.uncompensated_ss / n).sqrt(),
-        );
-        let share = self.within as f64 / n;
+        )
+    }
+
+    fn share(&self) -> f64 {
+        self.within as f64 / self.components as f64
+    }
+
+    fn print(&self, name: &str) {
+        let n = self.components as f64;
+        let (rms, before) = self.rms_um();
+        let share = self.share();
         eprintln!(
             "{name}: {} node components, {:.0} % within u95 (mean {:.2} µm), worst {:.2} × u95; \
              RMS {rms:.2} µm after, {before:.2} µm before",
@@ -341,6 +411,11 @@ impl Tally {
             self.u95_sum / n,
             self.worst_ratio
         );
+    }
+
+    fn check(&self, name: &str) {
+        let (rms, before) = self.rms_um();
+        let share = self.share();
         assert!(self.components >= 10, "{name}: too few nodes");
         // The test bites: the machine's error is many times what is left.
         assert!(
@@ -413,8 +488,172 @@ fn each_controls_file_from_an_identification_cancels_the_error_to_its_uncertaint
         }
     }
     for (name, t) in &pooled {
+        t.print(name);
+    }
+    for (name, t) in &pooled {
+        t.print(name);
+    }
+    for (name, t) in &pooled {
         t.check(name);
     }
+}
+
+/// The files that hold only where a table-table machine's rotary axis lines pass (LinuxCNC's
+/// trt kinematics) or also how they tilt (CYCLE800's `$TC_CARR`), on the trunnion: the control
+/// keeps the rotary axes where the program puts them and moves X, Y, Z so that its kinematics
+/// put the tool on the target. What the file does not hold stays: the residual less the effect
+/// the truth's other errors have at the node lies within the u95 of what the file holds.
+#[test]
+fn the_rotary_axis_lines_in_a_controls_kinematics_cancel_to_their_uncertainty() {
+    let mut pooled: Vec<(&'static str, Tally)> = Vec::new();
+    for seed in [41, 42] {
+        for (name, t) in rotary_tallies(&trunnion_case(seed, false), &trunnion_case(seed, true)) {
+            match pooled.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, p)) => p.merge(&t),
+                None => pooled.push((name, t)),
+            }
+        }
+    }
+    for (name, t) in &pooled {
+        t.print(name);
+    }
+    for (name, t) in &pooled {
+        t.check(name);
+    }
+}
+
+/// The rotary location errors of `model` other than along the axis' own direction; with
+/// `tilts`, the turns of the lines too.
+fn rotary_line(model: &MachineModel, role: &Role, tilts: bool) -> bool {
+    match *role {
+        Role::Location { axis, direction } => {
+            let a = &model.machine().axes()[axis];
+            a.kind() == AxisKind::Rotary
+                && direction.cartesian() != a.own_cartesian()
+                && (tilts || !direction.is_rotation())
+        }
+        _ => false,
+    }
+}
+
+/// LinuxCNC's pivots on a machine whose rotary lines are not tilted (`level`), `$TC_CARR` on
+/// one whose lines are (`tilted`).
+fn rotary_tallies(level: &Case, tilted: &Case) -> Vec<(&'static str, Tally)> {
+    let mut out = Vec::new();
+    for (case, name, tilts) in [
+        (level, "linuxcnc-trt", false),
+        (tilted, "siemens-carr", true),
+    ] {
+        out.push((name, rotary_tally(case, tilts)));
+    }
+    out
+}
+
+/// A control's kinematics: the tool point (mm from the origin) at linear axes `lin` (mm), the
+/// rotary axes of node `q`.
+type Forward = dyn Fn(&[f64], Vector3<f64>) -> Vector3<f64>;
+
+/// The residuals of LinuxCNC's pivots (`tilts` false) or of `$TC_CARR` (true) on `case`.
+fn rotary_tally(case: &Case, tilts: bool) -> Tally {
+    let model = &case.id.model;
+    let m = model.machine();
+    let idx = |l: char| m.axis_index(l).unwrap();
+    let (x, y, z, a, c) = (idx('X'), idx('Y'), idx('Z'), idx('A'), idx('C'));
+    let zero = vec![0.0; m.n_axes()];
+    let origin = m.tool_in_workpiece(&zero).t;
+    // Nodes: the cradle at −30°, 0°, 30°, the table at every 90°, the tool at the held position
+    // and 60 mm off it.
+    let mut nodes = Vec::new();
+    let hold = &case.settings.hold_q;
+    for a_deg in [-30.0f64, 0.0, 30.0] {
+        for c_deg in [0.0f64, 90.0, 180.0, 270.0] {
+            for off in [[0.0, 0.0, 0.0], [0.06, -0.06, -0.06]] {
+                let mut q = hold.clone();
+                q[x] += off[0];
+                q[y] += off[1];
+                q[z] += off[2];
+                q[a] = a_deg.to_radians();
+                q[c] = c_deg.to_radians();
+                nodes.push(q);
+            }
+        }
+    }
+    // The X, Y, Z command (SI) at which `forward` (linear axes in mm → the tool point in mm
+    // from the origin) reaches node `q`'s nominal tool point; the rotary axes as programmed.
+    let solve = |q: &[f64], forward: &dyn Fn(Vector3<f64>) -> Vector3<f64>| {
+        let target = (case.nominal(q) - origin) * 1e3;
+        let mut lin = Vector3::new(q[x], q[y], q[z]) * 1e3;
+        for _ in 0..4 {
+            let f0 = forward(lin);
+            let mut j = Matrix3::zeros();
+            for k in 0..3 {
+                let mut d = lin;
+                d[k] += 1.0;
+                j.set_column(k, &(forward(d) - f0));
+            }
+            lin -= j.try_inverse().unwrap() * (f0 - target);
+        }
+        let mut cmd = q.to_vec();
+        for (k, &i) in [x, y, z].iter().enumerate() {
+            cmd[i] = lin[k] * 1e-3;
+        }
+        cmd
+    };
+    // The pivots are where the lines pass as the model has them, tilts included: the u95 is of
+    // every rotary line error (the estimated tilts are near zero on a level machine).
+    let kept = |role: &Role| rotary_line(model, role, true);
+    let given = model
+        .errors()
+        .params()
+        .iter()
+        .filter(|p| kept(&p.role) && case.id.x_index[p.offset].is_some())
+        .all(|p| !case.not_given.contains(&p.name.to_string()));
+    assert!(
+        given,
+        "the session determines the rotary lines: {:?}",
+        case.not_given
+    );
+    // The truth without what the file holds: where the rotary lines pass and how they tilt.
+    let mut rest = case.truth.clone();
+    for ax in m.axes().iter().filter(|a| a.kind() == AxisKind::Rotary) {
+        let own = ax.own_cartesian();
+        let j = case.sim.index(ax.letter().as_char()).unwrap();
+        for d in (0..6).filter(|d| d % 3 != own) {
+            rest.axes[j].location[d] = 0.0;
+        }
+    }
+    let forward: Box<Forward> = if tilts {
+        let path = case.write(Compensation::SiemensCarr, "carr.mpf");
+        let rec = carr_control::record_of(&std::fs::read_to_string(&path).unwrap());
+        let rot = rec.axes.clone().map(|l| idx(l.chars().next().unwrap()));
+        Box::new(move |q, lin| {
+            rec.apply(lin, [q[rot[0]].to_degrees(), q[rot[1]].to_degrees()])
+                .0
+        })
+    } else {
+        let path = case.write(Compensation::TrtPivots, "pivots.hal");
+        let p = trt_control::pivots_of_hal(&std::fs::read_to_string(&path).unwrap());
+        // LinuxCNC turns the rotary axes the other way from mtcal (ISO 841).
+        Box::new(move |q, lin| {
+            let (ra, rc) = (-q[a].to_degrees(), -q[c].to_degrees());
+            trt_control::xyzac_forward(&p, [lin.x, lin.y, lin.z, ra, rc])
+        })
+    };
+    let mut tally = Tally::default();
+    for q in &nodes {
+        let cmd = solve(q, &|lin| forward(q, lin));
+        let others = (translation_of(&case.sim.tool_in_workpiece(&case.sim_q(q), Some(&rest)))
+            - case.nominal(q))
+            * 1e6;
+        let r = case.residual_um(q, &cmd) - others;
+        let before = case.uncompensated_um(q) - others;
+        for k in 0..3 {
+            let d = Vector3::ith(k, 1.0);
+            let u95 = case.id.u95_of_um(q, None, &d, &kept);
+            tally.add(r[k], before[k], u95, 0.001);
+        }
+    }
+    tally
 }
 
 /// Each file made, read back and applied: its residuals against their u95.

@@ -16,15 +16,16 @@
 //! - machine coordinates: the axis positions X, Y, Z (mm) are the tool reference point's
 //!   position, 0 where mtcal's tool point is with every axis at 0.
 
+mod carr_control;
 mod common;
 
+use carr_control::{Record, record_of};
 use common::{TOL_UM, load};
 use mtcal_compensate::*;
 use mtcal_kinematics::model::Role;
 use mtcal_kinematics::{AxisKind, MachineModel};
-use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
-use std::collections::HashMap;
 
 /// The five-axis machines shipped with mtcal and their CYCLE800 type.
 const MACHINES: [(&str, CarrKind); 5] = [
@@ -34,74 +35,6 @@ const MACHINES: [(&str, CarrKind); 5] = [
     ("headhead-xyzca.urdf", CarrKind::Tool),
     ("mixed-c-table-b-head.urdf", CarrKind::Mixed),
 ];
-
-// --- The control's side, from the manuals ---------------------------------------------------
-
-/// The record as the control reads it from the part program's text.
-struct Record {
-    kind: char,
-    offsets: [Vector3<f64>; 4],
-    vectors: [Vector3<f64>; 2],
-    axes: [String; 2],
-}
-
-/// `$TC_CARRk[n]=value` assignments of the text (comments dropped), parsed on their own.
-fn record_of(text: &str) -> Record {
-    let mut fields: HashMap<u32, String> = HashMap::new();
-    for line in text.lines() {
-        let code = line.split(';').next().unwrap().trim();
-        if code.is_empty() || code == "M30" {
-            continue;
-        }
-        let rest = code.strip_prefix("$TC_CARR").expect(code);
-        let (k, rest) = rest.split_once('[').unwrap();
-        let (_, value) = rest.split_once("]=").unwrap();
-        fields.insert(
-            k.parse().unwrap(),
-            value.trim().trim_matches('"').to_string(),
-        );
-    }
-    let n = |k: u32| -> f64 { fields[&k].parse().unwrap() };
-    let v = |k: u32| Vector3::new(n(k), n(k + 1), n(k + 2));
-    Record {
-        kind: fields[&23].chars().next().unwrap(),
-        offsets: [v(1), v(4), v(15), v(18)],
-        vectors: [v(7), v(10)],
-        axes: [fields[&21].clone(), fields[&22].clone()],
-    }
-}
-
-fn rot(v: &Vector3<f64>, deg: f64) -> Matrix3<f64> {
-    Rotation3::from_axis_angle(&Unit::new_normalize(*v), deg.to_radians()).into_inner()
-}
-
-impl Record {
-    /// The tool point (mm) and the tool's turn relative to the workpiece, in machine
-    /// coordinates of the workpiece at the initial setting, at axis positions `lin_mm` and
-    /// rotary angles `deg` (axes 1 and 2).
-    fn apply(&self, lin_mm: Vector3<f64>, deg: [f64; 2]) -> (Vector3<f64>, Matrix3<f64>) {
-        let [i1, i2, i3, i4] = self.offsets;
-        let r1 = rot(&self.vectors[0], deg[0]);
-        let r2 = rot(&self.vectors[1], deg[1]);
-        match self.kind {
-            'T' => {
-                let l = i1 + r1 * (i2 + r2 * i3);
-                (lin_mm - l, r1 * r2)
-            }
-            'P' => {
-                // Undo the table's turn: w = R2ᵀ(R1ᵀ(p − I2) − I3) − I4.
-                let w = r2.transpose() * (r1.transpose() * (lin_mm - i2) - i3) - i4;
-                (w, (r1 * r2).transpose())
-            }
-            'M' => {
-                let tip = lin_mm - (i1 + r1 * i2);
-                let w = r2.transpose() * (tip - i3) - i4;
-                (w, r2.transpose() * r1)
-            }
-            other => panic!("kinematics type {other}"),
-        }
-    }
-}
 
 // --- The model's side ------------------------------------------------------------------------
 

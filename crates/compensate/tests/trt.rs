@@ -5,33 +5,13 @@
 //! ones those kinematics can hold (where the C and A lines pass).
 
 mod common;
+mod trt_control;
 
 use common::load;
 use mtcal_compensate::*;
 use mtcal_kinematics::{MachineModel, ParamName};
 use nalgebra::Vector3;
-
-/// LinuxCNC xyzac-trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm).
-fn xyzac_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {
-    let [x, y, z, a, c] = j;
-    let (a, c) = (a.to_radians(), c.to_radians());
-    let (ya, za) = (
-        p.y_rot_point_mm + p.y_offset_mm,
-        p.z_rot_point_mm + p.z_offset_mm + p.tool_offset_mm,
-    );
-    // The table tilted by A carries the workpiece: the tool relative to it turns by −A about
-    // the A line.
-    let (dy, dz) = (y - ya, z - za);
-    let y1 = a.cos() * dy + a.sin() * dz + ya;
-    let z1 = -a.sin() * dy + a.cos() * dz + za;
-    // Then by −C about the C line.
-    let (dx, dy) = (x - p.x_rot_point_mm, y1 - p.y_rot_point_mm);
-    Vector3::new(
-        c.cos() * dx + c.sin() * dy + p.x_rot_point_mm,
-        -c.sin() * dx + c.cos() * dy + p.y_rot_point_mm,
-        z1,
-    )
-}
+use trt_control::{xyzac_forward, xyzbc_forward};
 
 /// A LinuxCNC trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm).
 type Forward = fn(&TrtPivots, [f64; 5]) -> Vector3<f64>;
@@ -172,26 +152,6 @@ fn machines_without_a_table_table_pair_are_refused() {
             .to_string();
         assert!(e.contains(want), "{name}: {e}");
     }
-}
-
-/// LinuxCNC xyzbc-trt forward kinematics: joints (mm, deg) → workpiece coordinates (mm): undo
-/// the B tilt about its line (parallel to Y), then the C turn about its line.
-fn xyzbc_forward(p: &TrtPivots, j: [f64; 5]) -> Vector3<f64> {
-    let [x, y, z, b, c] = j;
-    let (b, c) = (b.to_radians(), c.to_radians());
-    let (xb, zb) = (
-        p.x_rot_point_mm + p.x_offset_mm,
-        p.z_rot_point_mm + p.z_offset_mm + p.tool_offset_mm,
-    );
-    let (u, w) = (x - xb, z - zb);
-    let x1 = b.cos() * u - b.sin() * w + xb;
-    let z1 = b.sin() * u + b.cos() * w + zb;
-    let (dx, dy) = (x1 - p.x_rot_point_mm, y - p.y_rot_point_mm);
-    Vector3::new(
-        c.cos() * dx + c.sin() * dy + p.x_rot_point_mm,
-        -c.sin() * dx + c.cos() * dy + p.y_rot_point_mm,
-        z1,
-    )
 }
 
 #[test]
