@@ -59,6 +59,10 @@
 //! (IS-B, a linear axis 1 and a rotary axis 2; the parentheses are explanations, not part
 //! of the file).
 //!
+//! Blocks end with LF, the end of block of ISO code (B-63950EN p.12: "LF is used for the ISO
+//! code"). A control with NCR (parameter 0100 bit 3) punches LF CR CR instead (B-63524EN
+//! p.649); the reader takes both, so a record punched by the control reads back.
+//!
 //! # Assumptions (no reachable source documents them; each is said on the card)
 //! - The pitch-data block `N(10000 + point)P(value)` follows the parameter blocks' pattern;
 //!   the 30i's `Q0` marker for pitch data is inferred from its `Q1` for parameter data. The
@@ -1642,14 +1646,17 @@ fn parse_record(
         if line.trim().is_empty() {
             continue;
         }
-        match (opened, record.end_line > 0, line) {
+        // A control punching with NCR (parameter 0100 bit 3) ends each block LF CR CR
+        // (B-63524EN p.649): the CRs open the next line.
+        let lead = line.len() - line.trim_start_matches('\r').len();
+        match (opened, record.end_line > 0, &line[lead..]) {
             (_, true, _) => return Err(src.error(n, 1, "expected nothing after the closing `%`")),
             (false, _, "%") => opened = true,
             (false, _, _) => {
                 return Err(src.error(n, 1, "expected `%`, the start of a Fanuc record"));
             }
             (true, _, "%") => record.end_line = n,
-            (true, _, _) => parse_block(src, n, line, control, &mut record)?,
+            (true, _, _) => parse_block(src, n, line, lead, control, &mut record)?,
         }
     }
     if record.end_line == 0 {
@@ -1763,10 +1770,12 @@ fn parse_units(token: &str, decimals: usize) -> Option<i64> {
 }
 
 /// One block: a parameter with its axis words, or a pitch data point.
+/// Block `line` (line `n`), read from byte `start` on (after the CRs of an LF CR CR ending).
 fn parse_block(
     src: &Source<'_>,
     n: usize,
     line: &str,
+    start: usize,
     control: &FanucControl,
     record: &mut Record,
 ) -> Result<(), CompensateError> {
@@ -1774,7 +1783,7 @@ fn parse_block(
         src,
         line_no: n,
         text: line,
-        at: 0,
+        at: start,
     };
     c.expect("N", "and a parameter or pitch data number")?;
     let number_column = c.column();

@@ -311,6 +311,13 @@ fn the_parameter_record_reads_back_into_the_same_tables() {
         let axes: Vec<FanucAxis> = requests.iter().map(|r| r.axis).collect();
         let back = read_fanuc_parameters(&params, &control, &axes).unwrap();
         assert_eq!(back, tables, "{}", series.name());
+        // As a control punches it with NCR set (parameter 0100 bit 3): each block ends LF CR
+        // CR (B-63524EN p.649), and the record reads the same.
+        let punched = dir.path().join("punched.txt");
+        let text = std::fs::read_to_string(&params).unwrap();
+        std::fs::write(&punched, text.replace('\n', "\n\r\r")).unwrap();
+        let back = read_fanuc_parameters(&punched, &control, &axes).unwrap();
+        assert_eq!(back, tables, "{} punched LF CR CR", series.name());
         // The values table carries the card and one row per node and set.
         let csv = std::fs::read_to_string(&values).unwrap();
         for line in card.file_lines("# ").lines() {
