@@ -16,10 +16,8 @@ use std::path::{Path, PathBuf};
 pub(crate) struct CompensateArgs {
     #[command(flatten)]
     machine: crate::MachineArg,
-    /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
-    /// `identify --json` (what it identified goes in; what it could not determine stays zero).
-    #[arg(long)]
-    params: PathBuf,
+    #[command(flatten)]
+    params: crate::ParamsArg,
     /// The file to write.
     #[arg(long)]
     out: PathBuf,

@@ -46,10 +46,8 @@ enum Command {
     Map {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
-        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
-        #[arg(long)]
-        params: PathBuf,
+        #[command(flatten)]
+        params: ParamsArg,
         /// Grid points per linear axis, e.g. 21x22x22 (source 004's 10,164 points, the default).
         #[arg(long)]
         grid: Option<String>,
@@ -82,10 +80,8 @@ enum Command {
     Correct {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
-        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
-        #[arg(long)]
-        params: PathBuf,
+        #[command(flatten)]
+        params: ParamsArg,
         /// The NC program to correct (read, never modified).
         #[arg(long)]
         program: PathBuf,
@@ -101,10 +97,8 @@ enum Command {
     ZeroPoint {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
-        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
-        #[arg(long)]
-        params: PathBuf,
+        #[command(flatten)]
+        params: ParamsArg,
         /// An NC program to offset (read, never modified); needs --out.
         #[arg(long, requires = "out")]
         program: Option<PathBuf>,
@@ -118,10 +112,8 @@ enum Command {
     ClError {
         #[command(flatten)]
         machine: MachineArg,
-        /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
-        /// `identify --json` (what it identified goes in; what it could not determine stays zero).
-        #[arg(long)]
-        params: PathBuf,
+        #[command(flatten)]
+        params: ParamsArg,
         /// The CL data file (read, never modified).
         #[arg(long)]
         cl: PathBuf,
@@ -329,7 +321,7 @@ fn run(cli: Cli) -> Result<()> {
                 ..MapOptions::default()
             };
             write!(stdout, "{}", mtcal_machine::describe(&loaded, &model))?;
-            writeln!(stdout, "parameters  {}", params.display())?;
+            writeln!(stdout, "parameters  {}", params.params.display())?;
             let map = volumetric_map(&model, &coeffs, &grid, &opts);
             writeln!(stdout, "{}", map.summary(&thresholds))?;
             Ok(())
@@ -478,8 +470,23 @@ fn build_model(loaded: &LoadedMachine) -> Result<MachineModel> {
         .context("the error-model configuration does not fit the machine")
 }
 
+/// The parameter file of a command that acts on identified errors.
+#[derive(clap::Args)]
+pub(crate) struct ParamsArg {
+    /// Parameter file (TOML of ISO 230-1 names and values in µm / µrad), or the JSON of
+    /// `identify --json` (what it identified goes in; what it could not determine stays zero).
+    #[arg(long)]
+    params: PathBuf,
+    /// With an identify JSON: give each combination of machine parameters the session could
+    /// not separate its minimum-norm split (the smallest members that reproduce it; a choice,
+    /// not an identification, said on the screen and the card) instead of leaving its members
+    /// at zero. A combination with a set-up member is never split.
+    #[arg(long)]
+    split_combinations: bool,
+}
+
 /// The coefficients of the parameter file `params` for `model`.
-fn load_params(model: &MachineModel, params: &Path, out: &mut impl Write) -> Result<Vec<f64>> {
+fn load_params(model: &MachineModel, params: &ParamsArg, out: &mut impl Write) -> Result<Vec<f64>> {
     Ok(load_identified(model, params, out)?.coeffs)
 }
 
@@ -497,13 +504,21 @@ struct Identified {
 /// gave them, what it gave (a JSON's account of what went in said on `out`).
 fn load_identified(
     model: &MachineModel,
-    params: &Path,
+    arg: &ParamsArg,
     out: &mut impl Write,
 ) -> Result<Identified> {
     use mtcal_machine::from_identify as fi;
+    let params = arg.params.as_path();
     let context = || format!("cannot read parameter file {}", params.display());
     let text = std::fs::read_to_string(params).with_context(context)?;
     if !fi::is_json(&text) {
+        if arg.split_combinations {
+            anyhow::bail!(
+                "--split-combinations needs the identify JSON: {} is a parameter file, whose \
+                 values are all given",
+                params.display()
+            );
+        }
         let coeffs = mtcal_machine::params::parse_params(&text, params, model.errors())
             .with_context(context)?;
         return Ok(Identified {
@@ -513,7 +528,10 @@ fn load_identified(
         });
     }
     // An identify JSON: what the identification gave a number, said on the screen.
-    let from = fi::read_identify_json(&text, params, model.errors()).with_context(context)?;
+    let mut from = fi::read_identify_json(&text, params, model.errors()).with_context(context)?;
+    if arg.split_combinations {
+        from.split_combinations(model.errors());
+    }
     for line in from.account(&params.display().to_string()) {
         writeln!(out, "{line}")?;
     }
@@ -528,7 +546,7 @@ fn load_identified(
 /// identify JSON, whose account goes to `out`).
 fn model_and_coeffs(
     machine: &MachineArg,
-    params: &Path,
+    params: &ParamsArg,
     out: &mut impl Write,
 ) -> Result<(MachineModel, Vec<f64>)> {
     let model = build_model(&machine.load()?)?;

@@ -375,3 +375,105 @@ fn a_found_reversal_goes_into_the_bidirectional_table_of_its_axis() {
     );
     assert!(reversal_columns(&one_way).iter().all(|(_, b)| *b == 0.0));
 }
+
+/// `--split-combinations`: a combination of machine parameters the identification could not
+/// separate (here one put into the five-axis example's JSON: ECX.P0 − EBY.P0 = 2 µrad, neither
+/// identified) gets its minimum-norm split, +1 and −1 µrad, in the file and said as a choice
+/// on the screen and the card; without the flag both stay zero; a parameter file refuses it.
+#[test]
+fn a_combination_is_split_by_minimum_norm_only_on_request() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    identify("examples/five-axis/session", d);
+    let path = d.join("id.json");
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let given: Vec<&str> = json["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert!(!given.contains(&"ECX.P0") && !given.contains(&"EBY.P0"));
+    // The example's JSON has no combinations of its own (the key is then left out).
+    let combinations = json
+        .as_object_mut()
+        .unwrap()
+        .entry("combinations")
+        .or_insert_with(|| serde_json::json!([]));
+    combinations
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({
+            "expression": "ECX.P0 − EBY.P0", "name": "ECX.P0",
+            "terms": [{"name": "EBY.P0", "coefficient": -1.0}],
+            "value": 2.0, "unit": "urad", "u95": 0.3, "kind": "machine"
+        }));
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    let m = "examples/five-axis/session/machine.urdf";
+    let constant_urad = |file: &Path, name: &str| {
+        let params = mtcal_compensate::read_error_parameters(
+            file,
+            mtcal_compensate::ParameterFormat::IsgCsv,
+        )
+        .unwrap();
+        let p = params
+            .params
+            .iter()
+            .find(|p| p.name.to_string() == name)
+            .unwrap();
+        let mtcal_compensate::ParameterValue::Table { values, .. } = &p.value else {
+            panic!("{name} is a table")
+        };
+        values.iter().sum::<f64>() / values.len() as f64 * 1e6
+    };
+    let mut screens = Vec::new();
+    for split in [false, true] {
+        let out = d.join(format!("isg-{split}.csv"));
+        let mut args = vec![
+            "compensate",
+            m,
+            "--params",
+            path.to_str().unwrap(),
+            "--format",
+            "isg",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if split {
+            args.push("--split-combinations");
+        }
+        screens.push(ok(&mtcal(&args)));
+        let (ecx, eby) = (constant_urad(&out, "ECX"), constant_urad(&out, "EBY"));
+        let want = if split { (1.0, -1.0) } else { (0.0, 0.0) };
+        assert!(
+            (ecx - want.0).abs() < 1e-6 && (eby - want.1).abs() < 1e-6,
+            "split {split}: ECX {ecx}, EBY {eby}"
+        );
+        let card = std::fs::read_to_string(&out).unwrap();
+        assert_eq!(card.contains("split by minimum norm on request"), split);
+    }
+    assert!(
+        screens[1].contains(
+            "split by minimum norm on request (a choice, not an identification): ECX.P0 = 1.000, \
+             EBY.P0 = -1.000 (urad) of ECX.P0 − EBY.P0 = 2.000 ± 0.300 urad"
+        ),
+        "{}",
+        screens[1]
+    );
+    assert!(!screens[0].contains("split by minimum norm"));
+    // A parameter file holds numbers only: nothing to split.
+    let refused = mtcal(&[
+        "compensate",
+        m,
+        "--params",
+        d.join("id.toml").to_str().unwrap(),
+        "--format",
+        "isg",
+        "--out",
+        d.join("x.csv").to_str().unwrap(),
+        "--split-combinations",
+    ]);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("needs the identify JSON"));
+}

@@ -8,6 +8,12 @@
 //! zero: a compensation never carries a number the identification refused to give. The
 //! discoveries of the physics search (a backlash, a thermal drift) are named, not put into a
 //! static table. An identification that did not converge is refused: nothing is built on it.
+//!
+//! On request ([`FromIdentify::split_combinations`]), the combinations of machine parameters
+//! alone get the minimum-norm split of their values: the smallest members (in the file's µm and
+//! µrad) that reproduce every combination the runs saw. That is a choice, not an
+//! identification, and the account says so; a combination with a set-up member (a laser's
+//! zero, a tracer station) is not split: the set-up takes it.
 
 use crate::params::ParamsError;
 use mtcal_kinematics::ErrorModel;
@@ -41,6 +47,24 @@ pub struct FromIdentify {
     pub discoveries: Vec<String>,
     /// The reversals of linear axes the search found, with their numbers.
     pub reversals: Vec<FoundReversal>,
+    /// The combinations with their values, as the JSON gives them (file units).
+    pub combination_values: Vec<CombinationValue>,
+    /// What [`Self::split_combinations`] put in, one line each; empty unless asked.
+    pub split: Vec<String>,
+}
+
+/// A combination the runs saw of parameters they could not separate: `Σ coefficient·member =
+/// value ± u95` (file units: µm or µrad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CombinationValue {
+    /// Readable form (`EC0Y − ECY.P0`).
+    pub expression: String,
+    /// Each member with its coefficient (file units of the combination per file unit of the
+    /// member); the first carries the number, coefficient 1.
+    pub members: Vec<(String, f64)>,
+    pub value: f64,
+    pub u95: Option<f64>,
+    pub unit: String,
 }
 
 /// A `reversal` discovery of a linear axis: the axis lags by half its backlash behind the
@@ -103,6 +127,8 @@ struct Json {
     #[serde(default)]
     unidentifiable: Vec<JsonCombination>,
     #[serde(default)]
+    combinations: Vec<JsonCombinationValue>,
+    #[serde(default)]
     discoveries: Vec<JsonDiscovery>,
     solver: JsonSolver,
 }
@@ -119,6 +145,23 @@ struct JsonParam {
 #[derive(Deserialize)]
 struct JsonCombination {
     why: String,
+}
+
+#[derive(Deserialize)]
+struct JsonCombinationValue {
+    expression: String,
+    name: String,
+    #[serde(default)]
+    terms: Vec<JsonTerm>,
+    value: f64,
+    unit: String,
+    u95: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct JsonTerm {
+    name: String,
+    coefficient: f64,
 }
 
 #[derive(Deserialize)]
@@ -262,6 +305,20 @@ pub fn read_identify_json(
         combinations: json.unidentifiable.into_iter().map(|c| c.why).collect(),
         reversals: json.discoveries.iter().filter_map(found_reversal).collect(),
         discoveries: json.discoveries.into_iter().map(|d| d.label).collect(),
+        combination_values: json
+            .combinations
+            .into_iter()
+            .map(|c| CombinationValue {
+                expression: c.expression,
+                members: std::iter::once((c.name, 1.0))
+                    .chain(c.terms.into_iter().map(|t| (t.name, t.coefficient)))
+                    .collect(),
+                value: c.value,
+                u95: c.u95,
+                unit: c.unit,
+            })
+            .collect(),
+        split: Vec::new(),
     })
 }
 
@@ -285,6 +342,86 @@ pub fn account_in_header(text: &str) -> Vec<String> {
 }
 
 impl FromIdentify {
+    /// Puts in the minimum-norm split of every combination whose members are all parameters
+    /// of `model` (coefficient labels such as `EC0Y`, `ECY.P0`): of all member values that
+    /// reproduce those combinations' values, the smallest in the file's units (`p = Aᵀ(AAᵀ)⁺v`
+    /// over the combinations together, as they may share members). The members leave
+    /// [`Self::not_given`]; each split combination is said in [`Self::split`] and no longer
+    /// among the combinations left out. Returns how many combinations were split.
+    pub fn split_combinations(&mut self, model: &ErrorModel) -> usize {
+        let labels = model.coefficient_labels();
+        let index = |name: &str| labels.iter().position(|l| l == name);
+        let chosen: Vec<&CombinationValue> = self
+            .combination_values
+            .iter()
+            .filter(|c| c.members.iter().all(|(m, _)| index(m).is_some()))
+            // A member the identification gave a number is not the JSON's combination.
+            .filter(|c| {
+                !c.members
+                    .iter()
+                    .any(|(m, _)| self.used.iter().any(|u| u.0 == *m))
+            })
+            .filter(|c| c.value.is_finite() && c.members.iter().all(|(_, a)| a.is_finite()))
+            .collect();
+        if chosen.is_empty() {
+            return 0;
+        }
+        let mut unknowns: Vec<usize> = Vec::new();
+        for c in &chosen {
+            for (m, _) in &c.members {
+                let k = index(m).expect("checked above");
+                if !unknowns.contains(&k) {
+                    unknowns.push(k);
+                }
+            }
+        }
+        let a = nalgebra::DMatrix::from_fn(chosen.len(), unknowns.len(), |r, j| {
+            chosen[r]
+                .members
+                .iter()
+                .filter(|(m, _)| index(m) == Some(unknowns[j]))
+                .map(|(_, a)| a)
+                .sum::<f64>()
+        });
+        let v = nalgebra::DVector::from_iterator(chosen.len(), chosen.iter().map(|c| c.value));
+        let gram = &a * a.transpose();
+        let eps = 1e-12 * gram.amax().max(1.0);
+        let Ok(pinv) = gram.pseudo_inverse(eps) else {
+            return 0;
+        };
+        let p = a.transpose() * (pinv * v);
+        // Every label's unit: µrad for rotations, µm otherwise, as the file writes them.
+        for (j, &k) in unknowns.iter().enumerate() {
+            self.coeffs[k] = p[j] * 1e-6;
+            self.not_given.retain(|n| *n != labels[k]);
+        }
+        for c in &chosen {
+            let parts: Vec<String> = c
+                .members
+                .iter()
+                .map(|(m, _)| {
+                    let j = unknowns
+                        .iter()
+                        .position(|&k| labels[k] == *m)
+                        .expect("a member is an unknown");
+                    format!("{m} = {:.3}", p[j])
+                })
+                .collect();
+            let u95 = c.u95.map(|u| format!(" ± {u:.3}")).unwrap_or_default();
+            self.split.push(format!(
+                "{} ({}) of {} = {:.3}{u95} {}",
+                parts.join(", "),
+                c.unit,
+                c.expression,
+                c.value,
+                c.unit
+            ));
+            let expression = format!("combination {} =", c.expression);
+            self.combinations.retain(|why| !why.contains(&expression));
+        }
+        chosen.len()
+    }
+
     /// What went in and what did not, for the screen (and a card), lines without an end;
     /// `source` names the identification (its file; empty for a card or a parameter file's
     /// header, which must read the same whichever file carried the identification).
@@ -308,6 +445,12 @@ impl FromIdentify {
         for c in &self.combinations {
             out.push(format!("  not separated, left out: {c}"));
         }
+        for s in &self.split {
+            out.push(format!(
+                "  not separated, split by minimum norm on request (a choice, not an \
+                 identification): {s}"
+            ));
+        }
         if !self.discoveries.is_empty() {
             out.push(format!(
                 "  discoveries of the physics search, not in a static compensation (a \
@@ -322,6 +465,70 @@ impl FromIdentify {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::default_config;
+    use crate::config::tests::three_axis;
+
+    /// An identify JSON of the three-axis test machine with `combinations` (its JSON array).
+    fn json_with(combinations: &str) -> String {
+        format!(
+            r#"{{"schema": "mtcal.identify/1", "solver": {{"converged": true}},
+               "parameters": [{{"name": "EB0Z", "value": 4.0, "unit": "urad", "u95": 0.5,
+                                "kind": "machine"}}],
+               "unidentifiable": [
+                 {{"parameters": ["EC0Y", "ECY.P0"],
+                   "why": "these runs see only their combination EC0Y − ECY.P0 = 3.0000 ± 0.4000 urad"}},
+                 {{"parameters": ["laser-x.zero", "EBX.P0"],
+                   "why": "these runs see only their combination laser-x.zero + 0.5·EBX.P0 = 2.0000 ± 9.0000 um"}}],
+               "combinations": {combinations}}}"#
+        )
+    }
+
+    /// On request, a combination of machine parameters alone gets its minimum-norm split (each
+    /// member `a_i·v/Σa²`: EC0Y − ECY.P0 = 3 µrad gives 1.5 and −1.5), said as a choice; one
+    /// with a set-up member is not split; without the request nothing changes.
+    #[test]
+    fn a_combination_of_machine_parameters_is_split_by_minimum_norm_on_request() {
+        let m = three_axis();
+        let model = ErrorModel::new(&m, &default_config(&m)).unwrap();
+        let text = json_with(
+            r#"[{"expression": "EC0Y − ECY.P0", "name": "EC0Y",
+                 "terms": [{"name": "ECY.P0", "coefficient": -1.0}],
+                 "value": 3.0, "unit": "urad", "u95": 0.4, "kind": "machine"},
+                {"expression": "laser-x.zero + 0.5·EBX.P0", "name": "laser-x.zero",
+                 "terms": [{"name": "EBX.P0", "coefficient": 0.5}],
+                 "value": 2.0, "unit": "um", "u95": 9.0, "kind": "setup"}]"#,
+        );
+        let file = Path::new("id.json");
+        let plain = read_identify_json(&text, file, &model).unwrap();
+        let mut from = plain.clone();
+        let at = |name: &str| model.find(&name.parse().unwrap()).unwrap().offset;
+        assert_eq!(from.coeffs[at("EC0Y")], 0.0);
+        assert!(from.not_given.contains(&"EC0Y".to_string()));
+        assert_eq!(from.split_combinations(&model), 1);
+        assert!((from.coeffs[at("EC0Y")] - 1.5e-6).abs() < 1e-15);
+        let c = model.coefficient_labels();
+        let ecy0 = c.iter().position(|l| l == "ECY.P0").unwrap();
+        assert!((from.coeffs[ecy0] + 1.5e-6).abs() < 1e-15);
+        // The combination is reproduced, EB0Z untouched, EBX.P0 (with a set-up) left out.
+        assert!((from.coeffs[at("EC0Y")] - from.coeffs[ecy0] - 3e-6).abs() < 1e-15);
+        assert_eq!(from.coeffs[at("EB0Z")], 4e-6);
+        let ebx0 = c.iter().position(|l| l == "EBX.P0").unwrap();
+        assert_eq!(from.coeffs[ebx0], 0.0);
+        assert!(!from.not_given.contains(&"EC0Y".to_string()));
+        assert!(from.not_given.contains(&"EBX.P0".to_string()));
+        let account = from.account("").join("\n");
+        assert!(
+            account.contains("split by minimum norm on request (a choice, not an identification)")
+                && account.contains("EC0Y = 1.500, ECY.P0 = -1.500 (urad) of EC0Y − ECY.P0"),
+            "{account}"
+        );
+        assert!(!account.contains("left out: these runs see only their combination EC0Y"));
+        assert!(account.contains("left out: these runs see only their combination laser-x"));
+        assert!(plain.split.is_empty() && plain.coeffs[at("EC0Y")] == 0.0);
+        // An older JSON without the values: nothing to split.
+        let mut old = read_identify_json(&json_with("[]"), file, &model).unwrap();
+        assert_eq!(old.split_combinations(&model), 0);
+    }
 
     /// The account `identify --params-out` writes as the parameter file's header reads back
     /// line for line (so a card made from the file says what one made from the JSON says); a
@@ -335,6 +542,10 @@ mod tests {
             combinations: vec!["only their sum is observed".into()],
             discoveries: vec!["reversal X (X)".into()],
             reversals: Vec::new(),
+            combination_values: Vec::new(),
+            split: vec![
+                "EC0Y = 1.000, ECY.P0 = -1.000 (urad) of EC0Y − ECY.P0 = 2.000 urad".into(),
+            ],
         };
         let account = from.account("");
         assert!(account[0].starts_with("parameters from the identification: 1 identified"));
