@@ -249,22 +249,22 @@ impl ControlArgs {
     }
 
     /// The settings with the control's limits; the rest as given.
-    fn settings(&self, hold_q: Vec<f64>, spacing_mm: f64, spacing_deg: f64) -> Settings {
+    fn settings(
+        &self,
+        machine: &mtcal_kinematics::Machine,
+        hold_q: Vec<f64>,
+        spacing_mm: f64,
+        spacing_deg: f64,
+    ) -> Settings {
         Settings {
-            spacing_mm,
-            spacing_deg,
-            joint_offset_mm: 0.0,
-            reversal_um: None,
-            reversals: Vec::new(),
-            made_from: Vec::new(),
             hold_q,
             siemens: siemens_limits(self),
-            reference_mm: 0.0,
             fanuc: fanuc_control(self),
             heidenhain: match self.heidenhain_control {
                 HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
                 HeidenhainArg::Manualplus620 => mtcal_compensate::ComLimits::manualplus_620(),
             },
+            ..Settings::new(machine, spacing_mm, spacing_deg)
         }
     }
 }
@@ -302,7 +302,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         reference_mm: args.reference_mm,
         ..args
             .control
-            .settings(hold_q, args.spacing_mm, args.spacing_deg)
+            .settings(model.machine(), hold_q, args.spacing_mm, args.spacing_deg)
     };
     // The file and those beside it (tables, a card) written into a private folder, then
     // into place together: an error in any leaves none of them.
@@ -408,9 +408,9 @@ pub(crate) fn check(args: CheckArgs, out: &mut impl Write) -> Result<()> {
     let machine = &loaded.machine;
     let what = args.control.compensation()?;
     // The spacings only make tables; a check reads them from the file.
-    let settings = args
-        .control
-        .settings(mtcal_compensate::default_hold(machine), 1.0, 1.0);
+    let settings =
+        args.control
+            .settings(machine, mtcal_compensate::default_hold(machine), 1.0, 1.0);
     let checked = mtcal_compensate::check_compensation(machine, what, &args.file, &settings)?;
     writeln!(
         out,

@@ -157,20 +157,11 @@ mod tests {
 
     fn settings(machine: &Machine) -> Settings {
         Settings {
-            spacing_mm: 50.0,
-            spacing_deg: 30.0,
-            joint_offset_mm: 0.0,
-            reversal_um: None,
-            reversals: Vec::new(),
-            made_from: Vec::new(),
-            hold_q: crate::default_hold(machine),
-            siemens: crate::SiemensLimits::default(),
-            reference_mm: 0.0,
             fanuc: crate::FanucControl::new(
                 crate::FanucSeries::Series30i,
                 crate::IncrementSystem::IsB,
             ),
-            heidenhain: crate::ComLimits::tnc_4xx(),
+            ..Settings::new(machine, 50.0, 30.0)
         }
     }
 

@@ -84,6 +84,31 @@ pub struct Settings {
     pub heidenhain: crate::ComLimits,
 }
 
+impl Settings {
+    /// The settings of a plain file of `machine`: nodes `spacing_mm` and `spacing_deg` apart,
+    /// the other axes at [`crate::default_hold`], no joint offset and no reversal, nothing said
+    /// of where the numbers came from, EEC tables zero at 0 mm, a Fanuc Series 30i with IS-C,
+    /// a TNC 4xx and the SINUMERIK defaults. Change the fields a file needs.
+    pub fn new(machine: &Machine, spacing_mm: f64, spacing_deg: f64) -> Self {
+        Settings {
+            spacing_mm,
+            spacing_deg,
+            joint_offset_mm: 0.0,
+            reversal_um: None,
+            reversals: Vec::new(),
+            made_from: Vec::new(),
+            hold_q: crate::default_hold(machine),
+            siemens: crate::SiemensLimits::default(),
+            reference_mm: 0.0,
+            fanuc: crate::FanucControl::new(
+                crate::FanucSeries::Series30i,
+                crate::IncrementSystem::IsC,
+            ),
+            heidenhain: crate::ComLimits::tnc_4xx(),
+        }
+    }
+}
+
 /// What [`write_compensation`] wrote.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Written {
@@ -628,22 +653,7 @@ mod tests {
     }
 
     fn settings(model: &MachineModel) -> Settings {
-        Settings {
-            spacing_mm: 100.0,
-            spacing_deg: 30.0,
-            joint_offset_mm: 0.0,
-            reversal_um: None,
-            reversals: Vec::new(),
-            made_from: Vec::new(),
-            hold_q: crate::default_hold(model.machine()),
-            siemens: crate::SiemensLimits::default(),
-            reference_mm: 0.0,
-            fanuc: crate::FanucControl::new(
-                crate::FanucSeries::Series30i,
-                crate::IncrementSystem::IsC,
-            ),
-            heidenhain: crate::ComLimits::tnc_4xx(),
-        }
+        Settings::new(model.machine(), 100.0, 30.0)
     }
 
     /// The file at `path` is ASCII and holds the card line `line` (the readers skip it).

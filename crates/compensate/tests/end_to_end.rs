@@ -221,19 +221,7 @@ fn identified(dir: tempfile::TempDir, sim: SimMachine, truth: Truth) -> Case {
     let inflation = mtcal_identify::band::noise_inflation(study, &outcome.solution);
     let out = dir.path().join("out");
     std::fs::create_dir(&out).unwrap();
-    let settings = Settings {
-        spacing_mm: 50.0,
-        spacing_deg: 30.0,
-        joint_offset_mm: 0.0,
-        reversal_um: None,
-        reversals: Vec::new(),
-        made_from: Vec::new(),
-        hold_q: default_hold(model.machine()),
-        siemens: SiemensLimits::default(),
-        reference_mm: 0.0,
-        fanuc: FanucControl::new(FanucSeries::Series30i, IncrementSystem::IsC),
-        heidenhain: ComLimits::tnc_4xx(),
-    };
+    let settings = Settings::new(model.machine(), 50.0, 30.0);
     Case {
         _dir: dir,
         not_given: from.not_given,
@@ -478,17 +466,17 @@ fn check_axis_table(
 /// Three machines, each with its own truth and noise: the residuals pooled per file.
 #[test]
 fn each_controls_file_from_an_identification_cancels_the_error_to_its_uncertainty() {
+    pooled_check([37, 38, 39].map(|seed| tallies(&case(seed))));
+}
+
+/// Each file's tallies over several machines pooled, printed, then checked.
+fn pooled_check(per_machine: impl IntoIterator<Item = Vec<(&'static str, Tally)>>) {
     let mut pooled: Vec<(&'static str, Tally)> = Vec::new();
-    for seed in [37, 38, 39] {
-        for (name, t) in tallies(&case(seed)) {
-            match pooled.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, p)) => p.merge(&t),
-                None => pooled.push((name, t)),
-            }
+    for (name, t) in per_machine.into_iter().flatten() {
+        match pooled.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, p)) => p.merge(&t),
+            None => pooled.push((name, t)),
         }
-    }
-    for (name, t) in &pooled {
-        t.print(name);
     }
     for (name, t) in &pooled {
         t.print(name);
@@ -505,21 +493,10 @@ fn each_controls_file_from_an_identification_cancels_the_error_to_its_uncertaint
 /// the truth's other errors have at the node lies within the u95 of what the file holds.
 #[test]
 fn the_rotary_axis_lines_in_a_controls_kinematics_cancel_to_their_uncertainty() {
-    let mut pooled: Vec<(&'static str, Tally)> = Vec::new();
-    for seed in [41, 42] {
-        for (name, t) in rotary_tallies(&trunnion_case(seed, false), &trunnion_case(seed, true)) {
-            match pooled.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, p)) => p.merge(&t),
-                None => pooled.push((name, t)),
-            }
-        }
-    }
-    for (name, t) in &pooled {
-        t.print(name);
-    }
-    for (name, t) in &pooled {
-        t.check(name);
-    }
+    pooled_check(
+        [41, 42]
+            .map(|seed| rotary_tallies(&trunnion_case(seed, false), &trunnion_case(seed, true))),
+    );
 }
 
 /// The rotary location errors of `model` other than along the axis' own direction; with
