@@ -89,37 +89,44 @@ impl Identified {
         g
     }
 
-    /// u95 (µm) of the modelled tool-point error along `d` at `q`, or of its change from
-    /// `reference` to `q`.
-    fn u95_um(&self, q: &[f64], reference: Option<&[f64]>, d: &Vector3<f64>) -> f64 {
-        self.u95_of_um(q, reference, d, &|_| true)
-    }
-
-    /// [`Self::u95_um`] of the part of the error the machine errors `kept` make.
-    fn u95_of_um(
+    /// u95 (µm) of the modelled tool-point error along each of `directions` at `q`, or of its
+    /// change from `reference` to `q`; of the part the machine errors `kept` make.
+    fn u95_um(
         &self,
         q: &[f64],
         reference: Option<&[f64]>,
-        d: &Vector3<f64>,
+        directions: &[Vector3<f64>],
         kept: &dyn Fn(&Role) -> bool,
-    ) -> f64 {
+    ) -> Vec<f64> {
         let at = self.gradient(q, kept);
         let from = reference.map(|r| self.gradient(r, kept));
-        let g: Vec<f64> = (0..at.len())
-            .map(|i| {
-                let diff = |r: usize| at[i][r] - from.as_ref().map_or(0.0, |f| f[i][r]);
-                d.x * diff(0) + d.y * diff(1) + d.z * diff(2)
+        let diff = |i: usize| {
+            let f = from.as_ref().map_or([0.0; 3], |f| f[i]);
+            Vector3::new(at[i][0] - f[0], at[i][1] - f[1], at[i][2] - f[2])
+        };
+        let gradients: Vec<Vector3<f64>> = (0..at.len()).map(diff).collect();
+        directions
+            .iter()
+            .map(|d| {
+                let g: Vec<f64> = gradients.iter().map(|v| v.dot(d)).collect();
+                let mut var = 0.0;
+                for (i, gi) in g.iter().enumerate().filter(|(_, g)| **g != 0.0) {
+                    for (j, gj) in g.iter().enumerate().filter(|(_, g)| **g != 0.0) {
+                        var += gi * gj * self.solution.cov(i, j);
+                    }
+                }
+                1.96 * (self.inflation * var.max(0.0)).sqrt() * 1e6
             })
-            .collect();
-        let mut var = 0.0;
-        for (i, gi) in g.iter().enumerate().filter(|(_, g)| **g != 0.0) {
-            for (j, gj) in g.iter().enumerate().filter(|(_, g)| **g != 0.0) {
-                var += gi * gj * self.solution.cov(i, j);
-            }
-        }
-        1.96 * (self.inflation * var.max(0.0)).sqrt() * 1e6
+            .collect()
     }
 }
+
+/// Machine X, Y, Z.
+const XYZ: [Vector3<f64>; 3] = [
+    Vector3::new(1.0, 0.0, 0.0),
+    Vector3::new(0.0, 1.0, 0.0),
+    Vector3::new(0.0, 0.0, 1.0),
+];
 
 /// The simulated session, its truth and the identification.
 struct Case {
@@ -456,9 +463,8 @@ fn check_axis_table(
             r -= r_ref;
             before -= case.uncompensated_um(q_ref);
         }
-        let u95 = case
-            .id
-            .u95_um(&q, at_reference.as_ref().map(|(q, _)| q.as_slice()), &d);
+        let reference = at_reference.as_ref().map(|(q, _)| q.as_slice());
+        let u95 = case.id.u95_um(&q, reference, &[d], &|_| true)[0];
         tally.add(r.dot(&d), before.dot(&d), u95, resolution_um);
     }
 }
@@ -624,10 +630,9 @@ fn rotary_tally(case: &Case, tilts: bool) -> Tally {
             * 1e6;
         let r = case.residual_um(q, &cmd) - others;
         let before = case.uncompensated_um(q) - others;
+        let u95 = case.id.u95_um(q, None, &XYZ, &kept);
         for k in 0..3 {
-            let d = Vector3::ith(k, 1.0);
-            let u95 = case.id.u95_of_um(q, None, &d, &kept);
-            tally.add(r[k], before[k], u95, 0.001);
+            tally.add(r[k], before[k], u95[k], 0.001);
         }
     }
     tally
@@ -837,9 +842,10 @@ fn check_point_from(
         r -= case.residual_um(q_ref, c_ref);
         before -= case.uncompensated_um(q_ref);
     }
+    let u95 = case
+        .id
+        .u95_um(q, reference.map(|(q_ref, _)| q_ref), &XYZ, &|_| true);
     for k in 0..3 {
-        let d = Vector3::ith(k, 1.0);
-        let u95 = case.id.u95_um(q, reference.map(|(q_ref, _)| q_ref), &d);
-        tally.add(r[k], before[k], u95, resolution_um);
+        tally.add(r[k], before[k], u95[k], resolution_um);
     }
 }
