@@ -181,6 +181,7 @@ macro_rules! dummy {
                 path_labels: None,
                 evaluate: None,
                 polar_view: None,
+                diagnose: None,
             }
         }
     };

@@ -27,6 +27,7 @@ pub mod band;
 pub mod base;
 mod blocks;
 mod checks;
+pub mod diagnostics;
 pub mod findings;
 pub mod fit;
 pub mod html_report;

@@ -178,6 +178,10 @@ pub struct Identification {
     pub noise: Vec<String>,
     /// Validation runs: not fitted; how well the identified model predicts them.
     pub validation: Vec<RunFit>,
+    /// The instruments' own diagnostics in their users' terms (a ball-bar's circle pairs),
+    /// with the model's value and what stands behind it ([`crate::diagnostics`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub diagnostics: Vec<crate::diagnostics::DiagnosisReport>,
     /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
     pub mismatch: mtcal_mismatch::Mismatch,
     /// Every structure test behind `mismatch`, one sentence each for the rejected ones; in the
@@ -318,6 +322,11 @@ impl Identification {
                 .as_ref()
                 .map_or_else(Vec::new, |n| n.describe(study)),
             validation,
+            diagnostics: if analysed {
+                crate::diagnostics::diagnose(study, &x)
+            } else {
+                Vec::new()
+            },
             mismatch: analysis.mismatch.clone(),
             mismatch_detail: analysis.describe(),
             tests: analysis.tests.clone(),
@@ -605,6 +614,15 @@ impl Identification {
             for m in &r.metrics {
                 let value = unsigned_zero(m.value, 3);
                 let _ = writeln!(s, "  {:<22}   {}: {value:.3} {}", "", m.name, m.unit);
+            }
+        }
+        if !self.diagnostics.is_empty() {
+            let _ = writeln!(
+                s,
+                "\ndiagnostics in the instruments' terms (ranked by their contribution; 95 % intervals):"
+            );
+            for d in &self.diagnostics {
+                s.push_str(&d.summary(verbose));
             }
         }
         for (run, terms) in &self.undetermined_validation {

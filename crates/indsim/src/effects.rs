@@ -1578,8 +1578,13 @@ impl<'a> Timeline<'a> {
     }
 }
 
-/// Axis `i`'s command at time `at` (s), linear between the run's samples up to sample `k`;
-/// before the run's first sample, its first command (the axis stood there).
+/// Axis `i`'s command at time `at` (s) between the run's samples up to sample `k`; before the
+/// run's first sample, its first command (the axis stood there). A control interpolates a
+/// smooth path between the points a file samples (a circle stays a circle), so between two
+/// samples the command follows the cubic Hermite curve through them with the slopes of their
+/// neighbours (Catmull–Rom); where a neighbour is missing (the run's ends), the chord's slope.
+/// A straight chord instead would pull a trailing axis inside a circle by up to `R·Δθ²/8`
+/// and draw an ellipse no machine has.
 fn command_at(poses: &[Vec<f64>], times: &[f64], k: usize, i: usize, at: f64) -> f64 {
     let mut j = k;
     while j > 0 && times[j - 1] > at {
@@ -1589,8 +1594,22 @@ fn command_at(poses: &[Vec<f64>], times: &[f64], k: usize, i: usize, at: f64) ->
         return poses[j][i];
     }
     let (t0, t1) = (times[j - 1], times[j]);
-    let w = (at - t0) / (t1 - t0);
-    poses[j - 1][i] + w * (poses[j][i] - poses[j - 1][i])
+    let (p0, p1) = (poses[j - 1][i], poses[j][i]);
+    let chord = (p1 - p0) / (t1 - t0);
+    let slope = |a: usize, b: usize| (poses[b][i] - poses[a][i]) / (times[b] - times[a]);
+    let m0 = if j >= 2 { slope(j - 2, j) } else { chord };
+    let m1 = if j + 1 < poses.len() {
+        slope(j - 1, j + 1)
+    } else {
+        chord
+    };
+    let h = t1 - t0;
+    let u = (at - t0) / h;
+    let (u2, u3) = (u * u, u * u * u);
+    (2.0 * u3 - 3.0 * u2 + 1.0) * p0
+        + (u3 - 2.0 * u2 + u) * h * m0
+        + (-2.0 * u3 + 3.0 * u2) * p1
+        + (u3 - u2) * h * m1
 }
 
 /// Stick-slip's actual minus commanded position ([`Effect::StickSlip`]) moving in `sense`,

@@ -316,6 +316,9 @@ pub type PathLabels = fn(&PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError>;
 /// A plugin's set-up loader: from a manifest table to a [`Setup`].
 pub type LoadSetup = fn(&toml::Table, &SetupContext<'_>) -> Result<Box<dyn Setup>, SetupError>;
 
+/// A plugin's diagnosis of groups of its runs ([`InstrumentPlugin::diagnose`]).
+pub type Diagnose = fn(&[Evaluation<'_>]) -> Vec<Diagnosis>;
+
 /// The registered descriptor of an instrument plugin.
 #[derive(Debug)]
 pub struct InstrumentPlugin {
@@ -339,6 +342,57 @@ pub struct InstrumentPlugin {
     /// be; `None` for the others. The report draws every run in its common plots whatever
     /// this says; only here does an instrument add its own view.
     pub polar_view: Option<fn(&Evaluation<'_>) -> Option<PolarView>>,
+    /// The instrument's own diagnosis of groups of runs in its users' terms (a ball-bar's
+    /// backlash, squareness, servo mismatch… per circle pair), each value linear in the
+    /// readings so that the caller can say which part of the machine's model stands behind it;
+    /// `None` for instruments without one.
+    pub diagnose: Option<Diagnose>,
+}
+
+/// One group of runs diagnosed together (a ball-bar's counter-clockwise and clockwise circle in
+/// one plane), what [`InstrumentPlugin::diagnose`] returns.
+///
+/// Every value is linear in the readings once the diagnosis has chosen its templates:
+/// `value_k = Σ_runs Σ_samples estimator[run][k·n + s]·reading[s][channel]`. A caller that
+/// knows how much of each reading a model's parameter predicts gets, by the same estimator,
+/// how much of each diagnostic that parameter accounts for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnosis {
+    /// What the group is about, e.g. the plane `XY`.
+    pub subject: String,
+    /// Indices (into the evaluations given) of the group's runs.
+    pub runs: Vec<usize>,
+    /// The channel the estimator reads.
+    pub channel: usize,
+    /// The peak-to-valley the diagnostics are ranked against (a ball-bar's circularity), SI.
+    pub circularity: f64,
+    pub items: Vec<Diagnostic>,
+    /// Per run of `runs`: row-major `items × samples`, SI value per SI reading.
+    pub estimator: Vec<Vec<f64>>,
+    /// What the diagnosis could not evaluate and why (a diagnostic left out), for people.
+    pub notes: Vec<String>,
+}
+
+/// One diagnostic value of a [`Diagnosis`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    /// e.g. `backlash X+`.
+    pub name: String,
+    /// One line for people: what the value means and its sign.
+    pub about: String,
+    /// SI (m, dimensionless, s).
+    pub value: f64,
+    /// The expanded uncertainty (about 95 %), SI.
+    pub u95: f64,
+    /// Whether the value stands out of the noise with family-wise confidence over the group's
+    /// items (a value that does not is reported, but not claimed).
+    pub determined: bool,
+    /// The peak-to-valley this item alone puts into the group's readings, SI: its
+    /// contribution to the circularity.
+    pub contribution: f64,
+    /// The unit users read it in (`um`, `um/m`, `ms`, `ppm`) and the factor from SI to it.
+    pub unit: &'static str,
+    pub per_si: f64,
 }
 
 /// A run drawn on a circle: one reading channel at each sample's angle (a ball-bar's circular

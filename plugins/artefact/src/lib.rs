@@ -155,5 +155,6 @@ inventory::submit! {
         path_labels: Some(path_labels),
         evaluate: Some(evaluate),
         polar_view: None,
+        diagnose: None,
     }
 }

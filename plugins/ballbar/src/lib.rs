@@ -72,12 +72,20 @@
 //! no evaluation. [`bidirectional_circular_deviation`] gives G(b) from a ccw and a cw run.
 //! [`polar_view()`] gives the report a circle run's plane, radius and commanded angles, so it
 //! draws the run as a polar plot.
+//!
+//! # Diagnostics
+//! [`diagnose()`] pairs each counter-clockwise circle with a clockwise one of the same set-up,
+//! plane and held axes and gives what ball-bar users read — backlash, lateral play, reversal
+//! spikes, cyclic error, servo mismatch, squareness, straightness, scale mismatch — with their
+//! uncertainties and contributions to circularity (the module's docs give each shape).
 
+mod diagnose;
 mod evaluate;
 mod fixture;
 mod path;
 mod setup;
 
+pub use diagnose::diagnose;
 pub use evaluate::{
     Bidirectional, CircleRun, CircularDeviation, bidirectional_circular_deviation,
     circular_deviation, circular_deviation_uncertainty, evaluate, polar_view, recognise_circle,
@@ -110,5 +118,6 @@ inventory::submit! {
         path_labels: None,
         evaluate: Some(evaluate),
         polar_view: Some(polar_view),
+        diagnose: Some(diagnose),
     }
 }

@@ -124,5 +124,6 @@ inventory::submit! {
         path_labels: None,
         evaluate: Some(evaluate),
         polar_view: None,
+        diagnose: None,
     }
 }

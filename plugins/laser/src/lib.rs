@@ -205,5 +205,6 @@ inventory::submit! {
         path_labels: None,
         evaluate: Some(evaluate),
         polar_view: None,
+        diagnose: None,
     }
 }

@@ -132,5 +132,6 @@ inventory::submit! {
         path_labels: None,
         evaluate: None,
         polar_view: None,
+        diagnose: None,
     }
 }

@@ -181,5 +181,6 @@ inventory::submit! {
         path_labels: None,
         evaluate: None,
         polar_view: None,
+        diagnose: None,
     }
 }
