@@ -297,6 +297,34 @@ fn the_warm_five_axis_report_shows_what_the_search_found() {
     for name in &circles {
         assert!(ballbar.contains(&format!("data-name=\"{name}\"")), "{name}");
     }
+    // The XY circle pair's diagnostics as the JSON has them, the first ranked row the X
+    // backlash the search found, with the discovery behind it.
+    let diagnosis = &json["diagnostics"][0];
+    assert_eq!(diagnosis["subject"], "XY");
+    let first = &diagnosis["items"][0];
+    let name = first["name"].as_str().expect("name");
+    assert!(
+        name.starts_with("backlash X") && first["rank"] == 1,
+        "{first}"
+    );
+    let behind = first["behind"][0]["name"].as_str().expect("behind");
+    assert!(
+        json["discoveries"]
+            .as_array()
+            .expect("discoveries")
+            .iter()
+            .any(|d| d["label"] == behind),
+        "{behind}"
+    );
+    let table = ballbar
+        .split("id=\"diagnostics-0\"")
+        .nth(1)
+        .expect("the diagnostics table under the circles");
+    let row = table
+        .split("<tr data-determined=\"true\"")
+        .nth(1)
+        .expect("a ranked row");
+    assert!(row.contains(name) && row.contains(behind), "{row}");
 
     // One residual plot per context variable the run files recorded, plus time; each with the
     // model before and after the search.

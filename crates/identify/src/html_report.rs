@@ -53,6 +53,7 @@ pub fn report(
         title: format!("mtcal identification — {}", session_name(session)),
         summary: summary(session, study, id, before.as_ref()),
         ballbar: polar_runs(study, &after, id, before.as_ref()),
+        diagnostics: id.diagnostics.iter().map(diagnosis_table).collect(),
         residuals: residuals(study, &after, before.as_ref()),
         components: components(study, id),
         volumetric: volumetric(study, solution)?,
@@ -67,6 +68,35 @@ pub fn report(
             .map(|(key, value)| (key.to_string(), value))
             .collect(),
     })
+}
+
+/// A circle pair's diagnostics as the page tables them.
+fn diagnosis_table(d: &crate::diagnostics::DiagnosisReport) -> rep::DiagnosisTable {
+    rep::DiagnosisTable {
+        title: format!("{} {}: {}", d.instrument, d.subject, d.runs.join(" + ")),
+        circularity_um: d.circularity_um,
+        rows: d
+            .items
+            .iter()
+            .map(|i| rep::DiagnosisRow {
+                rank: i.rank,
+                name: i.name.clone(),
+                about: i.about.clone(),
+                value: i.value,
+                u95: i.u95,
+                unit: i.unit.clone(),
+                share_of_circularity: i.share_of_circularity,
+                model: i.model,
+                behind: i
+                    .behind
+                    .iter()
+                    .map(|b| format!("{} {:.0} %", b.name, 100.0 * b.share))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+            .collect(),
+        notes: d.notes.clone(),
+    }
 }
 
 /// The verdicts against the tolerance file, as the page's table.

@@ -75,6 +75,9 @@ pub struct Report {
     pub title: String,
     pub summary: Summary,
     pub ballbar: Vec<PolarRun>,
+    /// The instruments' diagnostics in their users' terms (a ball-bar's circle pairs),
+    /// tabled under the ball-bar plots.
+    pub diagnostics: Vec<DiagnosisTable>,
     pub residuals: Vec<ResidualPlot>,
     pub components: Vec<ComponentCurve>,
     pub volumetric: Volumetric,
@@ -87,6 +90,36 @@ pub struct Report {
     pub conventions: Vec<(String, String)>,
     /// `None` without a tolerance file: the page then has no acceptance section.
     pub acceptance: Option<AcceptanceSection>,
+}
+
+/// An instrument's diagnostics of a group of runs (a ball-bar's circle pair), ranked by their
+/// contribution to circularity.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DiagnosisTable {
+    /// e.g. `ballbar XY: ballbar-xy-ccw + ballbar-xy-cw`.
+    pub title: String,
+    pub circularity_um: f64,
+    /// Determined items first (ranked), then those within the noise.
+    pub rows: Vec<DiagnosisRow>,
+    /// What could not be evaluated and why.
+    pub notes: Vec<String>,
+}
+
+/// One diagnostic of a [`DiagnosisTable`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DiagnosisRow {
+    /// `None` for a value within the noise (reported, not claimed).
+    pub rank: Option<usize>,
+    pub name: String,
+    pub about: String,
+    pub value: f64,
+    pub u95: f64,
+    pub unit: String,
+    pub share_of_circularity: f64,
+    /// The identified model's value and what it comes from (`EC0Y 98 %`); empty when
+    /// nothing in the model draws it.
+    pub model: f64,
+    pub behind: String,
 }
 
 /// The verdicts against a tolerance file.

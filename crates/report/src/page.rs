@@ -259,7 +259,54 @@ fn ballbar(r: &Report) -> Result<String, ReportError> {
         h.push_str(&figure("polar", &run.name, &svg, &caption));
     }
     h.push_str("</div>\n");
+    for (k, d) in r.diagnostics.iter().enumerate() {
+        h.push_str(&diagnosis(k, d));
+    }
     Ok(h)
+}
+
+/// A circle pair's diagnostics as the shop reads them: ranked by their contribution to
+/// circularity, each with what the identified model says of it; the values within the noise
+/// greyed and unranked.
+fn diagnosis(k: usize, d: &crate::DiagnosisTable) -> String {
+    let mut h = format!(
+        "<h3>Diagnostics — {} (circularity {} µm)</h3>\n<table class=\"diagnostics\" \
+         id=\"diagnostics-{k}\">\n<tr><th>rank</th><th>diagnostic</th><th>value</th><th>± U</th>\
+         <th>unit</th><th>of circularity</th><th>model</th><th>behind it</th></tr>\n",
+        escape(&d.title),
+        num(d.circularity_um, 2)
+    );
+    for row in &d.rows {
+        let (v, u) = with_interval(row.value, row.u95);
+        let rank = row.rank.map_or("–".to_string(), |r| r.to_string());
+        let style = if row.rank.is_some() {
+            ""
+        } else {
+            " style=\"color:#777\""
+        };
+        let behind = if row.behind.is_empty() {
+            "not in the model".to_string()
+        } else {
+            escape(&row.behind)
+        };
+        let _ = writeln!(
+            h,
+            "<tr data-determined=\"{}\"{style} title=\"{}\"><td class=\"n\">{rank}</td><td>{}</td>\
+             <td class=\"n\">{v}</td><td class=\"n\">{u}</td><td>{}</td><td class=\"n\">{} %</td>\
+             <td class=\"n\">{}</td><td>{behind}</td></tr>",
+            row.rank.is_some(),
+            escape(&row.about),
+            escape(&row.name),
+            escape(display_unit(&row.unit)),
+            num(100.0 * row.share_of_circularity, 0),
+            num(row.model, 2),
+        );
+    }
+    h.push_str("</table>\n");
+    for note in &d.notes {
+        let _ = writeln!(h, "<p class=\"none\">not evaluated: {}</p>", escape(note));
+    }
+    h
 }
 
 fn residuals(r: &Report) -> Result<String, ReportError> {

@@ -127,6 +127,35 @@ fn sample() -> Report {
             }],
         },
         ballbar: vec![circle_run(181), circle_run(91)],
+        diagnostics: vec![DiagnosisTable {
+            title: "ballbar XY: <ccw> + cw".into(),
+            circularity_um: 7.0,
+            rows: vec![
+                DiagnosisRow {
+                    rank: Some(1),
+                    name: "backlash X+".into(),
+                    about: "the step".into(),
+                    value: 3.06,
+                    u95: 0.73,
+                    unit: "um".into(),
+                    share_of_circularity: 0.44,
+                    model: 3.09,
+                    behind: "reversal X (X) 100 %".into(),
+                },
+                DiagnosisRow {
+                    rank: None,
+                    name: "servo mismatch".into(),
+                    about: "lag".into(),
+                    value: 0.01,
+                    u95: 0.1,
+                    unit: "ms".into(),
+                    share_of_circularity: 0.01,
+                    model: 0.0,
+                    behind: String::new(),
+                },
+            ],
+            notes: vec!["cyclic error Y: too sparse".into()],
+        }],
         residuals: vec![ResidualPlot {
             variable: "t".into(),
             description: "time since the session started".into(),
@@ -581,4 +610,26 @@ fn the_convention_card_is_under_the_parameter_table_escaped() {
     let at = page.find("<table id=\"conventions\">").expect("the card");
     assert!(at > page.find("<table id=\"parameter-table\">").unwrap());
     assert!(page[at..].contains("<th>squareness</th><td>C0Y &gt; 0 opens the angle &lt;X, Y&gt;"));
+}
+
+#[test]
+fn diagnostics_are_tabled_under_the_ball_bar_plots_ranked_with_the_model_behind_them() {
+    let page = crate::page::page(&sample()).unwrap();
+    let ballbar = section(&page, "ballbar");
+    let table = ballbar
+        .split("<table class=\"diagnostics\" id=\"diagnostics-0\">")
+        .nth(1)
+        .expect("the pair's table in the ball-bar section")
+        .split("</table>")
+        .next()
+        .unwrap();
+    assert!(ballbar.contains("ballbar XY: &lt;ccw&gt; + cw (circularity 7.00 µm)"));
+    let rows: Vec<&str> = table.split("<tr data-determined=").skip(1).collect();
+    assert_eq!(rows.len(), 2);
+    assert!(rows[0].starts_with("\"true\""), "{}", rows[0]);
+    assert!(rows[0].contains("backlash X+") && rows[0].contains("reversal X (X) 100 %"));
+    assert!(rows[0].contains(">44 %<"), "{}", rows[0]);
+    assert!(rows[1].starts_with("\"false\"") && rows[1].contains("not in the model"));
+    assert!(rows[1].contains(">–<"), "unranked: {}", rows[1]);
+    assert!(ballbar.contains("not evaluated: cyclic error Y: too sparse"));
 }
