@@ -127,8 +127,9 @@ enum Command {
     /// Identify a machine's errors from a measurement session (folder with session.toml).
     Identify(identify::IdentifyArgs),
     /// Import an instrument's own export (ecmc ISO 230-2 .dat, API XD .pos, Renishaw .rtx)
-    /// as a laser run of a session: its CSV and its [[run]] in session.toml; or an R-test
-    /// head's continuous stream with its NC program and log as one rtest run per ball
+    /// as a laser run of a session: its CSV and its [[run]] in session.toml; Renishaw
+    /// ball-bar .b5r files as ballbar runs, with a card of what was read and assumed; or an
+    /// R-test head's continuous stream with its NC program and log as one rtest run per ball
     /// (rtest-stream, docs/VOLUMETRIC.md) (crates/import).
     Import(import::ImportArgs),
     /// The machine history: add a campaign (a session or an identify JSON), list machines,

@@ -14,6 +14,12 @@
 //! - [`Format::ApiPos`] — API XD laser linear data (`api_pos`);
 //! - [`Format::RenishawRtx`] — Renishaw CARTO dynamic capture (`rtx`).
 //!
+//! [`import_b5r`] (`renishaw-b5r`, module `b5r`) reads Renishaw QC10/QC20 ball-bar runs
+//! (`.b5r`, XML), several files at once, into `ballbar` runs: the axes along the circle in the
+//! plane the file names, `dr` in µm, a set-up per plane (pivot at the circle's centre, length =
+//! radius), the software's `RENISHAW_DIAGNOSTICS` kept in each run's `[run.b5r]` table, and a
+//! card of what was read and what was assumed ([`B5rImported::card`]).
+//!
 //! [`import_stream`] (`rtest-stream`) is of another kind: an R-test head's continuous stream,
 //! the NC program that drove the measuring cycle and a context log become the per-visit
 //! session of docs/VOLUMETRIC.md, one `rtest` run per ball (`rtest_stream`, with the program's
@@ -24,6 +30,7 @@
 //! a non-finite number.
 
 mod api_pos;
+mod b5r;
 mod csv_rows;
 mod ecmc;
 pub mod nc_dwells;
@@ -37,6 +44,10 @@ mod text;
 use std::path::{Path, PathBuf};
 
 pub use api_pos::read_pos;
+pub use b5r::{
+    B5rFile, B5rImported, B5rOptions, B5rPlane, B5rRun, B5rWritten, Feature, FeatureValue,
+    ReadingUnit, import_b5r, read_b5r,
+};
 pub use ecmc::read_dat;
 pub use recording::Recording;
 pub use rtest_stream::{StreamImported, StreamOptions, import_stream};

@@ -105,7 +105,7 @@ pub(crate) fn load_machine(arg: &str) -> Result<Machine, ImportError> {
 }
 
 /// The manifest's `machine`: a URDF's path relative to the session folder, or the code.
-fn machine_in_manifest(machine: &str, dir: &Path) -> String {
+pub(crate) fn machine_in_manifest(machine: &str, dir: &Path) -> String {
     let path = Path::new(machine);
     if !path.is_file() {
         return machine.to_string();
@@ -306,7 +306,7 @@ fn run_table(
 }
 
 /// Every position within its axis' limits (the session reader would refuse the run).
-fn check_limits(machine: &Machine, positions: &[f64]) -> Result<(), ImportError> {
+pub(crate) fn check_limits(machine: &Machine, positions: &[f64]) -> Result<(), ImportError> {
     let n_axes = machine.n_axes();
     for (k, a) in machine.axes().iter().enumerate() {
         let Some((lo, hi)) = a.limits() else { continue };
