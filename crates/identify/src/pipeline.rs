@@ -150,7 +150,17 @@ impl Prepared {
     /// Loads `session` and holds what its runs cannot determine ([`identifiable_study`]);
     /// the tolerances' parameter names must be the model's.
     pub fn load(session: &Path, options: PipelineOptions) -> Result<Self, IdentifyError> {
-        let (study, base) = identifiable_study(Study::load(session)?, &options.solver)?;
+        Self::from_study(session, Study::load(session)?, options)
+    }
+
+    /// [`Self::load`] for a study already built (a session held in memory, as the Python
+    /// package builds one from arrays); `session` names it in the outputs.
+    pub fn from_study(
+        session: &Path,
+        study: Study,
+        options: PipelineOptions,
+    ) -> Result<Self, IdentifyError> {
+        let (study, base) = identifiable_study(study, &options.solver)?;
         if let Some(tolerances) = &options.acceptance {
             let units = crate::acceptance::model_units(&study, base.as_ref());
             tolerances.check_parameters(&|name| units.get(name).cloned())?;
