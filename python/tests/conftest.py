@@ -32,8 +32,10 @@ def missing(why: str) -> None:
 
 @pytest.fixture(scope="session")
 def mtcal_bin() -> Path:
-    """The `mtcal` command line: $MTCAL_BIN, else target/debug/mtcal of the repository."""
-    path = Path(os.environ.get("MTCAL_BIN", REPO / "target" / "debug" / "mtcal"))
+    """The `mtcal` command line: $MTCAL_BIN, else debug/mtcal of the workspace's target folder
+    ($CARGO_TARGET_DIR when cargo was told one, as the workspace's tests were built there)."""
+    target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
+    path = Path(os.environ.get("MTCAL_BIN", target / "debug" / "mtcal"))
     if not path.is_file():
         missing(f"no mtcal binary at {path}: run `cargo build -p mtcal-xtask` (or cargo test --workspace) first")
     return path
