@@ -786,10 +786,12 @@ fn scan_cyclic(
     let radius = pair[0].radius.min(pair[1].radius);
     // Nyquist with margin: four samples a period where the samples lie farthest apart.
     let shortest = 4.0 * radius * spacing;
-    let longest = radius;
+    // A screw's pitch shows as a cycle only with several periods over the stroke; a longer
+    // one is a smooth shape that straightness and scale already draw.
+    let longest = radius / 4.0;
     if shortest >= longest {
         return Err(format!(
-            "samples {:.1}° apart cannot show a pitch below the radius",
+            "samples {:.1}° apart cannot show a pitch below a quarter of the radius",
             spacing.to_degrees()
         ));
     }
@@ -817,8 +819,8 @@ fn scan_cyclic(
     // The best pitch's χ² drop against the noise left once it is fitted (a cyclic error left
     // in the residuals would pass for coloured noise), taken at low frequencies,
     // `σ²·(1 + ρ)/(1 − ρ)`: conservative for a short pitch, where AR(1) noise has less power.
-    // Two parameters: P(> x) = e^{−x/2}; independent pitches about a quarter of those scanned
-    // (the step is a quarter of the resolution 1/(2R)).
+    // Two parameters: P(> x) = e^{−x/2}, Bonferroni over every pitch scanned (conservative:
+    // neighbours a quarter of the resolution 1/(2R) apart are not independent).
     let mut with = shapes.to_vec();
     with.extend([Shape::Cyclic(axis, f, false), Shape::Cyclic(axis, f, true)]);
     let Some(fitted) = fit(pair, &with) else {
@@ -826,7 +828,7 @@ fn scan_cyclic(
     };
     let noise = noise(pair, &design(pair, &with), &fitted);
     let variance = noise.variance * (1.0 + noise.rho) / (1.0 - noise.rho);
-    let independent = (count as f64 / 4.0).max(1.0);
+    let independent = count.max(1) as f64;
     if (-(base.rss - fitted.rss) / variance / 2.0).exp() >= FAMILY_ALPHA / (2.0 * independent) {
         return Ok(None);
     }
