@@ -955,17 +955,7 @@ fn run_name(options: &B5rOptions<'_>, file: &B5rFile, run: &B5rRun) -> Result<St
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            let stem: String = stem
-                .chars()
-                .map(|c| {
-                    if c.is_ascii_alphanumeric() || "-_.".contains(c) {
-                        c
-                    } else {
-                        '-'
-                    }
-                })
-                .collect();
-            let stem = stem.trim_start_matches('.').to_string();
+            let stem = crate::session::file_safe(&stem);
             if file.runs.len() > 1 {
                 format!("{stem}-{dir}")
             } else {

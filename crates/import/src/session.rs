@@ -190,6 +190,22 @@ fn axis(
     }
 }
 
+/// `raw` as a run name and CSV stem: anything but letters, digits, `-`, `_` and `.` replaced by
+/// `-`, no leading `.`.
+pub(crate) fn file_safe(raw: &str) -> String {
+    let name: String = raw
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    name.trim_start_matches('.').to_string()
+}
+
 /// `--name`, else the input's file stem with anything but letters, digits, `-`, `_` and `.`
 /// replaced by `-`.
 fn run_name(options: &ImportOptions<'_>) -> Result<String, ImportError> {
@@ -201,17 +217,7 @@ fn run_name(options: &ImportOptions<'_>) -> Result<String, ImportError> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default(),
     };
-    let name: String = raw
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
-                c
-            } else {
-                '-'
-            }
-        })
-        .collect();
-    let name = name.trim_start_matches('.').to_string();
+    let name = file_safe(&raw);
     if name.is_empty() || (options.name.is_some() && name != raw) {
         return Err(ImportError::Options(format!(
             "run name `{raw}`: expected letters, digits, `-`, `_` and `.` (it names the CSV file)"

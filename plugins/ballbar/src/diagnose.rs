@@ -255,15 +255,18 @@ fn spike(c: &Circle, axis: usize, width: f64, theta: f64) -> f64 {
     if since < 1e-9 || at <= c.start + 1e-9 || since > SPIKE_REACH * width {
         return 0.0;
     }
-    let theta_r = c.s * at;
-    // After a reversal at θ_r the coordinate moves back from its extreme: a trailing axis
-    // stands outwards, `cos θ_r·cos θ` (a) or `sin θ_r·sin θ` (b) along the bar.
+    spike_after(axis, c.s * at, theta, since / width)
+}
+
+/// The spike of axis a (0) or b (1) at `theta`, `u` recovery arcs after its reversal at
+/// `theta_r`: after the reversal the coordinate moves back from its extreme, so a trailing
+/// axis stands outwards, `cos θ_r·cos θ` (a) or `sin θ_r·sin θ` (b) along the bar.
+fn spike_after(axis: usize, theta_r: f64, theta: f64, u: f64) -> f64 {
     let outward = if axis == 0 {
         theta_r.cos() * theta.cos()
     } else {
         theta_r.sin() * theta.sin()
     };
-    let u = since / width;
     (1.0 + u) * (-u).exp() * outward
 }
 
@@ -280,14 +283,7 @@ fn start_spike(c: &Circle, axis: usize, width: f64, theta: f64) -> f64 {
     if !starts_at_reversal(c, axis) || since < 1e-9 || since > SPIKE_REACH * width {
         return 0.0;
     }
-    let theta_r = c.s * c.start;
-    let outward = if axis == 0 {
-        theta_r.cos() * theta.cos()
-    } else {
-        theta_r.sin() * theta.sin()
-    };
-    let u = since / width;
-    (1.0 + u) * (-u).exp() * outward
+    spike_after(axis, c.s * c.start, theta, since / width)
 }
 
 /// A diagnostic item of the report and the design columns it reads.
