@@ -9,6 +9,9 @@
 //!   drift of Z, the backlash of X, a cyclic screw error, a servo lag. The identification core
 //!   carries it through the machine's axis Jacobian (`∂pose/∂q`), so it acts exactly as the
 //!   axis would: through the workpiece-side rotary axes, with its Abbe arms;
+//! - a **location error** of an axis changes (`ΔL`, m or rad): the line of a rotary axis moves,
+//!   a linear axis' squareness changes as a column warms. The core carries it through the
+//!   machine model's own Jacobian column of that parameter;
 //! - a set-up's **nuisance** parameter drifts (`Δn`): the R-test head or the ball-bar pivot
 //!   creeping on the table;
 //! - a **reading** changes directly (`Δr`): a displacement sensor's own thermal drift; or its
@@ -66,6 +69,13 @@ pub enum Target {
     /// X, Y or Z (`k` = 0, 1, 2) through its origin (a cross-beam twisting): slot
     /// [`Slot::Axis`]`(n_axes + 3 + k)`.
     ToolTurn(usize),
+    /// A constant of the machine's geometry — a rotary axis' location error or a linear axis'
+    /// squareness (`EY0A`, `EC0Y`) — is effectively `Δ` larger (m or rad): a bearing housing or
+    /// a column warming unevenly moves an axis line. The identification core carries it
+    /// through the model's own Jacobian column of that parameter at the nominal machine
+    /// ([`Slot::Location`]`(j)`, `j` its place in [`SessionView::locations`]); a parameter not
+    /// there (the fit does not estimate it) makes the term act nowhere.
+    Location(ParamName),
     /// Nuisance parameter `index` of set-up `setup` deviates by `Δ` (SI).
     Nuisance { setup: usize, index: usize },
     /// A reading changes by `Δ` (SI): per set-up, the channel it acts on (`None`: the term
@@ -392,6 +402,7 @@ mod tests {
                 "temperature-coupling",
                 "thermal-drift",
                 "thermal-expansion",
+                "thermal-location",
                 "thermal-model",
                 "thermal-tilt",
             ]

@@ -19,6 +19,8 @@ pub struct PreparedEffects {
     n_params: usize,
     /// The machine's axes: a tool turn's slot comes after them.
     n_axes: usize,
+    /// The location errors a term can act on ([`SessionView::locations`]), in slot order.
+    locations: Vec<mtcal_kinematics::ParamName>,
 }
 
 impl std::fmt::Debug for PreparedEffects {
@@ -79,6 +81,7 @@ impl PreparedEffects {
             shapes,
             n_params: o,
             n_axes: view.axes.len(),
+            locations: view.locations.clone(),
         }
     }
 
@@ -91,8 +94,8 @@ impl PreparedEffects {
     }
 
     /// Scratch for [`Self::sample`], sized for the machine's `n_axes` axes (and the tool
-    /// side's motions after them: [`axis_slots`]) and up to `max_nuisance` nuisance parameters
-    /// and `max_channels` channels per set-up.
+    /// side's motions after them: [`axis_slots`]), the view's location errors, and up to
+    /// `max_nuisance` nuisance parameters and `max_channels` channels per set-up.
     pub fn scratch(
         &self,
         n_axes: usize,
@@ -109,19 +112,24 @@ impl PreparedEffects {
             .unwrap_or(0);
         let max_shapes = self.shapes.iter().map(Vec::len).max().unwrap_or(0);
         let np = self.n_params;
+        let n_loc = self.locations.len();
         SampleEffects {
             n_axes,
+            n_loc,
             n_nuis: max_nuisance,
             n_ch: max_channels,
             dq: vec![0.0; n_axes],
+            dl: vec![0.0; n_loc],
             dn: vec![0.0; max_nuisance],
             dr: vec![0.0; max_channels],
             gain: vec![0.0; max_channels],
             jq: vec![0.0; np * n_axes],
+            jl: vec![0.0; np * n_loc],
             jn: vec![0.0; np * max_nuisance],
             jr: vec![0.0; np * max_channels],
             jg: vec![0.0; np * max_channels],
             axes_touched: false,
+            locations_touched: false,
             written: 0,
             f: vec![0.0; max_terms],
             df: vec![0.0; max_terms * max_shapes.max(1)],
@@ -145,7 +153,7 @@ impl PreparedEffects {
             self.features[e].eval(r, i, &mut scratch.f, &mut scratch.df);
             let o = self.offsets[e];
             for (k, term) in effect.terms().iter().enumerate() {
-                if let Some(slot) = slot_of(&term.target, setup, self.n_axes) {
+                if let Some(slot) = self.slot_of(&term.target, setup) {
                     out.push(Entry {
                         param: o + term.amplitude,
                         slot,
@@ -195,7 +203,7 @@ impl PreparedEffects {
                 let amp_index = o + term.amplitude;
                 let amp = params[amp_index];
                 let f = out.f[k];
-                let Some(slot) = slot_of(&term.target, setup, self.n_axes) else {
+                let Some(slot) = self.slot_of(&term.target, setup) else {
                     continue;
                 };
                 out.add(slot, None, amp * f);
@@ -214,16 +222,25 @@ pub fn axis_slots(n_axes: usize) -> usize {
     n_axes + mtcal_kinematics::TOOL_MOTIONS
 }
 
-/// The slot of a term's target in the runs of set-up `setup`, if it acts there, on a machine
-/// with `n_axes` axes.
-fn slot_of(target: &Target, setup: usize, n_axes: usize) -> Option<Slot> {
-    match target {
-        Target::Axis(a) => Some(Slot::Axis(*a)),
-        Target::ToolShift(k) => Some(Slot::Axis(n_axes + k)),
-        Target::ToolTurn(k) => Some(Slot::Axis(n_axes + 3 + k)),
-        Target::Nuisance { setup: s, index } => (*s == setup).then_some(Slot::Nuisance(*index)),
-        Target::Channel { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Channel),
-        Target::Gain { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Gain),
+impl PreparedEffects {
+    /// The slot of a term's target in the runs of set-up `setup`, if it acts there.
+    fn slot_of(&self, target: &Target, setup: usize) -> Option<Slot> {
+        let n_axes = self.n_axes;
+        match target {
+            Target::Axis(a) => Some(Slot::Axis(*a)),
+            Target::ToolShift(k) => Some(Slot::Axis(n_axes + k)),
+            Target::ToolTurn(k) => Some(Slot::Axis(n_axes + 3 + k)),
+            Target::Nuisance { setup: s, index } => (*s == setup).then_some(Slot::Nuisance(*index)),
+            Target::Channel { per_setup } => {
+                per_setup.get(setup).copied().flatten().map(Slot::Channel)
+            }
+            Target::Gain { per_setup } => per_setup.get(setup).copied().flatten().map(Slot::Gain),
+            Target::Location(name) => self
+                .locations
+                .iter()
+                .position(|n| n == name)
+                .map(Slot::Location),
+        }
     }
 }
 
@@ -239,6 +256,8 @@ pub enum Slot {
     Channel(usize),
     /// A reading channel's gain.
     Gain(usize),
+    /// A location error of the machine (index into [`SessionView::locations`]).
+    Location(usize),
 }
 
 /// The derivative of an effect's perturbation by one of its amplitudes at one sample: the
@@ -255,6 +274,8 @@ pub struct Entry {
 #[derive(Clone, Debug)]
 pub struct SampleEffects {
     pub n_axes: usize,
+    /// Row stride of `jl` (the view's location errors).
+    pub n_loc: usize,
     /// Row stride of `jn` (the largest nuisance count of a set-up).
     pub n_nuis: usize,
     /// Row stride of `jr` (the largest channel count of a set-up).
@@ -262,18 +283,23 @@ pub struct SampleEffects {
     /// Totals: axis perturbations (SI), nuisance perturbations, reading changes, gain changes
     /// per channel. The reading becomes `(1 + gain)·prediction + dr`.
     pub dq: Vec<f64>,
+    pub dl: Vec<f64>,
     pub dn: Vec<f64>,
     pub dr: Vec<f64>,
     pub gain: Vec<f64>,
     /// Per effect parameter, row-major: `∂dq/∂p` (`n_params × n_axes`), `∂dn/∂p`, `∂dr/∂p`,
     /// `∂gain/∂p`.
     pub jq: Vec<f64>,
+    /// `∂dl/∂p` (`n_params × n_loc`).
+    pub jl: Vec<f64>,
     pub jn: Vec<f64>,
     pub jr: Vec<f64>,
     pub jg: Vec<f64>,
     /// Whether any term acted on an axis (the caller needs the axis Jacobian only then).
     pub axes_touched: bool,
-    /// Which of `jq`, `jn`, `jr`, `jg` (bits 0–3) hold something since the last clear: a
+    /// Whether any term acted on a location error (the caller needs their columns only then).
+    pub locations_touched: bool,
+    /// Which of `jq`, `jn`, `jr`, `jg`, `jl` (bits 0–4) hold something since the last clear: a
     /// sample clears only those (a joint thermal model of a channel writes `jr` alone, and
     /// the others are hundreds of parameters wide).
     written: u8,
@@ -283,12 +309,24 @@ pub struct SampleEffects {
 
 impl SampleEffects {
     fn clear(&mut self) {
-        for v in [&mut self.dq, &mut self.dn, &mut self.dr, &mut self.gain] {
+        for v in [
+            &mut self.dq,
+            &mut self.dn,
+            &mut self.dr,
+            &mut self.gain,
+            &mut self.dl,
+        ] {
             v.fill(0.0);
         }
-        for (bit, v) in [&mut self.jq, &mut self.jn, &mut self.jr, &mut self.jg]
-            .into_iter()
-            .enumerate()
+        for (bit, v) in [
+            &mut self.jq,
+            &mut self.jn,
+            &mut self.jr,
+            &mut self.jg,
+            &mut self.jl,
+        ]
+        .into_iter()
+        .enumerate()
         {
             if self.written & (1 << bit) != 0 {
                 v.fill(0.0);
@@ -296,6 +334,7 @@ impl SampleEffects {
         }
         self.written = 0;
         self.axes_touched = false;
+        self.locations_touched = false;
     }
 
     /// Adds `v` to the total (`param` None) or to parameter `param`'s derivative.
@@ -320,6 +359,15 @@ impl SampleEffects {
             (Slot::Channel(c), Some(p)) => {
                 self.jr[p * self.n_ch + c] += v;
                 self.written |= 4;
+            }
+            (Slot::Location(j), None) => {
+                self.dl[j] += v;
+                self.locations_touched = true;
+            }
+            (Slot::Location(j), Some(p)) => {
+                self.jl[p * self.n_loc + j] += v;
+                self.written |= 16;
+                self.locations_touched = true;
             }
             (Slot::Gain(c), None) => self.gain[c] += v,
             (Slot::Gain(c), Some(p)) => {

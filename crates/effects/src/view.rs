@@ -422,6 +422,10 @@ pub struct SessionView {
     pub runs: Vec<RunView>,
     /// Every parameter of the machine's full error model.
     pub model: Vec<ModelParamView>,
+    /// The location errors (rotary axes' lines, linear axes' squareness) the fit estimates,
+    /// one coefficient each: what a [`crate::Target::Location`] can act on, in slot order
+    /// ([`crate::Slot::Location`]).
+    pub locations: Vec<ParamName>,
     /// The effects already in the model (families may propose refinements of them).
     pub current: Vec<crate::EffectInfo>,
     /// How far the tool point travels in the machine frame over the fitted samples, along the
@@ -490,6 +494,7 @@ impl SessionView {
             setups,
             runs,
             model,
+            locations: Vec::new(),
             current: Vec::new(),
             tool_reach_m: [0.0; 3],
             tool_middle_m: [0.0; 3],
@@ -524,6 +529,13 @@ impl SessionView {
     /// series of views over the same runs (a study and its rebuilds).
     pub fn with_series_cache(mut self, cache: Arc<SeriesCache>) -> Self {
         self.cache = cache;
+        self
+    }
+
+    /// The view with `locations` as the location errors a term can act on
+    /// ([`SessionView::locations`]).
+    pub fn with_locations(mut self, locations: Vec<ParamName>) -> Self {
+        self.locations = locations;
         self
     }
 

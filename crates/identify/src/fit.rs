@@ -71,7 +71,8 @@ fn channel_groups(study: &Study) -> Vec<Vec<ChannelGroup>> {
             let reaches = |c: usize, t: &mtcal_effects::Target| match t {
                 mtcal_effects::Target::Axis(_)
                 | mtcal_effects::Target::ToolShift(_)
-                | mtcal_effects::Target::ToolTurn(_) => slot.setup.reads_pose(c),
+                | mtcal_effects::Target::ToolTurn(_)
+                | mtcal_effects::Target::Location(_) => slot.setup.reads_pose(c),
                 mtcal_effects::Target::Nuisance { setup, .. } => *setup == s,
                 mtcal_effects::Target::Channel { per_setup }
                 | mtcal_effects::Target::Gain { per_setup } => {
@@ -532,6 +533,8 @@ struct EffectEval {
     /// motions after the axes), and its scratch.
     axis_jac: Vec<f64>,
     axis_scratch: crate::study::AxisJacobianScratch,
+    /// `∂pose/∂L` of the location errors an effect can act on, 6 × their count.
+    location_jac: Vec<f64>,
     /// Nuisance values with the effects' perturbation.
     nuis: Vec<f64>,
     /// Per effect parameter, the twist its axis columns give (6 each).
@@ -572,6 +575,7 @@ impl<'a> SampleEval<'a> {
                 raw: vec![0.0; nch],
                 axis_jac: vec![0.0; 6 * mtcal_effects::axis_slots(na)],
                 axis_scratch: study.axis_jacobian_scratch(),
+                location_jac: vec![0.0; 6 * study.locations().len()],
                 nuis: vec![0.0; nn],
                 only: None,
             }
@@ -645,6 +649,14 @@ impl<'a> SampleEval<'a> {
                 pose.t += nalgebra::Vector3::new(twist[0], twist[1], twist[2]);
                 pose.r = exp_so3(&nalgebra::Vector3::new(twist[3], twist[4], twist[5])) * pose.r;
             }
+            if fx.out.locations_touched {
+                // A changed location error moves the tool as the parameter's own column
+                // says (first order, as the axes').
+                study.location_jacobian(self.run, i, &mut fx.axis_scratch, &mut fx.location_jac);
+                let twist = axis_twist(&fx.location_jac, &fx.out.dl);
+                pose.t += nalgebra::Vector3::new(twist[0], twist[1], twist[2]);
+                pose.r = exp_so3(&nalgebra::Vector3::new(twist[3], twist[4], twist[5])) * pose.r;
+            }
             fx.nuis.copy_from_slice(&nuis);
             for (v, d) in fx.nuis.iter_mut().zip(&fx.out.dn) {
                 *v += d;
@@ -695,6 +707,13 @@ impl<'a> SampleEval<'a> {
                     } else {
                         [0.0; 6]
                     };
+                    if fx.out.locations_touched {
+                        let nl = fx.out.n_loc;
+                        let more = axis_twist(&fx.location_jac, &fx.out.jl[j * nl..][..nl]);
+                        for (t, m) in tw.iter_mut().zip(more) {
+                            *t += m;
+                        }
+                    }
                 }
             }
         }

@@ -227,6 +227,11 @@ pub struct Study {
     /// [`AXIS_JACOBIAN_CACHE_BYTES`] (decided on first use); shared by the studies rebuilt with
     /// the same reduced model.
     axis_jacobians: Arc<OnceLock<Option<Vec<Vec<f64>>>>>,
+    /// The location errors an effect can act on ([`Study::locations`]), decided on first use.
+    locations: OnceLock<Vec<(ParamName, usize)>>,
+    /// Per run, their columns at every sample ([`Study::location_jacobian`]), kept as the axis
+    /// Jacobians are.
+    location_jacobians: Arc<OnceLock<Option<Vec<Vec<f64>>>>>,
     /// The inputs and lag series of the session's runs, shared by the studies rebuilt from
     /// this one (they depend on the runs alone).
     series: Arc<SeriesCache>,
@@ -246,6 +251,16 @@ pub struct AxisJacobianScratch {
     ws: mtcal_kinematics::Workspace,
     zeros: Vec<f64>,
     q: Vec<f64>,
+    /// The full model's, for the location errors' columns (made on first use).
+    full: Option<FullScratch>,
+}
+
+/// The full model's workspace, zero coefficients and coefficient Jacobian.
+#[derive(Debug)]
+struct FullScratch {
+    ws: mtcal_kinematics::Workspace,
+    zeros: Vec<f64>,
+    jac: Vec<f64>,
 }
 
 /// Samples of one set-up looked at by `Study::field_like_nuisance` (an even stride through
@@ -376,6 +391,7 @@ impl Study {
         )?;
         if same_model {
             study.axis_jacobians = Arc::clone(&self.axis_jacobians);
+            study.location_jacobians = Arc::clone(&self.location_jacobians);
         }
         study.series = Arc::clone(&self.series);
         Ok(study)
@@ -546,6 +562,8 @@ impl Study {
             changes,
             view: OnceLock::new(),
             axis_jacobians: Arc::new(OnceLock::new()),
+            locations: OnceLock::new(),
+            location_jacobians: Arc::new(OnceLock::new()),
             series: Arc::default(),
         })
     }
@@ -643,6 +661,85 @@ impl Study {
             ws: model.workspace(),
             zeros: vec![0.0; model.n_coeffs()],
             q: vec![0.0; model.machine().n_axes()],
+            full: None,
+        }
+    }
+
+    /// The location errors (rotary axes' lines, linear axes' squareness) this study estimates,
+    /// one coefficient each, with their coefficient in the full model: what an effect's
+    /// [`mtcal_effects::Target::Location`] can act on, in slot order.
+    pub fn locations(&self) -> &[(ParamName, usize)] {
+        self.locations.get_or_init(|| {
+            let estimated: std::collections::BTreeSet<usize> =
+                self.layout.estimated().iter().copied().collect();
+            self.model
+                .errors()
+                .params()
+                .iter()
+                .filter(|p| {
+                    matches!(p.name, ParamName::Location { .. })
+                        && p.len == 1
+                        && estimated.contains(&p.offset)
+                })
+                .map(|p| (p.name, p.offset))
+                .collect()
+        })
+    }
+
+    /// `∂pose/∂L` of the nominal machine at sample `i` of run `r` into `out` (6 × the
+    /// [`Self::locations`], column-major, as [`Self::axis_jacobian`]'s): how an effect that
+    /// changes a location error moves the tool. Kept for every sample as the axis Jacobians
+    /// are, computed on first use (only a search that proposes such a change needs them).
+    pub fn location_jacobian(
+        &self,
+        r: usize,
+        i: usize,
+        scratch: &mut AxisJacobianScratch,
+        out: &mut [f64],
+    ) {
+        let kept = self.location_jacobians.get_or_init(|| {
+            let width = 6 * self.locations().len();
+            let samples: usize = self.runs.iter().map(RunSlot::len).sum();
+            if samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES {
+                return None;
+            }
+            let mut scratch = self.axis_jacobian_scratch();
+            let all = (0..self.runs.len())
+                .map(|r| {
+                    let mut out = vec![0.0; self.runs[r].len() * width];
+                    for (i, jac) in out.chunks_exact_mut(width.max(1)).enumerate() {
+                        self.nominal_location_jacobian(r, i, &mut scratch, jac);
+                    }
+                    out
+                })
+                .collect();
+            Some(all)
+        });
+        match kept {
+            Some(all) => out.copy_from_slice(&all[r][i * out.len()..(i + 1) * out.len()]),
+            None => self.nominal_location_jacobian(r, i, scratch, out),
+        }
+    }
+
+    /// [`Self::location_jacobian`], computed: the full model's coefficient Jacobian at the
+    /// nominal machine, the locations' columns.
+    fn nominal_location_jacobian(
+        &self,
+        r: usize,
+        i: usize,
+        scratch: &mut AxisJacobianScratch,
+        out: &mut [f64],
+    ) {
+        let model = &self.model;
+        let full = scratch.full.get_or_insert_with(|| FullScratch {
+            ws: model.workspace(),
+            zeros: vec![0.0; model.n_coeffs()],
+            jac: vec![0.0; 6 * model.n_coeffs()],
+        });
+        self.runs[r].q.row_into(i, &mut scratch.q);
+        model.tool_pose_jacobian(&scratch.q, &full.zeros, &mut full.ws, &mut full.jac);
+        for (col, &(_, k)) in out.chunks_exact_mut(6).zip(self.locations()) {
+            col.copy_from_slice(&full.jac[6 * k..6 * k + 6]);
         }
     }
 
@@ -819,6 +916,7 @@ impl Study {
             })
             .collect();
         SessionView::new(axes, setups, runs, model)
+            .with_locations(self.locations().iter().map(|&(n, _)| n).collect())
             .with_series_cache(Arc::clone(&self.series))
             .with_current(self.effects().iter().map(|e| e.info().clone()).collect())
             .with_tool_travel(lo, hi)

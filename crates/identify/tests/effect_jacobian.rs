@@ -130,7 +130,8 @@ gain_ppm = 30000.0
 
 /// The shapes of real machines beyond those (lost motion changing along the stroke, lateral
 /// play as a step and taken up over travel, a reversal spike first-order and damped decaying in time, a local bump of a straightness, the spindle growing
-/// every set-up's tool length in time and with speed): their columns against differences.
+/// every set-up's tool length in time and with speed, a location error and a squareness
+/// following a temperature): their columns against differences.
 const SHAPES: &str = r#"
 [[effect]]
 effect = "reversal"
@@ -181,6 +182,17 @@ effect = "spindle-growth"
 driver = "S"
 gain_um_per_krpm = 0.5
 tau_s = 300.0
+[[effect]]
+effect = "thermal-location"
+parameter = "EY0A"
+driver = "T_bed"
+gain_um_per_K = 2.0
+[[effect]]
+effect = "thermal-location"
+parameter = "EC0Y"
+driver = "T_bed"
+gain_urad_per_K = 3.0
+tau_s = 500.0
 "#;
 
 fn session(dir: &Path, noise: f64, effects: &str) -> PathBuf {
@@ -217,7 +229,7 @@ fn effect_columns_equal_finite_differences() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
     let (effects, values) = effects_of(&loaded, &format!("{EFFECTS}{SHAPES}"));
-    assert_eq!(effects.len(), 19);
+    assert_eq!(effects.len(), 21);
     let study = loaded
         .rebuild(Changes {
             effects,
@@ -230,6 +242,73 @@ fn effect_columns_equal_finite_differences() {
         .collect();
     x[study.layout().effect_offset()..].copy_from_slice(&values);
     assert_columns_match(&study, &x);
+}
+
+/// A location error following a temperature moves the readings as the machine model moves
+/// them when that error really is larger by the same amount (the exact chain, not the
+/// first-order column the effect is carried by): at every sample, within a hundredth of the
+/// change for a change of 20 µm (second order: tens of µrad times the arm).
+#[test]
+fn a_location_change_moves_the_readings_as_the_parameter_itself() {
+    let dir = tempfile::tempdir().unwrap();
+    let loaded = Study::load(&session(dir.path(), 0.5, "")).unwrap();
+    for (text, name, gain_si) in [
+        (
+            "[[effect]]\neffect = \"thermal-location\"\nparameter = \"EY0A\"\ndriver = \"T_bed\"\ngain_um_per_K = 8.0\n",
+            "EY0A",
+            8e-6,
+        ),
+        (
+            "[[effect]]\neffect = \"thermal-location\"\nparameter = \"EB0C\"\ndriver = \"T_bed\"\ngain_urad_per_K = 8.0\n",
+            "EB0C",
+            8e-6,
+        ),
+    ] {
+        let (effects, _) = effects_of(&loaded, text);
+        let study = loaded
+            .rebuild(Changes {
+                effects,
+                ..Changes::default()
+            })
+            .unwrap();
+        let n = loaded.layout().n_x();
+        let x0: Vec<f64> = (0..n)
+            .map(|i| 3e-6 * ((i as f64 * 1.7).sin() + 0.3))
+            .collect();
+        let mut x = x0.clone();
+        x.push(gain_si);
+        let k = (0..n)
+            .find(|&i| loaded.param_info(i).name == name)
+            .unwrap_or_else(|| panic!("{name} is estimated"));
+        let mut checked = 0;
+        for (r, run) in study.runs.iter().enumerate() {
+            if !run.fit {
+                continue;
+            }
+            let with = predict_run(&study, r, &x);
+            let nch = study.channels(r).len();
+            let view = study.view();
+            let rises = view.input(&mtcal_effects::Input::Context("T_bed".into()));
+            for i in (0..run.len()).step_by(37) {
+                let rise = rises[view.timeline_index(r, i)];
+                let mut moved = x0.clone();
+                moved[k] += gain_si * rise;
+                let exact = predict_run(&loaded, r, &moved);
+                for c in 0..nch {
+                    let (a, b) = (with[i * nch + c], exact[i * nch + c]);
+                    assert!(
+                        (a - b).abs() <= 0.01 * gain_si * rise.abs() + 1e-10,
+                        "{name}, run {}, sample {i}, channel {c}: {a:e} with the effect, \
+                         {b:e} with the parameter moved by {:e}",
+                        run.name,
+                        gain_si * rise
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 20, "{checked} samples checked");
+    }
 }
 
 /// A reversal's side of its play in a run the axis arrived at from an unknown side (the

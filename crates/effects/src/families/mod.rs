@@ -13,6 +13,7 @@
 mod axis;
 mod instrument;
 mod local;
+mod location;
 pub(crate) mod model;
 mod spindle;
 mod thermal;

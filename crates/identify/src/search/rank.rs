@@ -384,6 +384,8 @@ impl ScoredProblem for Scoring<'_> {
             placed: Vec::new(),
             pose_axis: vec![0.0; max_ch * mtcal_effects::axis_slots(na)],
             axis_jac: vec![0.0; 6 * mtcal_effects::axis_slots(na)],
+            pose_location: vec![0.0; max_ch * self.study.locations().len()],
+            location_jac: vec![0.0; 6 * self.study.locations().len()],
             axis_scratch: self.study.axis_jacobian_scratch(),
         });
         let mut target = Target {
@@ -418,6 +420,10 @@ struct CandidateEffects {
     pose_axis: Vec<f64>,
     /// The nominal axis Jacobian at this sample, and its scratch.
     axis_jac: Vec<f64>,
+    /// The same for the location errors an effect can act on: channels × locations, and
+    /// their columns at this sample.
+    pose_location: Vec<f64>,
+    location_jac: Vec<f64>,
     axis_scratch: crate::study::AxisJacobianScratch,
 }
 
@@ -490,6 +496,22 @@ impl RowTarget for Target<'_, '_> {
                         }
                     }
                 }
+                if fx
+                    .entries
+                    .iter()
+                    .any(|e| matches!(e.slot, mtcal_effects::Slot::Location(_)))
+                {
+                    let nl = self.study.locations().len();
+                    let jl = &mut fx.location_jac;
+                    self.study
+                        .location_jacobian(eval.run, sample, &mut fx.axis_scratch, jl);
+                    for (c, dp) in eval.d_pose.iter().enumerate() {
+                        for j in 0..nl {
+                            fx.pose_location[c * nl + j] =
+                                (0..6).map(|k| dp[k] * jl[6 * j + k]).sum();
+                        }
+                    }
+                }
             }
         }
         let extra = &mut self.extra_raw;
@@ -506,6 +528,9 @@ impl RowTarget for Target<'_, '_> {
             for &(col, e) in &fx.placed {
                 let through = match e.slot {
                     mtcal_effects::Slot::Axis(a) => fx.pose_axis[channel * na + a],
+                    mtcal_effects::Slot::Location(j) => {
+                        fx.pose_location[channel * self.study.locations().len() + j]
+                    }
                     mtcal_effects::Slot::Nuisance(j) => eval.d_nuis[channel * nn + j],
                     mtcal_effects::Slot::Channel(c) if c == channel => w,
                     mtcal_effects::Slot::Gain(c) if c == channel => eval.pred[channel] * w,

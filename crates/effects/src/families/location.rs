@@ -1,0 +1,126 @@
+//! **`thermal-location`** — a constant of the machine's geometry follows a recorded
+//! temperature: the line of a rotary axis moves (its location errors, `EY0A`, `EB0C`) or a
+//! linear axis' direction turns (its squareness, `EC0Y`) as bearing housings, a cradle or a
+//! column warm unevenly. Source 000 measured A's and C's location errors and the X–Y
+//! squareness changing between the load cycles of the rotary drives. The change is
+//! `ΔL = g·ΔT` (`ΔT` the temperature's rise, driver `T_<name>`), or `g·lag(ΔT, τ)` when the
+//! static form is already in the model (the sensor is not where the heat is); it acts as the
+//! parameter itself does ([`Target::Location`]), so it shows where the parameter shows: a
+//! ball turned by the axis, a circle whose shape the squareness draws.
+//!
+//! Proposed for every location error the fit estimates (its static value must be determined
+//! for a change of it to be) and every recorded temperature, when some channel reads the tool
+//! pose. What moves the parts an axis carries as a whole besides its line (a cradle lifting
+//! the table with the line) is an offset that follows the temperature: a
+//! `temperature-coupling`, a candidate of its own.
+//!
+//! Plant keys: `parameter = "EY0A"`, `driver = "T_<name>"`, `gain_um_per_K` (`gain_urad_per_K`
+//! for an orientation or a squareness) and, for the lagged form, `tau_s`.
+
+use super::{lag_taus, number, plant_values, string};
+use crate::basic::{AmplitudeUnit, Basic, Feature};
+use crate::view::{Input, SessionView};
+use crate::{Candidate, Effect, EffectFamily, EffectInfo, PlantError, Planted, Target};
+use mtcal_kinematics::ParamName;
+use std::sync::Arc;
+
+/// The change of location error `name` following `feature` of temperature `column`.
+fn location(name: ParamName, feature: Feature, column: &str, tau: Option<f64>) -> Basic {
+    let rotation = name.direction().is_rotation();
+    let axis = name.axis().map(|a| a.as_char());
+    let what = match name.axis() {
+        Some(a) if a.is_rotary() => format!("the line of {} ({name})", a.as_char()),
+        Some(a) => format!("the direction of {} ({name}, a squareness)", a.as_char()),
+        None => name.to_string(),
+    };
+    let info = EffectInfo {
+        class: "thermal-location",
+        axis,
+        component: Some(name.to_string()),
+        driver: Some(column.to_string()),
+        label: format!("thermal-location {name} ({column})"),
+    };
+    let unit = if rotation {
+        AmplitudeUnit::urad()
+    } else {
+        AmplitudeUnit::um()
+    };
+    Basic::new(info, feature, Target::Location(name), what, unit, tau)
+}
+
+fn candidates(view: &SessionView) -> Vec<Candidate> {
+    if !view.any_pose_reading() || view.locations.is_empty() {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for &name in &view.locations {
+        for column in view.temperature_columns() {
+            let input = Input::Context(column.clone());
+            let stat = location(name, Feature::Static(input.clone()), &column, None);
+            let followed = view.has_current(&stat.info().label);
+            out.push(stat);
+            if followed {
+                for tau in lag_taus(view) {
+                    out.push(location(
+                        name,
+                        Feature::Lag(input.clone()),
+                        &column,
+                        Some(tau),
+                    ));
+                }
+            }
+        }
+    }
+    out.into_iter()
+        .map(|e| Candidate::Effect(Arc::new(e)))
+        .collect()
+}
+
+fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
+    let text = string(table, "parameter")?.ok_or_else(|| {
+        "a thermal location change needs `parameter = \"EY0A\"` (a location error or a \
+         squareness)"
+            .to_string()
+    })?;
+    let name: ParamName = text
+        .parse()
+        .ok()
+        .filter(|n| matches!(n, ParamName::Location { .. }))
+        .ok_or_else(|| {
+            PlantError::at(
+                "parameter",
+                format!("`parameter = \"{text}\"`: a location error (EY0A) or a squareness (EC0Y)"),
+            )
+        })?;
+    if !view.locations.contains(&name) {
+        return Err(PlantError::at(
+            "parameter",
+            format!("`parameter = \"{text}\"`: the fit does not estimate it"),
+        ));
+    }
+    let column = string(table, "driver")?
+        .filter(|d| d.starts_with("T_"))
+        .ok_or_else(|| "a thermal location change needs `driver = \"T_<column>\"`".to_string())?;
+    if !view.temperature_columns().iter().any(|c| c == column) {
+        return Err(PlantError::at(
+            "driver",
+            format!("`driver = \"{column}\"`: no run records that temperature"),
+        ));
+    }
+    let input = Input::Context(column.to_string());
+    let effect = match number(table, "tau_s", 1.0)? {
+        Some(tau) => location(name, Feature::Lag(input), column, Some(tau)),
+        None => location(name, Feature::Static(input), column, None),
+    };
+    let values = plant_values(&effect, table, &["driver", "parameter"])?;
+    Ok((Arc::new(effect), values))
+}
+
+inventory::submit! {
+    EffectFamily {
+        name: "thermal-location",
+        about: "a location error or squareness following a recorded temperature (an axis line moving as its bearing housings or a column warm)",
+        candidates,
+        plant: Some(plant),
+    }
+}
