@@ -986,6 +986,9 @@ fn planted_in(case: &VolumetricCase) -> Vec<Planted> {
                 value: Some(2.0),
             },
         ],
+        VolumetricLoad::RotaryDrives => {
+            unreachable!("the matrix's loads are the spindle's and the Y drive's")
+        }
     };
     if case.ambient {
         out.push(Planted {
@@ -1203,5 +1206,77 @@ fn set_up_parameters_that_look_like_the_machine_s_field() {
                 assert_eq!(like, expected, "{file}: {}.{}", setup.name, n.name);
             }
         }
+    }
+}
+
+/// Source 000's R-test sets repeated between load cycles of the rotary drives (§5.5): an XYC
+/// and a YZA set of the trunnion measured in every cycle, the A cradle and the C table loaded
+/// in turn, the A drive's temperature moving A's line 0.8 µm/K along Y and the C motor's
+/// moving C's line 0.5 µm/K along X (the independent simulator's axis lines, not mtcal's
+/// family), realistic noise; 16 cycles, the first 12 phases between them loaded, the last
+/// cycle withheld. The search names both location errors with their drivers, the planted
+/// gains inside their 95 % intervals, claims nothing else, and the withheld cycle is predicted
+/// within 1.5 × the noise.
+#[test]
+fn repeated_rtest_sets_between_rotary_load_cycles_name_the_moving_axis_lines() {
+    use mtcal_indsim::{VolumetricLoad, VolumetricMachine, VolumetricSpec};
+    let spec = VolumetricSpec {
+        loaded_phases: 12,
+        ..VolumetricSpec::short(VolumetricLoad::RotaryDrives, 16)
+    };
+    for seed in [7, 8] {
+        let (result, _) = searched_volumetric(
+            VolumetricMachine::Trunnion,
+            "mcu630-cafyxz.urdf",
+            &spec,
+            seed,
+        );
+        let id = &result.identification;
+        let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
+        eprintln!("seed {seed}\n{summary}");
+        for (parameter, driver, planted) in [("EY0A", "T_adrive", 0.8), ("EX0C", "T_cdrive", 0.5)] {
+            let d = id
+                .discoveries
+                .iter()
+                .find(|d| {
+                    d.effect == "thermal-location"
+                        && d.component.as_deref() == Some(parameter)
+                        && d.driver.as_deref() == Some(driver)
+                })
+                .unwrap_or_else(|| {
+                    panic!("seed {seed}: {parameter} ({driver}) is not named\n{summary}")
+                });
+            let p = &d.parameters[0];
+            let u95 = p.u95.unwrap_or(0.0);
+            assert!(
+                (p.value - planted).abs() <= u95,
+                "seed {seed}: {} = {} ± {} {}, planted {planted}\n{summary}",
+                p.name,
+                p.value,
+                u95,
+                p.unit
+            );
+        }
+        assert_eq!(
+            id.discoveries.len(),
+            2,
+            "seed {seed}: more claimed\n{summary}"
+        );
+        // The withheld cycle (the last, after four cycles of rest): its RMS prediction error
+        // over the noise the simulator added.
+        let (mut sum, mut count) = (0.0, 0usize);
+        for v in &id.validation {
+            for c in &v.channels {
+                sum += c.rms * c.rms * c.samples as f64;
+                count += c.samples;
+            }
+        }
+        assert!(count > 0, "seed {seed}: no withheld cycle");
+        let ratio = (sum / count as f64).sqrt() / Realism::realistic(seed).noise_sigma_um;
+        eprintln!("seed {seed}: withheld cycle {ratio:.2} × the noise");
+        assert!(
+            ratio <= 1.5,
+            "seed {seed}: withheld cycle at {ratio:.2} × the noise\n{summary}"
+        );
     }
 }

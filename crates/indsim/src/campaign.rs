@@ -1074,6 +1074,12 @@ pub enum VolumetricLoad {
     /// The Y drive reciprocates: its temperature (`T_ydrive`, one node of the load) turns the
     /// spindle head about X (a lever arm that changes with Y and Z) and grows the Y scale.
     YDrive,
+    /// Source 000's A/C load cycles on the trunnion, measured by R-test sets between them:
+    /// the loaded phases swing the A cradle and turn the C table in turn (A first). The A
+    /// drive's temperature (`T_adrive`) moves A's line in Y, the C motor's (`T_cdrive`) moves
+    /// C's line in X ([`Effect::AxisLineDrift`]); the points are R-test sets
+    /// ([`VolumetricSite::trunnion_rtest_sets`]). The trunnion only.
+    RotaryDrives,
 }
 
 /// The room's temperature steps during a volumetric thermal test ([`Effect::AmbientStep`]).
@@ -1234,6 +1240,46 @@ impl VolumetricSite {
         }
     }
 
+    /// Source 000 §5.5's R-test sets on the MCU 630, repeated between load cycles of the
+    /// rotary axes: three balls on the C table (workpiece frame), an XYC set (`ball1`, 150 mm
+    /// off C's centre, 160 mm up, at C = 0, 90, 180 and 270°, A = 0; `ball2`, 260 mm up, at C = 0, 120 and
+    /// 240°) and a YZA set (`ball3`, 120 mm across, at A = −15, 30, 60 and 90°, C = 0): 11
+    /// points, `ball<k>@A<A>C<C>`.
+    fn trunnion_rtest_sets() -> Self {
+        let balls = vec![
+            ball("ball1", [150.0, 0.0, 160.0]),
+            ball("ball2", [0.0, -100.0, 260.0]),
+            ball("ball3", [0.0, -120.0, 160.0]),
+        ];
+        let mut points = Vec::new();
+        let mut put = |b: usize, a: f64, c: f64| {
+            points.push(VolumetricPoint {
+                name: format!("{}@A{a}C{c}", balls[b].name),
+                ball: b,
+                rotary_deg: vec![('A', a), ('C', c)],
+            });
+        };
+        for c in [0.0, 90.0, 180.0, 270.0] {
+            put(0, 0.0, c);
+        }
+        for c in [0.0, 120.0, 240.0] {
+            put(1, 0.0, c);
+        }
+        for a in [-15.0, 30.0, 60.0, 90.0] {
+            put(2, a, 0.0);
+        }
+        VolumetricSite {
+            file: TRUNNION,
+            balls,
+            points,
+            clearance_mm: 150.0,
+            pivot_y: 0.0,
+            pivot_z: 1.1,
+            y_reference: -0.41,
+            z_reference: 0.0,
+        }
+    }
+
     /// Source 000 §3.3's modular frame on a three-axis machine: 15 balls on CFRP tubes in three
     /// levels (six at 120 mm above the table, three at 270, six at 420, offset so that no ball
     /// sits under another), each visited once per cycle. The head nods about the Z guideway's
@@ -1317,9 +1363,17 @@ impl Campaign {
         spec: &VolumetricSpec,
         realism: &Realism,
     ) -> Result<(Machine, VolumetricPlan, Vec<Effect>), SimError> {
-        let site = match which {
-            VolumetricMachine::Trunnion => VolumetricSite::trunnion(),
-            VolumetricMachine::ThreeAxis => VolumetricSite::three_axis(),
+        let site = match (which, spec.load) {
+            (VolumetricMachine::Trunnion, VolumetricLoad::RotaryDrives) => {
+                VolumetricSite::trunnion_rtest_sets()
+            }
+            (VolumetricMachine::ThreeAxis, VolumetricLoad::RotaryDrives) => {
+                return Err(SimError::Plan(
+                    "a rotary drives' load needs the trunnion's rotary axes".into(),
+                ));
+            }
+            (VolumetricMachine::Trunnion, _) => VolumetricSite::trunnion(),
+            (VolumetricMachine::ThreeAxis, _) => VolumetricSite::three_axis(),
         };
         let urdf = shipped_machine(site.file);
         let machine = Machine::from_urdf_file(&urdf)?;
@@ -1451,6 +1505,33 @@ fn volumetric_effects(
                     reference: site.z_reference,
                     temperature: temperature(20.5, vec![node(0.7, 5400.0, krpm())], 3600.0),
                     column: "T_znut".into(),
+                },
+            ]);
+        }
+        VolumetricLoad::RotaryDrives => {
+            // The loaded phases take the A and the C drive in turn.
+            let turns = |first: usize| {
+                Programme::Steps(
+                    loaded
+                        .iter()
+                        .skip(first)
+                        .step_by(2)
+                        .flat_map(|&(from, to)| [(from, 1.0), (to, 0.0)])
+                        .collect(),
+                )
+            };
+            effects.extend([
+                Effect::AxisLineDrift {
+                    parameter: "EY0A".into(),
+                    per_k: 0.8e-6,
+                    temperature: temperature(20.6, vec![node(16.0, 3600.0, turns(0))], 3600.0),
+                    column: Some("T_adrive".into()),
+                },
+                Effect::AxisLineDrift {
+                    parameter: "EX0C".into(),
+                    per_k: 0.5e-6,
+                    temperature: temperature(20.4, vec![node(12.0, 2700.0, turns(1))], 3600.0),
+                    column: Some("T_cdrive".into()),
                 },
             ]);
         }

@@ -62,7 +62,9 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::error::SimError;
 use crate::instruments::{ActualPoses, Instrument, SetupPlan};
-use crate::machine::{JointKind, Machine, Side, exp_rotation, rigid, rigid_inverse, translation};
+use crate::machine::{
+    ActualErrors, JointKind, Machine, Side, exp_rotation, rigid, rigid_inverse, translation,
+};
 use crate::truth::Truth;
 
 /// A piecewise-constant function of the session time.
@@ -346,6 +348,19 @@ pub enum Effect {
         shift_per_k: [f64; 3],
         column: Option<String>,
     },
+    /// A rotary axis' line moves as its bearing housings warm unevenly (an A cradle's drive
+    /// heating one side, a C table's motor under its top): its location error `parameter`
+    /// (`EY0A`, `EB0C`: a position or a tilt of the line across its own direction, in the
+    /// truth's own convention, [`Truth::set`]) becomes its value plus
+    /// `per_k·(T(t) − T(0))` (m or rad per K). What that error means: the parts the axis
+    /// carries turn about the moved line, and where they stand at the axis' zero does not
+    /// change. `T` is written as `column` (`T_<name>`, °C) in every run when given.
+    AxisLineDrift {
+        parameter: String,
+        per_k: f64,
+        temperature: TemperatureProgramme,
+        column: Option<String>,
+    },
     /// A temperature sensor that only logs (a spindle housing, a ball-screw nut): its
     /// `temperature` written as `column` (`T_<name>`, °C) in every run, as a sensor reads it.
     /// Moves nothing: the context a thermal test records besides the temperatures that drive
@@ -482,6 +497,8 @@ enum Shows {
     Air(usize),
     /// A logging sensor's temperature (index into `sensors`), °C, as a sensor reads it.
     Sensor(usize),
+    /// An axis line's temperature (index into `lines`), °C, as a sensor reads it.
+    LineTemperature(usize),
 }
 
 #[derive(Clone, Debug)]
@@ -523,6 +540,43 @@ pub(crate) struct Resolved {
     ambient: Vec<Ambient>,
     /// The logging sensors' temperatures ([`Effect::TemperatureSensor`]).
     sensors: Vec<Temperature>,
+    lines: Vec<LineDrift>,
+}
+
+/// A rotary axis' line moving with a temperature ([`Effect::AxisLineDrift`]).
+#[derive(Clone, Debug)]
+struct LineDrift {
+    /// The axis (joint index) and the location error's direction (0..6: δx δy δz εx εy εz).
+    axis: usize,
+    direction: usize,
+    /// m or rad per K.
+    per_k: f64,
+    temperature: Temperature,
+}
+
+/// The truth with the axis lines moved: `(axis, direction, change)` added to its location
+/// errors.
+struct MovedLines<'a> {
+    truth: &'a Truth,
+    changes: &'a [(usize, usize, f64)],
+}
+
+impl ActualErrors for MovedLines<'_> {
+    fn axis_errors(&self, machine: &Machine, i: usize, q: f64) -> ([f64; 6], [f64; 6]) {
+        let (comp, mut loc) = self.truth.axis_errors(machine, i, q);
+        for &(axis, d, v) in self.changes {
+            if axis == i {
+                loc[d] += v;
+            }
+        }
+        (comp, loc)
+    }
+    fn workpiece(&self) -> [f64; 6] {
+        self.truth.workpiece
+    }
+    fn tool(&self) -> [f64; 3] {
+        self.truth.tool
+    }
 }
 
 /// The head turning about a line parallel to X ([`Effect::HeadRotationX`]).
@@ -888,6 +942,29 @@ impl Resolved {
                     temperature: self.temperature(temperature)?,
                 });
             }
+            Effect::AxisLineDrift {
+                parameter,
+                per_k,
+                temperature,
+                column,
+            } => {
+                finite("per_k", *per_k)?;
+                let (axis, direction) = line_location(machine, parameter)?;
+                if let Some(name) = column {
+                    check_temperature_column(name)?;
+                    self.columns.push(Column {
+                        name: name.clone(),
+                        shows: Shows::LineTemperature(self.lines.len()),
+                        setup: None,
+                    });
+                }
+                self.lines.push(LineDrift {
+                    axis,
+                    direction,
+                    per_k: *per_k,
+                    temperature: self.temperature(temperature)?,
+                });
+            }
             Effect::AmbientStep {
                 ambient_c,
                 at_s,
@@ -1059,7 +1136,8 @@ impl Resolved {
             && self.bumps.is_empty()
             && self.spindle_growth.is_empty()
             && self.rotations.is_empty()
-            && self.ambient.is_empty())
+            && self.ambient.is_empty()
+            && self.lines.is_empty())
     }
 
     /// What the instrument of `setup` reads besides the machine, m, at each of `times`: the
@@ -1104,6 +1182,7 @@ impl Resolved {
                     Shows::RotationTemperature(i) => self.rotations[i].temperature.celsius(t),
                     Shows::Air(i) => self.ambient[i].air_c(t),
                     Shows::Sensor(i) => self.sensors[i].celsius(t),
+                    Shows::LineTemperature(i) => self.lines[i].temperature.celsius(t),
                 };
                 ContextValues {
                     name: c.name.clone(),
@@ -1155,6 +1234,7 @@ fn kind_name(e: &Effect) -> &'static str {
         Effect::SpindleGrowth { .. } => "spindle-growth",
         Effect::HeadRotationX { .. } => "head-rotation-x",
         Effect::AmbientStep { .. } => "ambient-step",
+        Effect::AxisLineDrift { .. } => "axis-line-drift",
         Effect::TemperatureSensor { .. } => "temperature-sensor",
     }
 }
@@ -1232,6 +1312,30 @@ fn check_steps(name: &str, steps: &[(f64, f64)]) -> Result<(), String> {
 }
 
 /// FORMATS.md's temperature columns: `T_<name>`, a name of letters, digits and `_`.
+/// The rotary axis and the direction across it of location error `name` (`EY0A`).
+fn line_location(machine: &Machine, name: &str) -> Result<(usize, usize), String> {
+    const DIRECTIONS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
+    let c: Vec<char> = name.chars().collect();
+    let found = (c.len() == 4 && c[0] == 'E' && c[2] == '0')
+        .then(|| {
+            (
+                DIRECTIONS.iter().position(|&x| x == c[1]),
+                machine.index(c[3]),
+            )
+        })
+        .and_then(|(d, i)| Some((i?, d?)));
+    let (i, d) = found.ok_or_else(|| {
+        format!("an axis line drift: `{name}` is not a location error (EY0A) of this machine")
+    })?;
+    let j = &machine.joints[i];
+    if j.kind != JointKind::Rotary || d % 3 == j.own_direction() {
+        return Err(format!(
+            "an axis line drift: `{name}` is not a location error across a rotary axis"
+        ));
+    }
+    Ok((i, d))
+}
+
 fn check_temperature_column(name: &str) -> Result<(), String> {
     let ok = name.strip_prefix("T_").is_some_and(|rest| {
         !rest.is_empty() && rest.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -1270,6 +1374,8 @@ pub(crate) struct SampleState<'a> {
     air: Vector3<f64>,
     /// The head's turn about its lines, `H = H_1·H_2·…` (`None`: no head rotation).
     head: Option<Matrix4<f64>>,
+    /// The axis lines' changes: `(axis, direction, m or rad)`.
+    lines: Vec<(usize, usize, f64)>,
 }
 
 impl SampleState<'_> {
@@ -1334,8 +1440,13 @@ impl SampleState<'_> {
         }
         let a = self.axes(q);
         let d = self.tool_shift(&a);
-        let w = machine.branch_pose(Side::Workpiece, &a, Some(truth));
-        let mut t = machine.branch_pose(Side::Tool, &a, Some(truth));
+        let moved = MovedLines {
+            truth,
+            changes: &self.lines,
+        };
+        let actual: &dyn ActualErrors = if self.lines.is_empty() { truth } else { &moved };
+        let w = machine.branch_pose(Side::Workpiece, &a, Some(actual));
+        let mut t = machine.branch_pose(Side::Tool, &a, Some(actual));
         if d != Vector3::zeros() {
             t = translation(&d) * t;
         }
@@ -1561,6 +1672,11 @@ impl<'a> Timeline<'a> {
                 .iter()
                 .fold(Matrix4::identity(), |h, r| h * r.turn(t))
         });
+        let lines = e
+            .lines
+            .iter()
+            .map(|l| (l.axis, l.direction, l.per_k * l.temperature.rise(t)))
+            .collect();
         SampleState {
             effects: e,
             lost,
@@ -1574,6 +1690,7 @@ impl<'a> Timeline<'a> {
             spindle,
             air,
             head,
+            lines,
         }
     }
 }
@@ -1844,6 +1961,28 @@ fn effect_table(machine: &Machine, e: &Effect) -> toml::Table {
         }
         Effect::SpindleGrowth { sources } => {
             put("source", sources_value(sources, "gain_um", 1e6));
+        }
+        Effect::AxisLineDrift {
+            parameter,
+            per_k,
+            temperature,
+            column,
+        } => {
+            put("parameter", parameter.clone().into());
+            let unit = if parameter
+                .as_bytes()
+                .get(1)
+                .is_some_and(|b| b"ABC".contains(b))
+            {
+                "urad"
+            } else {
+                "um"
+            };
+            put(&format!("{unit}_per_k"), small(*per_k).into());
+            if let Some(c) = column {
+                put("column", c.clone().into());
+            }
+            put("temperature", temperature_value(temperature));
         }
         Effect::HeadRotationX {
             pivot_y,

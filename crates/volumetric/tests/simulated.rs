@@ -380,6 +380,7 @@ fn spindle_heat_is_uniform_and_drive_heat_is_not_and_the_field_says_the_same() {
         let want = match load {
             VolumetricLoad::Spindle => Verdict::Uniform,
             VolumetricLoad::YDrive => Verdict::NotUniform,
+            VolumetricLoad::RotaryDrives => unreachable!("evaluated() loads the spindle or Y"),
         };
         assert_eq!(h.verdict, want, "{which:?} {load:?}: {}", h.sentence);
         // The largest mean is at the end of the loaded course.

@@ -8,9 +8,13 @@
 //! parameter itself does ([`Target::Location`]), so it shows where the parameter shows: a
 //! ball turned by the axis, a circle whose shape the squareness draws.
 //!
-//! Proposed for every location error the fit estimates (its static value must be determined
-//! for a change of it to be) and every recorded temperature, when some channel reads the tool
-//! pose. What moves the parts an axis carries as a whole besides its line (a cradle lifting
+//! Proposed for every location error of a rotary axis the fit estimates (its static value
+//! must be determined for a change of it to be) and every recorded temperature, when some
+//! channel reads the tool pose. A squareness can be planted but is not proposed: where the
+//! head turns with a drive's temperature (`thermal-tilt`) the tool point moves across in
+//! proportion to its height exactly as a squareness of the vertical axis would move it, and
+//! on the independent simulator's three-axis volumetric test the search named the one for the
+//! other. What moves the parts an axis carries as a whole besides its line (a cradle lifting
 //! the table with the line) is an offset that follows the temperature: a
 //! `temperature-coupling`, a candidate of its own.
 //!
@@ -53,7 +57,15 @@ fn candidates(view: &SessionView) -> Vec<Candidate> {
         return Vec::new();
     }
     let mut out = Vec::new();
-    for &name in &view.locations {
+    // Rotary axes' lines only: a linear axis' squareness following a temperature draws, on a
+    // machine whose head turns as a drive warms, the very field the head's turn draws (the
+    // tool point moving across in proportion to its height), and R-test readings cannot tell
+    // the two apart.
+    let lines = view
+        .locations
+        .iter()
+        .filter(|n| n.axis().is_some_and(|a| a.is_rotary()));
+    for &name in lines {
         for column in view.temperature_columns() {
             let input = Input::Context(column.clone());
             let stat = location(name, Feature::Static(input.clone()), &column, None);

@@ -1455,3 +1455,46 @@ fn the_new_effects_are_written_down_and_checked() {
         assert!(err.contains(want), "{err:?} lacks {want:?}");
     }
 }
+
+#[test]
+fn an_axis_line_drift_is_the_location_error_moved_by_its_temperature() {
+    // A's line 2 µm/K along Y with a 3 K rise: at every pose the actual tool pose is the
+    // geometric model's with EY0A at 6 µm, and at A = 0 nothing moves (the parts A carries
+    // keep their place at the axis' zero).
+    let m = Machine::from_urdf_file(&crate::shipped_machine("mcu630-cafyxz.urdf")).unwrap();
+    let drift = Effect::AxisLineDrift {
+        parameter: "EY0A".into(),
+        per_k: 2.0 * UM,
+        temperature: stepped(3.0),
+        column: Some("T_adrive".into()),
+    };
+    let resolved = Resolved::new(&m, &[], std::slice::from_ref(&drift)).unwrap();
+    let deg = f64::to_radians;
+    let poses: Vec<Vec<f64>> = [(0.0, 0.0), (30.0, 45.0), (90.0, -120.0)]
+        .iter()
+        .map(|&(a, c)| vec![0.1, -0.2, -0.3, deg(a), deg(c)])
+        .collect();
+    let states = Timeline::new(&resolved).run(&poses, &[1.0; 3]);
+    let truth = Truth::zero(&m);
+    let mut moved = Truth::zero(&m);
+    moved.set(&m, "EY0A", 6.0 * UM).unwrap();
+    for (k, q) in poses.iter().enumerate() {
+        let got = states[k].tool_in_workpiece(&m, &truth, q);
+        let want = m.tool_in_workpiece(q, Some(&moved));
+        assert!((got - want).norm() < 1e-15, "pose {k}: {got} vs {want}");
+    }
+    let d = tool_moves(&m, &states, &poses);
+    assert!(d[0].norm() < 1e-15, "A = 0: {}", d[0]);
+    assert!(d[2].norm() > 5.0 * UM, "A = 90°: {}", d[2]);
+    // What is not a line across a rotary axis is refused.
+    for bad in ["EX0A", "EC0Y", "EX0Z", "EQ0A"] {
+        let e = Effect::AxisLineDrift {
+            parameter: bad.into(),
+            per_k: UM,
+            temperature: stepped(1.0),
+            column: None,
+        };
+        let err = Resolved::new(&m, &[], &[e]).unwrap_err();
+        assert!(err.to_string().contains(bad), "{bad}: {err}");
+    }
+}
