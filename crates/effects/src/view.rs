@@ -532,6 +532,12 @@ impl SessionView {
         self
     }
 
+    /// Whether runs overlap in time (the balls of a volumetric test, each a run over the whole
+    /// session): the timeline's samples are then not in time order run after run.
+    pub fn runs_overlap(&self) -> bool {
+        self.chronological.is_some()
+    }
+
     /// The view with `locations` as the location errors a term can act on
     /// ([`SessionView::locations`]).
     pub fn with_locations(mut self, locations: Vec<ParamName>) -> Self {

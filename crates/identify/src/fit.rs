@@ -603,6 +603,18 @@ impl<'a> SampleEval<'a> {
         self.pred.len()
     }
 
+    /// What the effects add to location error `j` ([`Study::locations`]) at the sample last
+    /// evaluated (SI; zero without effects).
+    pub(crate) fn location_change(&self, j: usize) -> f64 {
+        self.effects.as_ref().map_or(0.0, |fx| fx.out.dl[j])
+    }
+
+    /// The whitened predictions' Jacobian by the fit model's coefficients at the sample last
+    /// evaluated with derivatives: channels × coefficients, row-major.
+    pub(crate) fn jacobian(&self) -> &[f64] {
+        &self.jac
+    }
+
     /// From now on evaluates only the effects `only` marks (one flag per effect of the
     /// study): the rest cannot reach the channels read, whose predictions and rows are then
     /// the same; the other channels' are not.

@@ -40,6 +40,7 @@ pub mod pipeline;
 mod relabel;
 pub mod report;
 pub mod search;
+pub mod series;
 pub mod study;
 pub mod whiten;
 

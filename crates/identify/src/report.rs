@@ -182,6 +182,11 @@ pub struct Identification {
     /// with the model's value and what stands behind it ([`crate::diagnostics`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub diagnostics: Vec<crate::diagnostics::DiagnosisReport>,
+    /// The location errors cycle by cycle where the runs overlap in time (R-test sets
+    /// repeated between load cycles), each cycle's own value beside the model's
+    /// ([`crate::series`]); in the JSON only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub location_series: Vec<crate::series::LocationSeries>,
     /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
     pub mismatch: mtcal_mismatch::Mismatch,
     /// Every structure test behind `mismatch`, one sentence each for the rejected ones; in the
@@ -324,6 +329,11 @@ impl Identification {
             validation,
             diagnostics: if analysed {
                 crate::diagnostics::diagnose(study, &x)
+            } else {
+                Vec::new()
+            },
+            location_series: if analysed {
+                crate::series::location_series(study, &x)
             } else {
                 Vec::new()
             },
@@ -624,6 +634,9 @@ impl Identification {
             for d in &self.diagnostics {
                 s.push_str(&d.summary(verbose));
             }
+        }
+        if !self.location_series.is_empty() {
+            s.push_str(&crate::series::summary(&self.location_series, verbose));
         }
         for (run, terms) in &self.undetermined_validation {
             let named: Vec<String> = terms
