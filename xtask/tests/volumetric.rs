@@ -176,3 +176,45 @@ fn the_bundled_example_is_not_uniform() {
     assert_eq!(out.status.code(), Some(0), "{screen}{}", text(&out.stderr));
     assert!(screen.starts_with("NOT UNIFORM"), "{screen}");
 }
+
+/// The bundled R-test sets (README; `write_example … rtest-sets` made them): `identify
+/// --search` names A's and C's lines moving with their drives' temperatures at the planted
+/// gains (0.8 and 0.5 µm/K, `truth/effects.toml`) and nothing else, and its JSON gives their
+/// changes cycle by cycle, every other location error as the model says.
+#[test]
+fn the_bundled_rtest_sets_name_the_moving_lines_cycle_by_cycle() {
+    let session = mtcal_testkit::repo().join("examples/volumetric/rtest-sets");
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("id.json");
+    let out = mtcal(&[
+        "identify",
+        session.to_str().unwrap(),
+        "--search",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let screen = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{screen}{}", text(&out.stderr));
+    assert!(screen.contains("location errors cycle by cycle (36 cycles"), "{screen}");
+    let id: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let discoveries = id["discoveries"].as_array().unwrap();
+    assert_eq!(discoveries.len(), 2, "{screen}");
+    for (parameter, driver, planted) in [("EY0A", "T_adrive", 0.8), ("EX0C", "T_cdrive", 0.5)] {
+        let d = discoveries
+            .iter()
+            .find(|d| d["component"] == parameter && d["driver"] == driver)
+            .unwrap_or_else(|| panic!("{parameter} ({driver}) not named\n{screen}"));
+        let p = &d["parameters"][0];
+        let (value, u95) = (p["value"].as_f64().unwrap(), p["u95"].as_f64().unwrap());
+        assert!((value - planted).abs() <= u95, "{parameter}: {value} ± {u95}\n{screen}");
+    }
+    let series = id["location_series"].as_array().unwrap();
+    for l in series {
+        let modelled = ["EY0A", "EX0C"].contains(&l["parameter"].as_str().unwrap());
+        assert_eq!(l["modelled"].as_bool(), Some(modelled), "{l}");
+        assert_eq!(l["departs"].as_bool(), Some(false), "{l}");
+        assert_eq!(l["cycles"].as_array().unwrap().len(), 36, "{l}");
+    }
+    assert!(series.len() >= 8, "{screen}");
+}

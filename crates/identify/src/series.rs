@@ -280,7 +280,8 @@ impl CycleSums {
     }
 }
 
-/// Every sample of the runs with readings in time order, cut at the long pauses.
+/// Every sample of the runs with readings in time order, cut where a point comes again or at
+/// a long pause.
 fn cut_cycles(study: &Study) -> Vec<Vec<At>> {
     let mut all: Vec<At> = Vec::new();
     for (run, slot) in study.runs.iter().enumerate() {
@@ -304,12 +305,27 @@ fn cut_cycles(study: &Study) -> Vec<Vec<At>> {
     }
     pauses.sort_by(f64::total_cmp);
     let limit = CYCLE_PAUSE_FACTOR * pauses[pauses.len() / 2];
+    // A point is a ball (a run) at its commanded rotary positions (µrad: what a controller
+    // writes differs in the last digits only).
+    let rotary: Vec<usize> = (0..study.model.machine().n_axes())
+        .filter(|&a| study.model.machine().axes()[a].kind() == mtcal_kinematics::AxisKind::Rotary)
+        .collect();
+    let mut q = vec![0.0; study.model.machine().n_axes()];
+    let mut point = |at: &At| {
+        study.runs[at.run].q.row_into(at.i, &mut q);
+        let angles: Vec<i64> = rotary.iter().map(|&a| (q[a] * 1e6).round() as i64).collect();
+        (at.run, angles)
+    };
     let mut cycles: Vec<Vec<At>> = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
     let mut last_t = f64::NEG_INFINITY;
     for at in all {
-        if cycles.is_empty() || at.t - last_t > limit {
+        let key = point(&at);
+        if cycles.is_empty() || at.t - last_t > limit || seen.contains(&key) {
             cycles.push(Vec::new());
+            seen.clear();
         }
+        seen.insert(key);
         last_t = at.t;
         cycles.last_mut().expect("a cycle was started").push(at);
     }
