@@ -443,6 +443,36 @@ fn a_report_without_the_search_shows_component_curves_with_bands() {
     check_parameters(&dom, &json);
 }
 
+/// The bundled R-test sets between rotary load cycles: the page has the location errors cycle
+/// by cycle, one plot per series of the JSON (the moving lines first), each with a bar per
+/// cycle the cycle separates; a page without series has no such section.
+#[test]
+fn the_rtest_sets_report_shows_the_location_errors_cycle_by_cycle() {
+    if !have_chromium() {
+        return;
+    }
+    let tmp = tempfile::tempdir().expect("temporary folder");
+    let (page, json, _) = identify(&["examples/volumetric/rtest-sets", "--search"], tmp.path());
+    let dom = render(&page, tmp.path());
+    check_page(&dom);
+    let series = json["location_series"].as_array().expect("series");
+    let plots = section(&dom, "series");
+    assert_eq!(svgs(plots), series.len(), "{plots}");
+    let first = plots.find("data-name=\"").expect("a named plot");
+    let name = &plots[first + 11..first + 15];
+    assert!(["EY0A", "EX0C"].contains(&name), "first plot {name}");
+    for l in series {
+        let name = l["parameter"].as_str().expect("name");
+        assert!(plots.contains(&format!("data-name=\"{name}\"")), "{name}");
+    }
+    let page_text = std::fs::read_to_string(&page).expect("page");
+    assert!(page_text.contains("<section id=\"series\">"));
+    let other = tempfile::tempdir().expect("temporary folder");
+    let (page, _, _) = identify(&["examples/three-axis/session"], other.path());
+    let text = std::fs::read_to_string(&page).expect("page");
+    assert!(!text.contains("<section id=\"series\">"));
+}
+
 /// `history report`: a machine's page in Chromium: the scripts ran, the fleet row is there, one
 /// trend plot per parameter asked for with the tolerance lines, and the page counted them.
 #[test]

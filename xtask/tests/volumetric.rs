@@ -195,7 +195,10 @@ fn the_bundled_rtest_sets_name_the_moving_lines_cycle_by_cycle() {
     ]);
     let screen = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{screen}{}", text(&out.stderr));
-    assert!(screen.contains("location errors cycle by cycle (36 cycles"), "{screen}");
+    assert!(
+        screen.contains("location errors cycle by cycle (36 cycles"),
+        "{screen}"
+    );
     let id: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let discoveries = id["discoveries"].as_array().unwrap();
@@ -207,7 +210,10 @@ fn the_bundled_rtest_sets_name_the_moving_lines_cycle_by_cycle() {
             .unwrap_or_else(|| panic!("{parameter} ({driver}) not named\n{screen}"));
         let p = &d["parameters"][0];
         let (value, u95) = (p["value"].as_f64().unwrap(), p["u95"].as_f64().unwrap());
-        assert!((value - planted).abs() <= u95, "{parameter}: {value} ± {u95}\n{screen}");
+        assert!(
+            (value - planted).abs() <= u95,
+            "{parameter}: {value} ± {u95}\n{screen}"
+        );
     }
     let series = id["location_series"].as_array().unwrap();
     for l in series {

@@ -61,6 +61,7 @@ pub fn report(
         identifiability: identifiability(id),
         search: search(id),
         acceptance: id.acceptance.as_ref().map(acceptance),
+        location_series: location_series(id),
         conventions: id
             .conventions
             .rows()
@@ -68,6 +69,43 @@ pub fn report(
             .map(|(key, value)| (key.to_string(), value))
             .collect(),
     })
+}
+
+/// The location errors cycle by cycle, those a thermal model changes or that depart from the
+/// model first.
+fn location_series(id: &Identification) -> Vec<rep::LocationSeriesPlot> {
+    let mut series: Vec<&crate::series::LocationSeries> = id.location_series.iter().collect();
+    series.sort_by_key(|l| !(l.modelled || l.departs));
+    series
+        .into_iter()
+        .map(|l| rep::LocationSeriesPlot {
+            name: l.parameter.clone(),
+            unit: l.unit.clone(),
+            caption: format!(
+                "{}{}: the model within the cycle's interval in {} of {} cycles{}",
+                l.parameter,
+                if l.modelled { " (a thermal model)" } else { "" },
+                l.within_model,
+                l.determined,
+                if l.departs {
+                    " — it changes in a way the model does not say"
+                } else {
+                    ""
+                }
+            ),
+            cycles: l
+                .cycles
+                .iter()
+                .map(|c| rep::SeriesPoint {
+                    t_h: 0.5 * (c.t_first_h + c.t_last_h),
+                    value: c.value,
+                    u95: c.u95,
+                    model: c.model,
+                    validation: c.validation,
+                })
+                .collect(),
+        })
+        .collect()
 }
 
 /// A circle pair's diagnostics as the page tables them.

@@ -313,7 +313,10 @@ fn cut_cycles(study: &Study) -> Vec<Vec<At>> {
     let mut q = vec![0.0; study.model.machine().n_axes()];
     let mut point = |at: &At| {
         study.runs[at.run].q.row_into(at.i, &mut q);
-        let angles: Vec<i64> = rotary.iter().map(|&a| (q[a] * 1e6).round() as i64).collect();
+        let angles: Vec<i64> = rotary
+            .iter()
+            .map(|&a| (q[a] * 1e6).round() as i64)
+            .collect();
         (at.run, angles)
     };
     let mut cycles: Vec<Vec<At>> = Vec::new();

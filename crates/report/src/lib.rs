@@ -32,6 +32,10 @@
 //!   separate reads "not identifiable" and never gets a number.
 //! - `identifiability` — the combinations the data cannot separate and the effects that hide
 //!   behind fitted parameters, in words, with the measurement that would separate them.
+//! - `series` — only when the identification has them: the location errors cycle by cycle
+//!   (R-test sets repeated between load cycles), each cycle's own change with its 95 %
+//!   interval and the model's change as a line; absent otherwise, so other pages are as
+//!   before.
 //! - `discoveries` — what the physics search added, each in a sentence with its fit and
 //!   held-out RMS before and after, and why it stopped.
 //!
@@ -90,6 +94,34 @@ pub struct Report {
     pub conventions: Vec<(String, String)>,
     /// `None` without a tolerance file: the page then has no acceptance section.
     pub acceptance: Option<AcceptanceSection>,
+    /// The location errors cycle by cycle (R-test sets repeated between load cycles); empty:
+    /// the page has no such section.
+    pub location_series: Vec<LocationSeriesPlot>,
+}
+
+/// One location error's changes cycle by cycle, each cycle's own value beside the model's.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LocationSeriesPlot {
+    /// `EY0A`.
+    pub name: String,
+    /// `um` or `urad`.
+    pub unit: String,
+    /// A sentence: whether a thermal model changes it, how many cycles agree with it.
+    pub caption: String,
+    pub cycles: Vec<SeriesPoint>,
+}
+
+/// One cycle of a [`LocationSeriesPlot`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SeriesPoint {
+    /// The cycle's middle, h.
+    pub t_h: f64,
+    /// The cycle's own change and its 95 % half-width (`None`: the cycle cannot separate it).
+    pub value: Option<f64>,
+    pub u95: Option<f64>,
+    /// The model's change over the cycle.
+    pub model: f64,
+    pub validation: bool,
 }
 
 /// An instrument's diagnostics of a group of runs (a ball-bar's circle pair), ranked by their

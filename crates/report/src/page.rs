@@ -70,6 +70,10 @@ pub(crate) const READY: &str = "
 /// report has one.
 pub(crate) const ACCEPTANCE: (&str, &str) = ("acceptance", "Acceptance");
 
+/// The location errors' section; on the page after the component errors, only when the
+/// report has series.
+pub(crate) const SERIES: (&str, &str) = ("series", "Location errors cycle by cycle");
+
 pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
     let bodies = [
         summary(r),
@@ -90,6 +94,13 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
         escape(&r.summary.machine),
     );
     let mut sections: Vec<((&str, &str), String)> = SECTIONS.into_iter().zip(bodies).collect();
+    if !r.location_series.is_empty() {
+        let at = sections
+            .iter()
+            .position(|((id, _), _)| *id == "components")
+            .map_or(sections.len(), |k| k + 1);
+        sections.insert(at, (SERIES, location_series(r)?));
+    }
     if let Some(a) = &r.acceptance {
         sections.insert(1, (ACCEPTANCE, acceptance(a)));
     }
@@ -366,6 +377,21 @@ fn components(r: &Report) -> Result<String, ReportError> {
             escape(display_unit(&c.value_unit))
         );
         h.push_str(&figure("component", &c.name, &svg, &caption));
+    }
+    h.push_str("</div>\n");
+    Ok(h)
+}
+
+fn location_series(r: &Report) -> Result<String, ReportError> {
+    let mut h = format!(
+        "<p>Each location error's change from the fit's constant, cycle by cycle: each cycle's \
+         own value from its readings alone (dots, hollow for a withheld cycle) with its 95 % \
+         interval (bars), and {} (line).</p>\n<div class=\"plots\">\n",
+        key(MODEL, "the model's change")
+    );
+    for p in &r.location_series {
+        let svg = plots::location_series(p)?;
+        h.push_str(&figure("series", &p.name, &svg, &escape(&p.caption)));
     }
     h.push_str("</div>\n");
     Ok(h)

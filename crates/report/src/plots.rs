@@ -5,7 +5,9 @@
 //! name them.
 
 use crate::escape::display_unit;
-use crate::{ComponentCurve, MapSlice, PathPoint, PolarRun, ReportError, ResidualPlot};
+use crate::{
+    ComponentCurve, LocationSeriesPlot, MapSlice, PathPoint, PolarRun, ReportError, ResidualPlot,
+};
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -324,6 +326,62 @@ pub(crate) fn component(c: &ComponentCurve) -> Result<String, ReportError> {
             pts.iter().map(|p| (p.position, p.value)),
             MODEL.stroke_width(2),
         ))?;
+        Ok(())
+    })
+}
+
+/// A location error's changes cycle by cycle: each cycle's own value as a dot with its 95 %
+/// interval as a bar (hollow for a validation cycle), the model's change as a line through
+/// the cycles.
+pub(crate) fn location_series(p: &LocationSeriesPlot) -> Result<String, ReportError> {
+    let pts: Vec<_> = p
+        .cycles
+        .iter()
+        .filter(|c| c.t_h.is_finite() && c.model.is_finite())
+        .copied()
+        .collect();
+    if pts.len() < 2 {
+        return Err(invalid(
+            &p.name,
+            format!("a series needs two cycles, found {}", pts.len()),
+        ));
+    }
+    let (x0, x1) = span(pts.iter().map(|c| c.t_h));
+    let (y0, y1) = span(pts.iter().flat_map(|c| {
+        let own = match (c.value, c.u95) {
+            (Some(v), Some(u)) if v.is_finite() && u.is_finite() => vec![v - u, v + u],
+            _ => Vec::new(),
+        };
+        own.into_iter().chain([c.model, 0.0])
+    }));
+    let pad = 0.06 * (y1 - y0);
+    let (y0, y1) = (y0 - pad, y1 + pad);
+    let y_desc = format!("change of {} ({})", p.name, display_unit(&p.unit));
+    svg((460, 300), &p.name, |root| {
+        root.fill(&WHITE)?;
+        let mut chart = xy_chart(root, &p.name, (x0..x1, y0..y1), ("time (h)", &y_desc))?;
+        chart.draw_series(LineSeries::new([(x0, 0.0), (x1, 0.0)], GRID))?;
+        chart.draw_series(LineSeries::new(
+            pts.iter().map(|c| (c.t_h, c.model)),
+            MODEL.stroke_width(2),
+        ))?;
+        for c in &pts {
+            if let (Some(v), Some(u)) = (c.value, c.u95)
+                && v.is_finite()
+                && u.is_finite()
+            {
+                chart.draw_series(std::iter::once(PathElement::new(
+                    vec![(c.t_h, v - u), (c.t_h, v + u)],
+                    MEASURED.mix(0.6),
+                )))?;
+                let style = if c.validation {
+                    MEASURED.stroke_width(1)
+                } else {
+                    MEASURED.filled()
+                };
+                chart.draw_series(std::iter::once(Circle::new((c.t_h, v), 3, style)))?;
+            }
+        }
         Ok(())
     })
 }

@@ -231,6 +231,7 @@ fn sample() -> Report {
                 "C0Y > 0 opens the angle <X, Y> beyond 90°".into(),
             ),
         ],
+        location_series: Vec::new(),
     }
 }
 
@@ -632,4 +633,56 @@ fn diagnostics_are_tabled_under_the_ball_bar_plots_ranked_with_the_model_behind_
     assert!(rows[1].starts_with("\"false\"") && rows[1].contains("not in the model"));
     assert!(rows[1].contains(">–<"), "unranked: {}", rows[1]);
     assert!(ballbar.contains("not evaluated: cyclic error Y: too sparse"));
+}
+
+#[test]
+fn the_series_section_is_there_only_with_series_and_draws_each_cycle() {
+    let plain = render(&sample()).unwrap();
+    assert!(!plain.contains("id=\"series\""));
+    let cycle = |t_h: f64, value: Option<f64>, validation: bool| SeriesPoint {
+        t_h,
+        value,
+        u95: value.map(|_| 0.3),
+        model: 0.5 * t_h,
+        validation,
+    };
+    let mut r = sample();
+    r.location_series = vec![LocationSeriesPlot {
+        name: "EY0A".into(),
+        unit: "um".into(),
+        caption: "EY0A (a thermal model) <moving>".into(),
+        cycles: vec![
+            cycle(0.0, Some(0.1), false),
+            cycle(1.0, None, false),
+            cycle(2.0, Some(1.2), false),
+            cycle(3.0, Some(1.4), true),
+        ],
+    }];
+    let page = render(&r).unwrap();
+    let at = |id: &str| page.find(&format!("<section id=\"{id}\">")).unwrap();
+    assert!(at("components") < at("series") && at("series") < at("volumetric"));
+    assert!(page.contains("<a href=\"#series\">Location errors cycle by cycle</a>"));
+    let s = section(&page, "series");
+    assert!(s.contains("EY0A (a thermal model) &lt;moving&gt;"), "{s}");
+    // A dot per cycle with a value (the withheld one hollow), none for the one without.
+    let circles = elements(s, "circle");
+    assert_eq!(circles.len(), 3, "{s}");
+    let hollow = circles
+        .iter()
+        .filter(|c| attr(c, "fill") == Some("none"))
+        .count();
+    assert_eq!(hollow, 1, "{s}");
+    // The model's line through every cycle.
+    assert!(
+        polylines(s, crate::plots::MODEL)
+            .iter()
+            .any(|l| l.len() == 4),
+        "{s}"
+    );
+    // Everything else is as without it.
+    let start = at("series");
+    let end = start + page[start..].find("</section>\n").unwrap() + "</section>\n".len();
+    let without = format!("{}{}", &page[..start], &page[end..])
+        .replace("<a href=\"#series\">Location errors cycle by cycle</a>", "");
+    assert_eq!(without, plain);
 }
