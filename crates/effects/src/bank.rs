@@ -81,10 +81,7 @@ impl BankColumn {
     /// The column's values over the session's timeline.
     fn series(&self, view: &SessionView) -> Series {
         match self {
-            BankColumn::Rise(tau) => Series::Rise {
-                t0: view.t0(),
-                tau: *tau,
-            },
+            BankColumn::Rise(tau) => Series::Input(Arc::new(rise(view, *tau))),
             BankColumn::Static(input) => Series::Input(view.input(input)),
             BankColumn::Lag(input, tau) => Series::Lag(view.lag(input, *tau)),
         }
@@ -95,7 +92,8 @@ impl BankColumn {
 /// sample for every column of every candidate scored at once), an input or its lag as the
 /// view keeps them over the timeline (shared, not copied).
 enum Series {
-    Rise { t0: f64, tau: f64 },
+    /// Values per timeline sample (an input, or a rise computed once: an exponential per
+    /// sample and pass was a twentieth of a thermal search).
     Input(Arc<Vec<f64>>),
     Lag(Arc<LagSeries>),
 }
@@ -104,11 +102,22 @@ impl Series {
     /// The value at sample `i` of run `r`.
     fn at(&self, view: &SessionView, r: usize, i: usize) -> f64 {
         match self {
-            Series::Rise { t0, tau } => 1.0 - (-(view.runs[r].t.get(i) - t0) / tau).exp(),
             Series::Input(s) => s[view.timeline_index(r, i)],
             Series::Lag(s) => s.y[view.timeline_index(r, i)],
         }
     }
+}
+
+/// `1 − exp(−(t − t₀)/τ)` at every timeline sample, `t₀` the session's start.
+fn rise(view: &SessionView, tau: f64) -> Vec<f64> {
+    let t0 = view.t0();
+    let mut out = vec![0.0; view.timeline().len()];
+    for (r, run) in view.runs.iter().enumerate() {
+        for i in 0..run.len() {
+            out[view.timeline_index(r, i)] = 1.0 - (-(run.t.get(i) - t0) / tau).exp();
+        }
+    }
+    out
 }
 
 /// A bank of columns acting on one target (see the module documentation).

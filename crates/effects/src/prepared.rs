@@ -130,7 +130,7 @@ impl PreparedEffects {
             jg: vec![0.0; np * max_channels],
             axes_touched: false,
             locations_touched: false,
-            written: 0,
+            written: [NOTHING_WRITTEN; 5],
             f: vec![0.0; max_terms],
             df: vec![0.0; max_terms * max_shapes.max(1)],
         }
@@ -244,6 +244,9 @@ impl PreparedEffects {
     }
 }
 
+/// An empty range of written parameters.
+const NOTHING_WRITTEN: (usize, usize) = (usize::MAX, 0);
+
 /// Where a term acts at one sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
@@ -299,10 +302,11 @@ pub struct SampleEffects {
     pub axes_touched: bool,
     /// Whether any term acted on a location error (the caller needs their columns only then).
     pub locations_touched: bool,
-    /// Which of `jq`, `jn`, `jr`, `jg`, `jl` (bits 0–4) hold something since the last clear: a
-    /// sample clears only those (a joint thermal model of a channel writes `jr` alone, and
-    /// the others are hundreds of parameters wide).
-    written: u8,
+    /// Per buffer `jq`, `jn`, `jr`, `jg`, `jl`: the parameters (`lo..hi`) whose rows hold
+    /// something since the last clear. A sample clears only those: a joint thermal model of a
+    /// channel writes its own rows of `jr` alone, and the buffers are hundreds of parameters
+    /// wide (clearing them whole was a twentieth of a thermal search).
+    written: [(usize, usize); 5],
     f: Vec<f64>,
     df: Vec<f64>,
 }
@@ -318,7 +322,8 @@ impl SampleEffects {
         ] {
             v.fill(0.0);
         }
-        for (bit, v) in [
+        let strides = [self.n_axes, self.n_nuis, self.n_ch, self.n_ch, self.n_loc];
+        for ((v, stride), (lo, hi)) in [
             &mut self.jq,
             &mut self.jn,
             &mut self.jr,
@@ -326,15 +331,24 @@ impl SampleEffects {
             &mut self.jl,
         ]
         .into_iter()
-        .enumerate()
+        .zip(strides)
+        .zip(self.written)
         {
-            if self.written & (1 << bit) != 0 {
-                v.fill(0.0);
+            if lo < hi {
+                v[lo * stride..hi * stride].fill(0.0);
             }
         }
-        self.written = 0;
+        self.written = [NOTHING_WRITTEN; 5];
         self.axes_touched = false;
         self.locations_touched = false;
+    }
+
+    /// Parameter `p`'s row of buffer `k` holds something.
+    #[inline]
+    fn mark(&mut self, k: usize, p: usize) {
+        let (lo, hi) = &mut self.written[k];
+        *lo = (*lo).min(p);
+        *hi = (*hi).max(p + 1);
     }
 
     /// Adds `v` to the total (`param` None) or to parameter `param`'s derivative.
@@ -347,18 +361,18 @@ impl SampleEffects {
             }
             (Slot::Axis(a), Some(p)) => {
                 self.jq[p * self.n_axes + a] += v;
-                self.written |= 1;
+                self.mark(0, p);
                 self.axes_touched = true;
             }
             (Slot::Nuisance(j), None) => self.dn[j] += v,
             (Slot::Nuisance(j), Some(p)) => {
                 self.jn[p * self.n_nuis + j] += v;
-                self.written |= 2;
+                self.mark(1, p);
             }
             (Slot::Channel(c), None) => self.dr[c] += v,
             (Slot::Channel(c), Some(p)) => {
                 self.jr[p * self.n_ch + c] += v;
-                self.written |= 4;
+                self.mark(2, p);
             }
             (Slot::Location(j), None) => {
                 self.dl[j] += v;
@@ -366,13 +380,13 @@ impl SampleEffects {
             }
             (Slot::Location(j), Some(p)) => {
                 self.jl[p * self.n_loc + j] += v;
-                self.written |= 16;
+                self.mark(4, p);
                 self.locations_touched = true;
             }
             (Slot::Gain(c), None) => self.gain[c] += v,
             (Slot::Gain(c), Some(p)) => {
                 self.jg[p * self.n_ch + c] += v;
-                self.written |= 8;
+                self.mark(3, p);
             }
         }
     }

@@ -637,7 +637,10 @@ impl<'a> SampleEval<'a> {
         let mut q_buf = std::mem::take(&mut self.q);
         run.q.row_into(i, &mut q_buf);
         let q = q_buf.as_slice();
-        let mut pose = if derivatives && self.reads_pose {
+        // Readings that do not depend on the pose (sensors modelled on their own) need none.
+        let mut pose = if !self.reads_pose {
+            Rigid::IDENTITY
+        } else if derivatives {
             model.tool_pose_for_jacobian(q, &self.coeffs, &mut self.ws)
         } else {
             model.tool_pose(q, &self.coeffs, &mut self.ws)

@@ -11,8 +11,9 @@
 //! and beat the best published learned model on every channel (README of the data folder), and
 //! give the same answer however the recording was cut (within [`CUTS_AGREE_UM`] per channel);
 //! the test prints every step's mean absolute error on the last 20 % and each search's time.
-//! Issue 33 asks for 2.0 µm on every channel (asserted) and a search under a minute on the CI
-//! machine (the printout gives the times).
+//! Issue 33 asks for 2.0 µm on every channel and a search under a minute on the CI machine
+//! (both asserted; the two tests of this file run one at a time, so the timed search has the
+//! machine's every core).
 //!
 //! Without `../shared` (or `MTCAL_SHARED_DATA`) the test says it was skipped; in CI
 //! (`MTCAL_REQUIRE_SHARED_DATA`) a missing file is a failure.
@@ -267,8 +268,15 @@ fn searched(rec: &Recording, cut: Cut) -> ([f64; 5], std::time::Duration) {
 /// user chose must not decide the answer.
 const CUTS_AGREE_UM: f64 = 0.5;
 
+/// Issue 33's bar on each search's wall time (s).
+const SEARCH_LIMIT_S: f64 = 60.0;
+
+/// The tests of this file one at a time: the searches are timed with the machine's every core.
+static ALONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_cut() {
+    let _alone = ALONE.lock().unwrap_or_else(|e| e.into_inner());
     let Some(rec) = recording() else {
         return;
     };
@@ -282,6 +290,16 @@ fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_c
         fmt(&four.0),
         four.1.as_secs_f64()
     );
+    // Issue 33: each search under a minute on the CI machine (two cores), as a user times it:
+    // from loading the session to the search's result. 52–53 s here in the test profile,
+    // 48–50 s released.
+    for (cut, took) in [("one run", one.1), ("four runs", four.1)] {
+        assert!(
+            took.as_secs_f64() < SEARCH_LIMIT_S,
+            "as {cut}: the search took {:.1} s, more than {SEARCH_LIMIT_S} s",
+            took.as_secs_f64()
+        );
+    }
     for c in 0..5 {
         assert!(
             (one.0[c] - four.0[c]).abs() <= CUTS_AGREE_UM,
@@ -299,6 +317,7 @@ fn from_scratch_the_search_beats_the_published_models_however_the_recording_is_c
 /// row, the level of the run as it is, once per file).
 #[test]
 fn the_fit_does_not_depend_on_how_the_recording_is_cut() {
+    let _alone = ALONE.lock().unwrap_or_else(|e| e.into_inner());
     let Some(rec) = recording() else {
         return;
     };
