@@ -81,7 +81,13 @@ impl BankColumn {
     /// The column's values over the session's timeline.
     fn series(&self, view: &SessionView) -> Series {
         match self {
-            BankColumn::Rise(tau) => Series::Input(Arc::new(rise(view, *tau))),
+            BankColumn::Rise(tau) if view.timeline().len() <= RISE_KEPT_SAMPLES => {
+                Series::Input(Arc::new(rise(view, *tau)))
+            }
+            BankColumn::Rise(tau) => Series::Rise {
+                t0: view.t0(),
+                tau: *tau,
+            },
             BankColumn::Static(input) => Series::Input(view.input(input)),
             BankColumn::Lag(input, tau) => Series::Lag(view.lag(input, *tau)),
         }
@@ -92,16 +98,28 @@ impl BankColumn {
 /// sample for every column of every candidate scored at once), an input or its lag as the
 /// view keeps them over the timeline (shared, not copied).
 enum Series {
+    /// `1 − exp(−(t − t₀)/τ)`, computed at each call (a session longer than
+    /// [`RISE_KEPT_SAMPLES`]).
+    Rise {
+        t0: f64,
+        tau: f64,
+    },
     /// Values per timeline sample (an input, or a rise computed once: an exponential per
     /// sample and pass was a twentieth of a thermal search).
     Input(Arc<Vec<f64>>),
     Lag(Arc<LagSeries>),
 }
 
+/// A rise column is kept over the timeline for a session of at most this many samples (0.8 MB
+/// a column); a longer one computes it at each call, so that a search's memory does not grow
+/// by a column per sample (`tests/scale_memory.rs`).
+const RISE_KEPT_SAMPLES: usize = 100_000;
+
 impl Series {
     /// The value at sample `i` of run `r`.
     fn at(&self, view: &SessionView, r: usize, i: usize) -> f64 {
         match self {
+            Series::Rise { t0, tau } => 1.0 - (-(view.runs[r].t.get(i) - t0) / tau).exp(),
             Series::Input(s) => s[view.timeline_index(r, i)],
             Series::Lag(s) => s.y[view.timeline_index(r, i)],
         }

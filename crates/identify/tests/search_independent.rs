@@ -1309,6 +1309,17 @@ fn repeated_rtest_sets_between_rotary_load_cycles_name_the_moving_axis_lines() {
                 l.parameter
             );
         }
+        // Neither is said to be indistinguishable from the other: both are in the model.
+        for d in &id.discoveries {
+            for a in &d.alternatives {
+                assert!(
+                    !id.discoveries.iter().any(|o| o.label == a.label),
+                    "seed {seed}: {} said to look like {}, a discovery of its own\n{summary}",
+                    d.label,
+                    a.label
+                );
+            }
+        }
         // The withheld cycle (the last, after four cycles of rest): its RMS prediction error
         // over the noise the simulator added.
         let (mut sum, mut count) = (0.0, 0usize);

@@ -8,19 +8,19 @@
 //! parameter itself does ([`Target::Location`]), so it shows where the parameter shows: a
 //! ball turned by the axis, a circle whose shape the squareness draws.
 //!
-//! Proposed for every location error of a rotary axis the fit estimates (its static value
-//! must be determined for a change of it to be) and every recorded temperature, when some
-//! channel reads the tool pose. A squareness can be planted but is not proposed: where the
-//! head turns with a drive's temperature (`thermal-tilt`) the tool point moves across in
-//! proportion to its height exactly as a squareness of the vertical axis would move it, and
-//! on the independent simulator's three-axis volumetric test the search named the one for the
-//! other. What moves the parts an axis carries as a whole besides its line (a cradle lifting
+//! Proposed for every location error the fit estimates (its static value must be determined
+//! for a change of it to be) and every recorded temperature, when some channel reads the tool
+//! pose — but a squareness only where a turn of the tool side (`thermal-tilt`) would not draw
+//! the same field ([`told_from_a_turn`]): where the tool point travels along one direction
+//! only, a head nodding with a drive's temperature moves it across in proportion to that
+//! travel, exactly as a squareness of that axis would. What moves the parts an axis carries as a whole besides its line (a cradle lifting
 //! the table with the line) is an offset that follows the temperature: a
 //! `temperature-coupling`, a candidate of its own.
 //!
 //! Plant keys: `parameter = "EY0A"`, `driver = "T_<name>"`, `gain_um_per_K` (`gain_urad_per_K`
 //! for an orientation or a squareness) and, for the lagged form, `tau_s`.
 
+use super::tilt::{LEVER_REACH_M, lever_changes};
 use super::{lag_taus, number, plant_values, string};
 use crate::basic::{AmplitudeUnit, Basic, Feature};
 use crate::view::{Input, SessionView};
@@ -57,15 +57,8 @@ fn candidates(view: &SessionView) -> Vec<Candidate> {
         return Vec::new();
     }
     let mut out = Vec::new();
-    // Rotary axes' lines only: a linear axis' squareness following a temperature draws, on a
-    // machine whose head turns as a drive warms, the very field the head's turn draws (the
-    // tool point moving across in proportion to its height), and R-test readings cannot tell
-    // the two apart.
-    let lines = view
-        .locations
-        .iter()
-        .filter(|n| n.axis().is_some_and(|a| a.is_rotary()));
-    for &name in lines {
+    let told = view.locations.iter().filter(|n| told_from_a_turn(view, n));
+    for &name in told {
         for column in view.temperature_columns() {
             let input = Input::Context(column.clone());
             let stat = location(name, Feature::Static(input.clone()), &column, None);
@@ -86,6 +79,28 @@ fn candidates(view: &SessionView) -> Vec<Candidate> {
     out.into_iter()
         .map(|e| Candidate::Effect(Arc::new(e)))
         .collect()
+}
+
+/// Whether a change of `name` can be told from a turn of the tool side (`thermal-tilt`): a
+/// rotary axis' line always; the squareness of linear axis `a` about direction `k` unless a
+/// turn about `k` is proposed while the tool point does not travel along the third direction
+/// `b`. The turn then moves the tool across in proportion to its travel along `a` alone — the
+/// squareness's field (on a three-axis machine whose table carries X and Y, the head nodding
+/// about X is `EA0Z` changing: the independent simulator's volumetric test named the one for
+/// the other).
+fn told_from_a_turn(view: &SessionView, name: &ParamName) -> bool {
+    let Some(axis) = name.axis() else {
+        return false;
+    };
+    if axis.is_rotary() {
+        return true;
+    }
+    let (a, k) = (axis.nominal_cartesian(), name.direction().cartesian());
+    if a == k {
+        return false;
+    }
+    let b = 3 - a - k;
+    !(lever_changes(view, k) && view.tool_reach_m[b] < LEVER_REACH_M)
 }
 
 fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {
@@ -134,5 +149,36 @@ inventory::submit! {
         about: "a location error or squareness following a recorded temperature (an axis line moving as its bearing housings or a column warm)",
         candidates,
         plant: Some(plant),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn view(reach_m: [f64; 3]) -> SessionView {
+        SessionView::new(Vec::new(), Vec::new(), Vec::new(), Vec::new())
+            .with_tool_travel([0.0; 3], reach_m)
+    }
+
+    fn name(text: &str) -> ParamName {
+        text.parse().unwrap()
+    }
+
+    #[test]
+    fn a_squareness_is_proposed_only_where_a_turn_draws_another_field() {
+        // The tool point moves along Z only (the table carries X and Y): a nod about X or Y
+        // is Z's squareness by another name; X–Y's squareness has no turn to be confused with.
+        let three_axis = view([0.0, 0.0, 0.3]);
+        assert!(!told_from_a_turn(&three_axis, &name("EA0Z")));
+        assert!(!told_from_a_turn(&three_axis, &name("EB0Z")));
+        assert!(told_from_a_turn(&three_axis, &name("EC0Y")));
+        // The tool travelling along X, Y and Z (a trunnion's head): every one is told apart,
+        // and a rotary axis' line always is.
+        let trunnion = view([0.5, 0.4, 0.3]);
+        for n in ["EA0Z", "EB0Z", "EC0Y", "EY0A", "EX0C"] {
+            assert!(told_from_a_turn(&trunnion, &name(n)), "{n}");
+        }
+        assert!(told_from_a_turn(&three_axis, &name("EY0A")));
     }
 }

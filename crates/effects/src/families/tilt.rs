@@ -178,7 +178,7 @@ fn tilt(view: &SessionView, k: usize, feature: Feature, column: &str, tau: Optio
 }
 
 /// Whether a turn about direction `k` shows: the lever arms across it change.
-fn lever_changes(view: &SessionView, k: usize) -> bool {
+pub(crate) fn lever_changes(view: &SessionView, k: usize) -> bool {
     (0..3)
         .filter(|&j| j != k)
         .any(|j| view.tool_reach_m[j] >= LEVER_REACH_M)

@@ -120,7 +120,8 @@ pub(super) fn same_explanation(a: &Candidate, b: &Candidate) -> bool {
 /// A look-alike dropped at one stage (it still explained something once the stage's effect was
 /// in) is restored when a later stage adds one of its class and target or names one among its
 /// look-alikes: what it went on to explain was taken by the same kind of explanation, so the
-/// data did not tell the stage's effect apart from it.
+/// data did not tell the stage's effect apart from it. Not when a later stage added the
+/// look-alike itself: both are then in the model, each an effect of its own.
 pub(super) fn restore_lookalikes(stages: &mut [Stage]) {
     for i in 0..stages.len() {
         let later: Vec<String> = stages[i + 1..]
@@ -131,11 +132,19 @@ pub(super) fn restore_lookalikes(stages: &mut [Stage]) {
             })
             .map(|label| class_and_target(&label).to_string())
             .collect();
+        // A look-alike a later stage added itself is an effect of its own, told apart.
+        let added: Vec<String> = stages[i + 1..]
+            .iter()
+            .map(|s| s.ranked.candidate.label())
+            .collect();
         let stage = &mut stages[i];
         let (restored, still): (Vec<LookAlike>, Vec<LookAlike>) =
             std::mem::take(&mut stage.dropped)
                 .into_iter()
-                .partition(|l| later.iter().any(|t| t == class_and_target(&l.label)));
+                .partition(|l| {
+                    !added.contains(&l.label)
+                        && later.iter().any(|t| t == class_and_target(&l.label))
+                });
         stage.lookalikes.extend(restored);
         stage.dropped = still;
     }
