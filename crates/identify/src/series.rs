@@ -66,8 +66,10 @@ pub struct CycleValue {
     /// Whether the cycle is a validation cycle (its runs not fitted).
     pub validation: bool,
     /// The cycle's own change of the error from the fit's constant and its 95 % half-width
-    /// (`None`: the cycle cannot separate it).
+    /// (`None`, absent from the JSON: the cycle cannot separate it).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub u95: Option<f64>,
     /// The identified model's change over the cycle (what its effects add).
     pub model: f64,
@@ -82,7 +84,8 @@ struct At {
 }
 
 /// The series of every location error the fit estimates, at parameters `x`; empty for a
-/// session whose runs do not overlap in time or with fewer than [`MIN_CYCLES`] cycles.
+/// session whose runs do not overlap in time, with fewer than [`MIN_CYCLES`] cycles, or where
+/// no error is separated in that many.
 pub fn location_series(study: &Study, x: &[f64]) -> Vec<LocationSeries> {
     let locations = study.locations();
     if locations.is_empty() || !study.view().runs_overlap() {
@@ -148,6 +151,12 @@ pub fn location_series(study: &Study, x: &[f64]) -> Vec<LocationSeries> {
                 .any(|t| t.target == mtcal_effects::Target::Location(*name))
         })
     };
+    // Runs that only look as if they overlap (each run's clock starting at zero) give cycles
+    // of a sample or two: no error is separated in enough of them to be a series.
+    let separated = |cycles: &Vec<CycleValue>| cycles.iter().filter(|v| v.value.is_some()).count();
+    if per_cycle.iter().all(|c| separated(c) < MIN_CYCLES) {
+        return Vec::new();
+    }
     locations
         .iter()
         .zip(per_cycle)
