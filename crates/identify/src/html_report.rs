@@ -81,18 +81,7 @@ fn location_series(id: &Identification) -> Vec<rep::LocationSeriesPlot> {
         .map(|l| rep::LocationSeriesPlot {
             name: l.parameter.clone(),
             unit: l.unit.clone(),
-            caption: format!(
-                "{}{}: the model within the cycle's interval in {} of {} cycles{}",
-                l.parameter,
-                if l.modelled { " (a thermal model)" } else { "" },
-                l.within_model,
-                l.determined,
-                if l.departs {
-                    " — it changes in a way the model does not say"
-                } else {
-                    ""
-                }
-            ),
+            caption: format!("{}: {}", l.parameter, l.agreement()),
             cycles: l
                 .cycles
                 .iter()

@@ -55,6 +55,28 @@ pub struct LocationSeries {
     pub departs: bool,
 }
 
+impl LocationSeries {
+    /// How its cycles agree with the model, in words: `the model (a thermal model) within the
+    /// interval in 15 of 16 cycles`.
+    pub fn agreement(&self) -> String {
+        format!(
+            "the model{} within the interval in {} of {} cycles{}",
+            if self.modelled {
+                " (a thermal model)"
+            } else {
+                ""
+            },
+            self.within_model,
+            self.determined,
+            if self.departs {
+                " — it changes in a way the model does not say"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
 /// One cycle's value of a location error.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CycleValue {
@@ -417,19 +439,7 @@ pub fn summary(series: &[LocationSeries], verbose: bool) -> String {
         } else {
             format!("{lo:.2} … {hi:.2} {}", l.unit)
         };
-        let _ = writeln!(
-            s,
-            "  {:<6} {span}; the model{} within the interval in {} of {} cycles{}",
-            l.parameter,
-            if l.modelled { " (a thermal model)" } else { "" },
-            l.within_model,
-            l.determined,
-            if l.departs {
-                " — it changes in a way the model does not say"
-            } else {
-                ""
-            }
-        );
+        let _ = writeln!(s, "  {:<6} {span}; {}", l.parameter, l.agreement());
         if verbose {
             for v in &l.cycles {
                 let own = match (v.value, v.u95) {

@@ -244,6 +244,27 @@ pub struct Study {
 /// so that its memory does not grow by 48 bytes per axis and sample (README, "Scale").
 pub const AXIS_JACOBIAN_CACHE_BYTES: usize = 16 << 20;
 
+/// How one sample's nominal Jacobian columns are computed ([`Study::axis_jacobian`]'s,
+/// [`Study::location_jacobian`]'s).
+type PerSample = fn(&Study, usize, usize, &mut AxisJacobianScratch, &mut [f64]);
+
+/// Per-sample values kept for every sample, or computed when asked.
+struct KeptPerSample<'s> {
+    study: &'s Study,
+    kept: Option<&'s Vec<Vec<f64>>>,
+    compute: PerSample,
+}
+
+impl KeptPerSample<'_> {
+    /// Sample `i` of run `r`'s values into `out`.
+    fn fill(&self, r: usize, i: usize, scratch: &mut AxisJacobianScratch, out: &mut [f64]) {
+        match self.kept {
+            Some(all) => out.copy_from_slice(&all[r][i * out.len()..(i + 1) * out.len()]),
+            None => (self.compute)(self.study, r, i, scratch, out),
+        }
+    }
+}
+
 /// Scratch for [`Study::axis_jacobian`] (one per thread): the nominal machine's workspace,
 /// its zero coefficients and one sample's positions.
 #[derive(Debug)]
@@ -697,28 +718,13 @@ impl Study {
         scratch: &mut AxisJacobianScratch,
         out: &mut [f64],
     ) {
-        let kept = self.location_jacobians.get_or_init(|| {
-            let width = 6 * self.locations().len();
-            let samples: usize = self.runs.iter().map(RunSlot::len).sum();
-            if samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES {
-                return None;
-            }
-            let mut scratch = self.axis_jacobian_scratch();
-            let all = (0..self.runs.len())
-                .map(|r| {
-                    let mut out = vec![0.0; self.runs[r].len() * width];
-                    for (i, jac) in out.chunks_exact_mut(width.max(1)).enumerate() {
-                        self.nominal_location_jacobian(r, i, &mut scratch, jac);
-                    }
-                    out
-                })
-                .collect();
-            Some(all)
-        });
-        match kept {
-            Some(all) => out.copy_from_slice(&all[r][i * out.len()..(i + 1) * out.len()]),
-            None => self.nominal_location_jacobian(r, i, scratch, out),
-        }
+        let width = 6 * self.locations().len();
+        self.kept_per_sample(
+            &self.location_jacobians,
+            width,
+            Self::nominal_location_jacobian,
+        )
+        .fill(r, i, scratch, out);
     }
 
     /// [`Self::location_jacobian`], computed: the full model's coefficient Jacobian at the
@@ -755,33 +761,43 @@ impl Study {
         scratch: &mut AxisJacobianScratch,
         out: &mut [f64],
     ) {
-        let kept = self
-            .axis_jacobians
-            .get_or_init(|| self.every_axis_jacobian());
-        match kept {
-            Some(all) => out.copy_from_slice(&all[r][i * out.len()..(i + 1) * out.len()]),
-            None => self.nominal_axis_jacobian(r, i, scratch, out),
-        }
+        let width = 6 * mtcal_effects::axis_slots(self.fit_model.machine().n_axes());
+        self.kept_per_sample(&self.axis_jacobians, width, Self::nominal_axis_jacobian)
+            .fill(r, i, scratch, out);
     }
 
-    /// Every sample's axis Jacobian, per run, if they fit [`AXIS_JACOBIAN_CACHE_BYTES`].
-    fn every_axis_jacobian(&self) -> Option<Vec<Vec<f64>>> {
-        let width = 6 * mtcal_effects::axis_slots(self.fit_model.machine().n_axes());
-        let samples: usize = self.runs.iter().map(RunSlot::len).sum();
-        if samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES {
-            return None;
+    /// Every sample's `width` values from `compute`, per run, kept in `cell` on first use if
+    /// they fit [`AXIS_JACOBIAN_CACHE_BYTES`] (otherwise each is computed when asked).
+    fn kept_per_sample<'s>(
+        &'s self,
+        cell: &'s OnceLock<Option<Vec<Vec<f64>>>>,
+        width: usize,
+        compute: PerSample,
+    ) -> KeptPerSample<'s> {
+        let kept = cell.get_or_init(|| {
+            let samples: usize = self.runs.iter().map(RunSlot::len).sum();
+            if width == 0
+                || samples * width * std::mem::size_of::<f64>() > AXIS_JACOBIAN_CACHE_BYTES
+            {
+                return None;
+            }
+            let mut scratch = self.axis_jacobian_scratch();
+            let all = (0..self.runs.len())
+                .map(|r| {
+                    let mut out = vec![0.0; self.runs[r].len() * width];
+                    for (i, values) in out.chunks_exact_mut(width).enumerate() {
+                        compute(self, r, i, &mut scratch, values);
+                    }
+                    out
+                })
+                .collect();
+            Some(all)
+        });
+        KeptPerSample {
+            study: self,
+            kept: kept.as_ref(),
+            compute,
         }
-        let mut scratch = self.axis_jacobian_scratch();
-        let all = (0..self.runs.len())
-            .map(|r| {
-                let mut out = vec![0.0; self.runs[r].len() * width];
-                for (i, jac) in out.chunks_exact_mut(width).enumerate() {
-                    self.nominal_axis_jacobian(r, i, &mut scratch, jac);
-                }
-                out
-            })
-            .collect();
-        Some(all)
     }
 
     /// [`Self::axis_jacobian`], computed.

@@ -1269,14 +1269,9 @@ impl VolumetricSite {
             put(2, a, 0.0);
         }
         VolumetricSite {
-            file: TRUNNION,
             balls,
             points,
-            clearance_mm: 150.0,
-            pivot_y: 0.0,
-            pivot_z: 1.1,
-            y_reference: -0.41,
-            z_reference: 0.0,
+            ..Self::trunnion()
         }
     }
 

@@ -785,12 +785,7 @@ impl Resolved {
                 let i = linear_axis(machine, *axis, "a thermal scale")?;
                 finite("ppm_per_k", *ppm_per_k)?;
                 finite("reference", *reference)?;
-                check_temperature_column(column)?;
-                self.columns.push(Column {
-                    name: column.clone(),
-                    shows: Shows::ScaleTemperature(self.scales.len()),
-                    setup: None,
-                });
+                self.log_temperature(column, Shows::ScaleTemperature(self.scales.len()))?;
                 self.scales.push(Scale {
                     axis: i,
                     alpha_per_k: ppm_per_k * 1e-6,
@@ -929,12 +924,7 @@ impl Resolved {
                 finite("pivot_z", *pivot_z)?;
                 finite("urad_per_k", *urad_per_k)?;
                 if let Some(name) = column {
-                    check_temperature_column(name)?;
-                    self.columns.push(Column {
-                        name: name.clone(),
-                        shows: Shows::RotationTemperature(self.rotations.len()),
-                        setup: None,
-                    });
+                    self.log_temperature(name, Shows::RotationTemperature(self.rotations.len()))?;
                 }
                 self.rotations.push(Rotation {
                     pivot: Vector3::new(0.0, *pivot_y, *pivot_z),
@@ -951,12 +941,7 @@ impl Resolved {
                 finite("per_k", *per_k)?;
                 let (axis, direction) = line_location(machine, parameter)?;
                 if let Some(name) = column {
-                    check_temperature_column(name)?;
-                    self.columns.push(Column {
-                        name: name.clone(),
-                        shows: Shows::LineTemperature(self.lines.len()),
-                        setup: None,
-                    });
+                    self.log_temperature(name, Shows::LineTemperature(self.lines.len()))?;
                 }
                 self.lines.push(LineDrift {
                     axis,
@@ -981,12 +966,7 @@ impl Resolved {
                     finite("shift_per_k", *v)?;
                 }
                 if let Some(name) = column {
-                    check_temperature_column(name)?;
-                    self.columns.push(Column {
-                        name: name.clone(),
-                        shows: Shows::Air(self.ambient.len()),
-                        setup: None,
-                    });
+                    self.log_temperature(name, Shows::Air(self.ambient.len()))?;
                 }
                 self.ambient.push(Ambient {
                     ambient_c: *ambient_c,
@@ -1000,16 +980,22 @@ impl Resolved {
                 column,
                 temperature,
             } => {
-                check_temperature_column(column)?;
-                self.columns.push(Column {
-                    name: column.clone(),
-                    shows: Shows::Sensor(self.sensors.len()),
-                    setup: None,
-                });
+                self.log_temperature(column, Shows::Sensor(self.sensors.len()))?;
                 let temperature = self.temperature(temperature)?;
                 self.sensors.push(temperature);
             }
         }
+        Ok(())
+    }
+
+    /// A temperature written as column `name` (`T_<name>`) in every run, showing `shows`.
+    fn log_temperature(&mut self, name: &str, shows: Shows) -> Result<(), String> {
+        check_temperature_column(name)?;
+        self.columns.push(Column {
+            name: name.to_string(),
+            shows,
+            setup: None,
+        });
         Ok(())
     }
 

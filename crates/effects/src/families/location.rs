@@ -21,10 +21,10 @@
 //! for an orientation or a squareness) and, for the lagged form, `tau_s`.
 
 use super::tilt::{LEVER_REACH_M, lever_changes};
-use super::{lag_taus, number, plant_values, string};
+use super::{plant_values, static_and_lagged, string, temperature_driver};
 use crate::basic::{AmplitudeUnit, Basic, Feature};
-use crate::view::{Input, SessionView};
-use crate::{Candidate, Effect, EffectFamily, EffectInfo, PlantError, Planted, Target};
+use crate::view::SessionView;
+use crate::{Candidate, EffectFamily, EffectInfo, PlantError, Planted, Target};
 use mtcal_kinematics::ParamName;
 use std::sync::Arc;
 
@@ -60,20 +60,9 @@ fn candidates(view: &SessionView) -> Vec<Candidate> {
     let told = view.locations.iter().filter(|n| told_from_a_turn(view, n));
     for &name in told {
         for column in view.temperature_columns() {
-            let input = Input::Context(column.clone());
-            let stat = location(name, Feature::Static(input.clone()), &column, None);
-            let followed = view.has_current(&stat.info().label);
-            out.push(stat);
-            if followed {
-                for tau in lag_taus(view) {
-                    out.push(location(
-                        name,
-                        Feature::Lag(input.clone()),
-                        &column,
-                        Some(tau),
-                    ));
-                }
-            }
+            out.extend(static_and_lagged(view, &column, |feature, tau| {
+                location(name, feature, &column, tau)
+            }));
         }
     }
     out.into_iter()
@@ -125,20 +114,8 @@ fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError>
             format!("`parameter = \"{text}\"`: the fit does not estimate it"),
         ));
     }
-    let column = string(table, "driver")?
-        .filter(|d| d.starts_with("T_"))
-        .ok_or_else(|| "a thermal location change needs `driver = \"T_<column>\"`".to_string())?;
-    if !view.temperature_columns().iter().any(|c| c == column) {
-        return Err(PlantError::at(
-            "driver",
-            format!("`driver = \"{column}\"`: no run records that temperature"),
-        ));
-    }
-    let input = Input::Context(column.to_string());
-    let effect = match number(table, "tau_s", 1.0)? {
-        Some(tau) => location(name, Feature::Lag(input), column, Some(tau)),
-        None => location(name, Feature::Static(input), column, None),
-    };
+    let (column, feature, tau) = temperature_driver(table, view, "a thermal location change")?;
+    let effect = location(name, feature, column, tau);
     let values = plant_values(&effect, table, &["driver", "parameter"])?;
     Ok((Arc::new(effect), values))
 }

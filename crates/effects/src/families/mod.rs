@@ -419,3 +419,51 @@ pub(crate) fn number(
             }),
     }
 }
+
+/// The candidates of an effect following temperature `column`: its static form, and — when
+/// that is already in the model (is the sensor late?) — its lagged form at every starting lag
+/// ([`lag_taus`]). `make(feature, tau)` builds the effect.
+pub(crate) fn static_and_lagged<E: Effect>(
+    view: &SessionView,
+    column: &str,
+    make: impl Fn(crate::basic::Feature, Option<f64>) -> E,
+) -> Vec<E> {
+    use crate::basic::Feature;
+    let input = crate::view::Input::Context(column.to_string());
+    let stat = make(Feature::Static(input.clone()), None);
+    let followed = view.has_current(&stat.info().label);
+    let mut out = vec![stat];
+    if followed {
+        out.extend(
+            lag_taus(view)
+                .into_iter()
+                .map(|tau| make(Feature::Lag(input.clone()), Some(tau))),
+        );
+    }
+    out
+}
+
+/// A plant table's temperature driver, `driver = "T_<name>"` (a column some run records), and
+/// the feature on it: static, or lagged with the table's `tau_s`. `what` names the effect in
+/// the message (`a thermal tilt`).
+pub(crate) fn temperature_driver<'t>(
+    table: &'t toml::Table,
+    view: &SessionView,
+    what: &str,
+) -> Result<(&'t str, crate::basic::Feature, Option<f64>), PlantError> {
+    use crate::basic::Feature;
+    let column = string(table, "driver")?
+        .filter(|d| d.starts_with("T_"))
+        .ok_or_else(|| format!("{what} needs `driver = \"T_<column>\"`"))?;
+    if !view.temperature_columns().iter().any(|c| c == column) {
+        return Err(PlantError::at(
+            "driver",
+            format!("`driver = \"{column}\"`: no run records that temperature"),
+        ));
+    }
+    let input = crate::view::Input::Context(column.to_string());
+    Ok(match number(table, "tau_s", 1.0)? {
+        Some(tau) => (column, Feature::Lag(input), Some(tau)),
+        None => (column, Feature::Static(input), None),
+    })
+}

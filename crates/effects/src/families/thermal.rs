@@ -37,7 +37,7 @@
 
 use super::{
     Aim, axis_aim, drift_taus, lag_taus, linear_axis_aims, nuisance_aim, number, plant_aim,
-    plant_values, positions_vary, string, thermal_aims,
+    plant_values, positions_vary, static_and_lagged, string, thermal_aims,
 };
 use crate::Target;
 use crate::bank::{Bank, BankColumn};
@@ -179,20 +179,9 @@ fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
     }
     for aim in thermal_aims(view) {
         for column in &columns {
-            let input = Input::Context(column.clone());
-            let stat = coupling(&aim, Feature::Static(input.clone()), column, None);
-            let followed = view.has_current(&stat.info().label);
-            out.push(stat);
-            if followed {
-                for tau in lag_taus(view) {
-                    out.push(coupling(
-                        &aim,
-                        Feature::Lag(input.clone()),
-                        column,
-                        Some(tau),
-                    ));
-                }
-            }
+            out.extend(static_and_lagged(view, column, |feature, tau| {
+                coupling(&aim, feature, column, tau)
+            }));
         }
     }
     out.into_iter()

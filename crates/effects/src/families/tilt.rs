@@ -21,9 +21,9 @@
 //! Plant keys: `about = "X"` (the machine direction), `driver = "T_<name>"`,
 //! `gain_urad_per_K` and, for the lagged form, `tau_s`.
 
-use super::{lag_taus, number, plant_values, string};
+use super::{plant_values, static_and_lagged, string, temperature_driver};
 use crate::basic::{AmplitudeUnit, Basic, Feature};
-use crate::view::{Input, SessionView};
+use crate::view::SessionView;
 use crate::{
     Candidate, Effect, EffectFamily, EffectInfo, Features, ParamDef, ParamKind, PlantError,
     Planted, Target, Term,
@@ -191,21 +191,9 @@ fn candidates(view: &SessionView) -> Vec<Candidate> {
     let mut out = Vec::new();
     for k in (0..3).filter(|&k| lever_changes(view, k)) {
         for column in view.temperature_columns() {
-            let input = Input::Context(column.clone());
-            let stat = tilt(view, k, Feature::Static(input.clone()), &column, None);
-            let followed = view.has_current(&stat.info().label);
-            out.push(stat);
-            if followed {
-                for tau in lag_taus(view) {
-                    out.push(tilt(
-                        view,
-                        k,
-                        Feature::Lag(input.clone()),
-                        &column,
-                        Some(tau),
-                    ));
-                }
-            }
+            out.extend(static_and_lagged(view, &column, |feature, tau| {
+                tilt(view, k, feature, &column, tau)
+            }));
         }
     }
     out.into_iter()
@@ -225,20 +213,8 @@ fn plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError>
                 format!("`about = \"{about}\"`: a machine direction, \"X\", \"Y\" or \"Z\""),
             )
         })?;
-    let column = string(table, "driver")?
-        .filter(|d| d.starts_with("T_"))
-        .ok_or_else(|| "a thermal tilt needs `driver = \"T_<column>\"`".to_string())?;
-    if !view.temperature_columns().iter().any(|c| c == column) {
-        return Err(PlantError::at(
-            "driver",
-            format!("`driver = \"{column}\"`: no run records that temperature"),
-        ));
-    }
-    let input = Input::Context(column.to_string());
-    let effect = match number(table, "tau_s", 1.0)? {
-        Some(tau) => tilt(view, k, Feature::Lag(input), column, Some(tau)),
-        None => tilt(view, k, Feature::Static(input), column, None),
-    };
+    let (column, feature, tau) = temperature_driver(table, view, "a thermal tilt")?;
+    let effect = tilt(view, k, feature, column, tau);
     let values = plant_values(&effect, table, &["driver", "about"])?;
     Ok((Arc::new(effect), values))
 }
