@@ -73,8 +73,11 @@ pub enum Feature {
     Constant,
     /// Thermal expansion of axis `a`'s scale (screw, glass scale) with a temperature:
     /// `ΔT·(q_a − q_mid)` (the amplitude a scale change per kelvin), `ΔT` the input as recorded
-    /// (`T − T₀`, K), `q_mid` the middle of the stroke. Where the scale is fixed is an offset
-    /// that follows the temperature: a `temperature-coupling` of the axis, tested on its own.
+    /// (`T − T₀`, K), `q_mid` the middle of the positions the axis stands at over the fitted
+    /// samples ([`SessionView::fitted_middle`]). Where the scale is fixed is an offset that
+    /// follows the temperature: a `temperature-coupling` of the axis, tested on its own. About
+    /// the stroke's middle instead, a scale seen over a few heights far from it would be
+    /// mostly that offset, and a joint thermal model of the axis would hold most of it.
     Expansion(Input, usize),
     /// [`Feature::Expansion`] through a first-order lag of the temperature (the scale is not
     /// where the sensor is). Shape: τ (s).
@@ -678,10 +681,9 @@ fn duration(value_s: f64, u95_s: Option<f64>) -> String {
 /// of a metre at 2 mm needs about 120).
 const SCAN_MAX: usize = 400;
 
-/// Axis `a`'s position at sample `i` of run `r` from the middle of its stroke (SI).
-fn from_mid(view: &SessionView, r: usize, i: usize, a: usize) -> f64 {
-    let (lo, hi) = view.axes[a].stroke;
-    view.q(r, i, a) - 0.5 * (lo + hi)
+/// Axis `a`'s position at sample `i` of run `r` from the middle of its fitted positions (SI).
+fn from_fitted_middle(view: &SessionView, r: usize, i: usize, a: usize) -> f64 {
+    view.q(r, i, a) - view.fitted_middle(a)
 }
 
 /// The cubic B-spline bump of [`Feature::LocalBump`] at `σ = |q − c|/w`, and its derivative
@@ -946,12 +948,12 @@ impl Features for BasicFeatures {
                     .input
                     .as_ref()
                     .expect("static features have their input");
-                f[0] = u[view.timeline_index(r, i)] * from_mid(view, r, i, *a);
+                f[0] = u[view.timeline_index(r, i)] * from_fitted_middle(view, r, i, *a);
             }
             Feature::LaggedExpansion(_, a) => {
                 let lag = self.lag.as_ref().expect("lag features have their series");
                 let k = view.timeline_index(r, i);
-                let q = from_mid(view, r, i, *a);
+                let q = from_fitted_middle(view, r, i, *a);
                 f[0] = lag.y[k] * q;
                 df[0] = lag.dy_dtau[k] * q;
             }

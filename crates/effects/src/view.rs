@@ -434,6 +434,9 @@ pub struct SessionView {
     pub tool_reach_m: [f64; 3],
     /// The middle of that travel (m, machine frame).
     pub tool_middle_m: [f64; 3],
+    /// Per axis, the middle of the positions it stands at over the fitted samples (SI; the
+    /// middle of its stroke where no fitted sample has it).
+    fitted_middle: Vec<f64>,
     /// Runs in time order, and where each starts in the timeline (per run, and per place in
     /// time order).
     order: Vec<usize>,
@@ -487,6 +490,7 @@ impl SessionView {
             samples += runs[r].len();
         }
         let motion = motions(&axes, &runs, &order);
+        let fitted_middle = fitted_middles(&axes, &runs);
         let first_time = order.iter().find_map(|&r| runs[r].first_time());
         let last_time = order.iter().rev().find_map(|&r| runs[r].last_time());
         let mut view = Self {
@@ -498,6 +502,7 @@ impl SessionView {
             current: Vec::new(),
             tool_reach_m: [0.0; 3],
             tool_middle_m: [0.0; 3],
+            fitted_middle,
             order,
             start,
             starts_in_order,
@@ -699,6 +704,13 @@ impl SessionView {
         self.motion[r][a].reversed(i)
     }
 
+    /// The middle of the positions axis `a` stands at over the fitted samples (SI): where a
+    /// scale change moves the readings least, so that it says how they differ between
+    /// positions and leaves their common shift to an offset.
+    pub fn fitted_middle(&self, a: usize) -> f64 {
+        self.fitted_middle[a]
+    }
+
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).
     pub fn q(&self, r: usize, i: usize, a: usize) -> f64 {
         self.runs[r].q.get(i, a)
@@ -887,6 +899,28 @@ impl SessionView {
 /// run (in time) left them in ([`AxisMotion`]: the guess about the approach the file does not
 /// hold); the session's first run, and a rotary axis after a move that may have gone either
 /// way round, arrive from an unknown side.
+/// Per axis, the middle of its positions over the fitted runs' samples (the middle of its
+/// stroke where none).
+fn fitted_middles(axes: &[AxisView], runs: &[RunView]) -> Vec<f64> {
+    (0..axes.len())
+        .map(|a| {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for run in runs.iter().filter(|r| r.fit) {
+                for i in 0..run.len() {
+                    let q = run.q.get(i, a);
+                    lo = lo.min(q);
+                    hi = hi.max(q);
+                }
+            }
+            if lo <= hi {
+                0.5 * (lo + hi)
+            } else {
+                0.5 * (axes[a].stroke.0 + axes[a].stroke.1)
+            }
+        })
+        .collect()
+}
+
 fn motions(axes: &[AxisView], runs: &[RunView], order: &[usize]) -> Vec<Vec<AxisMotion>> {
     let na = axes.len();
     let mut motion: Vec<Vec<AxisMotion>> = vec![Vec::new(); runs.len()];
@@ -1029,6 +1063,20 @@ mod tests {
         assert!((v.travel(0, 0, 6) - 0.001).abs() < 1e-15);
         assert!((v.travel(0, 0, 2) - 0.002).abs() < 1e-15);
         assert!((v.velocity(0, 0, 1) - 0.001).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_fitted_middle_is_where_the_fitted_samples_stand() {
+        // Two balls' heights in the fitted runs; a validation run far away does not count.
+        let fitted = |name: &str, q: f64| run(name, vec![0.0, 1.0], vec![q, q], vec![]);
+        let mut far = fitted("validation", 0.45);
+        far.fit = false;
+        let v = view(vec![fitted("low", -0.40), fitted("high", -0.24), far]);
+        assert!((v.fitted_middle(0) + 0.32).abs() < 1e-15);
+        // No fitted sample: the middle of the stroke.
+        let mut only = fitted("validation", 0.45);
+        only.fit = false;
+        assert_eq!(view(vec![only]).fitted_middle(0), 0.0);
     }
 
     #[test]

@@ -1103,16 +1103,19 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, [f64; 2]
 /// noise seeds each (24 sessions of 36 cycles): the planted physics (the spindle's growth, the
 /// Z screw's and the Y screw's scale, the head turning about X, the structure following the
 /// room) is named with its planted values in ≥ 90 % of cases and nothing else is claimed
-/// anywhere. The withheld cycle is predicted within 1.2 × the noise in at least 90 % of the
-/// sessions and within 1.5 × in all, the noise taken as the simulator's σ and as the RMS of
-/// the noise the withheld readings hold (45 coloured, quantised readings: 0.80 to 1.29 σ by
-/// themselves). Measured over σ: 22 of 24 within 1.2 ×, the others 1.23 and 1.28 ×, both the
-/// trunnion under Y-drive load (seed 107's 1.23 σ is 0.95 × its readings' own noise of 1.29 σ:
-/// its search finds exactly what was planted); over the readings' own noise: 23 of 24, the
-/// other 1.22 × (the trunnion under spindle load whose Z screw's scale goes unnamed). Before a
-/// joint model's width was chosen with the machine held when a ball is left out, and widened
-/// rather than stacked on itself, 20 of 24 over σ, the trunnion with the room stepping at
-/// 1.4–1.7 ×.
+/// anywhere. The withheld cycle is predicted within 1.2 × the noise its readings hold (45
+/// coloured, quantised readings: 0.80 to 1.29 σ by themselves) in every session, and within
+/// 1.2 × the simulator's σ in at least 90 % of them and 1.5 × in all. Measured: 59 of 60
+/// named (the trunnion's Z-screw scale with the room stepping, seed 110, not), over the
+/// readings' own noise 0.88–1.15 ×, over σ 22 of 24 within 1.2 × (the trunnion under Y-drive
+/// load, seeds 107 and 109, 1.23 and 1.28 σ: readings of 1.29 and 1.13 σ of noise; their
+/// searches find exactly what was planted). Before a scale change was taken about the middle
+/// of the heights the balls stand at (about the middle of Z's stroke it was 88 % the offset a
+/// joint model of Z already held, and the search took it for a second law of that), the
+/// trunnion's Z-screw scale went unnamed in 5 of 6 spindle sessions and one withheld cycle
+/// was at 1.22 × its own noise; before a joint model's width was chosen with the machine held
+/// when a ball is left out, and widened rather than stacked on itself, 20 of 24 over σ, the
+/// trunnion with the room stepping at 1.4–1.7 ×.
 #[test]
 fn volumetric_thermal_tests_name_what_was_planted() {
     use mtcal_indsim::{VolumetricLoad, VolumetricMachine};
@@ -1165,16 +1168,21 @@ fn volumetric_thermal_tests_name_what_was_planted() {
         10 * named >= 9 * planted,
         "{named} of {planted} named\n{report}"
     );
-    // Over the noise's σ, and over the noise the withheld readings hold (a cycle's 45
-    // coloured, quantised readings are 0.8 to 1.3 σ of noise by themselves).
-    for (k, over) in ["σ", "the noise in them"].iter().enumerate() {
-        let within = outcomes.iter().filter(|o| o.3[k] <= 1.2).count();
-        assert!(
-            10 * within >= 9 * outcomes.len() && outcomes.iter().all(|o| o.3[k] <= 1.5),
-            "withheld cycles: {within} of {} within 1.2 × {over}\n{report}",
-            outcomes.len()
-        );
-    }
+    // Over the noise the withheld readings hold (a cycle's 45 coloured, quantised readings
+    // are 0.8 to 1.3 σ of noise by themselves): every one within 1.2 ×.
+    let within_own = outcomes.iter().filter(|o| o.3[1] <= 1.2).count();
+    assert!(
+        within_own == outcomes.len(),
+        "withheld cycles: {within_own} of {} within 1.2 × the noise in them\n{report}",
+        outcomes.len()
+    );
+    // Over the noise's σ: nine in ten within 1.2 ×, all within 1.5 ×.
+    let within = outcomes.iter().filter(|o| o.3[0] <= 1.2).count();
+    assert!(
+        10 * within >= 9 * outcomes.len() && outcomes.iter().all(|o| o.3[0] <= 1.5),
+        "withheld cycles: {within} of {} within 1.2 × σ\n{report}",
+        outcomes.len()
+    );
 }
 
 /// Which set-up parameters move the readings as the machine's own field at the place the

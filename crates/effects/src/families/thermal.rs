@@ -26,10 +26,12 @@
 //!
 //! **`thermal-expansion`** — an axis' scale (its screw or glass scale) grows with a recorded
 //! temperature: the axis is effectively at `q + s·ΔT·(q − q_mid)`, the scale change `s`
-//! (ppm/K) about the middle of the stroke, `ΔT` the temperature's rise (driver `T_<name>`),
-//! through a first-order lag when the static form is already in the model. Where the scale is
-//! fixed is an offset that follows the temperature: a `temperature-coupling` of the axis, a
-//! candidate of its own. Without a recorded temperature a scale warming in time is not
+//! (ppm/K) about the middle of the positions the axis stands at over the fitted samples, `ΔT`
+//! the temperature's rise (driver `T_<name>`), through a first-order lag when the static form
+//! is already in the model. Where the scale is fixed is an offset that follows the
+//! temperature: a `temperature-coupling` of the axis, a candidate of its own (about the
+//! stroke's middle, a scale seen over a few ball heights far from it would be mostly that
+//! offset). Without a recorded temperature a scale warming in time is not
 //! proposed: over the few heights an R-test sees, it is a drift of the axis by another name.
 //! Plant keys `axis`, `driver`, `scale_ppm_per_K`, `tau_s` for the lagged form. Targets: each
 //! linear axis that stands at different places over the fitted samples (within a run or
