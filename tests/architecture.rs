@@ -12,6 +12,8 @@
 //!   (`pub use m::Item`) counts as a use of `m`. The same holds inside every module folder
 //!   (`src/m/`): its children may not use each other in a circle (`super::x`, `crate::m::x`,
 //!   or an item `m` re-exports).
+//! - **The identification core links no database** (`DATABASE_FREE`): the history that stores
+//!   campaigns is the command line's.
 //! - **An error tells its cause once.** A `thiserror` message that shows a field (`{cause}`,
 //!   `{0}`) must not also make it the error's `source` (`#[source]`, `#[from]` or a field named
 //!   `source`): a reader walking the chain would see the cause twice.
@@ -208,6 +210,86 @@ fn the_layering_check_finds_the_test_kit_outside_tests() {
     assert!(layering_faults(&deps(Some("dev"))).is_empty());
     assert_eq!(layering_faults(&deps(None)).len(), 1);
     assert_eq!(layering_faults(&deps(Some("build"))).len(), 1);
+}
+
+/// Database clients. The identification core reads and writes files; the machine history,
+/// which stores campaigns in a database, is the command line's to link.
+const DATABASE_CLIENTS: &[&str] = &[
+    "rusqlite",
+    "libsqlite3-sys",
+    "postgres",
+    "tokio-postgres",
+    "sqlx",
+    "diesel",
+];
+
+/// Crates that must link no database client, not even through another crate.
+const DATABASE_FREE: &[&str] = &[
+    "mtcal-identify",
+    "mtcal-report",
+    "mtcal-session",
+    "mtcal-effects",
+];
+
+/// Every crate `krate` links (normal dependencies, transitively), from `cargo tree`.
+fn linked_crates(krate: &str) -> BTreeSet<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args([
+            "tree",
+            "-p",
+            krate,
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+            "-f",
+            "{p}",
+            "--offline",
+        ])
+        .current_dir(workspace())
+        .output()
+        .expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .map(str::to_string)
+        .collect()
+}
+
+/// The database clients `krate` links.
+fn databases_linked(krate: &str) -> Vec<String> {
+    linked_crates(krate)
+        .into_iter()
+        .filter(|c| DATABASE_CLIENTS.contains(&c.as_str()))
+        .collect()
+}
+
+#[test]
+fn the_identification_links_no_database() {
+    let faults: Vec<String> = DATABASE_FREE
+        .iter()
+        .filter_map(|k| {
+            let linked = databases_linked(k);
+            (!linked.is_empty()).then(|| format!("{k} links {}", linked.join(", ")))
+        })
+        .collect();
+    assert!(faults.is_empty(), "{}", faults.join("\n"));
+}
+
+#[test]
+fn the_database_check_finds_the_history_s_databases() {
+    let linked = databases_linked("mtcal-history");
+    for db in ["rusqlite", "postgres"] {
+        assert!(linked.iter().any(|c| c == db), "{linked:?}");
+    }
+    // And through another crate: the command line links the history.
+    assert!(!databases_linked("mtcal-xtask").is_empty());
 }
 
 /// Rust source without comments, string and character literals (their text could name a

@@ -314,10 +314,14 @@ fn machine_page(
     Ok(mtcal_report::HistoryPage {
         title: format!("mtcal history — {machine}"),
         source: store.location().to_string(),
-        trends: mtcal_history::machine_trends(store, machine, params, limits, max_interval_days)?,
-        fleet: mtcal_history::fleet_view(store, limits)?
+        trends: mtcal_history::machine_trends(store, machine, params, limits, max_interval_days)?
             .into_iter()
+            .map(trend_plot)
+            .collect(),
+        fleet: mtcal_history::fleet_view(store, limits)?
+            .iter()
             .filter(|l| l.machine == machine)
+            .map(fleet_entry)
             .collect(),
         drifts: Vec::new(),
     })
@@ -336,9 +340,42 @@ fn fleet_page(
         title: "mtcal history — fleet".to_string(),
         source: store.location().to_string(),
         drifts: mtcal_history::fleet_drift_rates(store, &fleet, params, limits, max_interval_days)?,
-        fleet,
+        fleet: fleet.iter().map(fleet_entry).collect(),
         trends: Vec::new(),
     })
+}
+
+/// A fleet line as the history page shows it.
+fn fleet_entry(line: &mtcal_history::FleetLine) -> mtcal_report::FleetEntry {
+    mtcal_report::FleetEntry {
+        machine: line.machine.clone(),
+        campaigns: line.campaigns,
+        last_check_day: line.last_check.strftime("%Y-%m-%d").to_string(),
+        out_of_tolerance: line.out_of_tolerance.clone(),
+        cannot_decide: line.cannot_decide.clone(),
+    }
+}
+
+/// A parameter's trend as the history page plots it.
+fn trend_plot(view: mtcal_history::TrendView) -> mtcal_report::TrendPlot {
+    mtcal_report::TrendPlot {
+        points: view
+            .points
+            .iter()
+            .map(|p| mtcal_report::TrendPoint {
+                time_s: p.date.as_second() as f64,
+                value: p.value,
+                u95: p.u95,
+                superseded: p.superseded,
+            })
+            .collect(),
+        machine: view.machine,
+        parameter: view.parameter,
+        unit: view.unit,
+        limit: view.limit,
+        trend: view.trend,
+        not_analysed: view.not_analysed,
+    }
 }
 
 fn show(store: &Store, machine: &str, json: bool, out: &mut impl Write) -> Result<()> {

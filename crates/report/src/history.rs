@@ -2,13 +2,13 @@
 //! identification report's style, with the fleet table (machine, campaigns, last check, the
 //! parameters beyond their tolerances, the drift rates) and one trend plot per parameter: every
 //! campaign's value with its 95 % interval, the drift line with its band, the tolerance lines.
-//! Renders only: the numbers are the history's views ([`mtcal_history::TrendView`],
-//! [`mtcal_history::FleetLine`]).
+//! Renders only: the numbers are the history's, given as this page's own model
+//! ([`FleetEntry`], [`TrendPlot`]) so that the report (and the identification that writes
+//! one) links no database.
 
-use crate::ReportError;
 use crate::escape::{display_unit, escape};
 use crate::page::{READY, figure, head, none};
-use mtcal_history::{FleetLine, TrendView};
+use crate::{FleetEntry, ReportError, TrendPlot};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -19,11 +19,11 @@ pub struct HistoryPage {
     pub title: String,
     /// Where the history is (the SQLite file, the server without its password).
     pub source: String,
-    pub fleet: Vec<FleetLine>,
+    pub fleet: Vec<FleetEntry>,
     /// Per machine of the fleet table, the drift rates shown in it: (parameter, text).
     pub drifts: Vec<(String, Vec<(String, String)>)>,
     /// The trend plots, one per parameter.
-    pub trends: Vec<TrendView>,
+    pub trends: Vec<TrendPlot>,
 }
 
 /// The page's HTML.
@@ -81,7 +81,7 @@ fn fleet(p: &HistoryPage) -> String {
             "<tr data-machine=\"{m}\"><td>{m}</td><td class=\"n\">{}</td><td>{}</td>\
              <td class=\"nid\">{}</td><td>{}</td><td>{drift}</td></tr>",
             line.campaigns,
-            line.last_check.strftime("%Y-%m-%d"),
+            escape(&line.last_check_day),
             escape(&line.out_of_tolerance.join(", ")),
             escape(&line.cannot_decide.join(", ")),
             m = escape(&line.machine),
@@ -91,7 +91,7 @@ fn fleet(p: &HistoryPage) -> String {
     h
 }
 
-fn trends(views: &[TrendView]) -> Result<String, ReportError> {
+fn trends(views: &[TrendPlot]) -> Result<String, ReportError> {
     if views.is_empty() {
         return Ok(none("No parameter was asked for (history report NAME)."));
     }

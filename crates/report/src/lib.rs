@@ -69,7 +69,48 @@ pub enum ReportError {
     Plot { plot: String, message: String },
     /// The report could not be written; nothing of it was.
     #[error(transparent)]
-    Write(#[from] mtcal_machine::OutputError),
+    Write(#[from] mtcal_located::OutputError),
+}
+
+/// A machine's row of the history page's fleet table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FleetEntry {
+    pub machine: String,
+    pub campaigns: u64,
+    /// The day of its latest campaign, `2026-03-01`.
+    pub last_check_day: String,
+    /// Parameters of the latest campaign proven beyond their limit.
+    pub out_of_tolerance: Vec<String>,
+    /// Parameters of the latest campaign within their limit by less than U (guard band).
+    pub cannot_decide: Vec<String>,
+}
+
+/// One parameter of one machine over its campaigns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrendPlot {
+    pub machine: String,
+    pub parameter: String,
+    pub unit: Option<String>,
+    /// Every campaign's entry, in date order.
+    pub points: Vec<TrendPoint>,
+    /// The limit on `|value|`, when one is known.
+    pub limit: Option<f64>,
+    /// The analysis of the values that count.
+    pub trend: Option<mtcal_trend::Trend>,
+    /// Why there is no analysis (too few values…).
+    pub not_analysed: Option<String>,
+}
+
+/// One campaign's entry on a trend plot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrendPoint {
+    /// The campaign's date (s since 1970, UTC).
+    pub time_s: f64,
+    /// `None` when not identifiable (not drawn).
+    pub value: Option<f64>,
+    pub u95: Option<f64>,
+    /// Superseded campaigns are drawn grey.
+    pub superseded: bool,
 }
 
 /// Everything the page shows.
@@ -404,7 +445,7 @@ pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, ReportError> {
 /// where the folder goes is refused, and nothing (not the folder) is left on an error.
 fn write_page(dir: &Path, html: &str) -> Result<PathBuf, ReportError> {
     let path = dir.join("index.html");
-    let mut files = mtcal_machine::Outputs::new();
+    let mut files = mtcal_located::Outputs::new();
     files.folder(dir);
     files.file(&path, html);
     files.commit()?;

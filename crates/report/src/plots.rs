@@ -563,14 +563,12 @@ const LIMIT: RGBColor = RGBColor(0xC0, 0x20, 0x20);
 /// One parameter's history: each campaign's value with its 95 % interval (superseded ones
 /// grey), the drift line with its 95 % band, and the tolerance lines ±limit; days since the
 /// first campaign along x.
-pub(crate) fn trend(v: &mtcal_history::TrendView) -> Result<String, ReportError> {
+pub(crate) fn trend(v: &crate::TrendPlot) -> Result<String, ReportError> {
     let valued: Vec<(f64, f64, f64, bool)> = v
         .points
         .iter()
         .filter_map(|p| match (p.value, p.u95) {
-            (Some(value), Some(u95)) => {
-                Some((p.date.as_second() as f64, value, u95.abs(), p.superseded))
-            }
+            (Some(value), Some(u95)) => Some((p.time_s, value, u95.abs(), p.superseded)),
             _ => None,
         })
         .filter(|(t, value, u95, _)| t.is_finite() && value.is_finite() && u95.is_finite())

@@ -719,7 +719,7 @@ impl Manifest {
 /// (the run files themselves are not checked: they may be written afterwards).
 pub fn write_session(dir: &Path, manifest: &Manifest) -> Result<PathBuf, SessionError> {
     let (path, text) = session_text(dir, manifest)?;
-    mtcal_machine::write_atomically(&path, text.as_bytes()).map_err(|source| {
+    mtcal_located::write_atomically(&path, text.as_bytes()).map_err(|source| {
         SessionError::Write {
             path: path.clone(),
             cause: source,

@@ -603,7 +603,7 @@ fn check_increasing(
 /// exactly the table's columns.
 pub fn write_run(path: &Path, table: &RunTable) -> Result<(), SessionError> {
     let text = run_text(path, table)?;
-    mtcal_machine::write_atomically(path, text.as_bytes()).map_err(|source| SessionError::Write {
+    mtcal_located::write_atomically(path, text.as_bytes()).map_err(|source| SessionError::Write {
         path: path.to_path_buf(),
         cause: source,
     })
