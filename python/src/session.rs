@@ -73,7 +73,7 @@ impl RsSession {
             .session
             .runs
             .iter()
-            .zip(&study.runs)
+            .zip(study.runs.iter())
             .map(|(spec, run)| {
                 (
                     spec.name.clone(),
@@ -312,7 +312,7 @@ impl RsSession {
     /// The session's machine.
     fn machine(&self) -> PyResult<RsMachine> {
         let study = self.study().map_err(identify_error)?;
-        RsMachine::from_loaded(study.machine.clone())
+        RsMachine::from_loaded((*study.machine).clone())
     }
 
     fn __repr__(&self) -> String {

@@ -215,7 +215,7 @@ fn identified(dir: tempfile::TempDir, sim: SimMachine, truth: Truth) -> Case {
     let outcome = prepared.run(&mut mtcal_solve::Silent).unwrap();
     assert!(outcome.solution.converged, "the fit converges");
     let study = &outcome.study;
-    let model = study.model.clone();
+    let model = MachineModel::clone(&study.model);
     // The identify JSON as the user has it, read as `compensate --params id.json` reads it.
     let json = outcome.identification.to_json();
     let json_path = dir.path().join("id.json");

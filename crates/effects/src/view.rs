@@ -730,7 +730,7 @@ impl SessionView {
     /// Whether some run has the context column `name` with more than one value.
     pub fn has_varying_column(&self, name: &str) -> bool {
         let mut first: Option<f64> = None;
-        for run in &self.runs {
+        for run in self.runs.iter() {
             if let Some(v) = run.context_column(name) {
                 for x in (0..v.len()).map(|i| v.get(i)) {
                     match first {

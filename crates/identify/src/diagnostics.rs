@@ -73,7 +73,7 @@ const BEHIND_MAX: usize = 3;
 pub fn diagnose(study: &Study, x: &[f64]) -> Vec<DiagnosisReport> {
     let mut out = Vec::new();
     let mut plugins: Vec<&'static mtcal_instrument::InstrumentPlugin> = Vec::new();
-    for slot in &study.setups {
+    for slot in study.setups.iter() {
         if slot.plugin.diagnose.is_some() && !plugins.iter().any(|p| p.name == slot.plugin.name) {
             plugins.push(slot.plugin);
         }

@@ -35,8 +35,8 @@ pub fn report(
 ) -> Result<rep::Report, IdentifyError> {
     let before = match initial {
         Some(initial) => {
-            // The search started from the session as loaded: load it again for its predictions.
-            let study = Study::load(session)?;
+            // The search started from the session as loaded: that study for its predictions.
+            let study = study.as_loaded()?;
             (study.layout().n_x() == initial.x.len()).then(|| {
                 let predictions = predictions(&study, &initial.x);
                 Before {
@@ -343,7 +343,7 @@ fn residuals(
         _ => "σ".to_string(),
     };
     let mut variables = vec!["t".to_string()];
-    for run in &study.runs {
+    for run in study.runs.iter() {
         for (name, _) in &run.context {
             if !variables.contains(name) {
                 variables.push(name.clone());

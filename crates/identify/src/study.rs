@@ -75,9 +75,7 @@ pub struct RunSlot {
     pub(crate) position_blocks: crate::blocks::PositionBlocks,
 }
 
-/// A run as loaded, for [`Study::rebuild`] (which reads no file again; the columns are shared,
-/// not copied).
-#[derive(Clone)]
+/// A run's samples as loaded, before they take their place in the study.
 struct LoadedRun {
     file: RunFile,
     t: Column,
@@ -95,8 +93,6 @@ enum RunSource {
     /// Tables held in memory, as reading the run files would give them
     /// ([`Study::from_parts`]).
     Tables(std::vec::IntoIter<RunTable>),
-    /// The runs of a study already loaded ([`Study::rebuild`]).
-    Loaded(std::vec::IntoIter<LoadedRun>),
 }
 
 impl RunSource {
@@ -110,9 +106,6 @@ impl RunSource {
         fit: bool,
     ) -> Result<LoadedRun, IdentifyError> {
         match self {
-            RunSource::Loaded(runs) => Ok(runs
-                .next()
-                .expect("a rebuilt study has the runs of the study it rebuilds")),
             RunSource::Files => {
                 let table = read_run_file(spec, model, setup, fit)?;
                 load_run(model, setup, table, fit)
@@ -199,9 +192,9 @@ impl ExpandedRun {
 /// A session loaded for identification.
 #[derive(Debug)]
 pub struct Study {
-    pub session: Session,
-    pub machine: LoadedMachine,
-    pub model: MachineModel,
+    pub session: Arc<Session>,
+    pub machine: Arc<LoadedMachine>,
+    pub model: Arc<MachineModel>,
     /// Machine coefficients (SI) that are not estimated keep these values; estimated ones start
     /// from them. Zero unless `[identify] start` names a parameter file.
     pub base_coeffs: Vec<f64>,
@@ -209,11 +202,14 @@ pub struct Study {
     /// base value. A parameter held at zero changes no prediction, so leaving it out gives the
     /// same poses while the Jacobian skips its columns (the 11-error R-test fit of a machine
     /// with a full error model evaluates 11 columns instead of 121).
-    pub fit_model: MachineModel,
+    pub fit_model: Arc<MachineModel>,
     /// A label per machine coefficient (`EX0C`, `EXX.P2`).
     pub coeff_labels: Vec<String>,
-    pub setups: Vec<SetupSlot>,
-    pub runs: Vec<RunSlot>,
+    /// The set-ups and runs as loaded: shared by every study rebuilt from this one.
+    pub setups: Arc<Vec<SetupSlot>>,
+    pub runs: Arc<Vec<RunSlot>>,
+    /// `[identify]` as read, and the start file's text: read once, shared likewise.
+    inputs: Arc<Inputs>,
     /// The parameter vector: which machine coefficients are estimated, every set-up's free
     /// nuisance parameters, the effects' parameters (and the reduced model's coefficients).
     layout: ParamLayout,
@@ -235,6 +231,25 @@ pub struct Study {
     /// The inputs and lag series of the session's runs, shared by the studies rebuilt from
     /// this one (they depend on the runs alone).
     series: Arc<SeriesCache>,
+}
+
+/// What a rebuilt study takes from the one it is rebuilt from, unchanged.
+struct Shared {
+    session: Arc<Session>,
+    machine: Arc<LoadedMachine>,
+    setups: Arc<Vec<SetupSlot>>,
+    runs: Arc<Vec<RunSlot>>,
+    inputs: Arc<Inputs>,
+}
+
+/// What a session's studies share besides its set-ups and runs: `[identify]` as parsed and
+/// checked, and the text of the parameter file its `start` names (parsed again for a model
+/// whose orders a search raised, never read again).
+#[derive(Debug)]
+struct Inputs {
+    options: StudyOptions,
+    start: Option<(PathBuf, String)>,
+    held_prior: f64,
 }
 
 /// The nominal axis Jacobians of every sample are kept when they take at most this (a session
@@ -368,7 +383,7 @@ impl Study {
     /// physics search adds to: source 003's temperature polynomial, say). Their parameter
     /// values are starting values.
     fn configured_effects(&self) -> Result<Vec<Arc<dyn Effect>>, IdentifyError> {
-        let Some(list) = StudyOptions::read(&self.session)?.effect else {
+        let Some(list) = &self.inputs.options.effect else {
             return Ok(Vec::new());
         };
         let bad = |m: String| identify_key(&self.session, "effect", &m);
@@ -382,34 +397,32 @@ impl Study {
     }
 
     /// The same session with `changes` (from the study as loaded, not from this one's
-    /// changes): run files are not read again.
+    /// changes): nothing is read or loaded again. The set-ups, runs and `[identify]` are
+    /// shared; the model is built again only when the changes raise other orders, the reduced
+    /// model only when they estimate other parameters.
     pub fn rebuild(&self, changes: Changes) -> Result<Study, IdentifyError> {
-        // The SI positions, prepared readings and label numbers depend on the session's
-        // set-ups and the machine's axes, which changes leave alone; the runs were checked
-        // when they were loaded.
-        let runs: Vec<LoadedRun> = self
-            .runs
-            .iter()
-            .map(|r| LoadedRun {
-                file: r.file.clone(),
-                t: r.t.clone(),
-                q: r.q.clone(),
-                readings: r.readings.clone(),
-                context: r.context.clone(),
-                labels: r.labels.clone(),
-                position_blocks: r.position_blocks.clone(),
-            })
-            .collect();
-        // The same estimated parameters and orders make the same reduced model, whose axis
-        // Jacobians depend on nothing else (a search refits many effects on one model).
         let same_model =
             changes.estimate == self.changes.estimate && changes.raise == self.changes.raise;
-        let mut study = Self::assemble(
-            self.session.clone(),
-            self.machine.clone(),
-            RunSource::Loaded(runs.into_iter()),
+        let model = if changes.raise == self.changes.raise {
+            Some((Arc::clone(&self.model), self.base_coeffs.clone()))
+        } else {
+            None
+        };
+        let fit_model = same_model.then(|| Arc::clone(&self.fit_model));
+        let mut study = Self::derive(
+            Shared {
+                session: Arc::clone(&self.session),
+                machine: Arc::clone(&self.machine),
+                setups: Arc::clone(&self.setups),
+                runs: Arc::clone(&self.runs),
+                inputs: Arc::clone(&self.inputs),
+            },
             changes,
+            model,
+            fit_model,
         )?;
+        // The same reduced model has the same axis Jacobians (a search refits many effects
+        // on one model); the inputs and lag series depend on the runs alone.
         if same_model {
             study.axis_jacobians = Arc::clone(&self.axis_jacobians);
             study.location_jacobians = Arc::clone(&self.location_jacobians);
@@ -418,122 +431,65 @@ impl Study {
         Ok(study)
     }
 
+    /// The study as [`Study::load`] gave it (the configured effects, nothing a search
+    /// changed), without reading anything again.
+    pub fn as_loaded(&self) -> Result<Study, IdentifyError> {
+        self.rebuild(Changes::default())?.with_configured_effects()
+    }
+
     /// What this study changes from the session as written.
     pub fn changes(&self) -> &Changes {
         &self.changes
     }
 
+    /// Reads `[identify]` and the start file, loads every set-up once and every run's samples
+    /// from `source`, then derives the study of `changes`.
     fn assemble(
         session: Session,
         machine: LoadedMachine,
         mut source: RunSource,
         changes: Changes,
     ) -> Result<Study, IdentifyError> {
-        let model_error =
-            |machine: &LoadedMachine, e: &dyn std::fmt::Display| IdentifyError::Model {
+        let options = StudyOptions::read(&session)?;
+        let held_prior = match options.held_prior {
+            None => DEFAULT_HELD_PRIOR,
+            Some(n) if n.value > 0.0 && n.value.is_finite() => n.value,
+            Some(n) => {
+                return Err(identify_key(
+                    &session,
+                    "held_prior",
+                    &format!("expected a positive number (µm or µrad), found {n}"),
+                ));
+            }
+        } * 1e-6;
+        let start = match &options.start {
+            None => None,
+            Some(f) => {
+                let path = session.dir.join(f);
+                let text = std::fs::read_to_string(&path).map_err(|cause| {
+                    IdentifyError::Params(params::ParamsError::Read {
+                        path: path.clone(),
+                        cause,
+                    })
+                })?;
+                Some((path, text))
+            }
+        };
+        // The runs' positions in SI need the machine's axes only (no raised order changes
+        // them).
+        let nominal = MachineModel::new(machine.machine.clone(), &machine.config).map_err(|e| {
+            IdentifyError::Model {
                 source_name: machine.config_source.clone(),
                 message: e.to_string(),
-            };
-        // The study keeps the session's machine as loaded (a rebuild applies its raises again,
-        // to that); its model has the raises.
-        let mut config = machine.config.clone();
-        for (name, extra) in &changes.raise {
-            raise_order(&mut config, name, *extra).map_err(|m| model_error(&machine, &m))?;
-        }
-        let model = MachineModel::new(machine.machine.clone(), &config)
-            .map_err(|e| model_error(&machine, &e))?;
-        let options = StudyOptions::read(&session)?;
-        let base_coeffs = match &options.start {
-            None => vec![0.0; model.n_coeffs()],
-            Some(f) => params::load_params(&session.dir.join(f), model.errors())?,
-        };
-        let coeff_labels = model.errors().coefficient_labels();
-        let mut estimated =
-            estimated_coefficients(&session, options.parameters.as_deref(), &model)?;
-        for name in &changes.estimate {
-            let p = model.errors().find(name).ok_or_else(|| {
-                model_error(
-                    &machine,
-                    &format!("{name} is not in this machine's error model"),
-                )
-            })?;
-            estimated.extend(p.offset..p.offset + p.len);
-        }
-        estimated.sort_unstable();
-        estimated.dedup();
-        let (fit_model, fit_coeffs) =
-            reduced_model(&machine, &config, &model, &estimated, &base_coeffs)?;
+            }
+        })?;
         let mut setups: Vec<SetupSlot> = Vec::new();
         let mut by_name: BTreeMap<String, usize> = BTreeMap::new();
         let mut runs = Vec::with_capacity(session.runs.len());
-        let mut free_nuisance: Vec<Vec<usize>> = Vec::new();
         for spec in &session.runs {
-            let plugin = mtcal_plugins::find(&spec.instrument).ok_or_else(|| {
-                IdentifyError::UnknownInstrument {
-                    at: spec.location.to_string(),
-                    run: spec.name.clone(),
-                    name: spec.instrument.clone(),
-                    known: mtcal_plugins::plugins()
-                        .iter()
-                        .map(|p| p.name)
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                }
-            })?;
-            let setup_name = match &spec.setup {
-                SetupRef::Shared(n) => n.clone(),
-                SetupRef::Own(_) => spec.name.clone(),
-            };
-            let setup_index = match by_name.get(&setup_name) {
-                Some(&i) => {
-                    if setups[i].plugin.name != plugin.name {
-                        return Err(IdentifyError::SetupShared {
-                            at: spec.location.to_string(),
-                            setup: setup_name,
-                            first: setups[i].plugin.name.to_string(),
-                            second: plugin.name.to_string(),
-                        });
-                    }
-                    i
-                }
-                None => {
-                    let table = session.setup_of(spec).clone();
-                    let ctx = SetupContext {
-                        machine: &machine.machine,
-                    };
-                    // A set-up's error points at its key when the set-up is shared (its own
-                    // table), else at the run.
-                    let setup =
-                        (plugin.load_setup)(&table, &ctx).map_err(|e| IdentifyError::Setup {
-                            at: session
-                                .setup_location(&setup_name, &e.key)
-                                .unwrap_or(&spec.location)
-                                .to_string(),
-                            setup: setup_name.clone(),
-                            cause: e,
-                        })?;
-                    let free: Vec<usize> = setup
-                        .nuisance()
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, n)| {
-                            n.free && !changes.hold.contains(&format!("{setup_name}.{}", n.name))
-                        })
-                        .map(|(i, _)| i)
-                        .collect();
-                    free_nuisance.push(free);
-                    setups.push(SetupSlot {
-                        name: setup_name.clone(),
-                        plugin,
-                        setup,
-                        table,
-                    });
-                    by_name.insert(setup_name, setups.len() - 1);
-                    setups.len() - 1
-                }
-            };
+            let setup_index = Self::setup_of(&session, &machine, spec, &mut setups, &mut by_name)?;
             let fit = spec.use_ == RunUse::Fit;
-            let run = source.next_run(spec, &model, &*setups[setup_index].setup, fit)?;
+            let run = source.next_run(spec, &nominal, &*setups[setup_index].setup, fit)?;
             runs.push(RunSlot {
                 name: spec.name.clone(),
                 fit,
@@ -552,24 +508,163 @@ impl Study {
                 manifest: session.manifest.clone(),
             });
         }
+        let shared = Shared {
+            session: Arc::new(session),
+            machine: Arc::new(machine),
+            setups: Arc::new(setups),
+            runs: Arc::new(runs),
+            inputs: Arc::new(Inputs {
+                options,
+                start,
+                held_prior,
+            }),
+        };
+        Self::derive(shared, changes, None, None)
+    }
+
+    /// The index of `spec`'s set-up in `setups`, loading it the first time a run names it.
+    fn setup_of(
+        session: &Session,
+        machine: &LoadedMachine,
+        spec: &RunSpec,
+        setups: &mut Vec<SetupSlot>,
+        by_name: &mut BTreeMap<String, usize>,
+    ) -> Result<usize, IdentifyError> {
+        let plugin = mtcal_plugins::find(&spec.instrument).ok_or_else(|| {
+            IdentifyError::UnknownInstrument {
+                at: spec.location.to_string(),
+                run: spec.name.clone(),
+                name: spec.instrument.clone(),
+                known: mtcal_plugins::plugins()
+                    .iter()
+                    .map(|p| p.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }
+        })?;
+        let setup_name = match &spec.setup {
+            SetupRef::Shared(n) => n.clone(),
+            SetupRef::Own(_) => spec.name.clone(),
+        };
+        if let Some(&i) = by_name.get(&setup_name) {
+            if setups[i].plugin.name != plugin.name {
+                return Err(IdentifyError::SetupShared {
+                    at: spec.location.to_string(),
+                    setup: setup_name,
+                    first: setups[i].plugin.name.to_string(),
+                    second: plugin.name.to_string(),
+                });
+            }
+            return Ok(i);
+        }
+        let table = session.setup_of(spec).clone();
+        let ctx = SetupContext {
+            machine: &machine.machine,
+        };
+        // A set-up's error points at its key when the set-up is shared (its own table), else
+        // at the run.
+        let setup = (plugin.load_setup)(&table, &ctx).map_err(|e| IdentifyError::Setup {
+            at: session
+                .setup_location(&setup_name, &e.key)
+                .unwrap_or(&spec.location)
+                .to_string(),
+            setup: setup_name.clone(),
+            cause: e,
+        })?;
+        setups.push(SetupSlot {
+            name: setup_name.clone(),
+            plugin,
+            setup,
+            table,
+        });
+        by_name.insert(setup_name, setups.len() - 1);
+        Ok(setups.len() - 1)
+    }
+
+    /// The study of `changes` on what is loaded: the model with the raised orders (`model`
+    /// with its start values when they are the ones already built), the estimated
+    /// coefficients, the reduced model (`fit_model` when it is the one already built), the
+    /// free set-up parameters and the parameter layout.
+    fn derive(
+        shared: Shared,
+        changes: Changes,
+        model: Option<(Arc<MachineModel>, Vec<f64>)>,
+        fit_model: Option<Arc<MachineModel>>,
+    ) -> Result<Study, IdentifyError> {
+        let Shared {
+            session,
+            machine,
+            setups,
+            runs,
+            inputs,
+        } = shared;
+        let model_error =
+            |machine: &LoadedMachine, e: &dyn std::fmt::Display| IdentifyError::Model {
+                source_name: machine.config_source.clone(),
+                message: e.to_string(),
+            };
+        // The study keeps the session's machine as loaded (a rebuild applies its raises again,
+        // to that); its model has the raises.
+        let mut config = machine.config.clone();
+        for (name, extra) in &changes.raise {
+            raise_order(&mut config, name, *extra).map_err(|m| model_error(&machine, &m))?;
+        }
+        let (model, base_coeffs) = match model {
+            Some(built) => built,
+            None => {
+                let model = MachineModel::new(machine.machine.clone(), &config)
+                    .map_err(|e| model_error(&machine, &e))?;
+                let base = match &inputs.start {
+                    None => vec![0.0; model.n_coeffs()],
+                    Some((path, text)) => params::parse_params(text, path, model.errors())?,
+                };
+                (Arc::new(model), base)
+            }
+        };
+        let coeff_labels = model.errors().coefficient_labels();
+        let mut estimated =
+            estimated_coefficients(&session, inputs.options.parameters.as_deref(), &model)?;
+        for name in &changes.estimate {
+            let p = model.errors().find(name).ok_or_else(|| {
+                model_error(
+                    &machine,
+                    &format!("{name} is not in this machine's error model"),
+                )
+            })?;
+            estimated.extend(p.offset..p.offset + p.len);
+        }
+        estimated.sort_unstable();
+        estimated.dedup();
+        let (fit_model, fit_coeffs) = match fit_model {
+            Some(reduced) => (reduced, kept_coefficients(&model, &estimated, &base_coeffs)),
+            None => {
+                let (reduced, kept) =
+                    reduced_model(&machine, &config, &model, &estimated, &base_coeffs)?;
+                (Arc::new(reduced), kept)
+            }
+        };
+        let free_nuisance: Vec<Vec<usize>> = setups
+            .iter()
+            .map(|slot| {
+                slot.setup
+                    .nuisance()
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, n)| {
+                        n.free && !changes.hold.contains(&format!("{}.{}", slot.name, n.name))
+                    })
+                    .map(|(i, _)| i)
+                    .collect()
+            })
+            .collect();
         let layout = ParamLayout::new(
             estimated,
             fit_coeffs,
             free_nuisance,
             mtcal_effects::prepared::n_params(&changes.effects),
         );
-        let held_prior = match options.held_prior {
-            None => DEFAULT_HELD_PRIOR,
-            Some(n) if n.value > 0.0 && n.value.is_finite() => n.value,
-            Some(n) => {
-                return Err(identify_key(
-                    &session,
-                    "held_prior",
-                    &format!("expected a positive number (µm or µrad), found {n}"),
-                ));
-            }
-        } * 1e-6;
         Ok(Study {
+            held_prior: inputs.held_prior,
             session,
             machine,
             model,
@@ -578,8 +673,8 @@ impl Study {
             coeff_labels,
             setups,
             runs,
+            inputs,
             layout,
-            held_prior,
             changes,
             view: OnceLock::new(),
             axis_jacobians: Arc::new(OnceLock::new()),
@@ -1182,20 +1277,15 @@ fn reduced_model(
     estimated: &[usize],
     base: &[f64],
 ) -> Result<(MachineModel, Vec<usize>), IdentifyError> {
-    let mut used = vec![false; model.n_coeffs()];
-    for &k in estimated {
-        used[k] = true;
-    }
-    let mut kept = Vec::new();
-    let mut index = Vec::new();
+    let kept_params = kept_params(model, estimated, base);
     // `ErrorModel::new` lays the parameters out in configuration order.
-    for (entry, p) in config.iter().zip(model.errors().params()) {
-        let range = p.offset..p.offset + p.len;
-        if range.clone().any(|k| used[k] || base[k] != 0.0) {
-            kept.push(entry.clone());
-            index.extend(range);
-        }
-    }
+    let kept: Vec<_> = config
+        .iter()
+        .zip(&kept_params)
+        .filter(|(_, k)| **k)
+        .map(|(entry, _)| entry.clone())
+        .collect();
+    let index = kept_coefficients(model, estimated, base);
     let reduced =
         MachineModel::new(machine.machine.clone(), &kept).map_err(|e| IdentifyError::Model {
             source_name: machine.config_source.clone(),
@@ -1203,6 +1293,34 @@ fn reduced_model(
         })?;
     debug_assert_eq!(reduced.n_coeffs(), index.len());
     Ok((reduced, index))
+}
+
+/// Per parameter of `model`, whether the reduced model keeps it: estimated, or with a
+/// nonzero base value.
+fn kept_params(model: &MachineModel, estimated: &[usize], base: &[f64]) -> Vec<bool> {
+    let mut used = vec![false; model.n_coeffs()];
+    for &k in estimated {
+        used[k] = true;
+    }
+    model
+        .errors()
+        .params()
+        .iter()
+        .map(|p| (p.offset..p.offset + p.len).any(|k| used[k] || base[k] != 0.0))
+        .collect()
+}
+
+/// The coefficients of `model` the reduced model keeps, in order ([`kept_params`]).
+fn kept_coefficients(model: &MachineModel, estimated: &[usize], base: &[f64]) -> Vec<usize> {
+    let kept = kept_params(model, estimated, base);
+    model
+        .errors()
+        .params()
+        .iter()
+        .zip(kept)
+        .filter(|(_, k)| *k)
+        .flat_map(|(p, _)| p.offset..p.offset + p.len)
+        .collect()
 }
 
 /// `[identify] parameters = ["EC0Y", …]`: the machine parameters to estimate (all of a

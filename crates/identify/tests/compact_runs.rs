@@ -221,7 +221,7 @@ fn recorded_rtest_runs_are_kept_as_integers_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let study = Study::load(&simulate(dir.path(), &rtest_plan(true, 0.5))).unwrap();
     let per_sample = check_against_the_files(&study);
-    for run in &study.runs {
+    for run in study.runs.iter() {
         assert!(
             matches!(run.t.storage(), Storage::Decimal(_)),
             "{}",
@@ -251,7 +251,7 @@ fn full_precision_files_are_kept_as_f64_bit_for_bit() {
     let study = Study::load(&simulate(dir.path(), &rtest_plan(false, 0.5))).unwrap();
     let per_sample = check_against_the_files(&study);
     // Held axes are still one number; the moving ones and the readings keep 8 bytes.
-    for run in &study.runs {
+    for run in study.runs.iter() {
         assert!(
             run.readings
                 .as_ref()
@@ -271,7 +271,7 @@ fn prepared_laser_readings_are_kept_as_computed() {
         let dir = tempfile::tempdir().unwrap();
         let study = Study::load(&simulate(dir.path(), &laser_plan(record))).unwrap();
         let per_sample = check_against_the_files(&study);
-        for run in &study.runs {
+        for run in study.runs.iter() {
             // Wavelength compensation changes every reading: they are kept as computed.
             let readings = run.readings.as_ref().unwrap();
             assert_eq!(readings.column(0).storage(), Storage::Float, "{}", run.name);

@@ -31,7 +31,7 @@ fn reduced_fit_model_gives_the_full_models_poses() {
         for &k in study.layout().fit_coeffs() {
             assert!(study.layout().estimated().contains(&k) || study.base_coeffs[k] != 0.0);
         }
-        for run in &study.runs {
+        for run in study.runs.iter() {
             let na = study.model.machine().n_axes();
             let q_all = run.q.to_row_major();
             for q in q_all.chunks_exact(na).step_by(7) {

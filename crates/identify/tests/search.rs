@@ -1,6 +1,7 @@
 //! The physics search's first piece on simulated R-test sessions: a component error the fit
 //! left out is named first and significant, with the fitted parameters it biased; a session
-//! whose truth is inside the fitted model raises no claim.
+//! whose truth is inside the fitted model raises no claim. And the search's many refits read
+//! nothing again: every set-up is loaded once, no file is read after the session is loaded.
 
 use mtcal_identify::search::{omitted_parameters, rank};
 use mtcal_identify::{Study, identify};
@@ -120,4 +121,122 @@ fn clean_sessions_with_fifty_seeds_rarely_raise_a_claim() {
     // 2.5 expected at most; 7 or more has probability below 0.5 % at a 5 % rate.
     assert!(claimed.len() < 7, "{} of 50: {claimed:?}", claimed.len());
     eprintln!("{} of 50 clean sessions raised a claim", claimed.len());
+}
+
+/// Set-ups loaded by the `counted-rtest` plugin: the R-test's own, counted.
+static COUNTED_LOADS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+fn rtest() -> &'static mtcal_instrument::InstrumentPlugin {
+    mtcal_plugins::find("rtest").expect("the R-test plugin is linked")
+}
+
+fn counted_load(
+    table: &toml::Table,
+    ctx: &mtcal_instrument::SetupContext<'_>,
+) -> Result<Box<dyn mtcal_instrument::Setup>, mtcal_instrument::SetupError> {
+    COUNTED_LOADS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    (rtest().load_setup)(table, ctx)
+}
+
+fn counted_fixture(
+    machine: &mtcal_kinematics::Machine,
+    seed: u64,
+) -> Option<mtcal_instrument::Fixture> {
+    (rtest().fixture)(machine, seed)
+}
+
+fn counted_path(
+    spec: &mtcal_instrument::PathSpec<'_>,
+) -> Result<Vec<Vec<f64>>, mtcal_instrument::SetupError> {
+    (rtest().path)(spec)
+}
+
+inventory::submit! {
+    mtcal_instrument::InstrumentPlugin {
+        name: "counted-rtest",
+        about: "the R-test, its set-ups counted as they are loaded (a test's)",
+        load_setup: counted_load,
+        fixture: counted_fixture,
+        path: counted_path,
+        path_labels: None,
+        evaluate: None,
+        polar_view: None,
+        diagnose: None,
+    }
+}
+
+/// `identify --search` on the bundled warm five-axis session (R-tests on two set-ups, ball
+/// bars) loads each set-up once however many candidates the search refits, and reads no file
+/// after the session is loaded: with the session folder deleted once it is loaded, the search
+/// and the report run and give the same result as with it there. Before the study was built
+/// once, every refit loaded every set-up again (hundreds of loads) and the report read the
+/// whole session a second time.
+#[test]
+fn a_search_loads_each_set_up_once_and_reads_nothing_again() {
+    use mtcal_identify::pipeline::{PipelineOptions, Prepared};
+    let tmp = tempfile::tempdir().unwrap();
+    let session = tmp.path().join("session");
+    let example = mtcal_testkit::repo().join("examples/five-axis-warm/session");
+    std::fs::create_dir(&session).unwrap();
+    for entry in std::fs::read_dir(&example).unwrap() {
+        let entry = entry.unwrap();
+        if entry.file_type().unwrap().is_file() {
+            std::fs::copy(entry.path(), session.join(entry.file_name())).unwrap();
+        }
+    }
+    let manifest = session.join("session.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let rtest_setups = ["ball-low", "ball-high"];
+    assert!(
+        rtest_setups
+            .iter()
+            .all(|s| text.contains(&format!("[setup.{s}]")))
+    );
+    std::fs::write(
+        &manifest,
+        text.replace("instrument = \"rtest\"", "instrument = \"counted-rtest\""),
+    )
+    .unwrap();
+    let options = || PipelineOptions {
+        search: true,
+        ..PipelineOptions::default()
+    };
+    let run = |delete: bool| {
+        COUNTED_LOADS.store(0, std::sync::atomic::Ordering::SeqCst);
+        let prepared = Prepared::load(&session, options()).unwrap();
+        let loaded = COUNTED_LOADS.load(std::sync::atomic::Ordering::SeqCst);
+        let kept = tmp.path().join("kept");
+        if delete {
+            std::fs::rename(&session, &kept).unwrap();
+        }
+        let outcome = prepared.run(&mut Silent).unwrap();
+        let page = mtcal_report::render(&outcome.report().unwrap()).unwrap();
+        if delete {
+            std::fs::rename(&kept, &session).unwrap();
+        }
+        let searched = outcome
+            .identification
+            .search
+            .as_ref()
+            .map_or(0, |s| s.steps.iter().map(Vec::len).sum::<usize>());
+        let loads = COUNTED_LOADS.load(std::sync::atomic::Ordering::SeqCst);
+        (
+            loaded,
+            loads,
+            searched,
+            outcome.identification.to_json(),
+            page,
+        )
+    };
+    let (loaded, loads, searched, json, page) = run(false);
+    assert_eq!(loaded, rtest_setups.len(), "set-ups loaded by Study::load");
+    assert!(searched > 10, "the search refitted {searched} candidates");
+    assert_eq!(
+        loads,
+        rtest_setups.len(),
+        "set-ups loaded over a search of {searched} candidates"
+    );
+    let (_, _, _, json_deleted, page_deleted) = run(true);
+    assert_eq!(json, json_deleted);
+    assert_eq!(page, page_deleted);
 }

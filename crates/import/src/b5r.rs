@@ -1139,7 +1139,7 @@ impl B5rImported {
             }
         }
         out.push_str(&self.assumptions());
-        for (name, pivot, length) in &self.setups {
+        for (name, pivot, length) in self.setups.iter() {
             let _ = writeln!(
                 out,
                 "set-up {name}: pivot [{}, {}, {}] mm, length {length} mm",
@@ -1203,7 +1203,7 @@ impl B5rImported {
             tag(self.overshoot_deg.1, "--overshoot-deg")
         ));
         let mut steps: Vec<String> = Vec::new();
-        for w in &self.runs {
+        for w in self.runs.iter() {
             let s = format!("{}°", w.step_deg);
             if !steps.contains(&s) {
                 steps.push(s);

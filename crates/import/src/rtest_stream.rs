@@ -962,7 +962,7 @@ impl StreamImported {
         );
         // One line per run: a volumetric test writes one per ball and withheld cycle, too many
         // for their whole TOML entries.
-        for r in &self.runs {
+        for r in self.runs.iter() {
             out.push_str(&format!(
                 "  {}: rtest run {}, setup {}, {}, {} visit{}\n",
                 r.file.display(),

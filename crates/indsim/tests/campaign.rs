@@ -84,7 +84,7 @@ fn three_axis_campaign_and_realism() {
     // The stated σ is the factor times the one used.
     let stated = session.setups["bar1"]["sigma_um"].as_float().unwrap();
     assert!((stated - real.noise_sigma_um * real.manifest_sigma_factor).abs() < 1e-12);
-    for (a, b) in ideal.runs.iter().zip(&noisy.runs) {
+    for (a, b) in ideal.runs.iter().zip(noisy.runs.iter()) {
         // Same truth and path; the written readings are quantised to the resolution.
         for r in &b.written_um {
             let steps = r[0] / real.resolution_um;
@@ -165,7 +165,7 @@ fn reads_back_within_limits(dir: &std::path::Path, file: &str) -> (Vec<String>, 
 /// The largest change (µm) of any clean reading between two sessions of the same runs.
 fn largest_change_um(a: &Written, b: &Written) -> f64 {
     let mut worst = 0.0f64;
-    for (ra, rb) in a.runs.iter().zip(&b.runs) {
+    for (ra, rb) in a.runs.iter().zip(b.runs.iter()) {
         assert_eq!(ra.name, rb.name);
         for (x, y) in ra.clean_um.iter().zip(&rb.clean_um) {
             for (u, v) in x.iter().zip(y) {
@@ -435,7 +435,7 @@ fn three_axis_ballbar_planes_reads_back_times_its_samples_by_the_feed_and_sees_s
         .unwrap();
         let (mut dd, mut dp, mut pp, mut n) = (0.0, 0.0, 0.0, 0);
         let mut pairs = Vec::new();
-        for (a, b) in s.runs.iter().zip(&ideal.runs) {
+        for (a, b) in s.runs.iter().zip(ideal.runs.iter()) {
             for (pos, (x, y)) in a.positions.iter().zip(a.clean_um.iter().zip(&b.clean_um)) {
                 // The tool ball (mm, workpiece frame): X, Y, Z + 640 here; the pivot at
                 // [0, 0, 160].
@@ -483,7 +483,7 @@ fn setups_can_be_placed_up_to_two_tenths_of_a_millimetre_off() {
         assert_eq!(oa.tool_length, ob.tool_length);
     }
     assert!(largest > 50e-6, "{largest}");
-    for (ra, rb) in a.runs.iter().zip(&b.runs) {
+    for (ra, rb) in a.runs.iter().zip(b.runs.iter()) {
         assert_eq!(ra.t, rb.t);
         let noise = |r: &mtcal_indsim::WrittenRun| -> Vec<f64> {
             r.written_um

@@ -286,7 +286,7 @@ fn trunnion_campaign_with_effects_lasts_half_an_hour_and_writes_the_bar_temperat
         &Realism::ideal(),
     )
     .unwrap();
-    for (a, b) in with.runs.iter().zip(&none.runs) {
+    for (a, b) in with.runs.iter().zip(none.runs.iter()) {
         assert_eq!(
             (&a.name, &a.positions, &a.clean_um),
             (&b.name, &b.positions, &b.clean_um)
@@ -447,7 +447,7 @@ fn a_creeping_setup_moves_its_own_readings_only() {
     let still = write("still", &[]);
     let mounted_s = moved.runs.iter().find(|r| r.setup == "ball1").unwrap().t[0];
     let (mut ball1_samples, mut worst_um) = (0, 0.0_f64);
-    for (a, b) in moved.runs.iter().zip(&still.runs) {
+    for (a, b) in moved.runs.iter().zip(still.runs.iter()) {
         assert_eq!((&a.name, &a.t), (&b.name, &b.t));
         if a.setup != "ball1" {
             assert_eq!(a.clean_um, b.clean_um, "{}", a.name);
@@ -522,7 +522,7 @@ fn a_servo_lag_moves_the_axis_by_its_following_error() {
     let lagging = write("lag", &[Effect::ServoLag { axis: 'X', lag_s }]);
     let still = write("still", &[]);
     let (mut worst_um, mut largest_um, mut samples) = (0.0_f64, 0.0_f64, 0);
-    for (a, b) in lagging.runs.iter().zip(&still.runs) {
+    for (a, b) in lagging.runs.iter().zip(still.runs.iter()) {
         if a.setup != "bar1" {
             continue;
         }

@@ -1144,7 +1144,7 @@ impl Planned {
         if let Some(e) = &self.errors_toml {
             files.file(dir.join("machine.errors.toml"), e.clone());
         }
-        for r in &self.runs {
+        for r in self.runs.iter() {
             let text = mtcal_instrument::program::nc_program(
                 &self.tooled,
                 &r.poses,

@@ -162,7 +162,7 @@ fn summary(r: &Report) -> String {
         h.push_str("<th>RMS (µm)</th>");
     }
     h.push_str("</tr>\n");
-    for run in &s.runs {
+    for run in s.runs.iter() {
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td>",

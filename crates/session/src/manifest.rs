@@ -677,7 +677,7 @@ impl Manifest {
     /// the manifest's own keys would clash with.
     pub fn render(&self) -> Result<String, String> {
         let mut runs = Vec::with_capacity(self.runs.len());
-        for r in &self.runs {
+        for r in self.runs.iter() {
             if let Some(key) = r.extra.keys().find(|k| RUN_KEYS.contains(&k.as_str())) {
                 return Err(format!(
                     "run \"{}\": `extra` holds `{key}`, which is one of the run's own keys",

@@ -95,7 +95,7 @@ impl SimulatedSession {
             }
         }
         let programs = self.dir.join("programs");
-        for run in &self.runs {
+        for run in self.runs.iter() {
             let nc = programs.join(format!("{}.nc", run.name));
             files.file(nc, run.program(&self.machine.loaded.machine));
             let text = run_text(&run.table.path, &run.table).map_err(|e| SimulateError::Run {

@@ -81,14 +81,14 @@ fn assert_same_study(a: &Study, b: &Study) {
     assert_eq!((a.layout(), &a.coeff_labels), (b.layout(), &b.coeff_labels));
     assert_eq!(a.effects().len(), b.effects().len());
     assert_eq!(a.setups.len(), b.setups.len());
-    for (s, t) in a.setups.iter().zip(&b.setups) {
+    for (s, t) in a.setups.iter().zip(b.setups.iter()) {
         assert_eq!(
             (&s.name, s.plugin.name, &s.table),
             (&t.name, t.plugin.name, &t.table)
         );
     }
     assert_eq!(a.runs.len(), b.runs.len());
-    for (r, s) in a.runs.iter().zip(&b.runs) {
+    for (r, s) in a.runs.iter().zip(b.runs.iter()) {
         assert_eq!((&r.name, r.fit, r.setup), (&s.name, s.fit, s.setup));
         assert_eq!(
             format!("{:?}", r.file),

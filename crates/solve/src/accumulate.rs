@@ -512,7 +512,7 @@ impl Accumulator {
         }
         let w = self.e_cols.len() + 1;
         let row = &mut self.stage[self.k * w..(self.k + 1) * w];
-        for &(src, t, len) in &self.runs {
+        for &(src, t, len) in self.runs.iter() {
             row[t..t + len].copy_from_slice(&jac[src..src + len]);
         }
         for &t in &self.fill {
