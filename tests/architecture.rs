@@ -295,6 +295,28 @@ fn the_database_check_finds_the_history_s_databases() {
 /// Rust source without comments, string and character literals (their text could name a
 /// module) and `#[cfg(test)]` modules.
 fn code_of(source: &str) -> String {
+    scrubbed(source, &mut |_| "\"\"".to_string())
+}
+
+/// The string literals of `source` (their text between the quotes, escapes as written)
+/// outside comments and `#[cfg(test)]` modules.
+fn string_literals(source: &str) -> Vec<String> {
+    let mut all = Vec::new();
+    let code = scrubbed(source, &mut |text| {
+        all.push(text.to_string());
+        format!("\"{}\"", all.len() - 1)
+    });
+    code.split('"')
+        .skip(1)
+        .step_by(2)
+        .filter_map(|k| k.parse::<usize>().ok())
+        .map(|k| all[k].clone())
+        .collect()
+}
+
+/// `source` without comments, its string literals replaced by what `literal` makes of their
+/// text, character literals blanked, and without `#[cfg(test)]` modules.
+fn scrubbed(source: &str, literal: &mut dyn FnMut(&str) -> String) -> String {
     let b = source.as_bytes();
     let mut out = String::with_capacity(source.len());
     let mut i = 0;
@@ -320,15 +342,19 @@ fn code_of(source: &str) -> String {
                 }
             }
         } else if let Some(len) = raw_string_len(rest) {
-            out.push_str("\"\"");
+            let raw = &rest[..len];
+            let open = raw.find('"').unwrap();
+            let close = raw.rfind('"').unwrap();
+            out.push_str(&literal(&raw[open + 1..close]));
             i += len;
         } else if b[i] == b'"' {
+            let start = i + 1;
             i += 1;
             while i < b.len() && b[i] != b'"' {
                 i += if b[i] == b'\\' { 2 } else { 1 };
             }
+            out.push_str(&literal(&source[start..i.min(b.len())]));
             i += 1;
-            out.push_str("\"\"");
         } else if b[i] == b'\'' && char_literal_len(rest).is_some() {
             i += char_literal_len(rest).unwrap();
             out.push_str("' '");
@@ -952,4 +978,169 @@ fn the_cause_check_finds_a_cause_told_twice() {
             "Mismatch: `0` is in the message and the source"
         ]
     );
+}
+
+/// The `name: "…"` of every `inventory::submit!` registration in the sources under `dirs`:
+/// the instruments' names (plugins/) or the effect families' (crates/effects).
+fn registered_names(dirs: &[PathBuf]) -> BTreeSet<String> {
+    let mut names = BTreeSet::new();
+    for dir in dirs {
+        for file in rust_files(dir) {
+            let source = std::fs::read_to_string(&file).unwrap();
+            for block in source.split("inventory::submit!").skip(1) {
+                let Some(at) = block.find("name: \"") else {
+                    continue;
+                };
+                let rest = &block[at + "name: \"".len()..];
+                names.insert(rest[..rest.find('"').unwrap()].to_string());
+            }
+        }
+    }
+    names
+}
+
+/// Every `.rs` file under `dir`, sorted.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Libraries that may name instruments or effect families: their homes (the plugins, the
+/// registry, the effects), the independent simulator (it writes its own sessions and shares
+/// no code) and the test kit (fixtures). The command line is not a library.
+const NAME_HOMES: &[&str] = &[
+    "crates/effects",
+    "crates/plugins",
+    "crates/indsim",
+    "crates/testkit",
+];
+
+/// Where a library still names an instrument or an effect family outside its home, as a
+/// string literal: `(file, name)`. Knowledge that belongs in the plugin or family and has not
+/// moved there yet; the list only shrinks (an entry no longer found fails the test too).
+const KNOWN_LEAKS: &[(&str, &str)] = &[
+    // The search's shortcut to one family's candidates (the tests' and the planner's).
+    ("crates/identify/src/search/rank.rs", "omitted-parameter"),
+    // Importers of one instrument's export files write that instrument's runs.
+    ("crates/import/src/b5r.rs", "ballbar"),
+    ("crates/import/src/rtest_stream.rs", "rtest"),
+    ("crates/import/src/session.rs", "laser"),
+    // The identify JSON's reversals, read for the compensation (FORMATS.md's effect name).
+    ("crates/machine/src/from_identify.rs", "reversal"),
+    // The planner's collision bodies and position keys of each instrument.
+    ("crates/plan/src/planner.rs", "artefact"),
+    ("crates/plan/src/planner.rs", "ballbar"),
+    ("crates/plan/src/planner.rs", "rtest"),
+    ("crates/plan/src/scene.rs", "artefact"),
+    ("crates/plan/src/scene.rs", "ballbar"),
+    ("crates/plan/src/scene.rs", "rtest"),
+    // The report's section of ball-bar circles.
+    ("crates/report/src/page.rs", "ballbar"),
+    // The volumetric test reads R-test visits.
+    ("crates/volumetric/src/read.rs", "rtest"),
+];
+
+/// `(file, name)` for every string literal in a library outside [`NAME_HOMES`] that is
+/// exactly the name of an instrument or an effect family.
+fn names_outside_homes(root: &Path) -> BTreeSet<(String, String)> {
+    let plugins: Vec<PathBuf> = std::fs::read_dir(root.join("plugins"))
+        .unwrap()
+        .map(|e| e.unwrap().path().join("src"))
+        .filter(|p| p.is_dir())
+        .collect();
+    let mut names = registered_names(&plugins);
+    names.extend(registered_names(&[root.join("crates/effects/src")]));
+    let mut libraries = vec![root.join("kinematics/src")];
+    let mut crates: Vec<PathBuf> = std::fs::read_dir(root.join("crates"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let rel = p.strip_prefix(root).unwrap().to_string_lossy().to_string();
+            !NAME_HOMES.contains(&rel.as_str())
+        })
+        .map(|p| p.join("src"))
+        .filter(|p| p.is_dir())
+        .collect();
+    crates.sort();
+    libraries.extend(crates);
+    let mut found = BTreeSet::new();
+    for dir in libraries {
+        let files = rust_files(&dir);
+        let tests = test_module_files(&files);
+        for file in files {
+            if tests.iter().any(|t| file.starts_with(t)) {
+                continue;
+            }
+            let source = std::fs::read_to_string(&file).unwrap();
+            for text in string_literals(&source) {
+                if names.contains(&text) {
+                    let rel = file
+                        .strip_prefix(root)
+                        .unwrap()
+                        .to_string_lossy()
+                        .to_string();
+                    found.insert((rel, text));
+                }
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn no_library_names_an_instrument_or_an_effect_family_outside_its_home() {
+    let found = names_outside_homes(&workspace());
+    let known: BTreeSet<(String, String)> = KNOWN_LEAKS
+        .iter()
+        .map(|(f, n)| (f.to_string(), n.to_string()))
+        .collect();
+    let new: Vec<String> = found
+        .difference(&known)
+        .map(|(f, n)| format!("{f} names \"{n}\": put what it knows of it in the plugin or family"))
+        .collect();
+    let gone: Vec<String> = known
+        .difference(&found)
+        .map(|(f, n)| format!("{f} no longer names \"{n}\": take it off KNOWN_LEAKS"))
+        .collect();
+    assert!(
+        new.is_empty() && gone.is_empty(),
+        "{}",
+        [new, gone].concat().join("\n")
+    );
+}
+
+#[test]
+fn the_name_check_reads_literals_outside_comments_and_tests() {
+    let source = r#"
+        // "rtest" in a comment
+        fn f() -> &'static str { if x == "ballbar" { "the rtest head" } else { r"cyclic" } }
+        #[cfg(test)]
+        mod tests { fn g() { let _ = "laser"; } }
+    "#;
+    assert_eq!(
+        string_literals(source),
+        ["ballbar", "the rtest head", "cyclic"]
+    );
+    // On the real tree: the instruments and the families are found where they are
+    // registered, and the homes are what keeps them from being reported.
+    let root = workspace();
+    let names = registered_names(&[
+        root.join("plugins/rtest/src"),
+        root.join("crates/effects/src"),
+    ]);
+    for name in ["rtest", "thermal-model", "reversal"] {
+        assert!(names.contains(name), "{names:?}");
+    }
 }

@@ -282,9 +282,31 @@ pub struct EffectFamily {
     /// in the family's module); `None` for families planted another way (model changes are
     /// planted through the truth parameter file).
     pub plant: Option<PlantFn>,
+    /// The measurement that would tell this family's effect from the machine's geometry it
+    /// hides behind, for people; `None` where the general advice holds (another ball
+    /// position, the axis over its whole stroke).
+    pub separated_by: Option<&'static str>,
+    /// What would tell this family's effect from another family's that explains the data as
+    /// well: the other family's name and the measurement (said once, by either of the two).
+    pub told_from: &'static [(&'static str, &'static str)],
 }
 
 inventory::collect!(EffectFamily);
+
+/// The measurement that would tell an effect of family `class` from the geometry it hides
+/// behind ([`EffectFamily::separated_by`]).
+pub fn separating_measurement(class: &str) -> Option<&'static str> {
+    find(class).and_then(|f| f.separated_by)
+}
+
+/// The measurement that would tell an effect of family `a` from one of family `b`
+/// ([`EffectFamily::told_from`] of either).
+pub fn telling_apart(a: &str, b: &str) -> Option<&'static str> {
+    let said = |x: &str, y: &str| {
+        find(x).and_then(|f| f.told_from.iter().find(|(o, _)| *o == y).map(|(_, t)| *t))
+    };
+    said(a, b).or_else(|| said(b, a))
+}
 
 /// Every registered family, sorted by name.
 pub fn families() -> Vec<&'static EffectFamily> {

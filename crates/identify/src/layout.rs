@@ -21,6 +21,8 @@ pub struct ParamLayout {
     setups: Vec<SetupParams>,
     /// The effects' parameters in `x`; it ends the vector.
     effects: Range<usize>,
+    /// Per effect, where its parameters start in `x` (effect by effect, in the study's order).
+    effect_starts: Vec<usize>,
 }
 
 /// A set-up's free nuisance parameters in the parameter vector.
@@ -38,13 +40,19 @@ pub enum ParamSlot {
     Machine { coeff: usize },
     /// Nuisance parameter `nuisance` (an index into the set-up's list) of set-up `setup`.
     Nuisance { setup: usize, nuisance: usize },
-    /// The `index`-th of the effects' parameters (counted over every effect).
-    Effect { index: usize },
+    /// The `index`-th of the effects' parameters (counted over every effect): parameter
+    /// `param` of effect `effect`.
+    Effect {
+        index: usize,
+        effect: usize,
+        param: usize,
+    },
 }
 
 impl ParamLayout {
     /// The layout of `estimated` machine coefficients (of the full model), `free_nuisance`
-    /// parameters per set-up and `n_effect_params` effect parameters. `fit_coeffs` lists, per
+    /// parameters per set-up and the effects' parameters (`effect_params`: how many each
+    /// effect has, in order). `fit_coeffs` lists, per
     /// coefficient of the reduced model, its index in the full one.
     ///
     /// # Panics
@@ -54,7 +62,7 @@ impl ParamLayout {
         estimated: Vec<usize>,
         fit_coeffs: Vec<usize>,
         free_nuisance: Vec<Vec<usize>>,
-        n_effect_params: usize,
+        effect_params: &[usize],
     ) -> ParamLayout {
         let estimated_in_fit = estimated
             .iter()
@@ -74,12 +82,19 @@ impl ParamLayout {
                 s
             })
             .collect();
+        let mut effect_starts = Vec::with_capacity(effect_params.len());
+        let mut end = offset;
+        for n in effect_params {
+            effect_starts.push(end);
+            end += n;
+        }
         ParamLayout {
             estimated,
             fit_coeffs,
             estimated_in_fit,
             setups,
-            effects: offset..offset + n_effect_params,
+            effects: offset..end,
+            effect_starts,
         }
     }
 
@@ -140,6 +155,16 @@ impl ParamLayout {
         self.effects.start
     }
 
+    /// Where effect `k`'s parameters sit in `x`.
+    pub fn effect_range(&self, k: usize) -> Range<usize> {
+        let end = self
+            .effect_starts
+            .get(k + 1)
+            .copied()
+            .unwrap_or(self.effects.end);
+        self.effect_starts[k]..end
+    }
+
     /// The parameters a sample of set-up `s` can depend on, in `x`: the machine coefficients,
     /// the set-up's own nuisance parameters, the effects' parameters.
     pub fn columns_of_setup(&self, s: usize) -> impl Iterator<Item = usize> + '_ {
@@ -164,8 +189,11 @@ impl ParamLayout {
             };
         }
         if i >= self.effects.start {
+            let effect = self.effect_starts.partition_point(|&start| start <= i) - 1;
             return ParamSlot::Effect {
                 index: i - self.effects.start,
+                effect,
+                param: i - self.effect_starts[effect],
             };
         }
         let setup = self
@@ -186,13 +214,13 @@ mod tests {
     use super::*;
 
     /// Machine coefficients 2, 5, 7 of a model whose reduced form keeps 1, 2, 5, 7; set-ups
-    /// with nuisance parameters {0, 2}, none, {1}; three effect parameters.
+    /// with nuisance parameters {0, 2}, none, {1}; two effects of one and two parameters.
     fn example() -> ParamLayout {
         ParamLayout::new(
             vec![2, 5, 7],
             vec![1, 2, 5, 7],
             vec![vec![0, 2], vec![], vec![1]],
-            3,
+            &[1, 2],
         )
     }
 
@@ -221,9 +249,21 @@ mod tests {
                     setup: 2,
                     nuisance: 1
                 },
-                Effect { index: 0 },
-                Effect { index: 1 },
-                Effect { index: 2 },
+                Effect {
+                    index: 0,
+                    effect: 0,
+                    param: 0
+                },
+                Effect {
+                    index: 1,
+                    effect: 1,
+                    param: 0
+                },
+                Effect {
+                    index: 2,
+                    effect: 1,
+                    param: 1
+                },
             ]
         );
     }
@@ -239,6 +279,7 @@ mod tests {
         seen.extend(l.effects());
         assert_eq!(seen, (0..l.n_x()).collect::<Vec<_>>());
         assert_eq!(l.effect_offset(), 6);
+        assert_eq!((l.effect_range(0), l.effect_range(1)), (6..7, 7..9));
         let cols: Vec<usize> = l.columns_of_setup(2).collect();
         assert_eq!(cols, [0, 1, 2, 5, 6, 7, 8]);
     }
@@ -251,14 +292,14 @@ mod tests {
             assert_eq!(l.fit_coeffs()[l.estimated_in_fit()[i]], k);
         }
         assert!(!l.estimated_in_order());
-        let plain = ParamLayout::new(vec![0, 1], vec![0, 1], vec![], 0);
+        let plain = ParamLayout::new(vec![0, 1], vec![0, 1], vec![], &[]);
         assert!(plain.estimated_in_order());
     }
 
     #[test]
     #[should_panic(expected = "reduced model keeps every estimated coefficient")]
     fn an_estimated_coefficient_outside_the_reduced_model_is_refused() {
-        ParamLayout::new(vec![3], vec![1, 2], vec![], 0);
+        ParamLayout::new(vec![3], vec![1, 2], vec![], &[]);
     }
 
     #[test]

@@ -661,7 +661,11 @@ impl Study {
             estimated,
             fit_coeffs,
             free_nuisance,
-            mtcal_effects::prepared::n_params(&changes.effects),
+            &changes
+                .effects
+                .iter()
+                .map(|e| e.params().len())
+                .collect::<Vec<_>>(),
         );
         Ok(Study {
             held_prior: inputs.held_prior,
@@ -742,32 +746,28 @@ impl Study {
     /// The effect parameter's definition, for parameter `i` of the parameter vector (`None` for
     /// machine and set-up parameters).
     pub fn effect_param(&self, i: usize) -> Option<&mtcal_effects::ParamDef> {
-        self.layout
-            .effects()
-            .contains(&i)
-            .then(|| self.effect_at(i - self.layout.effect_offset()).1)
+        self.effect_at(i).map(|(_, def)| def)
     }
 
     /// The effect parameter `i` of the parameter vector belongs to (`None` for machine and
     /// set-up parameters).
     pub fn effect_of_param(&self, i: usize) -> Option<&Arc<dyn Effect>> {
-        self.layout
-            .effects()
-            .contains(&i)
-            .then(|| self.effect_at(i - self.layout.effect_offset()).0)
+        self.effect_at(i).map(|(e, _)| e)
     }
 
-    /// The effect and its parameter of the `index`-th effect parameter.
-    fn effect_at(&self, index: usize) -> (&Arc<dyn Effect>, &mtcal_effects::ParamDef) {
-        let mut o = 0;
-        for e in self.effects() {
-            let n = e.params().len();
-            if index < o + n {
-                return (e, &e.params()[index - o]);
-            }
-            o += n;
+    /// The effect and its parameter that parameter `i` of the vector is, if it is an
+    /// effect's.
+    fn effect_at(&self, i: usize) -> Option<(&Arc<dyn Effect>, &mtcal_effects::ParamDef)> {
+        if !self.layout.effects().contains(&i) {
+            return None;
         }
-        unreachable!("the layout counts every effect's parameters")
+        match self.layout.slot(i) {
+            ParamSlot::Effect { effect, param, .. } => {
+                let e = &self.effects()[effect];
+                Some((e, &e.params()[param]))
+            }
+            _ => None,
+        }
     }
 
     /// Scratch for [`Self::axis_jacobian`].
@@ -1153,8 +1153,8 @@ impl Study {
                     machine: true,
                 }
             }
-            ParamSlot::Effect { index } => {
-                let (effect, def) = self.effect_at(index);
+            ParamSlot::Effect { .. } => {
+                let (effect, def) = self.effect_at(i).expect("an effect's parameter");
                 ParamInfo {
                     name: format!("{}.{}", effect.info().label, def.name),
                     unit: def.unit.clone(),

@@ -542,6 +542,8 @@ inventory::submit! {
         about: "backlash: an axis lags by half its lost motion behind the command, flipping with its direction",
         candidates: reversal_candidates,
         plant: Some(reversal_plant),
+        separated_by: Some("measure each path in both directions (CW and CCW, up and down): a reversal error flips with the direction, geometry does not"),
+        told_from: &[],
     }
 }
 
@@ -551,6 +553,8 @@ inventory::submit! {
         about: "a straightness step flipping with an axis' direction: the tool shifts across the axis when it reverses",
         candidates: lateral_candidates,
         plant: Some(lateral_plant),
+        separated_by: None,
+        told_from: &[],
     }
 }
 
@@ -560,6 +564,8 @@ inventory::submit! {
         about: "an axis trailing by a spike after each reversal that decays in time",
         candidates: spike_candidates,
         plant: Some(spike_plant),
+        separated_by: None,
+        told_from: &[],
     }
 }
 
@@ -569,6 +575,11 @@ inventory::submit! {
         about: "a cyclic error of an axis at a screw pitch (or worm period)",
         candidates: cyclic_candidates,
         plant: Some(cyclic_plant),
+        separated_by: Some("step the axis finer than a quarter of the pitch over several pitches"),
+        told_from: &[
+            ("component-order", "step the axis finer than a quarter of the pitch over its whole stroke: a cycle repeats, a higher order does not"),
+            ("omitted-parameter", "step the axis finer than a quarter of the pitch over its whole stroke: a cycle repeats, a higher order does not"),
+        ],
     }
 }
 
@@ -578,6 +589,11 @@ inventory::submit! {
         about: "an axis trailing its command by a lag time: proportional to velocity, flipping with direction",
         candidates: servo_candidates,
         plant: Some(servo_plant),
+        separated_by: Some("repeat a path at a second feed: a lag grows with the velocity, geometry does not"),
+        told_from: &[
+            ("reversal", "repeat a path at a second feed: a lag grows with the velocity, lost motion does not"),
+            ("stick-slip", "repeat a path at a second feed: a lag grows with the velocity, lost motion does not"),
+        ],
     }
 }
 
@@ -587,6 +603,10 @@ inventory::submit! {
         about: "an axis sticking after a reversal and catching up over a decay length",
         candidates: stick_candidates,
         plant: Some(stick_plant),
+        separated_by: Some("measure each path in both directions (CW and CCW, up and down): a reversal error flips with the direction, geometry does not"),
+        told_from: &[
+            ("reversal", "approach a reversal in steps finer than the decay: stick-slip fades with the travel, lost motion does not"),
+        ],
     }
 }
 
@@ -596,5 +616,7 @@ inventory::submit! {
         about: "an error of one axis growing with the product of two axes' positions (sag)",
         candidates: coupling_candidates,
         plant: Some(coupling_plant),
+        separated_by: Some("repeat the measurement at a second position of the other axes"),
+        told_from: &[],
     }
 }

@@ -179,6 +179,12 @@ inventory::submit! {
         about: "a set-up parameter (head, pivot, sensor zero) creeping steadily in time",
         candidates: drift_candidates,
         plant: Some(drift_plant),
+        separated_by: Some("repeat a reference point (or the first run) at the end of the session, or measure the runs in random order: a drift in time then no longer follows the path"),
+        told_from: &[
+            ("thermal-drift", "re-measure the first run with a second set-up at the end (a set-up's drift stays with its set-up, a machine's shows in every set-up)"),
+            ("temperature-coupling", "re-measure the first run with a second set-up at the end (a set-up's drift stays with its set-up, a machine's shows in every set-up)"),
+            ("thermal-expansion", "re-measure the first run with a second set-up at the end (a set-up's drift stays with its set-up, a machine's shows in every set-up)"),
+        ],
     }
 }
 
@@ -188,5 +194,7 @@ inventory::submit! {
         about: "a reading channel's gain error, shared by every set-up of the instrument",
         candidates: scale_candidates,
         plant: Some(scale_plant),
+        separated_by: Some("measure the same motion with the instrument turned or at a second range (or against a calibrated reference)"),
+        told_from: &[],
     }
 }

@@ -183,5 +183,7 @@ inventory::submit! {
         about: "a local bump of a positioning or straightness error along a linear axis, its centre and width fitted",
         candidates,
         plant: Some(plant),
+        separated_by: None,
+        told_from: &[],
     }
 }

@@ -126,6 +126,8 @@ inventory::submit! {
         about: "a location error or squareness following a recorded temperature (an axis line moving as its bearing housings or a column warm)",
         candidates,
         plant: Some(plant),
+        separated_by: None,
+        told_from: &[],
     }
 }
 

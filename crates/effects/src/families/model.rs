@@ -51,6 +51,8 @@ inventory::submit! {
         about: "a parameter of the machine's full error model that the fit left out",
         candidates: omitted,
         plant: None,
+        separated_by: None,
+        told_from: &[],
     }
 }
 
@@ -60,5 +62,7 @@ inventory::submit! {
         about: "an estimated component error whose polynomial or Fourier order is too low",
         candidates: higher_order,
         plant: None,
+        separated_by: None,
+        told_from: &[],
     }
 }

@@ -120,5 +120,7 @@ inventory::submit! {
         about: "the spindle growing along its tool axis as it warms: every set-up's tool length, one amplitude, in time or with spindle speed",
         candidates,
         plant: Some(plant),
+        separated_by: None,
+        told_from: &[],
     }
 }

@@ -353,6 +353,8 @@ inventory::submit! {
         about: "a joint thermal model: the target follows every recorded temperature and the spindle speed through lags at several time constants, fitted together with a ridge prior",
         candidates: model_candidates,
         plant: None,
+        separated_by: None,
+        told_from: &[],
     }
 }
 
@@ -362,6 +364,8 @@ inventory::submit! {
         about: "an axis' scale growing with a temperature (or as the machine warms): error proportional to position",
         candidates: expansion_candidates,
         plant: Some(expansion_plant),
+        separated_by: None,
+        told_from: &[],
     }
 }
 
@@ -371,6 +375,8 @@ inventory::submit! {
         about: "first-order thermal drift in time, or driven by spindle speed through a time constant",
         candidates: drift_candidates,
         plant: Some(drift_plant),
+        separated_by: Some("repeat a reference point (or the first run) at the end of the session, or measure the runs in random order: a drift in time then no longer follows the path"),
+        told_from: &[],
     }
 }
 
@@ -380,5 +386,7 @@ inventory::submit! {
         about: "an error following a recorded temperature, static or through a first-order lag",
         candidates: coupling_candidates,
         plant: Some(coupling_plant),
+        separated_by: Some("repeat a reference point (or the first run) at the end of the session, or measure the runs in random order: a drift in time then no longer follows the path"),
+        told_from: &[],
     }
 }

@@ -225,6 +225,8 @@ inventory::submit! {
         about: "the tool side turning about a machine direction with a recorded temperature (a cross-beam or column twisting as a drive warms)",
         candidates,
         plant: Some(plant),
+        separated_by: None,
+        told_from: &[],
     }
 }
 

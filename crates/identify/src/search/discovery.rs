@@ -18,19 +18,13 @@ use mtcal_solve::Solution;
 use std::collections::HashMap;
 use std::sync::Arc;
 
-/// What would tell candidate `b` from `a` (both explain the data alike).
+/// What would tell candidate `b` from `a` (both explain the data alike): a session in which
+/// their drivers part, what their families say tells them apart, or another place.
 pub(super) fn telling_apart(a: &Candidate, b: &Candidate) -> String {
     let (ca, cb) = (a.class(), b.class());
     let driver = |c: &Candidate| match c {
         Candidate::Effect(e) => e.info().driver.clone().unwrap_or_default(),
         Candidate::Model(_) => String::new(),
-    };
-    let pair = |x: &str, y: &str| (ca == x && cb == y) || (ca == y && cb == x);
-    let thermal = |c: &str| {
-        matches!(
-            c,
-            "thermal-drift" | "temperature-coupling" | "thermal-expansion"
-        )
     };
     if ca == cb && driver(a) != driver(b) {
         return format!(
@@ -40,25 +34,8 @@ pub(super) fn telling_apart(a: &Candidate, b: &Candidate) -> String {
             driver(b)
         );
     }
-    if (thermal(ca) && cb == "setup-drift") || (thermal(cb) && ca == "setup-drift") {
-        return "re-measure the first run with a second set-up at the end (a set-up's drift \
-                stays with its set-up, a machine's shows in every set-up)"
-            .into();
-    }
-    if pair("reversal", "servo-lag") || pair("stick-slip", "servo-lag") {
-        return "repeat a path at a second feed: a lag grows with the velocity, lost motion does \
-                not"
-        .into();
-    }
-    if pair("reversal", "stick-slip") {
-        return "approach a reversal in steps finer than the decay: stick-slip fades with the \
-                travel, lost motion does not"
-            .into();
-    }
-    if pair("cyclic", "component-order") || pair("cyclic", "omitted-parameter") {
-        return "step the axis finer than a quarter of the pitch over its whole stroke: a cycle \
-                repeats, a higher order does not"
-            .into();
+    if let Some(told) = mtcal_effects::telling_apart(ca, cb) {
+        return told.to_string();
     }
     if ca == cb {
         return "measure with the set-up or path changed so the two targets move differently \
@@ -74,22 +51,16 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
     let sol = &last.solution;
     let (info, parameters, words) = match &stage.ranked.candidate {
         Candidate::Effect(e) => {
-            // Find the effect in the final study by its place: effects are only appended.
+            // Find the effect in the final study by its label.
             let label = &e.info().label;
-            let mut offset = study.layout().effect_offset();
-            let mut found = None;
-            for fx in study.effects() {
-                let n = fx.params().len();
-                if found.is_none()
-                    && (fx.info().label == *label
-                        || fx.info().label.starts_with(&format!("{label} #")))
+            let found = study.effects().iter().enumerate().find(|(_, fx)| {
+                (fx.info().label == *label || fx.info().label.starts_with(&format!("{label} #")))
                     && stage_effect_matches(stage, fx)
-                {
-                    found = Some((Arc::clone(fx), offset));
-                }
-                offset += n;
-            }
-            let (fx, offset) = found.unwrap_or((Arc::clone(e), study.layout().effect_offset()));
+            });
+            let (fx, offset) = match found {
+                Some((k, fx)) => (Arc::clone(fx), study.layout().effect_range(k).start),
+                None => (Arc::clone(e), study.layout().effect_offset()),
+            };
             let values: Vec<f64> = (0..fx.params().len()).map(|j| sol.x[offset + j]).collect();
             let u95: Vec<Option<f64>> = (0..fx.params().len())
                 .map(|j| sol.sigma[offset + j].map(|s| K95 * s))
@@ -571,42 +542,23 @@ pub(super) fn concealed(ranking: &[Ranked]) -> Vec<Concealed> {
 /// The measurement that would separate a concealed candidate from the parameters it hides
 /// behind.
 pub fn separating_measurement(candidate: &Candidate, hides_behind: &[String]) -> String {
+    if let Some(said) = mtcal_effects::separating_measurement(candidate.class()) {
+        return said.to_string();
+    }
     let setup = hides_behind.iter().any(|n| {
         n.contains("tool_length")
             || n.contains("ball_")
             || n.contains("pivot")
             || n.contains("TOOL")
     });
-    match candidate.class() {
-        "thermal-drift" | "temperature-coupling" | "setup-drift" => {
-            "repeat a reference point (or the first run) at the end of the session, or measure \
-             the runs in random order: a drift in time then no longer follows the path"
-                .into()
-        }
-        "reversal" | "stick-slip" => {
-            "measure each path in both directions (CW and CCW, up and down): a reversal error \
-             flips with the direction, geometry does not"
-                .into()
-        }
-        "servo-lag" => {
-            "repeat a path at a second feed: a lag grows with the velocity, geometry does not"
-                .into()
-        }
-        "cyclic" => "step the axis finer than a quarter of the pitch over several pitches".into(),
-        "cross-coupling" => "repeat the measurement at a second position of the other axes".into(),
-        "instrument-scale" => {
-            "measure the same motion with the instrument turned or at a second range (or \
-             against a calibrated reference)"
-                .into()
-        }
-        _ if setup => {
-            "a second ball height (or a second tool length): set-up offsets then no longer \
-             move with the axis like this error"
-                .into()
-        }
-        _ => "a second ball position at another radius or height, and the axis over its whole \
-             stroke"
-            .into(),
+    if setup {
+        "a second ball height (or a second tool length): set-up offsets then no longer move \
+         with the axis like this error"
+            .into()
+    } else {
+        "a second ball position at another radius or height, and the axis over its whole \
+         stroke"
+            .into()
     }
 }
 
