@@ -434,4 +434,29 @@ mod tests {
             assert!(!find(name).expect("registered").about.is_empty());
         }
     }
+
+    /// What tells two families apart is said of registered families, once per pair, and
+    /// either family finds it; a family's own separating measurement is its registration's.
+    #[test]
+    fn what_tells_families_apart_is_theirs() {
+        let mut pairs = std::collections::BTreeSet::new();
+        for f in families() {
+            for (other, text) in f.told_from {
+                assert!(find(other).is_some(), "{} names no family `{other}`", f.name);
+                assert_ne!(*other, f.name);
+                let pair = if f.name < *other {
+                    (f.name, *other)
+                } else {
+                    (*other, f.name)
+                };
+                assert!(pairs.insert(pair), "{pair:?} said twice");
+                assert_eq!(telling_apart(f.name, other), Some(*text));
+                assert_eq!(telling_apart(other, f.name), Some(*text));
+            }
+            assert_eq!(separating_measurement(f.name), f.separated_by);
+        }
+        assert!(pairs.contains(&("reversal", "servo-lag")));
+        assert_eq!(telling_apart("reversal", "thermal-drift"), None);
+        assert_eq!(separating_measurement("no-such-family"), None);
+    }
 }
