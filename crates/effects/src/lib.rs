@@ -240,7 +240,7 @@ pub struct PlantError {
 
 impl PlantError {
     /// A problem with the value of `key`.
-    pub(crate) fn at(key: &str, message: impl Into<String>) -> Self {
+    pub fn at(key: &str, message: impl Into<String>) -> Self {
         PlantError {
             key: Some(key.to_string()),
             message: message.into(),
@@ -442,7 +442,11 @@ mod tests {
         let mut pairs = std::collections::BTreeSet::new();
         for f in families() {
             for (other, text) in f.told_from {
-                assert!(find(other).is_some(), "{} names no family `{other}`", f.name);
+                assert!(
+                    find(other).is_some(),
+                    "{} names no family `{other}`",
+                    f.name
+                );
                 assert_ne!(*other, f.name);
                 let pair = if f.name < *other {
                     (f.name, *other)

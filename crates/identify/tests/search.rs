@@ -2,6 +2,10 @@
 //! left out is named first and significant, with the fitted parameters it biased; a session
 //! whose truth is inside the fitted model raises no claim. And the search's many refits read
 //! nothing again: every set-up is loaded once, no file is read after the session is loaded.
+//! A new instrument and a new effect family are each one registration: a test's own work
+//! through the whole search.
+
+mod common;
 
 use mtcal_identify::search::{omitted_parameters, rank};
 use mtcal_identify::{Study, identify};
@@ -239,4 +243,156 @@ fn a_search_loads_each_set_up_once_and_reads_nothing_again() {
     let (_, _, _, json_deleted, page_deleted) = run(true);
     assert_eq!(json, json_deleted);
     assert_eq!(page, page_deleted);
+}
+
+/// A stub effect family registered by this test alone (one registration, nothing else
+/// changed): an axis' position stepping by a fixed amount halfway through the session, as
+/// when a fixture slips. No built-in family has this shape.
+#[derive(Debug)]
+struct Step {
+    info: mtcal_effects::EffectInfo,
+    params: Vec<mtcal_effects::ParamDef>,
+    terms: Vec<mtcal_effects::Term>,
+}
+
+impl Step {
+    fn on(view: &mtcal_effects::SessionView, a: usize) -> Step {
+        let letter = view.axes[a].letter;
+        Step {
+            info: mtcal_effects::EffectInfo {
+                class: "stub-step",
+                axis: Some(letter),
+                component: None,
+                driver: Some("t".into()),
+                label: format!("stub-step {letter}"),
+            },
+            params: vec![mtcal_effects::ParamDef {
+                name: "step_um".into(),
+                unit: "um".into(),
+                per_si: 1e6,
+                kind: mtcal_effects::ParamKind::Amplitude,
+                initial: 0.0,
+                bounds: None,
+                scale: 1e-3,
+                prior: None,
+                nuisance: false,
+            }],
+            terms: vec![mtcal_effects::Term {
+                amplitude: 0,
+                target: mtcal_effects::Target::Axis(a),
+            }],
+        }
+    }
+}
+
+/// The step's feature: 0 before the middle of the session's time, 1 from it.
+struct StepFeatures {
+    view: std::sync::Arc<mtcal_effects::SessionView>,
+    at_s: f64,
+}
+
+impl mtcal_effects::Features for StepFeatures {
+    fn eval(&self, r: usize, i: usize, f: &mut [f64], _df: &mut [f64]) {
+        let t = self.view.timeline().get(self.view.timeline_index(r, i));
+        f[0] = if t >= self.at_s { 1.0 } else { 0.0 };
+    }
+}
+
+impl mtcal_effects::Effect for Step {
+    fn info(&self) -> &mtcal_effects::EffectInfo {
+        &self.info
+    }
+    fn params(&self) -> &[mtcal_effects::ParamDef] {
+        &self.params
+    }
+    fn terms(&self) -> &[mtcal_effects::Term] {
+        &self.terms
+    }
+    fn prepare(
+        &self,
+        view: &std::sync::Arc<mtcal_effects::SessionView>,
+        _shape: &[f64],
+    ) -> Box<dyn mtcal_effects::Features> {
+        Box::new(StepFeatures {
+            view: std::sync::Arc::clone(view),
+            at_s: view.t0() + 0.5 * view.duration(),
+        })
+    }
+    fn describe(&self, values: &[f64], _u95: &[Option<f64>]) -> String {
+        format!(
+            "a step of {:.2} um halfway through the session",
+            values[0] * 1e6
+        )
+    }
+}
+
+fn step_candidates(view: &mtcal_effects::SessionView) -> Vec<mtcal_effects::Candidate> {
+    (0..view.axes.len())
+        .filter(|&a| !view.axes[a].rotary && view.any_pose_reading())
+        .map(|a| mtcal_effects::Candidate::Effect(std::sync::Arc::new(Step::on(view, a))))
+        .collect()
+}
+
+fn step_plant(
+    table: &toml::Table,
+    view: &mtcal_effects::SessionView,
+) -> Result<mtcal_effects::Planted, mtcal_effects::PlantError> {
+    let letter = table
+        .get("axis")
+        .and_then(|v| v.as_str())
+        .and_then(|s| s.chars().next())
+        .ok_or_else(|| mtcal_effects::PlantError::at("axis", "give `axis`"))?;
+    let a = view
+        .axis_index(letter)
+        .ok_or_else(|| mtcal_effects::PlantError::at("axis", "no such axis"))?;
+    let step_um = table
+        .get("step_um")
+        .and_then(|v| v.as_float())
+        .ok_or_else(|| mtcal_effects::PlantError::at("step_um", "give `step_um`"))?;
+    Ok((
+        std::sync::Arc::new(Step::on(view, a)),
+        vec![Some(step_um * 1e-6)],
+    ))
+}
+
+inventory::submit! {
+    mtcal_effects::EffectFamily {
+        name: "stub-step",
+        about: "an axis stepping halfway through the session (a test's stub family)",
+        candidates: step_candidates,
+        plant: Some(step_plant),
+        separated_by: Some("a test's stub: nothing to measure"),
+        told_from: &[],
+    }
+}
+
+/// The stub family above, planted through the simulator's `[[effect]]` table (which finds it
+/// by name as it finds every family) on the R-test and ball-bar session of the planted tests:
+/// the search proposes it, names it with its planted value (3.04 ± 0.0x µm for 3) and claims
+/// nothing else, and says what its registration says separates it. Nothing outside this file
+/// knows of it.
+#[test]
+fn a_new_effect_family_is_one_registration() {
+    use common::planted::{Variant, searched};
+    let result = searched(
+        "[[effect]]\neffect = \"stub-step\"\naxis = \"X\"\nstep_um = 3.0\n",
+        3,
+        Variant::default(),
+    );
+    let id = &result.identification;
+    let summary = id.search_summary();
+    let d = id
+        .discoveries
+        .iter()
+        .find(|d| d.effect == "stub-step" && d.axis.as_deref() == Some("X"))
+        .unwrap_or_else(|| panic!("the stub family's step not named\n{summary}"));
+    let q = &d.parameters[0];
+    let u95 = q.u95.expect("determined");
+    assert!((q.value - 3.0).abs() <= u95, "{q:?}\n{summary}");
+    assert_eq!(id.discoveries.len(), 1, "{summary}");
+    // Its registration's words reach the discovery's sentence.
+    assert!(
+        summary.contains("a test's stub: nothing to measure"),
+        "{summary}"
+    );
 }
