@@ -1031,8 +1031,6 @@ const NAME_HOMES: &[&str] = &[
 /// string literal: `(file, name)`. Knowledge that belongs in the plugin or family and has not
 /// moved there yet; the list only shrinks (an entry no longer found fails the test too).
 const KNOWN_LEAKS: &[(&str, &str)] = &[
-    // The search's shortcut to one family's candidates (the tests' and the planner's).
-    ("crates/identify/src/search/rank.rs", "omitted-parameter"),
     // Importers of one instrument's export files write that instrument's runs.
     ("crates/import/src/b5r.rs", "ballbar"),
     ("crates/import/src/rtest_stream.rs", "rtest"),

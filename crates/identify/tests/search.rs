@@ -7,7 +7,7 @@
 
 mod common;
 
-use mtcal_identify::search::{omitted_parameters, rank};
+use mtcal_identify::search::{candidates, rank};
 use mtcal_identify::{Study, identify};
 use mtcal_simulate::simulate;
 use mtcal_solve::{Options, Silent};
@@ -59,13 +59,13 @@ fn ranked(session: &Path, also: &[&str]) -> Vec<mtcal_identify::search::Ranked> 
     let solution = mtcal_solve::solve(&problem, &specs, &Options::default(), &mut Silent).unwrap();
     // The report path works on the same study (and agrees on the parameters).
     identify(&study, &Options::default(), &mut Silent).unwrap();
-    let candidates = omitted_parameters(&study);
+    let omitted = candidates(&study, Some(&["omitted-parameter".to_string()]));
     assert_eq!(
-        candidates.len(),
+        omitted.len(),
         31 - also.len(),
         "30 component errors and the tool length, less those fitted"
     );
-    rank(&study, &solution, candidates, 0.05).unwrap()
+    rank(&study, &solution, omitted, 0.05).unwrap()
 }
 
 #[test]

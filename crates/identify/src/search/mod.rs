@@ -134,7 +134,7 @@ pub use crate::findings::{
 };
 pub use discovery::separating_measurement;
 pub use heldout::heldout;
-pub use rank::{Ranked, candidates, omitted_parameters, rank};
+pub use rank::{Ranked, candidates, rank};
 pub use settings::{CrossValidation, LOOKALIKE_BIC, SearchOptions};
 
 use crate::IdentifyError;

@@ -96,12 +96,6 @@ pub fn candidates(study: &Study, families: Option<&[String]>) -> Vec<Candidate> 
         .collect()
 }
 
-/// The `omitted-parameter` candidates of `study`: parameters of the full error model the fit
-/// holds.
-pub fn omitted_parameters(study: &Study) -> Vec<Candidate> {
-    candidates(study, Some(&["omitted-parameter".to_string()]))
-}
-
 /// Scores `candidates` against `solution` (the fit of `study`), Holm's correction at
 /// family-wise level `alpha` over all of them; strongest first.
 pub fn rank(
