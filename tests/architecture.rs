@@ -920,20 +920,7 @@ fn causes_told_twice(code: &str) -> Vec<String> {
 fn errors_tell_their_cause_once() {
     let mut faults = Vec::new();
     for src in crate_sources() {
-        let mut files = Vec::new();
-        let mut stack = vec![src.clone()];
-        while let Some(dir) = stack.pop() {
-            for e in std::fs::read_dir(&dir).unwrap() {
-                let p = e.unwrap().path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.extension().is_some_and(|x| x == "rs") {
-                    files.push(p);
-                }
-            }
-        }
-        files.sort();
-        for f in files {
+        for f in rust_files(&src) {
             let code = std::fs::read_to_string(&f).unwrap();
             let at = f.strip_prefix(workspace()).unwrap().display().to_string();
             faults.extend(

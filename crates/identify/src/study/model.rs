@@ -66,7 +66,7 @@ pub(super) fn reduced_model(
         .filter(|(_, k)| **k)
         .map(|(entry, _)| entry.clone())
         .collect();
-    let index = kept_coefficients(model, estimated, base);
+    let index = coefficients_of(model, &kept_params);
     let reduced =
         MachineModel::new(machine.machine.clone(), &kept).map_err(|e| IdentifyError::Model {
             source_name: machine.config_source.clone(),
@@ -97,13 +97,17 @@ pub(super) fn kept_coefficients(
     estimated: &[usize],
     base: &[f64],
 ) -> Vec<usize> {
-    let kept = kept_params(model, estimated, base);
+    coefficients_of(model, &kept_params(model, estimated, base))
+}
+
+/// The coefficients of `model`'s parameters that `kept` marks, in order.
+fn coefficients_of(model: &MachineModel, kept: &[bool]) -> Vec<usize> {
     model
         .errors()
         .params()
         .iter()
         .zip(kept)
-        .filter(|(_, k)| *k)
+        .filter(|(_, k)| **k)
         .flat_map(|(p, _)| p.offset..p.offset + p.len)
         .collect()
 }
