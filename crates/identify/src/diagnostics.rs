@@ -122,7 +122,7 @@ fn with_evaluations<T>(
             let run = &study.runs[r];
             mtcal_instrument::Evaluation {
                 machine: study.model.machine(),
-                setup: &study.setups[run.setup].table,
+                setup: study.setups[run.setup].setup.as_ref(),
                 q,
                 readings,
                 t,

@@ -73,7 +73,7 @@ fn fit(
 /// makes neighbouring samples share their error. With AR(1) noise of φ = 0.6 and a σ stated
 /// 20 % small, the stated-σ fit printed 95 % intervals that held the truth in 60 % of the
 /// sessions (172 of 287, the worst 3.7 intervals off; the independent simulator,
-/// `crates/history/tests/independent_campaigns.rs`), and 97 % on this noise. The physics
+/// `crates/history/tests/suite/independent_campaigns.rs`), and 97 % on this noise. The physics
 /// search already fitted on it; the plain fit now does too, and says so (`noise` in the
 /// summary and the JSON). A session whose recordings are what they state is fitted once,
 /// exactly as before.

@@ -164,13 +164,26 @@ pub struct LabelError {
     pub message: String,
 }
 
+/// A loaded set-up seen as its own type: how a plugin's evaluation, diagnosis and view reach
+/// the set-up it loaded ([`Evaluation::setup_as`]) instead of reading its table again. Every
+/// `'static` type has it; nothing to implement.
+pub trait AsAny: std::any::Any {
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl<T: std::any::Any> AsAny for T {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
 /// A loaded set-up of one instrument: its measurement model for one or more runs — what it
 /// reads and with what noise, which parameters of its own it has, and the readings it predicts
 /// from the tool pose. How its files differ from that model is its [`SetupFormat`].
 ///
 /// Object safe; the core holds `Box<dyn Setup>`. Implementations must not allocate in
 /// [`Setup::predict`] or [`Setup::derivatives`]: they run once per sample.
-pub trait Setup: SetupFormat + fmt::Debug + Send + Sync {
+pub trait Setup: SetupFormat + AsAny + fmt::Debug + Send + Sync {
     /// The reading channels, in the order `predict` writes them.
     fn channels(&self) -> &[Channel];
 
@@ -414,7 +427,8 @@ pub struct PolarView {
 #[derive(Clone, Copy, Debug)]
 pub struct Evaluation<'a> {
     pub machine: &'a Machine,
-    pub setup: &'a toml::Table,
+    /// The run's set-up as the plugin loaded it ([`Evaluation::setup_as`] gives its own type).
+    pub setup: &'a dyn Setup,
     /// Commanded positions, SI, row-major `samples × axes`.
     pub q: &'a [f64],
     /// Readings, SI, row-major `samples × channels` (after [`SetupFormat::prepare_readings`]).
@@ -422,6 +436,15 @@ pub struct Evaluation<'a> {
     pub t: &'a [f64],
     /// Each sample's label number (empty for an instrument without label columns).
     pub labels: &'a [u32],
+}
+
+impl Evaluation<'_> {
+    /// The run's set-up as the plugin's own type `T`, or `None` if it is another plugin's.
+    pub fn setup_as<T: 'static>(&self) -> Option<&T> {
+        // Through `&dyn Setup`: the loaded set-up's own `as_any`, not that of a reference.
+        let setup: &dyn Setup = self.setup;
+        setup.as_any().downcast_ref()
+    }
 }
 
 /// A named number an instrument's evaluation reports.

@@ -75,7 +75,7 @@
 //! timing that hides it in the fitted parameters (a drift with τ shorter than the first run
 //! rises while C turns once and looks like C's location errors; a temperature that changes
 //! during one XYC run); a larger effect of another class planted beside it. The planted-effect
-//! tests (`crates/identify/tests/physics_search.rs`) do all three for every family.
+//! tests (`crates/identify/tests/suite/physics_search.rs`) do all three for every family.
 //!
 //! [`simulate_with`] also takes [`Plant`]s: each sees every sample (run, time, axis positions,
 //! tool pose) and adds to the readings, for effects no family describes.

@@ -136,7 +136,7 @@ impl std::fmt::Display for NotDetermined {
 /// with two dips gives the hull); for the amplitude and `v∞` the profile holds one of them
 /// and minimises over τ (searched again) and the other. A Jacobian covariance would be
 /// simpler but under-covers when τ is long against the span (the settled value is then an
-/// extrapolation). `tests/thermal.rs` checks the coverage by simulation.
+/// extrapolation). `tests/suite/thermal.rs` checks the coverage by simulation.
 pub fn fit_thermal(points: &[Point], options: &ThermalOptions) -> Result<ThermalFit, TrendError> {
     check_series(points, 0, "a thermal trajectory")?;
     if options.grid_points < 3 {

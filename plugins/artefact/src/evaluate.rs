@@ -2,8 +2,8 @@
 //! centres with the calibrated positions that a plate report gives without any machine model.
 
 use crate::plate::{Term, machine_fit, similarity};
-use crate::setup::{frame_of, load};
-use mtcal_instrument::{Evaluation, Metric, SetupContext, Unit};
+use crate::setup::{ArtefactSetup, frame_of};
+use mtcal_instrument::{Evaluation, Metric, Unit};
 
 /// Per placement probed at three features or more (names suffixed ` (<placement>)` when the
 /// set-up has several): the similarity fit's RMS and largest deviation of the measured centres
@@ -15,12 +15,7 @@ use mtcal_instrument::{Evaluation, Metric, SetupContext, Unit};
 /// The values mix the machine's errors and the plate's own: they are what a plate report
 /// states, for comparison; the identification separates the two across placements.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
-    let Ok(setup) = load(
-        ev.setup,
-        &SetupContext {
-            machine: ev.machine,
-        },
-    ) else {
+    let Some(setup) = ev.setup_as::<ArtefactSetup>() else {
         return Vec::new();
     };
     let Ok((xyz, _)) = frame_of(ev.machine) else {

@@ -110,7 +110,7 @@
 //! the reference, reports that. Give the CMM's measured centres as `features` (the "calibrated"
 //! plate, with `feature_errors = false`), and the nominal (drilled) positions as both the axis
 //! columns and the readings: the fit then finds `e` with the machine's own sign. The real-data
-//! test `crates/identify/tests/real_hole_plate.rs` does this, and [`plate`] fits the same
+//! test `crates/identify/tests/suite/real_hole_plate.rs` does this, and [`plate`] fits the same
 //! terms without a session.
 //!
 //! # Evaluation

@@ -37,7 +37,7 @@
 
 use crate::evaluate::{circular_deviation, recognise_circle};
 use crate::path::Plane;
-use crate::setup::BallbarConfig;
+use crate::setup::BallbarSetup;
 use mtcal_instrument::{Diagnosis, Diagnostic, Evaluation};
 use nalgebra::{DMatrix, DVector};
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -108,8 +108,8 @@ struct Circle {
 
 impl Circle {
     fn of(run: usize, ev: &Evaluation<'_>) -> Option<Circle> {
-        let config = BallbarConfig::from_table(ev.setup).ok()?;
-        let circle = recognise_circle(ev.machine, &config, ev.q)?;
+        let config = ev.setup_as::<BallbarSetup>()?.config();
+        let circle = recognise_circle(ev.machine, config, ev.q)?;
         let len = circle.angles.len();
         if len == 0 || ev.readings.len() % len != 0 {
             return None;
@@ -157,7 +157,7 @@ impl Circle {
             dr,
             len,
             omega,
-            key: format!("{:?}|{}|{}", ev.setup, circle.plane.name(), held.join(",")),
+            key: format!("{config:?}|{}|{}", circle.plane.name(), held.join(",")),
         })
     }
 }

@@ -1,7 +1,7 @@
 //! ISO 230-4 evaluation of circular tests: least-squares centre removal and circular deviation.
 
 use crate::path::Plane;
-use crate::setup::BallbarConfig;
+use crate::setup::{BallbarConfig, BallbarSetup};
 use mtcal_instrument::{Evaluation, Metric, PolarView, Unit};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::TAU;
@@ -255,10 +255,10 @@ fn wrap_pi(x: f64) -> f64 {
 /// the circle's plane (`XY`, [`Metric::subject`]); for any other run (rotary tests, unreadable
 /// set-up) nothing.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
-    let Ok(config) = BallbarConfig::from_table(ev.setup) else {
+    let Some(config) = ev.setup_as::<BallbarSetup>().map(BallbarSetup::config) else {
         return Vec::new();
     };
-    let Some(run) = recognise_circle(ev.machine, &config, ev.q) else {
+    let Some(run) = recognise_circle(ev.machine, config, ev.q) else {
         return Vec::new();
     };
     let n = run.angles.len();
@@ -298,8 +298,8 @@ pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
 /// circle, the bar length change `dr` at each sample's commanded angle; any other run (rotary
 /// tests, unreadable set-up) none.
 pub fn polar_view(ev: &Evaluation<'_>) -> Option<PolarView> {
-    let config = BallbarConfig::from_table(ev.setup).ok()?;
-    let circle = recognise_circle(ev.machine, &config, ev.q)?;
+    let config = ev.setup_as::<BallbarSetup>()?.config();
+    let circle = recognise_circle(ev.machine, config, ev.q)?;
     Some(PolarView {
         plane: circle.plane.name().to_string(),
         radius: config.length(),
@@ -311,7 +311,7 @@ pub fn polar_view(ev: &Evaluation<'_>) -> Option<PolarView> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mtcal_instrument::PathSpec;
+    use mtcal_instrument::{PathSpec, SetupContext};
 
     fn machine() -> mtcal_kinematics::Machine {
         let path = concat!(
@@ -337,9 +337,10 @@ mod tests {
         })
         .unwrap()
         .concat();
+        let loaded = crate::load_setup(setup, &SetupContext { machine: &m }).unwrap();
         polar_view(&Evaluation {
             machine: &m,
-            setup,
+            setup: &*loaded,
             q: &q,
             readings: &[],
             t: &[],
@@ -366,7 +367,7 @@ mod tests {
     }
 
     #[test]
-    fn no_view_without_a_circle_or_a_readable_set_up() {
+    fn no_view_without_a_circle() {
         let setup = table("pivot = [0.0, 0.0, 390.0]\nlength = 100.0");
         let path = table("kind = \"circle\"\nplane = \"XY\"\nsamples = 37");
         let m = machine();
@@ -378,9 +379,10 @@ mod tests {
         .unwrap()
         .concat();
         let ev = |setup: &toml::Table, q: &[f64]| {
+            let loaded = crate::load_setup(setup, &SetupContext { machine: &m }).unwrap();
             polar_view(&Evaluation {
                 machine: &m,
-                setup,
+                setup: &*loaded,
                 q,
                 readings: &[],
                 t: &[],
@@ -393,8 +395,6 @@ mod tests {
             ev(&table("pivot = [0.0, 0.0, 390.0]\nlength = 150.0"), &q),
             None
         );
-        // A set-up the plugin cannot read.
-        assert_eq!(ev(&table("length = 100.0"), &q), None);
         // Two samples are no circle.
         assert_eq!(ev(&setup, &q[..2 * m.n_axes()]), None);
     }

@@ -1,7 +1,7 @@
 //! ISO 230-3-style evaluation of a run: each sensor's drift over the run.
 
-use crate::setup::load;
-use mtcal_instrument::{Evaluation, Metric, SetupContext, Unit};
+use crate::setup::DisplacementSetup;
+use mtcal_instrument::{Evaluation, Metric, Unit};
 
 /// The range (max − min) of each channel of `readings` (row-major `samples × channels`),
 /// leaving out non-finite values; `None` for a channel without a finite value.
@@ -30,12 +30,7 @@ pub fn drift(readings: &[f64], channels: usize) -> Vec<Option<f64>> {
 /// sensor over the test). Nothing for a set-up that does not load or readings that do not
 /// match its channels.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
-    let Ok(setup) = load(
-        ev.setup,
-        &SetupContext {
-            machine: ev.machine,
-        },
-    ) else {
+    let Some(setup) = ev.setup_as::<DisplacementSetup>() else {
         return Vec::new();
     };
     let channels = setup.sensors().len();

@@ -22,8 +22,8 @@
 //!   taken as found: where two means are within about their uncertainty of each other the
 //!   range is biased high by the noise and the budget does not say so.
 
-use crate::setup::{Mode, load};
-use mtcal_instrument::{Evaluation, Metric, Setup as _, SetupContext, Unit};
+use crate::setup::{LaserSetup, Mode};
+use mtcal_instrument::{Evaluation, Metric, Setup as _, Unit};
 
 /// Commanded positions closer than this (m) are the same target.
 pub const TARGET_TOL: f64 = 1e-7;
@@ -602,12 +602,7 @@ pub fn straightness(travel: &[f64], deviation: &[f64]) -> Option<f64> {
 /// reading noise being the set-up's `sigma_um`); a run evaluated along an axis says which
 /// ([`Metric::subject`]: its letter), a diagonal is about no axis.
 pub fn evaluate(ev: &Evaluation<'_>) -> Vec<Metric> {
-    let Ok(setup) = load(
-        ev.setup,
-        &SetupContext {
-            machine: ev.machine,
-        },
-    ) else {
+    let Some(setup) = ev.setup_as::<LaserSetup>() else {
         return Vec::new();
     };
     let n_axes = ev.machine.n_axes();

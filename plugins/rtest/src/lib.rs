@@ -17,7 +17,7 @@
 //!
 //! The same machine error reads differently in the two: with the nest on the table a C-axis
 //! location error `EX0C` reads (+10, +10, 0) µm at C = 90° where the spindle nest reads
-//! (+10, −10, 0) µm (FORMATS.md, "Worked examples"; `tests/worked_examples.rs`).
+//! (+10, −10, 0) µm (FORMATS.md, "Worked examples"; `tests/suite/worked_examples.rs`).
 //!
 //! # Measurement model
 //! With the actual tool pose `w_T_t = (R, t)` (workpiece frame), `ẑ` the tool axis (into the

@@ -116,7 +116,7 @@
 //! positions and dead paths are all free; one set-up per station and reflector offset. So a
 //! rigid motion of what one reflector's set-ups see is invisible (their stations move along).
 //! For a three-axis machine (the 21 errors: 18 component errors and `EC0Y`, `EB0Z`, `EA0Z`),
-//! as worked out in `crates/identify/tests/tracer_campaign.rs` on the shipped `ZFYX`
+//! as worked out in `crates/identify/tests/suite/tracer_campaign.rs` on the shipped `ZFYX`
 //! (`mcv754-zfyx`: X and Y carry the table, Z the spindle):
 //!
 //! - **The constant terms of the angular errors (`P0` of `EAX … ECZ`) are invisible to any

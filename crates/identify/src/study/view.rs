@@ -65,7 +65,7 @@ impl Study {
         let readings = run.readings.as_ref()?;
         Some(f(&mtcal_instrument::Evaluation {
             machine: self.model.machine(),
-            setup: &self.setups[run.setup].table,
+            setup: self.setups[run.setup].setup.as_ref(),
             q: &run.q.to_row_major(),
             readings: &readings.to_row_major(),
             t: &run.t.to_vec(),
