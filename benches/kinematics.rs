@@ -64,6 +64,16 @@ fn bench_pose_error(c: &mut Criterion) {
             }
         })
     });
+    // The same poses batched (lanes = poses, AVX2 + FMA kernel when the processor has it).
+    let flat: Vec<f64> = qs.iter().flatten().copied().collect();
+    let mut bws = model.batch_workspace();
+    let mut out = vec![[0.0; 6]; qs.len()];
+    g.bench_function("pose_errors_first_order_batched", |b| {
+        b.iter(|| model.pose_errors_first_order(black_box(&flat), &coeffs, &mut bws, &mut out))
+    });
+    g.bench_function("pose_errors_exact_batched", |b| {
+        b.iter(|| model.pose_errors(black_box(&flat), &coeffs, &mut bws, &mut out))
+    });
     g.bench_function("pose_error_with_full_jacobian", |b| {
         b.iter(|| {
             for q in &qs {

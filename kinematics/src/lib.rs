@@ -19,5 +19,5 @@ pub use basis::{Basis, BasisError};
 pub use machine::{AxisKind, BranchSpec, JointSpec, Machine, MachineError, MachineSpec, Side};
 pub use model::{BasisChoice, ErrorModel, ModelError, ParamConfig};
 pub use names::{AxisLetter, Direction, ParamName, Setup};
-pub use pose::{MachineModel, PoseError, TOOL_MOTIONS, Workspace};
+pub use pose::{BatchKernel, BatchWorkspace, MachineModel, PoseError, TOOL_MOTIONS, Workspace};
 pub use rigid::Rigid;

@@ -26,14 +26,17 @@ use crate::rigid::{
 };
 use nalgebra::{Matrix3, Vector3};
 
+mod batch;
 mod eval;
 mod frames;
 mod jacobian;
+mod lanes;
 mod plan;
 #[cfg(test)]
 mod tests;
 mod values;
 
+pub use batch::{BatchKernel, BatchWorkspace};
 use frames::*;
 use jacobian::*;
 use plan::*;

@@ -377,11 +377,20 @@ fn child_process() {
     }
 }
 
+/// [`child_process`]'s name as the test binary knows it: its module path without the crate
+/// (`store::child_process` where the tests are gathered into one binary).
+fn child_test_name() -> String {
+    match module_path!().split_once("::") {
+        Some((_, module)) => format!("{module}::child_process"),
+        None => "child_process".to_string(),
+    }
+}
+
 fn spawn_child(role: &str, db: &TestDb, tag: &str) -> std::process::Child {
     Command::new(std::env::current_exe().unwrap())
         .args([
             "--exact",
-            "child_process",
+            &child_test_name(),
             "--nocapture",
             "--test-threads=1",
         ])
