@@ -1024,13 +1024,6 @@ const KNOWN_LEAKS: &[(&str, &str)] = &[
     ("crates/import/src/session.rs", "laser"),
     // The identify JSON's reversals, read for the compensation (FORMATS.md's effect name).
     ("crates/machine/src/from_identify.rs", "reversal"),
-    // The planner's collision bodies and position keys of each instrument.
-    ("crates/plan/src/planner.rs", "artefact"),
-    ("crates/plan/src/planner.rs", "ballbar"),
-    ("crates/plan/src/planner.rs", "rtest"),
-    ("crates/plan/src/scene.rs", "artefact"),
-    ("crates/plan/src/scene.rs", "ballbar"),
-    ("crates/plan/src/scene.rs", "rtest"),
     // The report's section of ball-bar circles.
     ("crates/report/src/page.rs", "ballbar"),
     // The volumetric test reads R-test visits.

@@ -56,7 +56,8 @@ fn batched(
 /// few products are grouped, so any real difference (a sign, a missed term: the error's own
 /// size) is ten orders above it. Exact: the same relative bound plus 4e-16 per metre of the
 /// machine's levers: the per-pose path forms the error as the difference of two poses a metre
-/// in size (`p − p₀`, `R·R₀ᵀ`), whose rounding is a few ulps of a metre whatever the error.
+/// in size (`p − p₀`, `R·R₀ᵀ`), whose rounding is a few ulps of a metre whatever the error
+/// (the batched path carries the error itself along the chain, to its own relative precision).
 fn check(model: &MachineModel, q: &[f64], coeffs: &[f64]) -> Result<(), TestCaseError> {
     let na = model.machine().n_axes();
     let (first, exact) = batched(model, q, coeffs, BatchKernel::Detect);

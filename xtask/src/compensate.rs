@@ -1,12 +1,13 @@
-//! `cargo xtask compensate`: one compensation file of an identified machine
-//! ([`mtcal_compensate::write_compensation`]); `--format` and `--axis` together say which.
-//! `cargo xtask check-compensation`: a compensation file read back and checked against the
-//! control's limits ([`mtcal_compensate::check_compensation`]).
+//! `cargo xtask compensate`: one compensation file of an identified machine in a registered
+//! control format ([`mtcal_compensate::Request::write`]); `--format` and `--axis` together say
+//! which. `cargo xtask check-compensation`: a compensation file read back and checked against
+//! the control's limits ([`mtcal_compensate::Request::check`]). The formats, their names and
+//! their help come from the library's registry, not from here.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::ValueEnum;
-use clap::builder::{EnumValueParser, PossibleValue, TypedValueParser};
-use mtcal_compensate::{Compensation, ParameterFormat, PitchFormat, Settings};
+use clap::builder::{PossibleValue, TypedValueParser};
+use mtcal_compensate::{ControlFormat, ControlOptions, Request, Settings};
 use mtcal_located::Outputs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -51,22 +52,18 @@ pub(crate) struct CompensateArgs {
 /// Which file, for which control: shared by `compensate` and `check-compensation`.
 #[derive(clap::Args)]
 pub(crate) struct ControlArgs {
-    /// A pitch table of this linear axis (positioning along its own direction).
+    /// The axis of the file, where its format takes one (a pitch table's axis, a SINUMERIK
+    /// or Fanuc file of one axis, the input axis of SINUMERIK CEC tables).
     #[arg(long)]
     axis: Option<char>,
-    /// `csv` (pitch table with --axis, else 3-D grid), `linuxcnc` (pitch table), `isg` or
-    /// `etalon` (error parameters of the whole machine), `linuxcnc-trt` (HAL settings of the
-    /// rotary pivots of LinuxCNC's xyzac/xyzbc table-table kinematics), `siemens-eec`
-    /// (SINUMERIK leadscrew tables, %_N_AX_EEC_INI: --axis or every axis, rotary axes without
-    /// limits as modulo tables), `siemens-cec`
-    /// (sag/cross tables, %_N_NC_CEC_INI: every pair of linear axes, or those with input
-    /// --axis), `siemens-carr` (CYCLE800 swivel data $TC_CARR of a five-axis machine), `fanuc`
-    /// (pitch error compensation 3620–3627 and pitch data of --axis or every axis, with a
-    /// values table FILE.values.csv), `heidenhain-com` (nonlinear axis error tables: the .CMA
-    /// file and its .COM tables beside it), `heidenhain-kinematicscomp` (the ISO 230-1 errors
-    /// as KinematicsComp's listing .TAB and its tables).
+    /// The control format, one of those registered (listed with what each writes under
+    /// --help).
     #[arg(long, default_value = "csv", value_parser = FormatParser)]
-    format: Format,
+    format: &'static dyn ControlFormat,
+    /// A format's own setting, KEY=VALUE (repeat the flag for several): the keys a format
+    /// takes are listed with it under --format; a key the format does not take is refused.
+    #[arg(long = "control-option", value_name = "KEY=VALUE")]
+    control_option: Vec<String>,
     /// SINUMERIK: most interpolation points per table, the machine's MD38000 (EEC) and
     /// MD18342 (CEC) (default 200, the smallest documented).
     #[arg(long)]
@@ -125,89 +122,48 @@ enum IncrementArg {
     IsC,
 }
 
-/// `--format`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Format {
-    Csv,
-    Linuxcnc,
-    Isg,
-    Etalon,
-    LinuxcncTrt,
-    SiemensEec,
-    SiemensCec,
-    SiemensCarr,
-    Fanuc,
-    HeidenhainCom,
-    HeidenhainKinematicscomp,
-}
-
-impl Format {
-    /// The file this format writes, with `--axis` or without: a pitch table needs an axis, the
-    /// error parameters are of every axis, the pivots ignore it.
-    fn compensation(self, axis: Option<char>) -> Result<Compensation> {
-        let parameters = |format: ParameterFormat| match axis {
-            Some(axis) => bail!(
-                "--format {} writes the error parameters of every axis; drop --axis {axis}",
-                format.name()
-            ),
-            None => Ok(Compensation::Parameters(format)),
-        };
-        let pitch = |format| axis.map(|axis| Compensation::PitchTable { axis, format });
-        match self {
-            Format::LinuxcncTrt => Ok(Compensation::TrtPivots),
-            Format::SiemensEec => Ok(Compensation::SiemensEec { axis }),
-            Format::SiemensCec => Ok(Compensation::SiemensCec { input: axis }),
-            Format::SiemensCarr => Ok(Compensation::SiemensCarr),
-            Format::Fanuc => Ok(Compensation::Fanuc { axis }),
-            Format::HeidenhainCom => Ok(Compensation::HeidenhainCom),
-            Format::HeidenhainKinematicscomp => Ok(Compensation::HeidenhainKinematicsComp),
-            Format::Isg => parameters(ParameterFormat::IsgCsv),
-            Format::Etalon => parameters(ParameterFormat::Etalon),
-            Format::Csv => Ok(pitch(PitchFormat::Csv).unwrap_or(Compensation::Grid)),
-            Format::Linuxcnc => match pitch(PitchFormat::LinuxCnc) {
-                Some(table) => Ok(table),
-                None => bail!(
-                    "--format `linuxcnc` without --axis: expected csv (3-D grid), isg or etalon"
-                ),
-            },
-        }
-    }
-}
-
-/// `--format`'s parser: clap's for [`Format`], saying in mtcal's words which names there are.
+/// `--format`'s parser: a registered format by name; an unknown name is refused with every
+/// registered one, and `--help` lists them with what each writes.
 #[derive(Clone)]
 struct FormatParser;
 
 impl TypedValueParser for FormatParser {
-    type Value = Format;
+    type Value = &'static dyn ControlFormat;
 
     fn parse_ref(
         &self,
-        cmd: &clap::Command,
-        arg: Option<&clap::Arg>,
+        _: &clap::Command,
+        _: Option<&clap::Arg>,
         value: &std::ffi::OsStr,
-    ) -> Result<Format, clap::Error> {
-        EnumValueParser::<Format>::new()
-            .parse_ref(cmd, arg, value)
-            .map_err(|_| {
-                clap::Error::raw(
-                    clap::error::ErrorKind::InvalidValue,
-                    format!(
-                        "--format `{}`: expected linuxcnc, csv, isg, etalon, linuxcnc-trt, \
-                         siemens-eec, siemens-cec, siemens-carr, fanuc, heidenhain-com or \
-                         heidenhain-kinematicscomp\n",
-                        value.to_string_lossy()
-                    ),
-                )
-            })
+    ) -> Result<Self::Value, clap::Error> {
+        mtcal_compensate::find_format(&value.to_string_lossy())
+            .map_err(|e| clap::Error::raw(clap::error::ErrorKind::InvalidValue, format!("{e}\n")))
     }
 
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
         Some(Box::new(
-            Format::value_variants()
-                .iter()
-                .filter_map(ValueEnum::to_possible_value),
+            mtcal_compensate::control_formats()
+                .into_iter()
+                .map(|f| PossibleValue::new(f.name()).help(format_help(f))),
         ))
+    }
+}
+
+/// A format's line under `--help`: what it writes and the options it takes.
+fn format_help(format: &dyn ControlFormat) -> String {
+    let options: Vec<String> = format
+        .options()
+        .iter()
+        .map(|o| format!("{} ({})", o.key, o.about))
+        .collect();
+    if options.is_empty() {
+        format.about().to_string()
+    } else {
+        format!(
+            "{}; --control-option {}",
+            format.about(),
+            options.join(", ")
+        )
     }
 }
 
@@ -244,19 +200,21 @@ fn fanuc_control(args: &ControlArgs) -> mtcal_compensate::FanucControl {
 
 impl ControlArgs {
     /// The file `--format` and `--axis` name.
-    fn compensation(&self) -> Result<Compensation> {
-        self.format.compensation(self.axis)
+    fn request(&self) -> Result<Request> {
+        Ok(Request::of(self.format, self.axis)?)
     }
 
-    /// The settings with the control's limits; the rest as given.
+    /// The settings with the control's limits and the format's options; the rest as given.
     fn settings(
         &self,
         machine: &mtcal_kinematics::Machine,
         hold_q: Vec<f64>,
         spacing_mm: f64,
         spacing_deg: f64,
-    ) -> Settings {
-        Settings {
+    ) -> Result<Settings> {
+        let control_options =
+            ControlOptions::from_pairs(self.control_option.iter().map(String::as_str))?;
+        Ok(Settings {
             hold_q,
             siemens: siemens_limits(self),
             fanuc: fanuc_control(self),
@@ -264,8 +222,9 @@ impl ControlArgs {
                 HeidenhainArg::Tnc4xx => mtcal_compensate::ComLimits::tnc_4xx(),
                 HeidenhainArg::Manualplus620 => mtcal_compensate::ComLimits::manualplus_620(),
             },
+            control_options,
             ..Settings::new(machine, spacing_mm, spacing_deg)
-        }
+        })
     }
 }
 
@@ -279,7 +238,10 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     let defaults = mtcal_compensate::default_hold(model.machine());
     let hold = args.hold.as_deref().unwrap_or("");
     let hold_q = mtcal_machine::axis_text::held_positions(model.machine(), defaults, hold)?;
-    let what = args.control.compensation()?;
+    let what = args.control.request()?;
+    let control =
+        args.control
+            .settings(model.machine(), hold_q, args.spacing_mm, args.spacing_deg)?;
     // What the identification gave and what became of it: on the screen (its account above,
     // the reversals here) and on the card.
     let mut made_from = account;
@@ -300,9 +262,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
         reversals,
         made_from,
         reference_mm: args.reference_mm,
-        ..args
-            .control
-            .settings(model.machine(), hold_q, args.spacing_mm, args.spacing_deg)
+        ..control
     };
     // The file and those beside it (tables, a card) written into a private folder, then
     // into place together: an error in any leaves none of them.
@@ -319,7 +279,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
     files.file(&args.out, Vec::new());
     files.check()?;
     let (exported, staging) = mtcal_located::staged(|dir| {
-        mtcal_compensate::write_compensation(&model, &coeffs, &dir.join(name), what, &settings)
+        what.write(&model, &coeffs, &dir.join(name), &settings)
             // A message names the file where the user will find it, not the private folder.
             .map_err(|e| {
                 let shown = target.display().to_string();
@@ -345,7 +305,7 @@ pub(crate) fn run(args: CompensateArgs, out: &mut impl Write) -> Result<()> {
 /// a change along the stroke within its interval of zero is left out of one that is put in.
 fn found_reversals(
     from: &mtcal_machine::from_identify::FromIdentify,
-    what: Compensation,
+    what: Request,
     reversal_um: Option<f64>,
 ) -> (Vec<mtcal_compensate::AxisReversal>, Vec<String>) {
     let mut kept = Vec::new();
@@ -406,12 +366,12 @@ fn found_reversals(
 pub(crate) fn check(args: CheckArgs, out: &mut impl Write) -> Result<()> {
     let loaded = args.machine.load()?;
     let machine = &loaded.machine;
-    let what = args.control.compensation()?;
+    let what = args.control.request()?;
     // The spacings only make tables; a check reads them from the file.
     let settings =
         args.control
-            .settings(machine, mtcal_compensate::default_hold(machine), 1.0, 1.0);
-    let checked = mtcal_compensate::check_compensation(machine, what, &args.file, &settings)?;
+            .settings(machine, mtcal_compensate::default_hold(machine), 1.0, 1.0)?;
+    let checked = what.check(machine, &args.file, &settings)?;
     writeln!(
         out,
         "{}: reads back and is within the control's limits: {checked}",

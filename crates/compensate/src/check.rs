@@ -1,29 +1,18 @@
 //! Reading a compensation file back and checking it against the control's limits before it is
 //! loaded: a file mtcal wrote, or one a person edited. Each format's reader finds what is
 //! malformed (file, line, column); its validator refuses what the control would refuse or
-//! misread ([`check_compensation`]).
+//! misread ([`check_compensation`], [`crate::Request::check`]).
 
-use crate::output::{Compensation, Settings};
-use crate::pitch::PitchFormat;
-use crate::{CompensateError, LINUXCNC_MAX_TRIPLETS, ParameterValue};
+use crate::CompensateError;
+use crate::exported::Checked;
+use crate::output::Compensation;
+use crate::settings::Settings;
 use mtcal_kinematics::Machine;
-use std::fmt;
 use std::path::Path;
 
-/// What a file that passed its checks holds.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Checked {
-    /// Tables (or parameters for a parameter file, records for swivel data).
-    pub tables: usize,
-    /// Interpolation points in all tables.
-    pub points: usize,
-}
-
-impl fmt::Display for Checked {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} tables, {} points", self.tables, self.points)
-    }
-}
+// The tests name the built-in pitch tables by their format.
+#[cfg(test)]
+use crate::pitch::PitchFormat;
 
 /// Reads `path` as the file `what` of `machine` and checks it with the limits in `settings`.
 /// Every error names the file (and line and column where the fault is on one line).
@@ -33,109 +22,7 @@ pub fn check_compensation(
     path: &Path,
     settings: &Settings,
 ) -> Result<Checked, CompensateError> {
-    check_unlocated(machine, what, path, settings).map_err(|e| match e {
-        CompensateError::Fanuc(_)
-        | CompensateError::Heidenhain(_)
-        | CompensateError::Siemens(_)
-        | CompensateError::Carr(_)
-        | CompensateError::TooManyNodes { .. } => CompensateError::Invalid {
-            file: path.to_path_buf(),
-            cause: Box::new(e),
-        },
-        located => located,
-    })
-}
-
-/// [`check_compensation`], its limit errors not yet naming the file.
-fn check_unlocated(
-    machine: &Machine,
-    what: Compensation,
-    path: &Path,
-    settings: &Settings,
-) -> Result<Checked, CompensateError> {
-    let single = |points| Checked { tables: 1, points };
-    match what {
-        Compensation::PitchTable { axis, format } => {
-            crate::linear_axis(machine, axis)?;
-            let table = match format {
-                PitchFormat::LinuxCnc => crate::read_linuxcnc_comp(path, axis)?,
-                PitchFormat::Csv => crate::read_pitch_csv(path, axis)?,
-            };
-            if format == PitchFormat::LinuxCnc && table.len() > LINUXCNC_MAX_TRIPLETS {
-                return Err(CompensateError::TooManyNodes {
-                    what: format!("LinuxCNC compensation file for axis {axis}"),
-                    nodes: table.len(),
-                    max: LINUXCNC_MAX_TRIPLETS,
-                });
-            }
-            Ok(single(table.len()))
-        }
-        Compensation::Grid => Ok(single(crate::read_grid_csv(path)?.error_um.len())),
-        Compensation::Parameters(format) => {
-            let params = crate::read_error_parameters(path, format)?;
-            let points = params
-                .params
-                .iter()
-                .map(|p| match &p.value {
-                    ParameterValue::Table { args, .. } => args.len(),
-                    ParameterValue::Constant(_) => 1,
-                })
-                .sum();
-            Ok(Checked {
-                tables: params.params.len(),
-                points,
-            })
-        }
-        Compensation::TrtPivots => Err(CompensateError::NoReader {
-            format: "LinuxCNC HAL settings",
-        }),
-        Compensation::SiemensEec { .. } => {
-            let tables = crate::read_siemens_eec(path, &settings.siemens)?;
-            let points = tables.iter().map(|t| t.positions.len()).sum();
-            Ok(Checked {
-                tables: tables.len(),
-                points,
-            })
-        }
-        Compensation::SiemensCec { .. } => {
-            let tables = crate::read_siemens_cec(path, &settings.siemens)?;
-            let points = tables.iter().map(|t| t.positions.len()).sum();
-            Ok(Checked {
-                tables: tables.len(),
-                points,
-            })
-        }
-        Compensation::SiemensCarr => {
-            crate::read_carr(path)?;
-            Ok(single(0))
-        }
-        Compensation::Fanuc { axis } => {
-            let axes = crate::output::fanuc_axes(machine, axis)?;
-            let tables = crate::read_fanuc_parameters(path, &settings.fanuc, &axes)?;
-            crate::validate_fanuc(&settings.fanuc, &tables)?;
-            let points = tables.iter().map(|t| t.node_points().count()).sum();
-            Ok(Checked {
-                tables: tables.len(),
-                points,
-            })
-        }
-        Compensation::HeidenhainCom => {
-            let set = crate::read_heidenhain_com(path)?;
-            crate::validate_heidenhain_com(&set, &settings.heidenhain)?;
-            Ok(Checked {
-                tables: set.tables.len(),
-                points: set.total_points(),
-            })
-        }
-        Compensation::HeidenhainKinematicsComp => {
-            let kc = crate::read_kinematics_comp(path)?;
-            crate::validate_kinematics_comp(&kc, &crate::KcLimits::default())?;
-            Ok(Checked {
-                tables: kc.tables.len(),
-                points: kc.tables.iter().map(|t| t.positions.len()).sum(),
-            })
-        }
-    }
+    what.request()?.check(machine, path, settings)
 }
 
 #[cfg(test)]

@@ -149,8 +149,15 @@
 //! says the control does and find the modelled error cancelled at the nodes.
 //!
 //! # One file as the command line asks for it
-//! [`write_compensation`] writes any of these files ([`Compensation`]) with its
-//! [`Settings`] and says what it wrote ([`Written`]).
+//! Each format is registered ([`ControlFormat`], [`Registered`], one module of `formats/`
+//! each): its name as typed after `--format`, its line of help, the `--axis` it takes, its own
+//! options ([`ControlOptions`]), its writer and its reader and check. A [`Request`] (a format
+//! found by name with [`find_format`], and its `--axis`) writes the file with its
+//! [`Settings`] and says what it wrote ([`Exported`], [`Written`]), or reads one back and
+//! checks it ([`Checked`]); [`control_formats`] lists them all. [`write_compensation`] and
+//! [`check_compensation`] do the same for the built-in files named by type ([`Compensation`]).
+//! A format registered outside this crate is as good as a built-in one
+//! (`tests/stub_format.rs`).
 //!
 //! # Errors
 //! Files are written atomically (`mtcal_machine::write_atomically`). A bad file gives a
@@ -158,19 +165,24 @@
 //! expected; nothing here panics on bad input.
 
 mod check;
+mod exported;
 mod fanuc;
+mod formats;
 mod grid;
 mod heidenhain;
 mod output;
 mod parameters;
 mod pitch;
+mod registry;
 mod rotary;
+mod settings;
 mod siemens;
 mod siemens_carr;
 mod text;
 mod trt;
 
-pub use check::{Checked, check_compensation};
+pub use check::check_compensation;
+pub use exported::{Checked, Exported, Written};
 pub use fanuc::{
     AXIS_POINTS_SOURCE, FanucAxis, FanucControl, FanucConversion, FanucError, FanucLayout,
     FanucRequest, FanucReverse, FanucSeries, FanucTable, IncrementSystem, fanuc_card, fanuc_export,
@@ -188,7 +200,7 @@ pub use heidenhain::{
 pub use mtcal_machine::card::{
     AxisMap, ConventionCard, Quantity, ROTARY_RIGHT_HAND, SQUARENESS_ISO,
 };
-pub use output::{Compensation, Exported, Settings, Written, write_compensation};
+pub use output::{Compensation, write_compensation};
 pub use parameters::{
     ErrorParameter, ErrorParameters, ParameterFormat, ParameterValue, error_parameters,
     read_error_parameters, write_error_parameters,
@@ -197,7 +209,11 @@ pub use pitch::{
     AxisReversal, LINUXCNC_MAX_TRIPLETS, PitchFormat, PitchTable, Reversal, Travel, pitch_table,
     read_linuxcnc_comp, read_pitch_csv, travel_direction, write_linuxcnc_comp, write_pitch_csv,
 };
+pub use registry::{
+    ControlFormat, ControlOption, Registered, Request, control_formats, find_format,
+};
 pub use rotary::{RotaryTable, rotary_table, rotation_direction};
+pub use settings::{ControlOptions, Settings};
 pub use siemens::{
     CEC_FILE_NAME, CecDirection, CecTable, EEC_FILE_NAME, EecReference, EecTable,
     SIEMENS_DEFAULT_CEC_TABLES, SIEMENS_DEFAULT_MAX_VALUE, SIEMENS_DEFAULT_POINTS, SiemensError,
@@ -301,6 +317,22 @@ pub enum CompensateError {
     /// A Heidenhain control would refuse or misread the tables (its limits).
     #[error(transparent)]
     Heidenhain(#[from] HeidenhainLimit),
+    /// No control format is registered under `name`; `expected` names those that are.
+    #[error("--format `{name}`: expected {expected}")]
+    UnknownFormat { name: String, expected: String },
+    /// The format does not take the `--axis` use asked for; the message says what to do.
+    #[error("{0}")]
+    AxisUse(String),
+    /// A `--control-option` key the format does not declare.
+    #[error("--format {format} takes no control option `{key}` (it takes {takes})")]
+    UnknownOption {
+        format: &'static str,
+        key: String,
+        takes: String,
+    },
+    /// A `--control-option` that does not read (`message` says why).
+    #[error("--control-option `{given}`: {message}")]
+    BadOption { given: String, message: String },
 }
 
 /// The default held positions (SI): linear axes at mid-stroke, rotary axes at 0.

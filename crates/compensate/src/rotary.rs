@@ -11,7 +11,7 @@
 //!
 //! mtcal's rotary component errors are Fourier series in the angle and its location errors
 //! enter through rotation matrices, so a full-revolution table is periodic: its values at 0°
-//! and 360° agree to rounding (tests/fanuc.rs checks it).
+//! and 360° agree to rounding (tests/suite/fanuc.rs checks it).
 
 use crate::{CompensateError, UM, bracket, check_inputs, lerp, nodes_in};
 use mtcal_kinematics::{AxisKind, Machine, MachineModel};

@@ -182,6 +182,7 @@ macro_rules! dummy {
                 evaluate: None,
                 polar_view: None,
                 diagnose: None,
+                planning: None,
             }
         }
     };

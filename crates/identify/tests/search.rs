@@ -166,6 +166,7 @@ inventory::submit! {
         evaluate: None,
         polar_view: None,
         diagnose: None,
+        planning: None,
     }
 }
 

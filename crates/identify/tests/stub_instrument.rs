@@ -204,6 +204,7 @@ inventory::submit! {
         evaluate: None,
         polar_view: None,
         diagnose: None,
+        planning: None,
     }
 }
 

@@ -30,11 +30,14 @@
 //! set-up table into a typed config with [`config::read`], submit an [`InstrumentPlugin`] with
 //! `inventory::submit!`, name the crate in `mtcal-plugins`, and call the conformance harness
 //! (`mtcal-conformance`) from its tests. Read its set-up and path tables with
-//! [`config::read`], one typed struct per table.
+//! [`config::read`], one typed struct per table. For the test planner to place it and check
+//! it for collisions, give the registration a [`collision::Planning`]: the set-up key a
+//! position goes into and the instrument's collision bodies (with their `[geometry]` sizes).
 
 use mtcal_kinematics::{Machine, Rigid};
 use std::fmt;
 
+pub mod collision;
 pub mod config;
 pub mod program;
 
@@ -360,6 +363,11 @@ pub struct InstrumentPlugin {
     /// readings so that the caller can say which part of the machine's model stands behind it;
     /// `None` for instruments without one.
     pub diagnose: Option<Diagnose>,
+    /// What the test planner needs to place the instrument: the set-up key a planned position
+    /// goes into, the keys it writes out, its collision bodies and their `[geometry]` sizes
+    /// ([`collision`]); `None` for an instrument the planner only places where a planning file
+    /// names the position key, and checks for nothing but the machine.
+    pub planning: Option<collision::Planning>,
 }
 
 /// One group of runs diagnosed together (a ball-bar's counter-clockwise and clockwise circle in

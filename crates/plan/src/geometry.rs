@@ -10,45 +10,36 @@
 use crate::PlanError;
 use mtcal_kinematics::rigid::Rigid;
 use mtcal_kinematics::{Machine, Side};
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use parry3d_f64::math::{Pose, Rotation, Vector};
 use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, Shape};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// A primitive shape in its own frame (SI). Cylinders and capsules run along their local z,
-/// centred on the origin, as URDF cylinders do.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Primitive {
-    Box { half: [f64; 3] },
-    Cylinder { radius: f64, half_length: f64 },
-    Sphere { radius: f64 },
-    Capsule { radius: f64, half_length: f64 },
-}
+pub use mtcal_instrument::collision::Primitive;
 
-impl Primitive {
-    /// The parry shape and the local pose that turns parry's y-axis cylinders onto z.
-    fn parry(&self) -> (Box<dyn Shape>, Rigid) {
-        let to_z = Rigid::rotation(Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0));
-        match *self {
-            Primitive::Box { half } => (
-                Box::new(Cuboid::new(Vector::new(half[0], half[1], half[2]))),
-                Rigid::IDENTITY,
-            ),
-            Primitive::Cylinder {
-                radius,
-                half_length,
-            } => (Box::new(Cylinder::new(half_length, radius)), to_z),
-            Primitive::Sphere { radius } => (Box::new(Ball::new(radius)), Rigid::IDENTITY),
-            Primitive::Capsule {
-                radius,
-                half_length,
-            } => (
-                Box::new(Capsule::new_z(half_length, radius)),
-                Rigid::IDENTITY,
-            ),
-        }
+/// The parry shape of a primitive and the local pose that turns parry's y-axis cylinders onto
+/// z.
+fn parry(primitive: &Primitive) -> (Box<dyn Shape>, Rigid) {
+    let to_z = Rigid::rotation(Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0));
+    match *primitive {
+        Primitive::Box { half } => (
+            Box::new(Cuboid::new(Vector::new(half[0], half[1], half[2]))),
+            Rigid::IDENTITY,
+        ),
+        Primitive::Cylinder {
+            radius,
+            half_length,
+        } => (Box::new(Cylinder::new(half_length, radius)), to_z),
+        Primitive::Sphere { radius } => (Box::new(Ball::new(radius)), Rigid::IDENTITY),
+        Primitive::Capsule {
+            radius,
+            half_length,
+        } => (
+            Box::new(Capsule::new_z(half_length, radius)),
+            Rigid::IDENTITY,
+        ),
     }
 }
 
@@ -69,7 +60,7 @@ impl std::fmt::Debug for Solid {
 
 impl Solid {
     pub fn new(p: &Primitive) -> Self {
-        let (shape, local) = p.parry();
+        let (shape, local) = parry(p);
         Solid { shape, local }
     }
 }
@@ -327,9 +318,4 @@ impl MachineGeometry {
         }
         a.parent(machine) != Some(b) && b.parent(machine) != Some(a)
     }
-}
-
-/// Translation helper for instrument geometry.
-pub(crate) fn at(p: Vector3<f64>) -> Rigid {
-    Rigid::translation(p)
 }

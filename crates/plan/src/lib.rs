@@ -27,7 +27,7 @@
 //! [identify]               # copied into the plan; `parameters` default: the wanted list
 //! parameters = ["EX0C", "EY0C", "EA0C", "EB0C", "EC0Y"]
 //!
-//! [geometry]               # instrument and fixture sizes, mm (scene::GeometryConfig)
+//! [geometry]               # instrument and fixture sizes, mm (sizes::GeometryConfig)
 //! rtest_head_diameter_mm = 70.0
 //!
 //! [setup.bar]              # set-ups of the fixed runs, as in a test plan
@@ -44,7 +44,7 @@
 //! name = "rtest"           # the chosen positions become set-ups `rtest-03`…
 //! instrument = "rtest"
 //! choose = 2               # how many positions
-//! position = "ball"        # the set-up key that takes the position (default per instrument)
+//! position = "ball"        # the set-up key that takes the position (default: the plugin's)
 //! setup = { head = "ideal", mount = "ball-on-table" }   # the set-up's other keys
 //! grid = { x = [0.0, 100.0, 200.0], y = [0.0], z = [150.0, 250.0] }  # or points = [[x,y,z]..]
 //! max_radius_mm = 280.0    # fixture limits: within this radius of the workpiece origin,
@@ -65,20 +65,20 @@
 //!
 //! # Collision geometry
 //! Machine: every link's `<collision>` boxes, cylinders, spheres and capsules, placed by the
-//! nominal forward kinematics; meshes are reported as not checked. Instruments (sizes in
-//! `[geometry]`): on the tool a ball, a stem and a holder up to the gauge point; R-test with
-//! `mount = "ball-on-table"` (the plugin's default, written into every planned R-test set-up):
-//! the ball on a post on the table, the head on the tool above it (in the ball's place); with
-//! `mount = "ball-in-spindle"`: the head below the ball and its post down to the table top;
-//! ball-bar: the pivot ball, its post
-//! and the bar (a capsule, shortened at both ends by the cups); artefact: the plate of each
-//! placement. Checked pairs: machine bodies of different branches that are not carried one
-//! by the other; tool-side bodies against every machine body but the one carrying the tool
-//! link (the holder sits in the spindle by design); table-side bodies against every machine
-//! body but the one carrying the workpiece link (the posts stand on it); the bar against
-//! everything; tool side against table side except the ball in its head and the probe on its
-//! plate. A pair closer than `clearance_mm` collides. Every pose of every run is checked, and
-//! with `move_step` the straight axis moves between them.
+//! nominal forward kinematics; meshes are reported as not checked. Instruments: each plugin's
+//! own bodies ([`mtcal_instrument::collision`]: the R-test's ball, head and post on its
+//! `mount`, which the plan writes into every planned R-test set-up; the ball-bar's balls, post
+//! and bar; an artefact's plate per placement), with their sizes from `[geometry]` (the
+//! plugin's keys) and the shared tool side (a holder up to the gauge point, a stem below it)
+//! and table top ([`sizes`]). An instrument without bodies is checked for nothing but the
+//! machine, and the report says so. Checked pairs: machine bodies of different branches that
+//! are not carried one by the other; tool-side bodies against every machine body but the one
+//! carrying the tool link (the holder sits in the spindle by design); table-side bodies
+//! against every machine body but the one carrying the workpiece link (the posts stand on
+//! it); a bar against everything; tool side against table side except the pairs the
+//! instrument says touch by design (a ball in its head, a probe on its plate). A pair closer
+//! than `clearance_mm` collides. Every pose of every run is checked, and with `move_step` the
+//! straight axis moves between them.
 //!
 //! # Outputs ([`Planned::write`])
 //! `plan.toml` (a test plan `simulate` accepts), `machine.urdf` (+ `machine.errors.toml`),
@@ -87,10 +87,12 @@
 pub mod geometry;
 pub mod info;
 pub mod scene;
+pub mod sizes;
 pub mod spec;
 
 mod planner;
 mod run_keys;
+mod tooled;
 
 pub use planner::{
     CandidateReport, Criteria, FixedReport, IntervalRow, Planned, PlannedRun, Report, RunCheck,

@@ -7,13 +7,14 @@ use crate::info::{self, Choice, Informations};
 use crate::run_keys;
 use crate::scene::{Hit, Scene, instrument_bodies};
 use crate::spec::{Group, Source, Wanted};
+use crate::tooled::tooled_machine;
 use mtcal_identify::Study;
 use mtcal_instrument::{PathSpec, SetupContext};
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_located::Location;
 use mtcal_machine::{LoadedMachine, load_machine, topology::Reading};
 use mtcal_simulate::{Plan, PlanMachine};
-use nalgebra::{DMatrix, Isometry3, Translation3};
+use nalgebra::DMatrix;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -136,16 +137,6 @@ pub struct Planned {
     pub tooled: Machine,
     pub urdf: String,
     pub errors_toml: Option<String>,
-}
-
-/// The tool point moved `length` (m) down the tool axis.
-fn tooled_machine(m: &Machine, length: f64) -> Result<Machine, String> {
-    let mut spec = m.to_spec();
-    spec.tool.end *= Isometry3::from_parts(
-        Translation3::new(0.0, 0.0, -length),
-        nalgebra::UnitQuaternion::identity(),
-    );
-    Machine::try_new(&spec).map_err(|e| e.to_string())
 }
 
 struct Ctx<'a> {
@@ -431,23 +422,32 @@ impl Ctx<'_> {
         .map_err(|m| err(format!("run `{name}`: {m}")))
     }
 
-    /// `setup` with an R-test's `mount` written out when it is left to the plugin's default
-    /// (`"ball-on-table"`, taken from the loaded set-up), so that the plan — and the session
-    /// simulated from it — says which mounting it was planned and collision-checked for. Other
-    /// set-ups, and set-ups that do not load (the caller reports why), are returned as given.
-    fn explicit_mount(&self, instrument: &str, setup: &toml::Table) -> toml::Table {
+    /// `setup` with the keys its instrument has the planner write out
+    /// ([`Planning::written_out`](mtcal_instrument::collision::Planning::written_out), an
+    /// R-test's `mount`) taken from the loaded set-up where they are left to the plugin's
+    /// default, so that the plan — and the session simulated from it — says what it was planned
+    /// and collision-checked for. Other set-ups, and set-ups that do not load (the caller
+    /// reports why), are returned as given.
+    fn with_defaults_written_out(&self, instrument: &str, setup: &toml::Table) -> toml::Table {
         let mut out = setup.clone();
-        if instrument != "rtest" || setup.contains_key("mount") {
+        let Some(plugin) = mtcal_plugins::find(instrument) else {
+            return out;
+        };
+        let keys = plugin.planning.map_or(&[][..], |p| p.written_out);
+        if keys.iter().all(|k| setup.contains_key(*k)) {
             return out;
         }
         let ctx = SetupContext {
             machine: &self.tooled,
         };
-        let loaded = mtcal_plugins::find(instrument)
-            .and_then(|p| (p.load_setup)(setup, &ctx).ok())
-            .map(|s| s.to_toml());
-        if let Some(mount) = loaded.as_ref().and_then(|t| t.get("mount")) {
-            out.insert("mount".into(), mount.clone());
+        let Ok(loaded) = (plugin.load_setup)(setup, &ctx) else {
+            return out;
+        };
+        let loaded = loaded.to_toml();
+        for key in keys.iter().filter(|k| !setup.contains_key(**k)) {
+            if let Some(value) = loaded.get(*key) {
+                out.insert((*key).into(), value.clone());
+            }
         }
         out
     }
@@ -470,7 +470,7 @@ impl Ctx<'_> {
             machine: &self.tooled,
         };
         (plugin.load_setup)(setup, &ctx).map_err(|e| format!("set-up: {e}"))?;
-        let setup = &self.explicit_mount(instrument, setup);
+        let setup = &self.with_defaults_written_out(instrument, setup);
         let spec = PathSpec {
             path,
             setup,
@@ -503,19 +503,18 @@ impl Ctx<'_> {
 
     /// Checks every pose of a run and, with `move_step`, the moves between them.
     fn check_run(&self, run: &PlannedRun) -> Result<RunCheck, PlanError> {
+        let geo_err = |m: String| PlanError::Geometry {
+            file: self.src.path.clone(),
+            message: format!("run `{}`: {m}", run.name),
+        };
         let bodies = instrument_bodies(
             &run.instrument,
             &run.setup,
             self.tool_length,
             &self.loaded.machine,
-            &self
-                .src
-                .file
-                .geometry
-                .as_ref()
-                .map(|g| g.get_ref().clone())
-                .unwrap_or_default(),
-        );
+            &self.src.geometry,
+        )
+        .map_err(geo_err)?;
         let unchecked = bodies.is_none();
         let (bodies, allowed) = bodies.unwrap_or_default();
         let scene = Scene::new(
@@ -534,10 +533,6 @@ impl Ctx<'_> {
             first_pose: None,
             worst: None,
             instrument_unchecked: unchecked,
-        };
-        let geo_err = |m: String| PlanError::Geometry {
-            file: self.src.path.clone(),
-            message: format!("run `{}`: {m}", run.name),
         };
         let note = |hits: Vec<Hit>, out: &mut RunCheck| {
             for h in hits {
@@ -608,24 +603,20 @@ impl Ctx<'_> {
         }
         let key = match &g.position {
             Some(k) => k.get_ref().clone(),
-            None => match instrument.as_str() {
-                "rtest" => "ball".into(),
-                "ballbar" => "pivot".into(),
-                "artefact" => "origin".into(),
-                other => {
+            None => match mtcal_plugins::find(instrument)
+                .and_then(|p| p.planning)
+                .and_then(|p| p.position_key)
+            {
+                Some(k) => k.to_string(),
+                None => {
                     return Err(self.src.at(
                         &g.instrument,
-                        format!("instrument `{other}`: say which set-up key takes the position (`position = \"…\"`)"),
+                        format!("instrument `{instrument}`: say which set-up key takes the position (`position = \"…\"`)"),
                     ));
                 }
             },
         };
-        let table_z = self
-            .src
-            .file
-            .geometry
-            .as_ref()
-            .map_or(0.0, |gc| gc.get_ref().table_z_mm);
+        let table_z = self.src.geometry.table_z_mm();
         let mut out = Vec::new();
         for (k, pos) in g.positions().into_iter().enumerate() {
             let name = format!("{}-{:02}", g.name.get_ref(), k + 1);
@@ -634,7 +625,7 @@ impl Ctx<'_> {
                 key.clone(),
                 toml::Value::Array(pos.iter().map(|&v| toml::Value::Float(v)).collect()),
             );
-            let setup = self.explicit_mount(instrument, &setup);
+            let setup = self.with_defaults_written_out(instrument, &setup);
             let mut report = CandidateReport {
                 group: g.name.get_ref().clone(),
                 name: name.clone(),

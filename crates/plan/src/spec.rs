@@ -1,10 +1,11 @@
 //! The planning file (`planning.toml`), read with the line and column of every value.
 
 use crate::PlanError;
-use crate::scene::GeometryConfig;
+use crate::sizes::GeometryConfig;
 use mtcal_located::Location;
 use mtcal_located::toml::SerdeMessages;
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
@@ -44,8 +45,8 @@ pub struct Group {
     pub name: Spanned<String>,
     pub instrument: Spanned<String>,
     pub choose: Spanned<usize>,
-    /// The set-up key that takes the position (default: `ball` for the R-test, `pivot` for the
-    /// ball-bar, `origin` for an artefact).
+    /// The set-up key that takes the position (default: the one the instrument's plugin names,
+    /// `ball` for the R-test, `pivot` for the ball-bar, `origin` for an artefact).
     pub position: Option<Spanned<String>>,
     #[serde(default)]
     pub setup: toml::Table,
@@ -74,7 +75,9 @@ pub struct PlanningFile {
     pub seed: Option<u64>,
     #[serde(default)]
     pub identify: toml::Table,
-    pub geometry: Option<Spanned<GeometryConfig>>,
+    /// Sizes, mm by key: the planner's and the instruments' (read into [`Source::geometry`]).
+    #[serde(default)]
+    pub geometry: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
     #[serde(default)]
     pub setup: toml::Table,
     #[serde(default)]
@@ -89,6 +92,8 @@ pub struct Source {
     pub path: PathBuf,
     pub text: String,
     pub file: PlanningFile,
+    /// `[geometry]`, read and checked.
+    pub geometry: GeometryConfig,
 }
 
 impl Source {
@@ -106,12 +111,13 @@ impl Source {
                 at: Location::of_offset(path, &text, p.span.start),
                 message: p.message,
             })?;
-        let source = Source {
+        let mut source = Source {
             path: path.to_path_buf(),
             text,
             file,
+            geometry: GeometryConfig::default(),
         };
-        source.check()?;
+        source.geometry = source.check()?;
         Ok(source)
     }
 
@@ -144,7 +150,8 @@ impl Source {
         Ok(())
     }
 
-    fn check(&self) -> Result<(), PlanError> {
+    /// Checks every value a type cannot; returns `[geometry]` read.
+    fn check(&self) -> Result<GeometryConfig, PlanError> {
         let f = &self.file;
         self.positive(&f.tool_length_mm, "tool_length_mm", true)?;
         self.positive(&f.clearance_mm, "clearance_mm", true)?;
@@ -158,9 +165,7 @@ impl Source {
                 ));
             }
         }
-        if let Some(g) = &f.geometry {
-            g.get_ref().check().map_err(|m| self.at(g, m))?;
-        }
+        let geometry = self.read_geometry()?;
         let mut names: Vec<&str> = Vec::new();
         for g in &f.candidates {
             let group = g.get_ref();
@@ -233,7 +238,27 @@ impl Source {
                 }
             }
         }
-        Ok(())
+        Ok(geometry)
+    }
+}
+
+impl Source {
+    /// `[geometry]`: each key the planner's or a registered instrument's, each value one it
+    /// takes; an error is located at the value.
+    fn read_geometry(&self) -> Result<GeometryConfig, PlanError> {
+        let g = &self.file.geometry;
+        let given = g.iter().map(|(k, v)| (k.get_ref().as_str(), v.get_ref()));
+        GeometryConfig::read(given).map_err(|e| {
+            // An unknown key is located at the key, a refused value at the value.
+            match g.iter().find(|(k, _)| *k.get_ref() == e.key) {
+                Some((k, _)) if e.unknown => self.at(k, e.message),
+                Some((_, v)) => self.at(v, e.message),
+                None => PlanError::Spec {
+                    at: Location::at(&self.path, 1, 1),
+                    message: e.message,
+                },
+            }
+        })
     }
 }
 

@@ -9,7 +9,8 @@ use mtcal_kinematics::{Machine, Side};
 use mtcal_machine::{load_machine, topology::Reading};
 use mtcal_plan::geometry::{Carrier, MachineGeometry, Primitive, Solid, signed_distance};
 use mtcal_plan::info::{Choice, combinations};
-use mtcal_plan::scene::{GeometryConfig, Scene, instrument_bodies};
+use mtcal_plan::scene::{Scene, instrument_bodies};
+use mtcal_plan::sizes::GeometryConfig;
 use mtcal_testkit::random::SplitMix64;
 use mtcal_testkit::repo;
 use nalgebra::{DMatrix, Isometry3, Vector3};
@@ -95,14 +96,15 @@ fn the_clearance_margin_decides() {
         // A free sphere on the bar mount with zero length stands in for a probe ball; here a
         // ball-bar pivot ball hanging over the table top edge is simplest: pivot ball radius
         // from the geometry config.
-        let cfg = GeometryConfig {
-            ballbar_ball_diameter_mm: 2.0 * r * 1e3,
-            ..GeometryConfig::default()
-        };
+        let cfg = GeometryConfig::default()
+            .with("ballbar_ball_diameter_mm", 2.0 * r * 1e3)
+            .unwrap();
         let z = top_w.z + r + gap_mm * 1e-3;
         let setup: toml::Table =
             toml::from_str(&format!("pivot = [0.0, 0.0, {}]\nlength = 30.0", z * 1e3)).unwrap();
-        let (bodies, allowed) = instrument_bodies("ballbar", &setup, 0.1, &m, &cfg).unwrap();
+        let (bodies, allowed) = instrument_bodies("ballbar", &setup, 0.1, &m, &cfg)
+            .unwrap()
+            .unwrap();
         // Keep only the pivot ball: the post stands on the table by design.
         let bodies: Vec<_> = bodies
             .into_iter()
@@ -225,7 +227,9 @@ fn a_ballbar_that_dives_into_the_table_collides() {
             machine: &t,
         })
         .unwrap();
-        let (bodies, allowed) = instrument_bodies("ballbar", &setup, 0.12, &m, &cfg).unwrap();
+        let (bodies, allowed) = instrument_bodies("ballbar", &setup, 0.12, &m, &cfg)
+            .unwrap()
+            .unwrap();
         let scene = Scene::new(&m, &t, &g, bodies, allowed, 1e-3);
         poses
             .iter()
@@ -574,7 +578,9 @@ fn rtest_bodies_follow_the_mount() {
     let bodies = |extra: &str| {
         let setup: toml::Table =
             toml::from_str(&format!("ball = [100.0, 0.0, 200.0]\n{extra}")).unwrap();
-        instrument_bodies("rtest", &setup, 0.12, &m, &cfg).unwrap()
+        instrument_bodies("rtest", &setup, 0.12, &m, &cfg)
+            .unwrap()
+            .unwrap()
     };
     let find = |b: &[mtcal_plan::scene::InstrumentBody], name: &str| {
         b.iter()
@@ -663,4 +669,50 @@ fn planned_rtest_set_ups_say_their_mount() {
         setup_mount("spindle-01").as_deref(),
         Some("ball-in-spindle")
     );
+}
+
+/// The `[geometry]` keys and defaults docs/PLANNING.md documents are what the planner and the
+/// instruments declare: moving each instrument's sizes into its plugin changed no user's file.
+#[test]
+fn the_documented_geometry_keys_keep_their_defaults() {
+    let documented = [
+        ("table_z_mm", 0.0),
+        ("holder_diameter_mm", 50.0),
+        ("holder_length_mm", 60.0),
+        ("stem_diameter_mm", 8.0),
+        ("rtest_ball_diameter_mm", 22.0),
+        ("rtest_head_diameter_mm", 70.0),
+        ("rtest_head_height_mm", 50.0),
+        ("rtest_head_gap_mm", 8.0),
+        ("rtest_post_diameter_mm", 30.0),
+        ("ballbar_ball_diameter_mm", 12.7),
+        ("ballbar_bar_diameter_mm", 16.0),
+        ("ballbar_cup_mm", 20.0),
+        ("ballbar_post_diameter_mm", 16.0),
+        ("probe_ball_diameter_mm", 6.0),
+        ("plate_margin_mm", 15.0),
+        ("plate_thickness_mm", 20.0),
+    ];
+    let mut declared: Vec<(&str, f64)> = mtcal_plan::sizes::SHARED
+        .iter()
+        .chain(
+            mtcal_instrument::plugins()
+                .iter()
+                .filter_map(|p| p.planning)
+                .flat_map(|p| p.sizes),
+        )
+        .map(|k| (k.name, k.default_mm))
+        .collect();
+    declared.sort_by(|a, b| a.0.cmp(b.0));
+    let mut want = documented.to_vec();
+    want.sort_by(|a, b| a.0.cmp(b.0));
+    assert_eq!(declared, want);
+    let text = std::fs::read_to_string(repo().join("docs/PLANNING.md")).unwrap();
+    for (key, default) in documented {
+        assert!(text.contains(&format!("`{key}`")), "{key} undocumented");
+        // Every key is read as a planning file gives it.
+        let given = toml::Value::Float(default + 1.0);
+        let g = GeometryConfig::read([(key, &given)]).unwrap();
+        assert_eq!(g.sizes().given_mm().get(key), Some(&(default + 1.0)));
+    }
 }

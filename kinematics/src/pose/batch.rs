@@ -1,28 +1,33 @@
 //! Pose errors of many poses at once: the same definitions as
 //! [`MachineModel::pose_error_first_order`] and [`MachineModel::pose_error`], evaluated on
-//! [`LANES`] poses together so that every operation is one vector instruction across poses.
+//! [`LANES`] poses together so that every operation is a vector instruction across poses.
 //!
 //! Per chunk of poses: the axis positions transposed into lanes, each axis' error values from
 //! the packed polynomials (Horner in the normalised position, the shared Fourier functions),
-//! the rotary axes' turns from a vectorised sine and cosine, then the same walk along the chain
-//! as the per-pose path, lane by lane. Everything that depends only on the coefficients (the
-//! packed polynomials, location factors, set-up errors) is the per-pose [`Workspace`]'s packing,
-//! built once per coefficient set. Components in other bases (tables, B-splines, Legendre on
-//! another stroke) are evaluated pose by pose into the lanes; the chain stays vectorised.
+//! the rotary axes' turns from a vectorised sine and cosine, then one walk along the chain,
+//! lane by lane: the first-order one of the per-pose path, or for the exact error a walk that
+//! carries the error transform instead of building and relating full poses (`exact`).
+//! Everything that depends only on the coefficients (the packed polynomials, location factors,
+//! set-up errors) is the per-pose [`Workspace`]'s packing, built once per coefficient set, and
+//! the exact walk's constants derived from it at the same time. Components in other bases
+//! (tables, B-splines, Legendre on another stroke) are evaluated pose by pose into the lanes;
+//! the chain stays vectorised.
 //!
 //! The kernel is compiled twice, for AVX2 + FMA (`x86-64-v3`) and for the baseline, and chosen
 //! at run time by `pulp` (safe code: the crate forbids `unsafe`). Both compile the same
-//! operations in the same order (no fused multiply-add), so they give the same bits; the
-//! results differ from the per-pose path's only by rounding (vectorised sine and cosine,
-//! products grouped differently).
+//! operations in the same order (no fused multiply-add), so they give the same bits (the
+//! property tests compare them bit for bit); the results differ from the per-pose path's only
+//! by rounding (vectorised sine and cosine, products grouped differently, and the exact error
+//! carried rather than formed as a difference of poses, which is the more precise).
 
 // Index loops over lanes and directions: the shape the vectoriser turns into one instruction.
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::{
-    self, L, LANES, M3, RigidL, V3, log_so3_lanes, mv_const, scaled_const, sin_cos,
-};
+use super::lanes::{self, L, LANES, M3, V3, mv_const, scaled_const, sin_cos};
 use super::*;
+
+mod exact;
+use exact::ExactConstants;
 
 /// Scratch of the batched evaluations; allocate once per thread with
 /// [`MachineModel::batch_workspace`] (no allocation per call).
@@ -37,6 +42,8 @@ pub struct BatchWorkspace {
     comp: Vec<[L; 6]>,
     /// Per axis: a rotary axis' turn at the chunk's positions.
     turns: Vec<TurnL>,
+    /// The exact walk's per-axis constants, rebuilt with the packing.
+    exact: ExactConstants,
     dispatch: BatchKernel,
 }
 
@@ -83,6 +90,24 @@ impl TurnL {
             TurnL::About(k, s, c) => planar(k, -s, c, v),
             TurnL::General(r) => r.tmv(v),
         }
+    }
+
+    #[inline(always)]
+    fn inverse(&self) -> TurnL {
+        match *self {
+            TurnL::About(k, s, c) => TurnL::About(k, -s, c),
+            TurnL::General(r) => TurnL::General(r.transpose()),
+        }
+    }
+
+    /// `Rot · m · Rotᵀ`: `m` re-expressed in the turned frame. About `e_k`, two planar turns
+    /// of two rows and two columns.
+    #[inline(always)]
+    fn conjugate(&self, m: &M3) -> M3 {
+        let left = M3 {
+            c: [self.apply(m.c[0]), self.apply(m.c[1]), self.apply(m.c[2])],
+        };
+        self.inverse().right_of(&left)
     }
 
     /// `m · Rot`: about `e_k` only two columns mix.
@@ -191,6 +216,7 @@ impl MachineModel {
             q: vec![L::ZERO; n],
             comp: vec![[L::ZERO; 6]; n],
             turns: vec![TurnL::About(0, L::ZERO, L::ZERO); n],
+            exact: ExactConstants::default(),
             dispatch: BatchKernel::Detect,
         }
     }
@@ -241,7 +267,9 @@ impl MachineModel {
         );
         assert_eq!(coeffs.len(), self.n_coeffs(), "one value per coefficient");
         assert_eq!(ws.q.len(), self.machine.n_axes(), "workspace of this model");
-        self.ensure_packed(coeffs, &mut ws.scalar);
+        if self.ensure_packed(coeffs, &mut ws.scalar) {
+            ws.exact.build(self, &ws.scalar);
+        }
         let arch = match ws.dispatch {
             BatchKernel::Detect => pulp::Arch::new(),
             BatchKernel::Portable => pulp::Arch::Scalar,
@@ -367,83 +395,6 @@ impl MachineModel {
         acc.move_to_child(wp.end(), self.plan.wp_end_is_translation);
         acc.add(-V3::splat(&sw.packed_wp.0), -V3::splat(&sw.packed_wp.1));
         (acc.v, acc.w)
-    }
-
-    /// Exact error per lane: both actual branches (`eval_chain`), the nominal pose, then
-    /// `[p − p₀; log(R·R₀ᵀ)]` as `pose_error`.
-    #[inline(always)]
-    fn chunk_exact(&self, ws: &BatchWorkspace) -> (V3, V3) {
-        let sw = &ws.scalar;
-        let f_t_w = self
-            .actual_branch(Side::Workpiece, ws)
-            .compose_const(&sw.wp_error, false);
-        let f_t_t = self
-            .actual_branch(Side::Tool, ws)
-            .translated(V3::splat(&sw.packed_tool));
-        let act = f_t_w.inverse_compose(&f_t_t);
-        let nominal = self
-            .nominal_branch(Side::Workpiece, ws)
-            .inverse_compose(&self.nominal_branch(Side::Tool, ws));
-        (
-            act.t - nominal.t,
-            log_so3_lanes(&act.r.mm(&nominal.r.transpose())),
-        )
-    }
-
-    /// `frame_T_end` of one branch with every error inserted (see `eval_joint`).
-    #[inline(always)]
-    fn actual_branch(&self, side: Side, ws: &BatchWorkspace) -> RigidL {
-        let branch = self.machine.branch(side);
-        let mut t = RigidL::IDENTITY;
-        for &i in branch.joints() {
-            let (ap, ax, q) = (&self.plan.axes[i], &self.machine.axes()[i], ws.q[i]);
-            let pa = &ws.scalar.packed[i];
-            let c = &ws.comp[i];
-            let e = RigidL {
-                r: lanes::exp_so3(V3::of(c, 3)),
-                t: V3::of(c, 0),
-            };
-            let e_body = match side {
-                Side::Tool => e,
-                Side::Workpiece => e.inverse(),
-            };
-            t = t.compose_const(ax.origin(), ap.origin_is_translation);
-            if ap.linear {
-                t = t
-                    .translated(scaled_const(&pa.motion_dir, q))
-                    .compose(&e_body);
-            } else {
-                t = t.compose(&e_body).compose_const(&pa.l_factor, false);
-                t.r = ws.turns[i].right_of(&t.r);
-                t = t.compose_const(&pa.l_inverse, false);
-            }
-        }
-        let end_is_translation = match side {
-            Side::Tool => self.plan.tool_end_is_translation,
-            Side::Workpiece => self.plan.wp_end_is_translation,
-        };
-        t.compose_const(branch.end(), end_is_translation)
-    }
-
-    /// Nominal `frame_T_end` of one branch (see `nominal_tool_in_workpiece`).
-    #[inline(always)]
-    fn nominal_branch(&self, side: Side, ws: &BatchWorkspace) -> RigidL {
-        let branch = self.machine.branch(side);
-        let mut t = RigidL::IDENTITY;
-        for &i in branch.joints() {
-            let (ap, ax) = (&self.plan.axes[i], &self.machine.axes()[i]);
-            t = t.compose_const(ax.origin(), ap.origin_is_translation);
-            if ap.linear {
-                t = t.translated(scaled_const(ax.direction(), ws.q[i]));
-            } else {
-                t.r = ws.turns[i].right_of(&t.r);
-            }
-        }
-        let end_is_translation = match side {
-            Side::Tool => self.plan.tool_end_is_translation,
-            Side::Workpiece => self.plan.wp_end_is_translation,
-        };
-        t.compose_const(branch.end(), end_is_translation)
     }
 }
 

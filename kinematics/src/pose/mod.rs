@@ -267,13 +267,16 @@ impl MachineModel {
         }
     }
 
-    /// Rebuilds the packed polynomials if `coeffs` differ from the last ones packed.
+    /// Rebuilds the packed polynomials if `coeffs` differ from the last ones packed; whether it
+    /// did (the batched path derives its own constants from the packing).
     #[inline(always)]
-    fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) {
+    fn ensure_packed(&self, coeffs: &[f64], ws: &mut Workspace) -> bool {
         // The check inline (it runs on every evaluation), the rebuild out of line.
-        if !ws.packed_once || !bitwise_equal(&ws.packed_from, coeffs) {
+        let stale = !ws.packed_once || !bitwise_equal(&ws.packed_from, coeffs);
+        if stale {
             self.pack(coeffs, ws);
         }
+        stale
     }
 
     /// Builds the packed polynomials from `coeffs`.

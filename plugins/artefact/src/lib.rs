@@ -132,6 +132,7 @@
 //! p2 = { origin = [50.0, -50.0, -300.0], rotation_deg = 90.0 }
 //! ```
 
+pub mod collision;
 mod evaluate;
 mod path;
 pub mod plate;
@@ -156,5 +157,6 @@ inventory::submit! {
         evaluate: Some(evaluate),
         polar_view: None,
         diagnose: None,
+        planning: Some(collision::PLANNING),
     }
 }

@@ -79,6 +79,7 @@
 //! spikes, cyclic error, servo mismatch, squareness, straightness, scale mismatch — with their
 //! uncertainties and contributions to circularity (the module's docs give each shape).
 
+pub mod collision;
 mod diagnose;
 mod evaluate;
 mod fixture;
@@ -119,5 +120,6 @@ inventory::submit! {
         evaluate: Some(evaluate),
         polar_view: Some(polar_view),
         diagnose: Some(diagnose),
+        planning: Some(collision::PLANNING),
     }
 }

@@ -206,5 +206,6 @@ inventory::submit! {
         evaluate: Some(evaluate),
         polar_view: None,
         diagnose: None,
+        planning: None,
     }
 }

@@ -107,6 +107,7 @@
 //!
 //! [`nc_program`] writes the poses as a G-code program.
 
+pub mod collision;
 mod fixture;
 mod path;
 mod setup;
@@ -133,5 +134,6 @@ inventory::submit! {
         evaluate: None,
         polar_view: None,
         diagnose: None,
+        planning: Some(collision::PLANNING),
     }
 }

@@ -182,5 +182,6 @@ inventory::submit! {
         evaluate: None,
         polar_view: None,
         diagnose: None,
+        planning: None,
     }
 }

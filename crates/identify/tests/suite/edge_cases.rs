@@ -2,7 +2,7 @@
 //! all exactly zero, parameters the runs hardly see. Every number in the result is finite,
 //! unidentifiable parameters have no value, and parameters the runs barely determine are
 //! listed in `weakly_determined`. (The command-line side, with singular poses and priors:
-//! `xtask/tests/edge_cases.rs`.)
+//! `xtask/tests/suite/edge_cases.rs`.)
 
 use mtcal_identify::{Identification, identify_session};
 use mtcal_testkit::repo;

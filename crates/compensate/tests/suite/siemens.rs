@@ -2,7 +2,7 @@
 //! refusals of what the control would refuse or misread, and the files applied the way the K3
 //! manual says the control applies them, written here independently of the crate's reader.
 
-mod common;
+use crate::common;
 
 use common::{TOL_UM, load};
 use mtcal_compensate::*;

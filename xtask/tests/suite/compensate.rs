@@ -222,3 +222,38 @@ fn joint_offset_shifts_the_nodes_only() {
         assert!((b - (a - 125.5)).abs() < 1e-9);
     }
 }
+
+/// `--format` names come from the library's registry: `--help` lists each with what it
+/// writes, an unknown name is refused with every registered one (sorted), and a
+/// `--control-option` the format does not take, or one that is no KEY=VALUE, is refused by
+/// name, writing nothing.
+#[test]
+fn formats_and_their_options_come_from_the_registry() {
+    let help = run_in_repo(env!("CARGO_BIN_EXE_mtcal"), &["compensate", "--help"]);
+    assert_success(&help);
+    let text = String::from_utf8_lossy(&help.stdout);
+    let names: Vec<&str> = mtcal_compensate::control_formats()
+        .iter()
+        .map(|f| f.name())
+        .collect();
+    for name in &names {
+        assert!(
+            text.contains(&format!("- {name}: ")),
+            "{name} not in\n{text}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (last, rest) = names.split_last().unwrap();
+    let expected = format!("--format `okuma`: expected {} or {last}", rest.join(", "));
+    assert_compensate_refuses(dir.path(), "--format okuma", &expected);
+    assert_compensate_refuses(
+        dir.path(),
+        "--format fanuc --control-option colour=blue",
+        "--format fanuc takes no control option `colour` (it takes none)",
+    );
+    assert_compensate_refuses(
+        dir.path(),
+        "--format fanuc --control-option colour",
+        "--control-option `colour`: expected KEY=VALUE",
+    );
+}

@@ -1,6 +1,6 @@
 //! Export → reload → same model at the nodes, on shipped machines with random parameters.
 
-mod common;
+use crate::common;
 
 use common::{TOL_UM, load};
 use mtcal_compensate::*;

@@ -37,9 +37,9 @@
 //! modules `heidenhain_control`, `carr_control` and `trt_control` from the manuals, or here
 //! from the format's documented meaning, on the crate's readers.
 
-mod carr_control;
-mod heidenhain_control;
-mod trt_control;
+use crate::carr_control;
+use crate::heidenhain_control;
+use crate::trt_control;
 
 use heidenhain_control::KcControl;
 use mtcal_compensate::*;

@@ -16,8 +16,8 @@
 //! - machine coordinates: the axis positions X, Y, Z (mm) are the tool reference point's
 //!   position, 0 where mtcal's tool point is with every axis at 0.
 
-mod carr_control;
-mod common;
+use crate::carr_control;
+use crate::common;
 
 use carr_control::{Record, record_of};
 use common::{TOL_UM, load};

@@ -11,8 +11,8 @@
 //!   MachAxis into the nominal chain; composed with plain 4 × 4 matrices it gives the model's
 //!   actual tool pose.
 
-mod common;
-mod heidenhain_control;
+use crate::common;
+use crate::heidenhain_control;
 
 use common::{TOL_UM, load};
 use heidenhain_control::*;

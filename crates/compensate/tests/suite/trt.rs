@@ -4,8 +4,8 @@
 //! identified model's tool point relative to the workpiece, when the machine's errors are the
 //! ones those kinematics can hold (where the C and A lines pass).
 
-mod common;
-mod trt_control;
+use crate::common;
+use crate::trt_control;
 
 use common::load;
 use mtcal_compensate::*;

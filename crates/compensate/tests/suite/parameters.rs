@@ -1,7 +1,7 @@
 //! Error-parameter files (ISG CSV, Etalon Exchange): export → reload → the model a controller
 //! builds from the file gives the same pose errors as the identified model at the nodes.
 
-mod common;
+use crate::common;
 
 use common::{TOL_UM, load};
 use mtcal_compensate::*;

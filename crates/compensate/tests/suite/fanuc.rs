@@ -3,7 +3,7 @@
 //! documentation says the control applies it, cancelling the modelled positioning error at
 //! the points.
 
-mod common;
+use crate::common;
 
 use common::{TOL_UM, load};
 use mtcal_compensate::*;

@@ -1,0 +1,18 @@
+//! The built-in control formats, one module each, each registering itself
+//! ([`crate::Registered`]); the modules without a registration are what two formats share.
+//! A new built-in format is a module here and its `mod` line.
+
+mod csv;
+mod error_parameters;
+mod etalon;
+mod fanuc;
+mod heidenhain_com;
+mod heidenhain_files;
+mod heidenhain_kinematicscomp;
+mod isg;
+mod linuxcnc;
+mod linuxcnc_trt;
+mod pitch_table;
+mod siemens_carr;
+mod siemens_cec;
+mod siemens_eec;
