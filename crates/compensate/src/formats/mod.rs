@@ -1,17 +1,17 @@
-//! The built-in control formats, one module each, each registering itself
-//! ([`crate::Registered`]); the modules without a registration are what two formats share.
+//! The built-in control formats, one module each (`isg` and `etalon`, one file type in two
+//! syntaxes, share one), each registering itself ([`crate::Registered`]); the modules without
+//! a registration are what two formats share.
 //! A new built-in format is a module here and its `mod` line.
 
 mod csv;
 mod error_parameters;
-mod etalon;
 mod fanuc;
 mod heidenhain_com;
 mod heidenhain_files;
 mod heidenhain_kinematicscomp;
-mod isg;
 mod linuxcnc;
 mod linuxcnc_trt;
+mod parameter_files;
 mod pitch_table;
 mod siemens_carr;
 mod siemens_cec;
