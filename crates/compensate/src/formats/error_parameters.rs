@@ -12,13 +12,7 @@ pub(super) fn accepts_axis(
     format: ParameterFormat,
     axis: Option<char>,
 ) -> Result<(), CompensateError> {
-    match axis {
-        Some(axis) => Err(CompensateError::AxisUse(format!(
-            "--format {} writes the error parameters of every axis; drop --axis {axis}",
-            format.name()
-        ))),
-        None => Ok(()),
-    }
+    super::no_axis(format.name(), "the error parameters of every axis", axis)
 }
 
 /// Writes every error parameter of `model` in `format`.

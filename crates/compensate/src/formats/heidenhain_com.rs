@@ -19,6 +19,10 @@ impl ControlFormat for HeidenhainCom {
          (no --axis)"
     }
 
+    fn accepts_axis(&self, axis: Option<char>) -> Result<(), CompensateError> {
+        super::no_axis(self.name(), "the tables of every axis", axis)
+    }
+
     fn write(
         &self,
         model: &MachineModel,

@@ -19,6 +19,10 @@ impl ControlFormat for HeidenhainKinematicsComp {
          (no --axis)"
     }
 
+    fn accepts_axis(&self, axis: Option<char>) -> Result<(), CompensateError> {
+        super::no_axis(self.name(), "the errors of every axis", axis)
+    }
+
     fn write(
         &self,
         model: &MachineModel,

@@ -19,6 +19,10 @@ impl ControlFormat for LinuxCncTrt {
          (no --axis)"
     }
 
+    fn accepts_axis(&self, axis: Option<char>) -> Result<(), CompensateError> {
+        super::no_axis(self.name(), "the pivots of the rotary axes", axis)
+    }
+
     fn write(
         &self,
         model: &MachineModel,

@@ -16,3 +16,14 @@ mod pitch_table;
 mod siemens_carr;
 mod siemens_cec;
 mod siemens_eec;
+
+/// Refuses an `--axis` for a file of the whole machine (`name` writes `what`): the axis would
+/// be silently ignored otherwise.
+fn no_axis(name: &str, what: &str, axis: Option<char>) -> Result<(), crate::CompensateError> {
+    match axis {
+        Some(axis) => Err(crate::CompensateError::AxisUse(format!(
+            "--format {name} writes {what}; drop --axis {axis}"
+        ))),
+        None => Ok(()),
+    }
+}

@@ -17,6 +17,10 @@ impl ControlFormat for SiemensCarr {
         "SINUMERIK CYCLE800 swivel data $TC_CARR of a five-axis machine (no --axis)"
     }
 
+    fn accepts_axis(&self, axis: Option<char>) -> Result<(), CompensateError> {
+        super::no_axis(self.name(), "the swivel data of the rotary axes", axis)
+    }
+
     fn write(
         &self,
         model: &MachineModel,

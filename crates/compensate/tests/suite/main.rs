@@ -12,6 +12,7 @@ mod heidenhain_control;
 #[path = "../trt_control/mod.rs"]
 mod trt_control;
 
+mod axis_use;
 mod end_to_end;
 mod fanuc;
 mod heidenhain;
