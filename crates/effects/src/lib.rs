@@ -463,4 +463,50 @@ mod tests {
         assert_eq!(telling_apart("reversal", "thermal-drift"), None);
         assert_eq!(separating_measurement("no-such-family"), None);
     }
+
+    /// A linear axis' reversal discovery goes into a compensation with its backlash and its
+    /// change along the stroke; a rotary axis' or another family's does not.
+    #[test]
+    fn the_reversal_family_says_which_discoveries_a_table_holds() {
+        use mtcal_machine::from_identify::{CompensableDiscovery, Discovery, DiscoveryParameter};
+        let parameter = |name: &str, value: f64, unit: &str| DiscoveryParameter {
+            name: name.into(),
+            value,
+            unit: unit.into(),
+            u95: Some(0.4),
+        };
+        let discovery = |effect: &str, axis: &str, parameters| Discovery {
+            label: format!("{effect} {axis}"),
+            effect: effect.into(),
+            axis: Some(axis.into()),
+            parameters,
+        };
+        let read = |d: &Discovery| {
+            inventory::iter::<CompensableDiscovery>
+                .into_iter()
+                .find_map(|c| (c.as_reversal)(d))
+        };
+        let linear = discovery(
+            "reversal",
+            "X",
+            vec![
+                parameter("backlash_um", 8.0, "um"),
+                parameter("backlash_change_um", 1.5, "um"),
+            ],
+        );
+        let found = read(&linear).expect("a linear axis' reversal");
+        assert_eq!(
+            (found.axis, found.backlash_um, found.change_um),
+            ('X', 8.0, 1.5)
+        );
+        assert_eq!(found.label, "reversal X");
+        let rotary = discovery(
+            "reversal",
+            "C",
+            vec![parameter("backlash_urad", 8.0, "urad")],
+        );
+        assert_eq!(read(&rotary), None);
+        let lag = discovery("servo-lag", "X", vec![parameter("backlash_um", 8.0, "um")]);
+        assert_eq!(read(&lag), None);
+    }
 }

@@ -26,7 +26,9 @@
 //! radius and feed when the file lacks them (`--radius-mm`, required then; `--feed`, else the
 //! readings are 1 s apart) and the circle's centre (the axis positions `--center`, default 0).
 //!
-//! Each run becomes a `ballbar` run: the machine's axes along the circle (the linear axes
+//! Each run becomes a run of the instrument that records circle runs (the ball-bar; its plugin
+//! declares the reading, the range and the set-up, `mtcal_instrument::capability::CircleRuns`):
+//! the machine's axes along the circle (the linear axes
 //! placing the tool point at `pivot + r·(cos φ·a + sin φ·b)`, rotary axes held at their
 //! `--center` values), `dr` in µm, `t` = arc length / feed. Runs of one plane and radius share
 //! a set-up `[setup.b5r-<plane>]` (the same pivot for the clockwise and counter-clockwise run).
@@ -38,6 +40,7 @@ use std::path::{Path, PathBuf};
 use mtcal_kinematics::AxisKind;
 use mtcal_kinematics::ik::{follow_point, forward_kinematics};
 use mtcal_located::{Located, Location, Source};
+use mtcal_plugins::capability::{CircleRuns, declared_once};
 use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, SetupRef};
 use nalgebra::Vector3;
 use roxmltree::{Document, Node};
@@ -47,10 +50,6 @@ use crate::session::{
     check_limits, entry_text, is_run_name, load_machine, machine_arg, machine_in_manifest,
     refuse_existing, write_all,
 };
-
-/// The ball-bar's measuring range (µm): a reading beyond it is a unit or a length, not a
-/// deviation.
-const RANGE_UM: f64 = 1000.0;
 
 /// The unit of the raw readings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -634,6 +633,8 @@ pub struct B5rImported {
     pub created: bool,
     /// The `[[run]]` entries written, as TOML.
     pub entries: String,
+    /// The instrument's measuring range the readings were checked against (±, µm).
+    range_um: f64,
     start_deg: (f64, bool),
     sweep_deg: (f64, bool),
     overshoot_deg: (f64, bool),
@@ -651,6 +652,7 @@ pub fn import_b5r(options: &B5rOptions<'_>) -> Result<B5rImported, ImportError> 
         .iter()
         .map(|f| read_b5r(f))
         .collect::<Result<_, _>>()?;
+    let instrument = declared_once::<CircleRuns>()?;
     let (mut manifest, machine_text, created) = target(options)?;
     let machine = load_machine(&machine_text)?;
     let center_si = match options.center {
@@ -724,12 +726,7 @@ pub fn import_b5r(options: &B5rOptions<'_>) -> Result<B5rImported, ImportError> 
                     name = format!("{base}-{k}");
                     k += 1;
                 }
-                let mut table = toml::Table::new();
-                table.insert(
-                    "pivot".into(),
-                    toml::Value::Array(pivot_mm.iter().map(|&v| v.into()).collect()),
-                );
-                table.insert("length".into(), radius_mm.into());
+                let table = (instrument.setup)([pivot_mm.x, pivot_mm.y, pivot_mm.z], radius_mm);
                 manifest.setups.insert(name.clone(), table);
                 setups.push((
                     name.clone(),
@@ -749,11 +746,12 @@ pub fn import_b5r(options: &B5rOptions<'_>) -> Result<B5rImported, ImportError> 
                 (None, None) => (ReadingUnit::Um, "assumed"),
             };
             let dr_um: Vec<f64> = run.readings.iter().map(|v| v * unit.to_um()).collect();
-            if let Some(k) = dr_um.iter().position(|d| d.abs() > RANGE_UM) {
+            let range_um = instrument.range_um;
+            if let Some(k) = dr_um.iter().position(|d| d.abs() > range_um) {
                 return Err(ImportError::Invalid(Located {
                     at: run.at[k].clone(),
                     message: format!(
-                        "reading {} is {} µm as {}, beyond the ball-bar's ±{RANGE_UM} µm: the \
+                        "reading {} is {} µm as {}, beyond the ball-bar's ±{range_um} µm: the \
                          readings are in another unit (give --reading-unit) or are bar lengths, \
                          not deviations from the nominal length",
                         k + 1,
@@ -813,14 +811,14 @@ pub fn import_b5r(options: &B5rOptions<'_>) -> Result<B5rImported, ImportError> 
                 t: (0..n).map(|k| k as f64 * dt_s).collect(),
                 axes: letters.clone(),
                 positions,
-                readings: vec!["dr".to_string()],
+                readings: vec![instrument.reading.to_string()],
                 values: Some(dr_um.clone()),
                 context: Vec::new(),
                 labels: Vec::new(),
             });
             manifest.runs.push(ManifestRun {
                 name: name.clone(),
-                instrument: "ballbar".into(),
+                instrument: instrument.instrument.into(),
                 file: csv,
                 use_: RunUse::Fit,
                 setup: SetupRef::Shared(setup.clone()),
@@ -863,6 +861,7 @@ pub fn import_b5r(options: &B5rOptions<'_>) -> Result<B5rImported, ImportError> 
         manifest: manifest_path,
         created,
         entries,
+        range_um: instrument.range_um,
         start_deg: (angles.start, options.start_deg.is_some()),
         sweep_deg: (angles.sweep, options.sweep_deg.is_some()),
         overshoot_deg: (angles.overshoot, options.overshoot_deg.is_some()),
@@ -1182,11 +1181,11 @@ impl B5rImported {
                     .into(),
             );
         }
-        lines.push(
+        lines.push(format!(
             "readings are the bar length minus its nominal length, positive = longer \
-             (assumed; checked within the ball-bar's ±1000 µm)"
-                .into(),
-        );
+             (assumed; checked within the ball-bar's ±{} µm)",
+            self.range_um
+        ));
         lines.push(format!(
             "first reading at {}° from +A towards +B, minus the overshoot ({})",
             self.start_deg.0,

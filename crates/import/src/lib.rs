@@ -2,11 +2,16 @@
 //!
 //! Each reader turns one third-party file into a [`Recording`]: the deviations of one linear
 //! axis in the order they were recorded. [`import`] writes it as a run CSV of the session
-//! (`t`, every machine axis, the laser reading `d` in µm, context columns) and appends its
-//! `[[run]]` (instrument `laser`, its own set-up `mode = "linear"`, `direction` = the axis) to
+//! (`t`, every machine axis, the reading in µm, context columns) and appends its `[[run]]` to
 //! `session.toml` through `mtcal_session::write_session`, creating the session when it has no
 //! manifest yet (then a machine is required). Nothing is written unless everything was read
 //! and checked; a manifest that fails to write takes its new run file back out.
+//!
+//! No importer names an instrument: the plugin whose runs a format's files hold declares that
+//! capability (`mtcal_instrument::capability`) with its name, set-up keys and reading columns,
+//! and the importer asks for it — positioning runs here (the laser's `d`, its own set-up
+//! `mode = "linear"`, `direction` = the axis), circle runs for `.b5r`, point visits for the
+//! R-test stream.
 //!
 //! Formats (what is read, the sign and unit conventions, what is assumed: docs/FORMATS.md,
 //! "Imports"):
@@ -15,14 +20,14 @@
 //! - [`Format::RenishawRtx`] — Renishaw CARTO dynamic capture (`rtx`).
 //!
 //! [`import_b5r`] (`renishaw-b5r`, module `b5r`) reads Renishaw QC10/QC20 ball-bar runs
-//! (`.b5r`, XML), several files at once, into `ballbar` runs: the axes along the circle in the
+//! (`.b5r`, XML), several files at once, into ball-bar runs: the axes along the circle in the
 //! plane the file names, `dr` in µm, a set-up per plane (pivot at the circle's centre, length =
 //! radius), the software's `RENISHAW_DIAGNOSTICS` kept in each run's `[run.b5r]` table, and a
 //! card of what was read and what was assumed ([`B5rImported::card`]).
 //!
 //! [`import_stream`] (`rtest-stream`) is of another kind: an R-test head's continuous stream,
 //! the NC program that drove the measuring cycle and a context log become the per-visit
-//! session of docs/VOLUMETRIC.md, one `rtest` run per ball (`rtest_stream`, with the program's
+//! session of docs/VOLUMETRIC.md, one R-test run per ball (`rtest_stream`, with the program's
 //! reader `nc_dwells` and the stream's cutting `plateaus`).
 //!
 //! Errors name the file, the line and column (text), the byte offset (binary) or the time (a
@@ -133,6 +138,9 @@ pub enum ImportError {
     /// The run and the manifest could not both be written; neither was.
     #[error(transparent)]
     Output(#[from] mtcal_located::OutputError),
+    /// No linked instrument plugin (or more than one) records the runs the format holds.
+    #[error(transparent)]
+    Instrument(#[from] mtcal_plugins::capability::CapabilityError),
 }
 
 /// What to import, and into which session.
@@ -195,7 +203,7 @@ impl Imported {
     }
 }
 
-/// Reads `options.file` and writes it into the session as one laser linear run.
+/// Reads `options.file` and writes it into the session as one positioning run (a laser's).
 pub fn import(options: &ImportOptions<'_>) -> Result<Imported, ImportError> {
     let recording = options.format.read(options.file)?;
     session::write(options, recording)

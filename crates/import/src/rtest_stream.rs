@@ -4,7 +4,8 @@
 //!
 //! Steps, each refusing what does not fit with the file and the line, column or time at fault:
 //! 1. the session (it must exist): its machine and its ball set-ups, every `[setup.<name>]`
-//!    with `ball = [x, y, z]` (mm, workpiece frame) and optional `range_um` (default 2000);
+//!    with `ball = [x, y, z]` (mm, workpiece frame) and optional `range_um` (the keys and the
+//!    default range are the R-test plugin's, declared as `capability::PointVisits`);
 //! 2. the program's dwells ([`crate::nc_dwells`]); each dwell's ball is the set-up whose ball
 //!    the nominal tool point (`Machine::tool_in_workpiece` at the dwell's axes) is on, within
 //!    [`BALL_MATCH_MM`];
@@ -15,7 +16,7 @@
 //!    not a whole number of cycles;
 //! 4. the log `t[,S][,T_<name>…]` (any context column a run may hold) interpolated linearly to
 //!    each visit's time, never extrapolated;
-//! 5. one `rtest` run per ball (`setup = "<ball>"`, rows in time order: `t`, the machine's
+//! 5. one R-test run per ball (`setup = "<ball>"`, rows in time order: `t`, the machine's
 //!    axes as commanded, `dx,dy,dz`, the log's columns), and for each cycle withheld one
 //!    validation run per ball `<ball>-c<k>` (cycles numbered from 1), written with their
 //!    `[[run]]` tables in one transaction.
@@ -25,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 use mtcal_kinematics::Machine;
 use mtcal_located::{Located, Location};
+use mtcal_plugins::capability::{PointVisits, declared_once};
 use mtcal_session::{Manifest, ManifestRun, RunTable, RunUse, Session, SetupRef};
 
 use crate::ImportError;
@@ -39,8 +41,6 @@ use crate::session;
 pub const BALL_MATCH_MM: f64 = 1.0;
 /// A plateau shorter than this share of its dwell does not belong to it.
 pub const SHORT_PLATEAU_SHARE: f64 = 0.5;
-/// The measuring range of a set-up without `range_um` (the rtest plugin's default), µm.
-pub const DEFAULT_RANGE_UM: f64 = 2000.0;
 /// A gap between plateaus inside a cycle that differs from cycle 1's by more than this (s) and
 /// this share marks where the cycles went out of step (for the message only).
 const GAP_TOL_S: f64 = 0.5;
@@ -137,13 +137,16 @@ pub struct StreamImported {
     pub manifest: PathBuf,
     /// The `[[run]]` entries appended, as TOML.
     pub entries: String,
+    /// The instrument the runs are of.
+    instrument: &'static str,
 }
 
 /// Reads the three files and writes the per-visit runs into the session.
 pub fn import_stream(options: &StreamOptions<'_>) -> Result<StreamImported, ImportError> {
-    let session = existing_session(options.session)?;
+    let instrument = declared_once::<PointVisits>()?;
+    let session = existing_session(options.session, instrument)?;
     let machine = session::load_machine(&session::machine_arg(&session))?;
-    let balls = balls_of(&session)?;
+    let balls = balls_of(&session, instrument)?;
     let letters: Vec<char> = machine.letters().chars().collect();
     let dwells = read_dwells(options.program, &letters)?;
     let dwell_balls = match_dwells(options.program, &dwells.dwells, &machine, &balls)?;
@@ -159,6 +162,7 @@ pub fn import_stream(options: &StreamOptions<'_>) -> Result<StreamImported, Impo
     let context = context_of(log.as_ref(), &visits)?;
     let plan = RunsPlan {
         options,
+        instrument,
         machine: &machine,
         dwells: &dwells.dwells,
         dwell_balls: &dwell_balls,
@@ -187,15 +191,17 @@ pub fn import_stream(options: &StreamOptions<'_>) -> Result<StreamImported, Impo
         runs,
         manifest: manifest_path,
         entries,
+        instrument: instrument.instrument,
     })
 }
 
-fn existing_session(dir: &Path) -> Result<Session, ImportError> {
+fn existing_session(dir: &Path, instrument: &PointVisits) -> Result<Session, ImportError> {
     if !dir.join(mtcal_session::MANIFEST_NAME).is_file() {
         return Err(ImportError::Options(format!(
             "{} has no session.toml: rtest-stream adds to a session that declares the machine \
-             and the balls ([setup.<ball>] with ball = [x, y, z])",
-            dir.display()
+             and the balls ([setup.<ball>] with {} = [x, y, z])",
+            dir.display(),
+            instrument.point_key
         )));
     }
     Ok(mtcal_session::load_session_to_extend(dir)?)
@@ -204,28 +210,27 @@ fn existing_session(dir: &Path) -> Result<Session, ImportError> {
 // ---------------------------------------------------------------------------------------------
 // The balls and the dwells
 
-/// The session's ball set-ups: every `[setup.<name>]` with a `ball` key, in name order.
-pub fn balls_of(session: &Session) -> Result<Vec<Ball>, ImportError> {
+/// The session's ball set-ups: every `[setup.<name>]` with the instrument's point key
+/// (`ball`), in name order.
+pub fn balls_of(session: &Session, instrument: &PointVisits) -> Result<Vec<Ball>, ImportError> {
+    let (point, range) = (instrument.point_key, instrument.range_key);
     let mut balls = Vec::new();
     for (name, table) in &session.setups {
-        let Some(value) = table.get("ball") else {
+        let Some(value) = table.get(point) else {
             continue;
         };
         let bad = |key: &str, message: String| setup_error(session, name, key, message);
         let ball_mm = three_numbers(value).ok_or_else(|| {
             bad(
-                "ball",
-                format!("expected ball = [x, y, z] (mm, three numbers), found {value}"),
+                point,
+                format!("expected {point} = [x, y, z] (mm, three numbers), found {value}"),
             )
         })?;
-        let range_um = match table.get("range_um") {
-            None => DEFAULT_RANGE_UM,
-            Some(v) => number(v).filter(|r| *r > 0.0).ok_or_else(|| {
-                bad(
-                    "range_um",
-                    format!("expected range_um above 0 (µm), found {v}"),
-                )
-            })?,
+        let range_um = match table.get(range) {
+            None => instrument.default_range_um,
+            Some(v) => number(v)
+                .filter(|r| *r > 0.0)
+                .ok_or_else(|| bad(range, format!("expected {range} above 0 (µm), found {v}")))?,
         };
         balls.push(Ball {
             setup: name.clone(),
@@ -235,7 +240,7 @@ pub fn balls_of(session: &Session) -> Result<Vec<Ball>, ImportError> {
     }
     if balls.is_empty() {
         return Err(ImportError::Options(format!(
-            "{}: expected ball set-ups ([setup.<ball>] with ball = [x, y, z]), found none",
+            "{}: expected ball set-ups ([setup.<ball>] with {point} = [x, y, z]), found none",
             session.manifest.display()
         )));
     }
@@ -680,6 +685,8 @@ fn validation_cycles(asked: &[usize], cycles: usize) -> Result<Vec<usize>, Impor
 /// Everything the runs are built from.
 struct RunsPlan<'a> {
     options: &'a StreamOptions<'a>,
+    /// The instrument whose runs are point visits.
+    instrument: &'a PointVisits,
     machine: &'a Machine,
     dwells: &'a [Dwell],
     dwell_balls: &'a [DwellBall],
@@ -763,7 +770,7 @@ impl RunsPlan<'_> {
         tables.push(self.table(&rows, self.options.session.join(&file)));
         runs.push(ManifestRun {
             name,
-            instrument: "rtest".to_string(),
+            instrument: self.instrument.instrument.to_string(),
             file,
             use_,
             setup: SetupRef::Shared(self.balls[ball].setup.clone()),
@@ -797,7 +804,7 @@ impl RunsPlan<'_> {
             t: rows.iter().map(|&i| self.visits[i].plateau.t_s).collect(),
             axes: self.machine.letters().chars().collect(),
             positions,
-            readings: vec!["dx".into(), "dy".into(), "dz".into()],
+            readings: self.instrument.readings.map(String::from).to_vec(),
             values: Some(values),
             context,
             labels: Vec::new(),
@@ -964,8 +971,9 @@ impl StreamImported {
         // for their whole TOML entries.
         for r in self.runs.iter() {
             out.push_str(&format!(
-                "  {}: rtest run {}, setup {}, {}, {} visit{}\n",
+                "  {}: {} run {}, setup {}, {}, {} visit{}\n",
                 r.file.display(),
+                self.instrument,
                 r.name,
                 r.setup,
                 r.use_.as_str(),

@@ -4,6 +4,7 @@ use std::path::{Component, Path, PathBuf};
 
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_machine::topology::Reading;
+use mtcal_plugins::capability::{PositioningRuns, declared_once};
 use mtcal_session::{
     Manifest, ManifestRun, RunTable, RunUse, Session, SetupRef, run_text, session_text,
 };
@@ -23,6 +24,7 @@ struct Target {
 }
 
 pub fn write(options: &ImportOptions<'_>, recording: Recording) -> Result<Imported, ImportError> {
+    let instrument = declared_once::<PositioningRuns>()?;
     let target = target(options)?;
     let machine = load_machine(&target.machine_arg)?;
     let axis = axis(options, &recording, &machine)?;
@@ -34,9 +36,10 @@ pub fn write(options: &ImportOptions<'_>, recording: Recording) -> Result<Import
         &recording,
         &machine,
         axis,
+        instrument.reading,
         &options.session.join(&file),
     )?;
-    let run = manifest_run(&name, &file, axis);
+    let run = manifest_run(instrument, &name, &file, axis);
     let entry = entry_text(&run);
     let mut manifest = target.manifest;
     manifest.runs.push(run);
@@ -258,12 +261,14 @@ pub(crate) fn refuse_existing(
     Ok(())
 }
 
-/// The run's table: `t`, every machine axis (file units), `d` (µm), the context columns.
+/// The run's table: `t`, every machine axis (file units), the deviation along `axis` in the
+/// column `reading` (µm), the context columns.
 fn run_table(
     options: &ImportOptions<'_>,
     rec: &Recording,
     machine: &Machine,
     axis: char,
+    reading: &str,
     path: &Path,
 ) -> Result<RunTable, ImportError> {
     let held_si = match options.hold {
@@ -304,7 +309,7 @@ fn run_table(
             .map(|a| a.letter().as_char())
             .collect(),
         positions,
-        readings: vec!["d".to_string()],
+        readings: vec![reading.to_string()],
         values: Some(rec.deviations_um.clone()),
         context: rec.context.clone(),
         labels: Vec::new(),
@@ -333,16 +338,14 @@ pub(crate) fn check_limits(machine: &Machine, positions: &[f64]) -> Result<(), I
     Ok(())
 }
 
-fn manifest_run(name: &str, file: &str, axis: char) -> ManifestRun {
-    let mut setup = toml::Table::new();
-    setup.insert("mode".into(), "linear".into());
-    setup.insert("direction".into(), axis.to_string().into());
+/// The run's `[[run]]`: the positioning instrument's, with its own set-up along `axis`.
+fn manifest_run(instrument: &PositioningRuns, name: &str, file: &str, axis: char) -> ManifestRun {
     ManifestRun {
         name: name.to_string(),
-        instrument: "laser".to_string(),
+        instrument: instrument.instrument.to_string(),
         file: file.to_string(),
         use_: RunUse::Fit,
-        setup: SetupRef::Own(setup),
+        setup: SetupRef::Own((instrument.setup)(axis)),
         extra: toml::Table::new(),
     }
 }

@@ -33,10 +33,13 @@
 //! [`config::read`], one typed struct per table. For the test planner to place it and check
 //! it for collisions, give the registration a [`collision::Planning`]: the set-up key a
 //! position goes into and the instrument's collision bodies (with their `[geometry]` sizes).
+//! For the tools that handle runs by what they are (the importers, the volumetric test, the
+//! report's polar section), submit its [`capability`] declarations too.
 
 use mtcal_kinematics::{Machine, Rigid};
 use std::fmt;
 
+pub mod capability;
 pub mod collision;
 pub mod config;
 pub mod program;

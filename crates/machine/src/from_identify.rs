@@ -7,7 +7,9 @@
 //! parameters, a parameter held because no run sees it — has no number in the JSON and stays
 //! zero: a compensation never carries a number the identification refused to give. The
 //! discoveries of the physics search (a backlash, a thermal drift) are named, not put into a
-//! static table. An identification that did not converge is refused: nothing is built on it.
+//! static table; those a bidirectional table can hold (a linear axis' reversal) are read out as
+//! the effect family that owns them says ([`CompensableDiscovery`], registered in
+//! `mtcal-effects`). An identification that did not converge is refused: nothing is built on it.
 //!
 //! On request ([`FromIdentify::split_combinations`]), the combinations of machine parameters
 //! alone get the minimum-norm split of their values: the smallest members (in the file's µm and
@@ -129,7 +131,7 @@ struct Json {
     #[serde(default)]
     combinations: Vec<JsonCombinationValue>,
     #[serde(default)]
-    discoveries: Vec<JsonDiscovery>,
+    discoveries: Vec<Discovery>,
     solver: JsonSolver,
 }
 
@@ -164,50 +166,62 @@ struct JsonTerm {
     coefficient: f64,
 }
 
-#[derive(Deserialize)]
-struct JsonDiscovery {
-    label: String,
+/// A discovery of the physics search as the identify JSON gives it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct Discovery {
+    pub label: String,
+    /// The effect family's name.
     #[serde(default)]
-    effect: String,
+    pub effect: String,
     #[serde(default)]
-    axis: Option<String>,
+    pub axis: Option<String>,
     #[serde(default)]
-    parameters: Vec<JsonDiscoveryParameter>,
+    pub parameters: Vec<DiscoveryParameter>,
 }
 
-#[derive(Deserialize)]
-struct JsonDiscoveryParameter {
-    name: String,
-    value: f64,
-    unit: String,
-    u95: Option<f64>,
+/// One parameter of a [`Discovery`], in its file unit.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct DiscoveryParameter {
+    pub name: String,
+    pub value: f64,
+    pub unit: String,
+    pub u95: Option<f64>,
 }
 
-/// The reversal a discovery holds, if it is one of a linear axis (µm).
-fn found_reversal(d: &JsonDiscovery) -> Option<FoundReversal> {
-    let letter = d.axis.as_deref()?;
-    let mut chars = letter.chars();
-    let (Some(axis), None) = (chars.next(), chars.next()) else {
-        return None;
-    };
-    if d.effect != "reversal" {
-        return None;
+impl Discovery {
+    /// The axis the discovery acts on, when it names one axis by its letter.
+    pub fn axis_letter(&self) -> Option<char> {
+        let mut chars = self.axis.as_deref()?.chars();
+        match (chars.next(), chars.next()) {
+            (Some(axis), None) => Some(axis),
+            _ => None,
+        }
     }
-    let param = |name: &str| {
-        d.parameters
+
+    /// The parameter `name` given in `unit` with a finite value.
+    pub fn parameter(&self, name: &str, unit: &str) -> Option<&DiscoveryParameter> {
+        self.parameters
             .iter()
-            .find(|p| p.name == name && p.unit == "um" && p.value.is_finite())
-    };
-    let b = param("backlash_um")?;
-    let change = param("backlash_change_um");
-    Some(FoundReversal {
-        label: d.label.clone(),
-        axis,
-        backlash_um: b.value,
-        backlash_u95_um: b.u95,
-        change_um: change.map_or(0.0, |c| c.value),
-        change_u95_um: change.and_then(|c| c.u95),
-    })
+            .find(|p| p.name == name && p.unit == unit && p.value.is_finite())
+    }
+}
+
+/// An effect family whose discoveries a static compensation can hold, and how: registered with
+/// `inventory::submit!` by the family that owns them (`mtcal-effects`), so that this reader
+/// names no family. A binary that does not link the families reads no reversals.
+#[derive(Debug)]
+pub struct CompensableDiscovery {
+    /// The reversal of a linear axis `discovery` is, if it is one of the family's.
+    pub as_reversal: fn(discovery: &Discovery) -> Option<FoundReversal>,
+}
+
+inventory::collect!(CompensableDiscovery);
+
+/// The reversal a discovery holds, as the family that registered it reads it.
+fn found_reversal(d: &Discovery) -> Option<FoundReversal> {
+    inventory::iter::<CompensableDiscovery>
+        .into_iter()
+        .find_map(|family| (family.as_reversal)(d))
 }
 
 #[derive(Deserialize)]

@@ -5,7 +5,8 @@
 //! whoever looks plugins up does so through its [`plugins`] and [`find`] (the identification
 //! core, the planner, the command line), so anything that links them sees every plugin without
 //! naming a plugin crate itself. A new plugin crate gets a `use … as _;` line here and its name
-//! in the test below.
+//! in the test below. The tools that handle runs by what they are rather than by instrument ask
+//! for a [`capability`] through here too, so the plugins that declare it are linked.
 
 use mtcal_artefact as _;
 use mtcal_ballbar as _;
@@ -14,7 +15,7 @@ use mtcal_laser as _;
 use mtcal_rtest as _;
 use mtcal_tracer as _;
 
-pub use mtcal_instrument::{find, plugins};
+pub use mtcal_instrument::{capability, find, plugins};
 
 /// "unknown instrument `x`; known: a, b, …": the message for a name no plugin has.
 pub fn unknown(name: &str) -> String {
@@ -47,5 +48,23 @@ mod tests {
             assert_eq!(find(name).map(|p| p.name), Some(name));
             assert!(!find(name).expect("registered").about.is_empty());
         }
+    }
+
+    /// Each capability is declared by the plugins listed (a tool writing such runs needs
+    /// exactly one), under the name they are registered by.
+    #[test]
+    fn every_capability_is_declared_by_its_plugins() {
+        use capability::{
+            Capability, CircleRuns, PointVisits, PolarSection, PositioningRuns, declared,
+        };
+        fn by<C: Capability>() -> Vec<&'static str> {
+            let all: Vec<_> = declared::<C>().iter().map(|c| c.instrument()).collect();
+            assert!(all.iter().all(|name| find(name).is_some()), "{all:?}");
+            all
+        }
+        assert_eq!(by::<PositioningRuns>(), ["laser"]);
+        assert_eq!(by::<CircleRuns>(), ["ballbar"]);
+        assert_eq!(by::<PointVisits>(), ["rtest"]);
+        assert_eq!(by::<PolarSection>(), ["ballbar"]);
     }
 }

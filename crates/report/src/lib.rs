@@ -5,8 +5,10 @@
 //! This crate only renders. It takes a [`Report`], plain data that the command line builds from
 //! the identification, the physics search, the study's residuals and the machine model, and
 //! turns it into HTML ([`render`]) or writes it ([`write`], atomically: a temporary file renamed
-//! into place, so an error leaves no partial page). It knows nothing of solvers, sessions or
-//! instruments, and every number it shows it was given.
+//! into place, so an error leaves no partial page). It knows nothing of solvers or sessions and
+//! names no instrument: the section of runs drawn on circles has the id, heading and empty-page
+//! sentence the plugin that draws them declares (`mtcal_instrument::capability::PolarSection`).
+//! Every number it shows it was given.
 //!
 //! # The page's sections
 //! Each section is a `<section>` with a fixed `id`; every plot is a `<figure class="plot">` with
@@ -17,9 +19,10 @@
 //! - `acceptance` — only when the identification was checked against a tolerance file: the
 //!   decision rule, the overall verdict and a table of every check (value ± U, tolerance,
 //!   verdict, why); absent otherwise, so the page is as before.
-//! - `ballbar` — one polar plot per ball-bar circle run: the bar-length deviation `dr` around the
-//!   commanded angle, measured and as the identified model predicts it (and the model before the
-//!   search), magnified about a reference circle; the ISO 230-4 results in the caption.
+//! - the polar views' section (`ballbar`, as the ball-bar plugin declares it) — one polar plot
+//!   per ball-bar circle run: the bar-length deviation `dr` around the commanded angle, measured
+//!   and as the identified model predicts it (and the model before the search), magnified about
+//!   a reference circle; the ISO 230-4 results in the caption.
 //! - `residuals` — per context variable (time, spindle speed, temperatures…), every fitted and
 //!   validation residual (reading − model) against it, before and after the physics search side
 //!   by side on one scale: a drift or a thermal effect shows as a trend on the left that is gone
@@ -43,6 +46,10 @@
 //! anything: the first records script errors into `#script-errors`, the last counts the plots
 //! into the contents and sets `data-report-ready="yes"` on `<body>`, so a test in a headless
 //! browser can see that the page ran cleanly.
+
+// The unit tests' pages have the plugins' polar section, as the identification's have.
+#[cfg(test)]
+use mtcal_plugins as _;
 
 mod escape;
 mod history;

@@ -4,12 +4,13 @@
 use crate::escape::{display_unit, escape, num, with_interval};
 use crate::plots::{self, BEFORE, MEASURED, MODEL};
 use crate::{Estimate, Report, ReportError};
+use mtcal_instrument::capability::{PolarSection, declared};
 use std::fmt::Write as _;
 
-/// Section ids and headings, in page order.
-pub(crate) const SECTIONS: [(&str, &str); 8] = [
+/// Section ids and headings, in page order; the polar views' section, the plugin's, comes after
+/// the summary ([`polar_section`]).
+pub(crate) const SECTIONS: [(&str, &str); 7] = [
     ("summary", "Summary"),
-    ("ballbar", "Ball-bar circles"),
     ("residuals", "Residuals along the context"),
     ("components", "Component errors"),
     ("volumetric", "Volumetric error map"),
@@ -75,9 +76,9 @@ pub(crate) const ACCEPTANCE: (&str, &str) = ("acceptance", "Acceptance");
 pub(crate) const SERIES: (&str, &str) = ("series", "Location errors cycle by cycle");
 
 pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
+    let polar = polar_section(r)?;
     let bodies = [
         summary(r),
-        ballbar(r)?,
         residuals(r)?,
         components(r)?,
         volumetric(r)?,
@@ -93,7 +94,10 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
         escape(&r.summary.session),
         escape(&r.summary.machine),
     );
-    let mut sections: Vec<((&str, &str), String)> = SECTIONS.into_iter().zip(bodies).collect();
+    let mut sections: Vec<Section<'_>> = SECTIONS.into_iter().zip(bodies).collect();
+    if let Some(polar) = polar {
+        sections.insert(1, polar);
+    }
     if !r.location_series.is_empty() {
         let at = sections
             .iter()
@@ -232,9 +236,24 @@ fn verdict_colour(verdict: &str) -> &'static str {
     }
 }
 
-fn ballbar(r: &Report) -> Result<String, ReportError> {
+/// A section of the page: its id and heading, its body.
+type Section<'a> = ((&'a str, &'a str), String);
+
+/// The section of the runs drawn on circles, id and heading as the plugin that draws them
+/// declares it ([`PolarSection`]; the first by name should several, the polar views sharing it);
+/// none when no linked plugin declares one.
+fn polar_section(r: &Report) -> Result<Option<Section<'static>>, ReportError> {
+    let Some(section) = declared::<PolarSection>().first().copied() else {
+        return Ok(None);
+    };
+    let body = polar_views(r, section.none)?;
+    Ok(Some(((section.instrument, section.heading), body)))
+}
+
+/// Every polar view's plot (`none` when there is none) and the diagnostics under them.
+fn polar_views(r: &Report, none_text: &str) -> Result<String, ReportError> {
     if r.ballbar.is_empty() {
-        return Ok(none("No ball-bar circle runs in this session."));
+        return Ok(none(none_text));
     }
     let with_before = r.ballbar.iter().any(|b| b.model_before_um.is_some());
     let mut h = format!(

@@ -153,6 +153,9 @@ pub enum VolumetricError {
     /// An option out of its range.
     #[error("{0}")]
     Options(String),
+    /// No linked instrument plugin records point visits.
+    #[error(transparent)]
+    Instrument(#[from] mtcal_plugins::capability::CapabilityError),
 }
 
 impl VolumetricError {

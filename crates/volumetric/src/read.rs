@@ -1,8 +1,12 @@
-//! A session folder's `rtest` runs read into [`Visits`]: every row a visit of its point.
+//! A session folder's runs of point visits (an R-test's, ball on the table) read into
+//! [`Visits`]: every row a visit of its point. Which instruments' runs those are, their reading
+//! columns and the set-up that reads along the machine's axes, their plugins declare
+//! ([`PointVisits`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use mtcal_plugins::capability::{PointVisits, declared_some};
 use mtcal_session::{RunColumns, RunSpec, RunTable, RunUse, Session, SetupRef};
 
 use crate::VolumetricError;
@@ -20,34 +24,42 @@ struct RunRows {
     table: RunTable,
 }
 
-/// Reads the session at `dir` (a folder or its `session.toml`): its machine's axes, every
-/// `rtest` run (ball on the table) row by row. Runs of other instruments are left out and
+/// Reads the session at `dir` (a folder or its `session.toml`): its machine's axes, every run
+/// of point visits (ball on the table) row by row. Runs of other instruments are left out and
 /// named in [`Visits::notes`].
 pub fn read_session(dir: &Path) -> Result<Visits, VolumetricError> {
     let session = mtcal_session::load_session(dir)?;
     let axes = machine_axes(&session)?;
-    let (rtest, others): (Vec<&RunSpec>, Vec<&RunSpec>) =
-        session.runs.iter().partition(|r| r.instrument == "rtest");
-    if rtest.is_empty() {
+    let kinds = declared_some::<PointVisits>()?;
+    let kind_of = |r: &RunSpec| kinds.iter().copied().find(|k| k.instrument == r.instrument);
+    let (visited, others): (Vec<&RunSpec>, Vec<&RunSpec>) =
+        session.runs.iter().partition(|r| kind_of(r).is_some());
+    let instruments = kinds
+        .iter()
+        .map(|k| k.instrument)
+        .collect::<Vec<_>>()
+        .join(" or ");
+    if visited.is_empty() {
         return Err(VolumetricError::invalid(
             session.manifest.display().to_string(),
             format!(
-                "no rtest run (found {}): a volumetric thermal test is a session of rtest runs, \
-                 ball on the table (docs/VOLUMETRIC.md)",
+                "no {instruments} run (found {}): a volumetric thermal test is a session of \
+                 {instruments} runs, ball on the table (docs/VOLUMETRIC.md)",
                 describe_runs(&others)
             ),
         ));
     }
-    let mut runs = Vec::with_capacity(rtest.len());
-    for spec in rtest {
-        runs.push(read_run(&session, spec, &axes)?);
+    let mut runs = Vec::with_capacity(visited.len());
+    for spec in visited {
+        let kind = kind_of(spec).expect("partitioned by it");
+        runs.push(read_run(&session, spec, kind, &axes)?);
     }
     let varying = varying_rotary(&runs);
     let points = points_of(&runs, &varying)?;
     let mut notes = Vec::new();
     if !others.is_empty() {
         notes.push(format!(
-            "left out: {} (only rtest runs are ball visits)",
+            "left out: {} (only {instruments} runs are ball visits)",
             describe_runs(&others)
         ));
     }
@@ -91,29 +103,22 @@ fn machine_axes(session: &Session) -> Result<Vec<char>, VolumetricError> {
     Ok(loaded.machine.letters().chars().collect())
 }
 
-/// One rtest run: its set-up (ball on the table) and its rows, every reading present.
-fn read_run(session: &Session, spec: &RunSpec, axes: &[char]) -> Result<RunRows, VolumetricError> {
+/// One run of point visits: its set-up (ball on the table) and its rows, every reading
+/// present.
+fn read_run(
+    session: &Session,
+    spec: &RunSpec,
+    kind: &PointVisits,
+    axes: &[char],
+) -> Result<RunRows, VolumetricError> {
     let setup = match &spec.setup {
         SetupRef::Shared(name) => name.clone(),
         SetupRef::Own(_) => spec.name.clone(),
     };
-    let mount = session.setup_of(spec).get("mount");
-    if let Some(mount) = mount.filter(|m| m.as_str() != Some("ball-on-table")) {
-        let at = session
-            .setup_location(&setup, "mount")
-            .map_or_else(|| spec.location.to_string(), ToString::to_string);
-        return Err(VolumetricError::invalid(
-            at,
-            format!(
-                "run `{}`: mount = {mount}: the volumetric evaluation reads the nest in the \
-                 spindle (mount = \"ball-on-table\"), whose axes are the machine's",
-                spec.name
-            ),
-        ));
-    }
+    refuse_other_axes(session, spec, &setup, kind)?;
     let cols = RunColumns {
         axes,
-        readings: &["dx", "dy", "dz"],
+        readings: &kind.readings,
         readings_optional: spec.use_ == RunUse::Validate,
         labels: &[],
     };
@@ -122,9 +127,10 @@ fn read_run(session: &Session, spec: &RunSpec, axes: &[char]) -> Result<RunRows,
         return Err(VolumetricError::invalid(
             spec.file.display().to_string(),
             format!(
-                "run `{}` has no readings (dx, dy, dz): every visit's reading is needed; \
-                 leave the run out of the session or give its readings",
-                spec.name
+                "run `{}` has no readings ({}): every visit's reading is needed; leave the run \
+                 out of the session or give its readings",
+                spec.name,
+                kind.readings.join(", ")
             ),
         ));
     }
@@ -133,6 +139,35 @@ fn read_run(session: &Session, spec: &RunSpec, axes: &[char]) -> Result<RunRows,
         setup,
         table,
     })
+}
+
+/// Refuses a set-up whose readings are not along the machine's axes (an R-test's nest on the
+/// table turns with it): the deformation is read in machine directions.
+fn refuse_other_axes(
+    session: &Session,
+    spec: &RunSpec,
+    setup: &str,
+    kind: &PointVisits,
+) -> Result<(), VolumetricError> {
+    let machine = &kind.machine_axes;
+    let value = session.setup_of(spec).get(machine.key);
+    let Some(value) = value.filter(|v| v.as_str() != Some(machine.value)) else {
+        return Ok(());
+    };
+    let at = session
+        .setup_location(setup, machine.key)
+        .map_or_else(|| spec.location.to_string(), ToString::to_string);
+    Err(VolumetricError::invalid(
+        at,
+        format!(
+            "run `{}`: {key} = {value}: the volumetric evaluation reads {} ({key} = \"{}\"), whose \
+             axes are the machine's",
+            spec.name,
+            machine.words,
+            machine.value,
+            key = machine.key,
+        ),
+    ))
 }
 
 /// The rotary axes whose commanded position is not the same in every row: what tells the

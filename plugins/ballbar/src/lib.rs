@@ -123,3 +123,32 @@ inventory::submit! {
         planning: Some(collision::PLANNING),
     }
 }
+
+inventory::submit! {
+    mtcal_instrument::capability::CircleRuns {
+        instrument: "ballbar",
+        reading: setup::READING,
+        range_um: setup::RANGE_M * 1e6,
+        setup: circle_setup,
+    }
+}
+
+inventory::submit! {
+    mtcal_instrument::capability::PolarSection {
+        instrument: "ballbar",
+        heading: "Ball-bar circles",
+        none: "No ball-bar circle runs in this session.",
+    }
+}
+
+/// The set-up of a circle of radius `radius_mm` about `pivot_mm` (mm, workpiece frame): the
+/// pivot there and a bar as long as the radius (what the importers of ball-bar exports write).
+pub fn circle_setup(pivot_mm: [f64; 3], radius_mm: f64) -> toml::Table {
+    let mut setup = toml::Table::new();
+    setup.insert(
+        "pivot".into(),
+        toml::Value::Array(pivot_mm.iter().map(|&v| v.into()).collect()),
+    );
+    setup.insert("length".into(), radius_mm.into());
+    setup
+}

@@ -180,7 +180,7 @@ impl BallbarSetup {
             pivot: config.pivot(),
             length: config.length(),
             channels: [Channel {
-                name: "dr".to_string(),
+                name: READING.to_string(),
                 unit: Unit::Um,
                 sigma: config.sigma_um * 1e-6,
             }],
@@ -208,8 +208,11 @@ impl BallbarSetup {
     }
 }
 
+/// The reading channel: the bar length minus its nominal `length`, µm.
+pub const READING: &str = "dr";
+
 /// The measuring range of `dr`, m: ±1 mm, that of the usual telescopic bars (Renishaw QC20-W).
-const RANGE_M: f64 = 1e-3;
+pub(crate) const RANGE_M: f64 = 1e-3;
 
 impl Setup for BallbarSetup {
     fn channels(&self) -> &[Channel] {

@@ -209,3 +209,20 @@ inventory::submit! {
         planning: None,
     }
 }
+
+inventory::submit! {
+    mtcal_instrument::capability::PositioningRuns {
+        instrument: "laser",
+        reading: "d",
+        setup: positioning_setup,
+    }
+}
+
+/// The set-up of a positioning run along the linear axis `axis`: linear mode, the beam along
+/// the axis (what the importers of laser exports write).
+pub fn positioning_setup(axis: char) -> toml::Table {
+    let mut setup = toml::Table::new();
+    setup.insert("mode".into(), Mode::Linear.as_str().into());
+    setup.insert("direction".into(), axis.to_string().into());
+    setup
+}

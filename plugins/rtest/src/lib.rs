@@ -137,3 +137,18 @@ inventory::submit! {
         planning: Some(collision::PLANNING),
     }
 }
+
+inventory::submit! {
+    mtcal_instrument::capability::PointVisits {
+        instrument: "rtest",
+        readings: setup::READINGS,
+        point_key: "ball",
+        range_key: "range_um",
+        default_range_um: setup::DEFAULT_RANGE_UM,
+        machine_axes: mtcal_instrument::capability::MachineAxes {
+            key: "mount",
+            value: Mount::BallOnTable.as_str(),
+            words: "the nest in the spindle",
+        },
+    }
+}

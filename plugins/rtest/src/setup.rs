@@ -10,6 +10,8 @@ pub const DEFAULT_SIGMA_UM: f64 = 0.5;
 /// Default measuring range of each reading, ±µm: the ±2 mm of the common R-test probes
 /// (a reading beyond it is a unit mistake or a crash, never a measurement).
 pub const DEFAULT_RANGE_UM: f64 = 2000.0;
+/// The reading channels: the ball centre minus the nest centre along the nest's axes, µm.
+pub const READINGS: [&str; 3] = ["dx", "dy", "dz"];
 /// Default ball diameter of the three-sensor head, mm (the MT-Check's Ø22 mm ball).
 pub const DEFAULT_BALL_DIAMETER_MM: f64 = 22.0;
 
@@ -90,7 +92,7 @@ impl Mount {
     pub const ALL: [Mount; 2] = [Mount::BallOnTable, Mount::BallInSpindle];
 
     /// The set-up value: `"ball-on-table"` or `"ball-in-spindle"`.
-    pub fn as_str(self) -> &'static str {
+    pub const fn as_str(self) -> &'static str {
         match self {
             Mount::BallOnTable => "ball-on-table",
             Mount::BallInSpindle => "ball-in-spindle",
@@ -450,7 +452,7 @@ pub fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<RTest, SetupE
         }
     };
 
-    let channels = ["dx", "dy", "dz"]
+    let channels = READINGS
         .iter()
         .map(|name| Channel {
             name: (*name).into(),

@@ -67,6 +67,7 @@ use super::{
 use crate::basic::{Basic, Feature};
 use crate::view::SessionView;
 use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
+use mtcal_machine::from_identify::{CompensableDiscovery, Discovery, FoundReversal};
 use std::sync::Arc;
 
 /// Screw pitches tried (mm).
@@ -545,6 +546,30 @@ inventory::submit! {
         separated_by: Some("measure each path in both directions (CW and CCW, up and down): a reversal error flips with the direction, geometry does not"),
         told_from: &[],
     }
+}
+
+inventory::submit! {
+    CompensableDiscovery { as_reversal: reversal_in_a_table }
+}
+
+/// A `reversal` discovery of a linear axis as a bidirectional table holds it (`compensate
+/// --params id.json`): the backlash at mid-stroke and its change to the positive end (0 when
+/// constant), µm. A rotary axis' backlash (µrad) is no table's.
+fn reversal_in_a_table(d: &Discovery) -> Option<FoundReversal> {
+    if d.effect != "reversal" {
+        return None;
+    }
+    let axis = d.axis_letter()?;
+    let backlash = d.parameter("backlash_um", "um")?;
+    let change = d.parameter("backlash_change_um", "um");
+    Some(FoundReversal {
+        label: d.label.clone(),
+        axis,
+        backlash_um: backlash.value,
+        backlash_u95_um: backlash.u95,
+        change_um: change.map_or(0.0, |c| c.value),
+        change_u95_um: change.and_then(|c| c.u95),
+    })
 }
 
 inventory::submit! {
