@@ -20,6 +20,34 @@ const RANK_RELATIVE_TOLERANCE: f64 = 1e-10;
 /// Degree of the B-spline basis (cubic).
 const SPLINE_DEGREE: usize = 3;
 
+/// One function of a basis, what a coefficient multiplies: the same term in a basis given more
+/// orders is the same function.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Term {
+    /// The Legendre polynomial of this degree (`P2`).
+    Legendre(usize),
+    /// The table knot of this index, counting pinned knots (`K3`).
+    Knot(usize),
+    /// The B-spline control point of this index, counting pinned ones (`B4`).
+    Control(usize),
+    /// The cosine of this harmonic (`C1`; `C0` the constant).
+    Cos(usize),
+    /// The sine of this harmonic (`S1`).
+    Sin(usize),
+}
+
+impl std::fmt::Display for Term {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Term::Legendre(k) => write!(f, "P{k}"),
+            Term::Knot(k) => write!(f, "K{k}"),
+            Term::Control(k) => write!(f, "B{k}"),
+            Term::Cos(k) => write!(f, "C{k}"),
+            Term::Sin(k) => write!(f, "S{k}"),
+        }
+    }
+}
+
 /// The family of functions a component error is expanded in.
 ///
 /// The fields are public so a basis can be written literally (e.g. from a configuration file);
@@ -317,22 +345,25 @@ impl Basis {
 
     /// Short labels of the functions, in coefficient order: "P2" (Legendre degree 2), "K3" (table
     /// knot 3, counting pinned knots), "B4" (B-spline control point 4, counting pinned ones),
-    /// "C0", "C1", "S1" (Fourier).
+    /// "C0", "C1", "S1" (Fourier): the [`Term`]s written out.
     pub fn labels(&self) -> Vec<String> {
+        self.terms().iter().map(Term::to_string).collect()
+    }
+
+    /// The functions, in coefficient order.
+    pub fn terms(&self) -> Vec<Term> {
         match self {
             Basis::Legendre {
                 min_degree,
                 max_degree,
                 ..
-            } => (*min_degree..=*max_degree)
-                .map(|k| format!("P{k}"))
-                .collect(),
+            } => (*min_degree..=*max_degree).map(Term::Legendre).collect(),
             Basis::Table {
                 knots,
                 pin_first,
                 pin_last,
             } => unpinned_indices(knots.len(), *pin_first, *pin_last)
-                .map(|j| format!("K{j}"))
+                .map(Term::Knot)
                 .collect(),
             Basis::BSpline {
                 n_ctrl,
@@ -340,15 +371,15 @@ impl Basis {
                 pin_last,
                 ..
             } => unpinned_indices(*n_ctrl, *pin_first, *pin_last)
-                .map(|j| format!("B{j}"))
+                .map(Term::Control)
                 .collect(),
             Basis::Fourier {
                 min_harmonic,
                 max_harmonic,
             } => (*min_harmonic..=*max_harmonic)
                 .flat_map(|k| match k {
-                    0 => vec!["C0".to_owned()],
-                    k => vec![format!("C{k}"), format!("S{k}")],
+                    0 => vec![Term::Cos(0)],
+                    k => vec![Term::Cos(k), Term::Sin(k)],
                 })
                 .collect(),
         }

@@ -15,7 +15,7 @@ pub mod pose;
 pub mod rigid;
 pub mod volmap;
 
-pub use basis::{Basis, BasisError};
+pub use basis::{Basis, BasisError, Term};
 pub use machine::{AxisKind, BranchSpec, JointSpec, Machine, MachineError, MachineSpec, Side};
 pub use model::{BasisChoice, ErrorModel, ModelError, ParamConfig};
 pub use names::{AxisLetter, Direction, ParamName, Setup};

@@ -5,7 +5,7 @@
 //! component error has one coefficient per basis function, a location or set-up parameter has
 //! one. The order is the order of the configuration; nothing depends on it but the layout.
 
-use crate::basis::{Basis, BasisError};
+use crate::basis::{Basis, BasisError, Term};
 use crate::machine::{AxisKind, Machine};
 use crate::names::{Direction, ParamName, Setup};
 use std::f64::consts::PI;
@@ -216,15 +216,26 @@ impl ErrorModel {
 
     /// A label per coefficient: `EXX` for one-coefficient parameters, `EXX.P2` otherwise.
     pub fn coefficient_labels(&self) -> Vec<String> {
+        self.coefficient_terms()
+            .into_iter()
+            .map(|(name, term)| match term {
+                Some(term) => format!("{name}.{term}"),
+                None => name.to_string(),
+            })
+            .collect()
+    }
+
+    /// Per coefficient, its parameter and its basis function (`P2`, `C1`, `K3`), `None` for a
+    /// parameter of one coefficient: what a coefficient is, wherever it sits (a component given
+    /// more orders keeps its coefficients' terms).
+    pub fn coefficient_terms(&self) -> Vec<(ParamName, Option<Term>)> {
         let mut out = Vec::with_capacity(self.n_coeffs);
         for p in &self.params {
             match &p.role {
                 Role::Component { basis, .. } => {
-                    for l in basis.labels() {
-                        out.push(format!("{}.{}", p.name, l));
-                    }
+                    out.extend(basis.terms().into_iter().map(|t| (p.name, Some(t))));
                 }
-                _ => out.push(p.name.to_string()),
+                _ => out.push((p.name, None)),
             }
         }
         out

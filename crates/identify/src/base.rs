@@ -37,8 +37,10 @@
 //! paths see as a slope.
 
 use crate::fit::FitProblem;
+use crate::ids::ParamId;
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, param_specs};
+use mtcal_kinematics::Term as BasisTerm;
 use mtcal_solve::Options;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -71,6 +73,9 @@ pub enum HeldWhy {
 /// A parameter the runs cannot determine (see the module doc for what holding it means).
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct Held {
+    /// The parameter, for the code; `name` is for people.
+    #[serde(skip)]
+    pub id: crate::ids::ParamId,
     pub name: String,
     pub unit: String,
     pub why: HeldWhy,
@@ -106,11 +111,6 @@ impl BaseModel {
             .find(|(n, _)| n == name)
             .map_or(&[], |(_, t)| t.as_slice())
     }
-
-    /// The held machine coefficients, by name.
-    pub fn held_names(&self) -> Vec<String> {
-        self.held.iter().map(|h| h.name.clone()).collect()
-    }
 }
 
 /// Physical priority of parameter `i` (lower is taken first); `None`: always estimated (an
@@ -119,19 +119,17 @@ fn priority(study: &Study, i: usize) -> Option<(u32, usize)> {
     if i >= study.layout().effect_offset() {
         return None;
     }
-    let info = study.param_info(i);
-    if !info.machine {
-        return info.prior_sigma.is_none().then_some((0, i));
-    }
-    let Some((_, term)) = info.name.split_once('.') else {
-        // Location, squareness, tool and workpiece set-up: single values.
-        return Some((1, i));
+    let ParamId::Machine(coeff) = study.param_id(i) else {
+        return study.param_info(i).prior_sigma.is_none().then_some((0, i));
     };
-    let order = term[1..].parse::<u32>().unwrap_or(0);
-    let class = match term.as_bytes()[0] {
-        b'P' | b'C' | b'S' => 2 + order,
+    let class = match coeff.term {
+        // Location, squareness, tool and workpiece set-up: single values.
+        None => 1,
+        Some(BasisTerm::Legendre(order) | BasisTerm::Cos(order) | BasisTerm::Sin(order)) => {
+            2 + order as u32
+        }
         // Table knots and spline control points: after every polynomial order that matters.
-        _ => 10,
+        Some(BasisTerm::Knot(_) | BasisTerm::Control(_)) => 10,
     };
     Some((class, i))
 }
@@ -284,6 +282,7 @@ fn describe(
             },
         };
         held.push(Held {
+            id: study.param_id(j),
             name: info.name,
             unit: info.unit,
             why,
@@ -402,7 +401,7 @@ pub fn identifiable_study(
         return Ok((study, Some(base)));
     }
     let changes = Changes {
-        hold: base.held_names(),
+        hold: base.held.iter().map(|h| h.id.clone()).collect(),
         ..study.changes().clone()
     };
     let reduced = study.rebuild(changes)?;

@@ -31,6 +31,7 @@ pub mod diagnostics;
 pub mod findings;
 pub mod fit;
 pub mod html_report;
+pub mod ids;
 pub mod information;
 pub mod layout;
 pub mod mismatch;
@@ -180,7 +181,8 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
             let info = study.param_info(i);
             // What the runs cannot determine stays near its start ([`base`]).
             let effect = study.effect_param(i);
-            let prior = if info.machine && held.contains(&info.name) {
+            let is_held = !held.is_empty() && held.contains(&study.param_id(i));
+            let prior = if info.machine && is_held {
                 Some((start[i], study.held_prior))
             } else if let Some(s) = effect.and_then(|d| d.prior) {
                 // A ridge on a joint model's columns (mtcal_effects::bank).
@@ -197,7 +199,7 @@ pub fn param_specs_from(study: &Study, x0: &[f64]) -> Vec<ParamSpec> {
             };
             // A shape the data do not determine, held where the search left it
             // (`search::keep`): an assumption of the model, not a fitted parameter.
-            let fixed = effect.is_some() && held.contains(&info.name);
+            let fixed = effect.is_some() && is_held;
             ParamSpec {
                 name: info.name,
                 initial: x0[i],

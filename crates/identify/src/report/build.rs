@@ -168,7 +168,7 @@ pub(super) fn weakly_determined(study: &Study, solution: &Solution) -> Vec<Weakl
         let info = study.param_info(i);
         let prior = specs[i].prior.map(|(_, s)| s);
         // Held machine parameters have their own section ([`crate::base`]).
-        let held = info.machine && study.changes().hold.contains(&info.name);
+        let held = info.machine && study.changes().hold.contains(&study.param_id(i));
         if let Some(p) = prior
             && sigma > PRIOR_ONLY * p
             && !held

@@ -8,7 +8,9 @@
 //! more orders must remain a plausible curve).
 
 use crate::K95;
+use crate::ids::{CoeffId, ParamId};
 use crate::study::Study;
+use mtcal_kinematics::{ParamName, Term};
 use mtcal_solve::Solution;
 use std::collections::BTreeMap;
 
@@ -73,13 +75,13 @@ pub(super) fn component_curves(study: &Study, solution: &Solution) -> Vec<Curve>
     // component → (degree, index)
     let mut by_component: BTreeMap<String, Vec<(usize, usize)>> = BTreeMap::new();
     for i in 0..study.layout().n_x() {
-        let info = study.param_info(i);
-        if !info.machine {
-            continue;
-        }
-        if let Some((component, degree)) = legendre_coefficient(&info.name) {
+        if let ParamId::Machine(CoeffId {
+            param: param @ ParamName::Component { .. },
+            term: Some(Term::Legendre(degree)),
+        }) = study.param_id(i)
+        {
             by_component
-                .entry(component.to_string())
+                .entry(param.to_string())
                 .or_default()
                 .push((degree, i));
         }
@@ -151,15 +153,6 @@ pub(super) fn newly_implausible(before: &[Curve], after: &[Curve]) -> Option<Cur
         .cloned()
 }
 
-/// `EZX.P3` → (`EZX`, 3): a Legendre coefficient of a component error of a linear axis.
-fn legendre_coefficient(name: &str) -> Option<(&str, usize)> {
-    let (component, coefficient) = name.split_once('.')?;
-    let degree = coefficient.strip_prefix('P')?.parse().ok()?;
-    let c: Vec<char> = component.chars().collect();
-    (c.len() == 3 && c[0] == 'E' && "XYZABC".contains(c[1]) && c[2].is_ascii_uppercase())
-        .then_some((component, degree))
-}
-
 /// Largest `|Σ c_k P_k(u)|` over `u ∈ [−1, 1]` and where it is.
 fn peak(coefficients: &[(usize, f64)]) -> (f64, f64) {
     let top = coefficients.iter().map(|&(k, _)| k).max().unwrap_or(0);
@@ -226,14 +219,5 @@ mod tests {
         assert!(newly_implausible(&[curve(70e-6, 0.0)], &[curve(200e-6, 10e-6)]).is_some());
         assert!(newly_implausible(&[curve(200e-6, 0.0)], &[curve(300e-6, 10e-6)]).is_none());
         assert!(newly_implausible(&[], &[curve(300e-6, 10e-6)]).is_some());
-    }
-
-    #[test]
-    fn coefficient_names_are_read_only_from_component_errors() {
-        assert_eq!(legendre_coefficient("EZX.P3"), Some(("EZX", 3)));
-        assert_eq!(legendre_coefficient("EAY.P12"), Some(("EAY", 12)));
-        assert_eq!(legendre_coefficient("EXC.C2"), None);
-        assert_eq!(legendre_coefficient("ball1.tool_length"), None);
-        assert_eq!(legendre_coefficient("EB0Z"), None);
     }
 }

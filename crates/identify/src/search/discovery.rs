@@ -11,6 +11,7 @@ use super::step::Stage;
 use crate::K95;
 use crate::findings::SearchStop;
 use crate::findings::{Concealed, Correction, Discovery, DiscoveryParameter, Remains, Trial};
+use crate::ids::ParamId;
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_effects::{Candidate, Effect, EffectInfo};
@@ -66,12 +67,7 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                 .map(|j| sol.sigma[offset + j].map(|s| K95 * s))
                 .collect();
             let held: Vec<bool> = (0..fx.params().len())
-                .map(|j| {
-                    study
-                        .changes()
-                        .hold
-                        .contains(&study.param_info(offset + j).name)
-                })
+                .map(|j| study.changes().hold.contains(&study.param_id(offset + j)))
                 .collect();
             // The axis' states where its approach is unknown are fitted, not claimed.
             let params = fx
@@ -111,12 +107,12 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
             (fx.info().clone(), params, words)
         }
         Candidate::Model(m) => {
-            let prefix = format!("{}", m.param);
             let params: Vec<DiscoveryParameter> = (0..study.layout().n_machine())
                 .filter_map(|i| {
                     let info = study.param_info(i);
-                    let base = info.name.split('.').next().unwrap_or(&info.name);
-                    (base == prefix).then(|| DiscoveryParameter {
+                    let of_m =
+                        matches!(study.param_id(i), ParamId::Machine(c) if c.param == m.param);
+                    of_m.then(|| DiscoveryParameter {
                         name: info.name.clone(),
                         value: sol.x[i] * info.per_si,
                         unit: info.unit.clone(),

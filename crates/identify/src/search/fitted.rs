@@ -10,7 +10,6 @@ use crate::findings::Heldout;
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_solve::{Silent, Solution};
-use std::collections::HashMap;
 use std::sync::OnceLock;
 
 /// One fitted model.
@@ -102,15 +101,13 @@ pub(super) fn fit(
     Ok(Fitted::new(study, solution, heldout))
 }
 
-/// `x` of `from` mapped into `to`'s parameter vector by parameter name; new parameters at
-/// their starting values.
+/// `x` of `from` mapped into `to`'s parameter vector by parameter ([`Study::param_id`]); new
+/// parameters at their starting values.
 pub(super) fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
-    let known: HashMap<String, f64> = (0..from.layout().n_x())
-        .map(|i| (from.param_info(i).name, x[i]))
-        .collect();
+    let known = from.param_indices();
     let start = to.initial_x();
     (0..to.layout().n_x())
-        .map(|i| *known.get(&to.param_info(i).name).unwrap_or(&start[i]))
+        .map(|i| known.get(&to.param_id(i)).map_or(start[i], |&k| x[k]))
         .collect()
 }
 

@@ -10,10 +10,10 @@ use super::fitted::{Fitted, carry_over, fit};
 use super::settings::SearchOptions;
 use super::step::{AddedChange, Addition, Stage, at_edge, forecasts_worse, real_gain};
 use crate::findings::{SearchReport, Withdrawn};
+use crate::ids::ParamId;
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, K95, param_specs};
 use mtcal_solve::Solution;
-use std::collections::HashMap;
 
 /// Withdraws, latest first, every stage whose parameters the final fit does not determine
 /// ([`undetermined`]), then every one the model predicts held-out data as well without
@@ -122,9 +122,9 @@ fn holding_shapes(
 ) -> Result<Fitted, IdentifyError> {
     let specs = param_specs(&current.study);
     let mut changes = current.study.changes().clone();
-    for spec in &specs {
-        if spec.bounds.is_some() && addition.params.contains(&spec.name) {
-            changes.hold.push(spec.name.clone());
+    for (i, spec) in specs.iter().enumerate() {
+        if spec.bounds.is_some() && addition.params.contains(&current.study.param_id(i)) {
+            changes.hold.push(current.study.param_id(i));
         }
     }
     let study = current.study.rebuild(changes)?;
@@ -187,7 +187,7 @@ fn worse(after: &Fitted, before: &Fitted) -> Option<String> {
     forecasts_worse(b, a).map(|why| format!("with the final model {why} than before the search"))
 }
 
-/// Why the parameters `names` (one effect's or model change's) are not a determined, physical
+/// Why the parameters `params` (one effect's or model change's) are not a determined, physical
 /// effect of the fit `solution` of `study`, if they are not: a parameter the fit cannot
 /// separate; a shape (τ, pitch, decay) whose 95 % interval is as wide as its value; an
 /// amplitude beyond its plausible range or with an interval wider than it; or every amplitude
@@ -195,21 +195,20 @@ fn worse(after: &Fitted, before: &Fitted) -> Option<String> {
 pub(super) fn undetermined(
     study: &Study,
     solution: &Solution,
-    names: &[String],
+    params: &[ParamId],
 ) -> Option<Failure> {
     let specs = param_specs(study);
-    let index: HashMap<String, usize> = (0..study.layout().n_x())
-        .map(|i| (study.param_info(i).name, i))
-        .collect();
+    let index = study.param_indices();
     let mut amplitudes = Vec::new();
     let held = &study.changes().hold;
-    for name in names {
-        let Some(&i) = index.get(name) else { continue };
+    for id in params {
+        let Some(&i) = index.get(id) else { continue };
+        let info = study.param_info(i);
+        let name = &info.name;
         let nuisance = study.effect_param(i).is_some_and(|p| p.nuisance);
-        if nuisance || (specs[i].bounds.is_some() && held.contains(name)) {
+        if nuisance || (specs[i].bounds.is_some() && held.contains(id)) {
             continue;
         }
-        let info = study.param_info(i);
         let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
         let value = solution.x[i];
         let Some(sigma) = solution.sigma[i].filter(|_| solution.identified[i]) else {
@@ -297,16 +296,16 @@ fn implausible_order(current: &Fitted, addition: &Addition) -> Option<Failure> {
     })
 }
 
-/// Why a shape (not a nuisance) among the parameters `names` is no shape of `current`'s
+/// Why a shape (not a nuisance) among the parameters `params` is no shape of `current`'s
 /// fit, if one is: its value at an edge of its box.
-fn pinned(current: &Fitted, names: &[String]) -> Option<String> {
+fn pinned(current: &Fitted, params: &[ParamId]) -> Option<String> {
     let study = &current.study;
     let specs = param_specs(study);
     (0..study.layout().n_x()).find_map(|i| {
         let (lo, hi) = specs[i].bounds?;
         let p = study.effect_param(i)?;
         let info = study.param_info(i);
-        if p.nuisance || !names.contains(&info.name) {
+        if p.nuisance || !params.contains(&study.param_id(i)) {
             return None;
         }
         let value = current.solution.x[i];

@@ -11,6 +11,7 @@ use super::rank::{Ranked, rank_with};
 use super::settings::{LOOKALIKE_BIC, SearchOptions};
 use crate::K95;
 use crate::findings::{Heldout, LookAlike, Trial};
+use crate::ids::ParamId;
 use crate::relabel::unique;
 use crate::report::Identification;
 use crate::study::{Changes, Study};
@@ -39,16 +40,16 @@ pub(super) struct Stage {
     pub(super) after_heldout: Heldout,
     pub(super) after_id: Identification,
     pub(super) after_solution: Solution,
-    /// What the step added to the model, and the names of the parameters it added.
+    /// What the step added to the model, and the parameters it added.
     pub(super) addition: Addition,
 }
 
 /// What a step adds to the model: an effect (as it sits in the study's changes) or a change
-/// of the error model; and the names of the parameters it adds.
+/// of the error model; and the parameters it adds.
 #[derive(Clone, Debug)]
 pub(super) struct Addition {
     pub(super) change: AddedChange,
-    pub(super) params: Vec<String>,
+    pub(super) params: Vec<ParamId>,
 }
 
 #[derive(Clone, Debug)]
@@ -541,8 +542,11 @@ fn judge(
 /// (what the data cannot see has no value to judge).
 fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<String> {
     let specs = param_specs(study);
-    let before: HashMap<String, f64> = (0..current.study.layout().n_x())
-        .map(|i| (current.study.param_info(i).name, current.solution.x[i]))
+    let before: HashMap<ParamId, f64> = current
+        .study
+        .param_indices()
+        .into_iter()
+        .map(|(id, k)| (id, current.solution.x[k]))
         .collect();
     // A component's whole curve, where each coefficient alone is in range.
     if let Some(curve) = curves::newly_implausible(
@@ -564,7 +568,7 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
             // its 1 s floor is a step on the first samples, not a time constant).
             let info = study.param_info(i);
             let value = solution.x[i];
-            if !before.contains_key(&info.name) && at_edge(value, (lo, hi)) {
+            if !before.contains_key(&study.param_id(i)) && at_edge(value, (lo, hi)) {
                 return Some(format!(
                     "not physics: the refit pins {} at the edge of its range, {:.4} {}",
                     info.name,
@@ -580,7 +584,7 @@ fn implausible(current: &Fitted, study: &Study, solution: &Solution) -> Option<S
         }
         let info = study.param_info(i);
         let value = solution.x[i];
-        let was = before.get(&info.name).copied();
+        let was = before.get(&study.param_id(i)).copied();
         let show = |v: f64| format!("{:.4} {}", v * info.per_si, info.unit);
         // A parameter already in the model is blamed only when its whole interval lies
         // beyond the range (one the data barely see may wander along a near-null direction);
@@ -629,11 +633,11 @@ fn widened_dof(
         (Some(prior), Some(post)) => (1.0 - (post / prior).powi(2)).clamp(0.0, 1.0),
         _ => 0.0,
     };
-    let before: HashMap<String, f64> = (0..current.study.layout().n_x())
+    let before: HashMap<ParamId, f64> = (0..current.study.layout().n_x())
         .filter_map(|i| {
             let prior = current.study.effect_param(i)?.prior;
             let post = current.solution.sigma[i];
-            Some((current.study.param_info(i).name, effective(prior, post)))
+            Some((current.study.param_id(i), effective(prior, post)))
         })
         .collect();
     let n = study.layout().n_x();
@@ -643,11 +647,7 @@ fn widened_dof(
             study.effect_param(i).and_then(|d| d.prior),
             solution.sigma[i],
         );
-        dof += now
-            - before
-                .get(&study.param_info(i).name)
-                .copied()
-                .unwrap_or(0.0);
+        dof += now - before.get(&study.param_id(i)).copied().unwrap_or(0.0);
     }
     dof.max(0.0)
 }
@@ -929,12 +929,10 @@ pub(super) struct Refitted {
 
 /// What `candidate` added to `current`'s model to make `study`.
 fn addition_of(current: &Fitted, study: &Study, candidate: &Candidate) -> Addition {
-    let before: std::collections::HashSet<String> = (0..current.study.layout().n_x())
-        .map(|i| current.study.param_info(i).name)
-        .collect();
+    let before = current.study.param_indices();
     let params = (0..study.layout().n_x())
-        .map(|i| study.param_info(i).name)
-        .filter(|n| !before.contains(n))
+        .map(|i| study.param_id(i))
+        .filter(|id| !before.contains_key(id))
         .collect();
     let change = match candidate {
         Candidate::Effect(_) => AddedChange::Effect(std::sync::Arc::clone(

@@ -3,6 +3,7 @@
 
 use crate::IdentifyError;
 use crate::checks::cell;
+use crate::ids::{CoeffId, EffectId, ParamId, SetupId};
 use crate::layout::{ParamLayout, ParamSlot};
 use crate::options::{StudyOptions, identify_key};
 use mtcal_effects::{
@@ -16,7 +17,7 @@ use mtcal_session::{
     Column, Columns, RunColumns, RunSpec, RunTable, RunUse, Scale, Session, SetupRef, load_session,
     read_run,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
@@ -66,8 +67,10 @@ pub struct Study {
     /// same poses while the Jacobian skips its columns (the 11-error R-test fit of a machine
     /// with a full error model evaluates 11 columns instead of 121).
     pub fit_model: Arc<MachineModel>,
-    /// A label per machine coefficient (`EX0C`, `EXX.P2`).
+    /// A label per machine coefficient (`EX0C`, `EXX.P2`), for people.
     pub coeff_labels: Vec<String>,
+    /// What each machine coefficient is ([`Study::param_id`]).
+    coeff_ids: Vec<CoeffId>,
     /// The set-ups and runs as loaded: shared by every study rebuilt from this one.
     pub setups: Arc<Vec<SetupSlot>>,
     pub runs: Arc<Vec<RunSlot>>,
@@ -124,13 +127,13 @@ pub struct Changes {
     pub raise: Vec<(ParamName, usize)>,
     /// Effects fitted along with the machine (their parameters come last in `x`).
     pub effects: Vec<Arc<dyn Effect>>,
-    /// Parameters the runs cannot determine ([`crate::base`]), by name (`EXX.P3`,
-    /// `bar.tool_length`): a set-up parameter is held at its start value; a machine
+    /// Parameters the runs cannot determine ([`crate::base`]; `EXX.P3`, `bar.tool_length`): a
+    /// set-up parameter is held at its start value; a machine
     /// coefficient stays in the fit with a prior of [`Study::held_prior`] about its start,
     /// so that it neither takes arbitrary values nor leaves its effect to the others (which
     /// would bias every prediction that sees it differently), and predictions carry its
     /// uncertainty.
-    pub hold: Vec<String>,
+    pub hold: Vec<ParamId>,
     /// The noise the recordings carry, when it is not the stated white noise
     /// ([`crate::noise`]): every channel's σ scaled and its rows prewhitened.
     pub noise: Option<Arc<crate::whiten::NoiseModel>>,
@@ -434,6 +437,12 @@ impl Study {
             }
         };
         let coeff_labels = model.errors().coefficient_labels();
+        let coeff_ids = model
+            .errors()
+            .coefficient_terms()
+            .into_iter()
+            .map(|(param, term)| CoeffId { param, term })
+            .collect();
         let mut estimated =
             estimated_coefficients(&session, inputs.options.parameters.as_deref(), &model)?;
         for name in &changes.estimate {
@@ -457,13 +466,18 @@ impl Study {
         };
         let free_nuisance: Vec<Vec<usize>> = setups
             .iter()
-            .map(|slot| {
+            .enumerate()
+            .map(|(s, slot)| {
                 slot.setup
                     .nuisance()
                     .iter()
                     .enumerate()
-                    .filter(|(_, n)| {
-                        n.free && !changes.hold.contains(&format!("{}.{}", slot.name, n.name))
+                    .filter(|&(nuisance, n)| {
+                        let id = ParamId::Nuisance {
+                            setup: SetupId(s),
+                            nuisance,
+                        };
+                        n.free && !changes.hold.contains(&id)
                     })
                     .map(|(i, _)| i)
                     .collect()
@@ -487,6 +501,7 @@ impl Study {
             base_coeffs,
             fit_model,
             coeff_labels,
+            coeff_ids,
             setups,
             runs,
             inputs,
@@ -582,25 +597,45 @@ impl Study {
         }
     }
 
+    /// What parameter `i` of the parameter vector is: the same id in every study rebuilt from
+    /// this session, wherever the parameter sits.
+    pub fn param_id(&self, i: usize) -> ParamId {
+        match self.layout.slot(i) {
+            ParamSlot::Machine { coeff } => ParamId::Machine(self.coeff_ids[coeff]),
+            ParamSlot::Nuisance { setup, nuisance } => ParamId::Nuisance {
+                setup: SetupId(setup),
+                nuisance,
+            },
+            ParamSlot::Effect { effect, param, .. } => ParamId::Effect {
+                effect: EffectId(Arc::from(self.effects()[effect].info().label.as_str())),
+                param,
+            },
+        }
+    }
+
+    /// Whether machine coefficient `coeff` (of the full model) is held ([`Changes::hold`]).
+    pub fn is_held(&self, coeff: usize) -> bool {
+        let id = ParamId::Machine(self.coeff_ids[coeff]);
+        self.changes.hold.contains(&id)
+    }
+
+    /// Every parameter's place in the parameter vector, by id.
+    pub fn param_indices(&self) -> HashMap<ParamId, usize> {
+        (0..self.layout.n_x())
+            .map(|i| (self.param_id(i), i))
+            .collect()
+    }
+
     /// Name, unit and prior σ (SI) of parameter `i` of the parameter vector.
     pub fn param_info(&self, i: usize) -> ParamInfo {
         match self.layout.slot(i) {
-            ParamSlot::Machine { coeff } => {
-                let label = &self.coeff_labels[coeff];
-                let base = label.split('.').next().unwrap_or(label);
-                let unit = base
-                    .parse::<ParamName>()
-                    .map(|n| n.unit())
-                    .unwrap_or("um")
-                    .to_string();
-                ParamInfo {
-                    name: label.clone(),
-                    unit,
-                    per_si: 1e6,
-                    prior_sigma: None,
-                    machine: true,
-                }
-            }
+            ParamSlot::Machine { coeff } => ParamInfo {
+                name: self.coeff_labels[coeff].clone(),
+                unit: self.coeff_ids[coeff].param.unit().to_string(),
+                per_si: 1e6,
+                prior_sigma: None,
+                machine: true,
+            },
             ParamSlot::Effect { .. } => {
                 let (effect, def) = self.effect_at(i).expect("an effect's parameter");
                 ParamInfo {

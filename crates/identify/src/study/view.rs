@@ -113,8 +113,7 @@ impl Study {
             .map(|p| ModelParamView {
                 name: p.name,
                 estimated: (p.offset..p.offset + p.len).any(|k| is_estimated[k]),
-                held: (p.offset..p.offset + p.len)
-                    .any(|k| self.changes.hold.contains(&self.coeff_labels[k])),
+                held: (p.offset..p.offset + p.len).any(|k| self.is_held(k)),
                 order: match &p.role {
                     mtcal_kinematics::model::Role::Component { basis, .. } => match basis {
                         Basis::Legendre { max_degree, .. } => BasisOrder::Legendre(*max_degree),
