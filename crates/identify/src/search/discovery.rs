@@ -6,7 +6,7 @@
 //! only the loop uses it.
 
 use super::fitted::Fitted;
-use super::rank::Ranked;
+use super::rank::{CONCEALED, Ranked};
 use super::step::Stage;
 use crate::K95;
 use crate::findings::SearchStop;
@@ -16,7 +16,6 @@ use crate::report::Identification;
 use crate::study::Study;
 use mtcal_effects::{Candidate, Effect, EffectInfo};
 use mtcal_solve::Solution;
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// What would tell candidate `b` from `a` (both explain the data alike): a session in which
@@ -298,16 +297,11 @@ fn stage_effect_matches(stage: &Stage, fx: &Arc<dyn Effect>) -> bool {
 /// Machine parameters that moved by more than two standard deviations (of the final fit) when
 /// the stage's effect was added: before is the fit without it, after the final fit.
 fn corrections(stage: &Stage, study: &Study, sol: &Solution) -> Vec<Correction> {
-    let before: HashMap<&str, f64> = stage
-        .before_params
-        .iter()
-        .map(|(n, v, _)| (n.as_str(), *v))
-        .collect();
     let mut out: Vec<(f64, Correction)> = (0..study.layout().n_machine())
         .filter_map(|i| {
             let info = study.param_info(i);
             let sigma = sol.sigma[i]? * info.per_si;
-            let b = *before.get(info.name.as_str())?;
+            let b = *stage.before_params.get(&study.param_id(i))?;
             let a = sol.x[i] * info.per_si;
             let z = (b - a).abs() / sigma;
             (z > 2.0).then_some((
@@ -492,7 +486,7 @@ pub(super) fn concealed(ranking: &[Ranked]) -> Vec<Concealed> {
     let mut seen: Vec<(String, Option<String>, Option<char>)> = Vec::new();
     let mut sorted: Vec<&Ranked> = ranking
         .iter()
-        .filter(|r| r.score.absorbed > 0.99 && !r.mimics.is_empty())
+        .filter(|r| r.score.absorbed > CONCEALED && !r.mimics.is_empty())
         .filter(|r| {
             // One that hides behind an effect of its own class and target already in the
             // model (the same drift at another τ, a reversal that also changes along the

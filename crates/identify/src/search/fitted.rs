@@ -7,9 +7,11 @@ use super::heldout::heldout;
 use super::settings::SearchOptions;
 use crate::IdentifyError;
 use crate::findings::Heldout;
+use crate::ids::ParamId;
 use crate::report::Identification;
 use crate::study::Study;
 use mtcal_solve::{Silent, Solution};
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
 /// One fitted model.
@@ -111,12 +113,14 @@ pub(super) fn carry_over(from: &Study, x: &[f64], to: &Study) -> Vec<f64> {
         .collect()
 }
 
-/// The machine parameters of a fit: name, value and unit (reported units).
-pub(super) fn machine_values(study: &Study, solution: &Solution) -> Vec<(String, f64, String)> {
+/// The machine parameters of a fit, by id, in reported units.
+pub(super) fn machine_values(study: &Study, solution: &Solution) -> HashMap<ParamId, f64> {
     (0..study.layout().n_machine())
         .map(|i| {
-            let info = study.param_info(i);
-            (info.name, solution.x[i] * info.per_si, info.unit)
+            (
+                study.param_id(i),
+                solution.x[i] * study.param_info(i).per_si,
+            )
         })
         .collect()
 }

@@ -12,6 +12,11 @@ use mtcal_solve::{EvalError, Problem, Score, ScoreSink, ScoredProblem, Solution}
 use std::collections::HashMap;
 use std::sync::Arc;
 
+/// The share of a candidate's score the fitted parameters absorb above which these data can
+/// hardly tell it from them: listed as concealed, and added only if it predicts the held-out
+/// data clearly better ([`super::step`]).
+pub(super) const CONCEALED: f64 = 0.99;
+
 /// A candidate and its test.
 #[derive(Debug, Clone)]
 pub struct Ranked {
@@ -57,7 +62,7 @@ impl Ranked {
             s.adjusted_p,
             if s.significant { ", significant" } else { "" }
         );
-        if s.absorbed > 0.99 && !self.mimics.is_empty() {
+        if s.absorbed > CONCEALED && !self.mimics.is_empty() {
             // Concealed: only its sliver outside the fitted span is tested, and fitting it
             // would trade it against those parameters.
             let names: Vec<&str> = self.mimics.iter().map(|(n, _)| n.as_str()).collect();

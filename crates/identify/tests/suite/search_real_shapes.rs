@@ -608,7 +608,10 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
     // The bar, met: 90 % named (measured 76/80), claims in 5 % of the sessions at most
-    // (measured 1/60; 0/60 on the draw `SEED_SHIFT=100`).
+    // (measured 1/60; 0/60 on the draws `SEED_SHIFT=100` and 200, 1/60 on 300 — 11/60 there
+    // before a concealed candidate had to predict clearly better). On the draws 200 and 300
+    // 69 of 72 validation runs are predicted within 1.2 × the noise (the bar below), none
+    // worse than before the search.
     assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
     assert!(
         share(claimed, n) <= 0.05,
@@ -623,6 +626,33 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
         never_worse, runs,
         "{never_worse}/{runs} no worse: {worse:?}"
     );
+}
+
+/// The draw `SEED_SHIFT=300` of the trunnion (seed 310), a backlash planted: every session of
+/// that draw claimed a settling of the R-test set-up `ball2` (10 ± 8.5 µm, τ = 42 ± 30 s) that
+/// the simulator never planted — a candidate 99.4 % like the fitted location errors, adding a
+/// per cent of held-out prediction (10 of 60 sessions of the draw). A concealed candidate
+/// must now predict clearly better; the backlash is still named and predicts the validation
+/// runs, and nothing else is claimed.
+#[test]
+fn a_concealed_set_up_settling_is_not_claimed_on_a_few_per_cent_of_prediction() {
+    let case = Case {
+        layout: Layout::Five(FiveAxisLayout::Trunnion),
+        shapes: vec![("backlash", 1.0)],
+        seed: 310,
+    };
+    let o = run_case(&case);
+    assert!(o.dishonest.is_none(), "{:?}", o.dishonest);
+    assert_eq!(o.named, [true], "{}", o.summary);
+    assert!(o.claims.is_empty(), "{:?}\n{}", o.claims, o.summary);
+    for v in o.validation.iter().filter(|v| v.determined) {
+        assert!(
+            v.after <= PREDICTION_OVER_NOISE,
+            "{}: {:.2} σ",
+            v.run,
+            v.after
+        );
+    }
 }
 
 /// Clean sessions of the five machines (ten each): the search claims an effect in at most 5 %.
