@@ -84,6 +84,35 @@ pub enum Feature {
     LaggedExpansion(Input, usize),
 }
 
+impl Feature {
+    /// Whether the feature has a course over the session ([`crate::Effect::follows_the_session`]):
+    /// time since the session or a set-up started, or an input recorded over it.
+    pub fn follows_the_session(&self) -> bool {
+        match self {
+            Feature::Saturating
+            | Feature::Hours
+            | Feature::SetupHours(_)
+            | Feature::SetupSettling(_)
+            | Feature::Static(_)
+            | Feature::Lag(_)
+            | Feature::Expansion(..)
+            | Feature::LaggedExpansion(..) => true,
+            Feature::Reversal(_)
+            | Feature::ReversalAlong(_)
+            | Feature::LateralPlay(_)
+            | Feature::LateralTakeUp(_)
+            | Feature::ReversalSpike(_)
+            | Feature::ReversalSpikeDamped(_)
+            | Feature::LocalBump(_)
+            | Feature::Cyclic(_)
+            | Feature::Velocity(_)
+            | Feature::StickSlip(_)
+            | Feature::Bilinear(..)
+            | Feature::Constant => false,
+        }
+    }
+}
+
 /// An effect of one [`Feature`] on one target.
 #[derive(Clone, Debug)]
 pub struct Basic {
@@ -99,6 +128,18 @@ pub struct Basic {
     /// The axis and the runs whose start state is fitted ([`Basic::with_start_states`]): one
     /// nuisance shape each, after the feature's own shapes.
     start_states: Option<(usize, Vec<usize>)>,
+    /// The simpler effect this one is when a shape reaches an edge of its box
+    /// ([`Basic::becoming_at_edge`]).
+    edge_form: Option<EdgeForm>,
+}
+
+/// [`Basic::becoming_at_edge`]: shape parameter `param` at its lower (`low`) or upper edge
+/// makes the effect `effect`.
+#[derive(Clone, Debug)]
+struct EdgeForm {
+    param: usize,
+    low: bool,
+    effect: Arc<dyn Effect>,
 }
 
 /// The unit of an amplitude on a target, and its factor from SI.
@@ -279,6 +320,7 @@ impl Basic {
             target_words,
             shared: false,
             start_states: None,
+            edge_form: None,
         }
     }
 
@@ -336,6 +378,23 @@ impl Basic {
 
     pub fn feature(&self) -> &Feature {
         &self.feature
+    }
+
+    /// The effect with its shape parameter named `param` making it `simpler` at the lower
+    /// (`low`) or upper edge of its box ([`Effect::at_edge`]). Panics if it has no such
+    /// parameter (a family's construction error).
+    pub fn becoming_at_edge(mut self, param: &str, low: bool, simpler: Basic) -> Self {
+        let param = self
+            .params
+            .iter()
+            .position(|p| p.name == param && p.kind == ParamKind::Shape)
+            .unwrap_or_else(|| panic!("{} has no shape {param}", self.info.label));
+        self.edge_form = Some(EdgeForm {
+            param,
+            low,
+            effect: Arc::new(simpler),
+        });
+        self
     }
 
     /// A direction-driven effect ([`Feature::Reversal`], [`Feature::ReversalAlong`],
@@ -452,6 +511,15 @@ impl Effect for Basic {
             }),
             shape_values: shape.to_vec(),
         })
+    }
+
+    fn follows_the_session(&self) -> bool {
+        self.feature.follows_the_session()
+    }
+
+    fn at_edge(&self, param: usize, low: bool) -> Option<Arc<dyn Effect>> {
+        let form = self.edge_form.as_ref()?;
+        (form.param == param && form.low == low).then(|| Arc::clone(&form.effect))
     }
 
     fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {

@@ -179,6 +179,23 @@ pub trait Effect: fmt::Debug + Send + Sync {
     fn prior_words(&self) -> Option<String> {
         None
     }
+    /// Whether the effect has a course over the session: it follows the time since the
+    /// session (or a set-up) started, or an input that evolves with it (a temperature, the
+    /// spindle speed). An effect of the axes' positions and of their motion (a bump, a
+    /// backlash, a spike after each reversal) is the same early in the session as late, and a
+    /// forecast of the later part has nothing to ask of it. The default, `true`, keeps an
+    /// effect that does not say under the forecast's judgement.
+    fn follows_the_session(&self) -> bool {
+        true
+    }
+    /// The simpler effect of the same family this one becomes when its shape parameter
+    /// `param` (an index into [`Effect::params`]) reaches the lower (`low`) or upper edge of
+    /// its box: a lateral play taken up over no travel is the plain play. A fit that pins the
+    /// shape there found that form, not a failed effect. `None` where the edge is no other
+    /// effect.
+    fn at_edge(&self, _param: usize, _low: bool) -> Option<Arc<dyn Effect>> {
+        None
+    }
 }
 
 /// An effect's features at fixed shape parameters.

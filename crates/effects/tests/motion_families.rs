@@ -4,7 +4,7 @@
 //! they propose and when, and their plant tables.
 
 use mtcal_effects::view::{AxisView, RunView, SessionView, SetupView};
-use mtcal_effects::{Candidate, ParamKind, PreparedEffects, Target, plant};
+use mtcal_effects::{Candidate, Effect, ParamKind, PreparedEffects, Target, plant};
 use mtcal_instrument::{Channel, Nuisance, Unit};
 use std::sync::Arc;
 
@@ -570,4 +570,86 @@ fn new_plant_tables_are_read_and_bad_ones_named() {
     .unwrap();
     assert_eq!(e.info().label, "local-error EYY (Y)");
     assert_eq!(e.terms()[0].target, Target::Axis(1));
+}
+
+/// Every sample's changes of the axes (µm) of effect `e` at parameters `values` (SI), runs
+/// "a" and "b" one after the other.
+fn effect_on_axes(v: &Arc<SessionView>, e: &Arc<dyn Effect>, values: &[f64]) -> Vec<Vec<f64>> {
+    let prepared = PreparedEffects::new(std::slice::from_ref(e), v, values);
+    let mut out = prepared.scratch(5, 2, 3);
+    let mut all = Vec::new();
+    for r in 0..v.runs.len() {
+        for i in 0..v.runs[r].len() {
+            prepared.sample(r, v.runs[r].setup, i, values, &mut out);
+            all.push(out.dq.iter().map(|x| x * 1e6).collect());
+        }
+    }
+    all
+}
+
+#[test]
+fn a_play_taken_up_over_no_travel_is_the_plain_play() {
+    let v = view(true, true, false);
+    let all = mtcal_effects::candidates(&v);
+    let effect = |label: &str| -> Arc<dyn Effect> {
+        match all.iter().find(|c| c.label() == label) {
+            Some(Candidate::Effect(e)) => Arc::clone(e),
+            _ => panic!("no effect {label}"),
+        }
+    };
+    let taken_up = effect("lateral-play X (in Y, taken up)");
+    let take_up = taken_up
+        .params()
+        .iter()
+        .position(|p| p.name == "take_up_mm")
+        .unwrap();
+    let (low, _) = taken_up.params()[take_up].bounds.unwrap();
+    // At the lower edge of its box the family names the plain play; at the upper one nothing.
+    let simpler = taken_up.at_edge(take_up, true).expect("the plain play");
+    assert_eq!(simpler.info().label, "lateral-play X (in Y)");
+    assert!(taken_up.at_edge(take_up, false).is_none());
+    assert!(simpler.at_edge(0, true).is_none());
+    // And it is that play: the same step at every sample, the same start states.
+    let values = |e: &Arc<dyn Effect>, play_m: f64| -> Vec<f64> {
+        e.params()
+            .iter()
+            .map(|p| match p.kind {
+                ParamKind::Amplitude => play_m,
+                ParamKind::Shape if p.name == "take_up_mm" => low,
+                ParamKind::Shape => p.initial,
+            })
+            .collect()
+    };
+    let at_edge = effect_on_axes(&v, &taken_up, &values(&taken_up, 3e-6));
+    let plain = effect_on_axes(&v, &simpler, &values(&simpler, 3e-6));
+    for (k, (a, b)) in at_edge.iter().zip(&plain).enumerate() {
+        assert_close(a, b, &format!("sample {k}"));
+    }
+    assert!(plain.iter().any(|dq| dq[1].abs() > 1.0), "{plain:?}");
+}
+
+#[test]
+fn only_effects_with_a_course_over_the_session_follow_it() {
+    let v = view(true, true, true);
+    let (mut timed, mut moved) = (0, 0);
+    for c in mtcal_effects::candidates(&v) {
+        let Candidate::Effect(e) = &c else { continue };
+        let in_time = matches!(
+            c.class(),
+            "thermal-drift" | "temperature-coupling" | "setup-drift" | "spindle-growth"
+        );
+        let of_motion = matches!(
+            c.class(),
+            "reversal" | "lateral-play" | "reversal-spike" | "stick-slip" | "local-error"
+        );
+        if in_time {
+            assert!(e.follows_the_session(), "{}", c.label());
+            timed += 1;
+        }
+        if of_motion {
+            assert!(!e.follows_the_session(), "{}", c.label());
+            moved += 1;
+        }
+    }
+    assert!(timed > 0 && moved > 0, "{timed} in time, {moved} of motion");
 }

@@ -51,6 +51,9 @@ impl Effect for Relabelled {
     fn shape_scan(&self, view: &SessionView) -> Vec<Vec<f64>> {
         self.inner.shape_scan(view)
     }
+    fn follows_the_session(&self) -> bool {
+        self.inner.follows_the_session()
+    }
     fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
         let inner = self.inner.with_shape(shape)?;
         Some(Arc::new(Relabelled {

@@ -260,8 +260,13 @@ fn lateral_candidates(view: &SessionView) -> Vec<Candidate> {
             continue;
         }
         for &b in linear.iter().filter(|&&b| b != a) {
-            out.push(lateral_play(view, a, b, None).with_start_states(view, a));
-            out.push(lateral_play(view, a, b, Some(TAKE_UP_START_M)).with_start_states(view, a));
+            let plain = lateral_play(view, a, b, None).with_start_states(view, a);
+            // Taken up over no travel, the carriage is on its new flank at once: the plain play.
+            let taken_up = lateral_play(view, a, b, Some(TAKE_UP_START_M))
+                .with_start_states(view, a)
+                .becoming_at_edge("take_up_mm", true, plain.clone());
+            out.push(plain);
+            out.push(taken_up);
         }
     }
     wrap(out)

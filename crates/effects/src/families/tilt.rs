@@ -131,6 +131,9 @@ impl Effect for Tilt {
     fn cached_series(&self) -> Vec<String> {
         self.inner.cached_series()
     }
+    fn follows_the_session(&self) -> bool {
+        self.inner.follows_the_session()
+    }
     fn with_shape(&self, shape: &[f64]) -> Option<Arc<dyn Effect>> {
         let tau = *shape.first()?;
         Some(Arc::new(Tilt::new(

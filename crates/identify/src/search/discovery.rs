@@ -188,6 +188,9 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
     if let (Some(a), Some(b)) = (val_before, val_after) {
         explanation += &format!(", validation RMS {a:.3} → {b:.3} µm");
     }
+    if let Some(why) = &stage.simplified {
+        explanation += &format!(" ({why})");
+    }
     if stage.ranked.score.absorbed > 0.5 {
         let like: Vec<&str> = stage
             .ranked

@@ -145,6 +145,17 @@ fn fold_steps(
         for spec in &mut specs[..study.layout().effect_offset()] {
             spec.fixed = true;
         }
+        // An effect without a course over the session (a bump, a backlash) is judged by the
+        // blocked folds, as a change of the error model is: refitted from the earlier part
+        // alone, a bump crossed by one run there is a guess the forecast would blame on it.
+        for i in study.layout().effects() {
+            if study
+                .effect_of_param(i)
+                .is_some_and(|e| !e.follows_the_session())
+            {
+                specs[i].fixed = true;
+            }
+        }
     }
     // An axis' start state in a run (a nuisance shape boxed in ±1) keeps the full fit's
     // value: a fold that holds out its stretch leaves it without data, where a Gauss–Newton

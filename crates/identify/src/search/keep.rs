@@ -13,7 +13,9 @@ use crate::findings::{SearchReport, Withdrawn};
 use crate::ids::ParamId;
 use crate::study::{Changes, Study};
 use crate::{IdentifyError, K95, param_specs};
+use mtcal_effects::{Candidate, Effect};
 use mtcal_solve::Solution;
+use std::sync::Arc;
 
 /// Withdraws, latest first, every stage whose parameters the final fit does not determine
 /// ([`undetermined`]), then every one the model predicts held-out data as well without
@@ -41,8 +43,22 @@ pub(super) fn keep_what_holds(
         // A shape pinned at an edge of its box found no optimum inside it (a stick-slip
         // "decaying" over a tenth of a micrometre is a step on single samples): not a shape
         // to hold.
-        let failure = match (failure, pinned(&current, &stages[k].addition.params)) {
-            (Failure::Shape(_), Some(why)) => Failure::Other(why),
+        let pin = pinned(&current, &stages[k].addition.params);
+        // Pinned at the edge where its family makes it a simpler effect (a lateral play taken
+        // up over no travel), the fit found that effect: the stage holds it instead.
+        if let Some(simpler) = pin.as_ref().and_then(|p| simpler_form(&current, p)) {
+            current = simplified(
+                current,
+                &mut stages[k],
+                simpler,
+                pin.expect("pinned"),
+                options,
+            )?;
+            changed = true;
+            continue;
+        }
+        let failure = match (failure, pin) {
+            (Failure::Shape(_), Some(pin)) => Failure::Other(pin.why),
             (f, _) => f,
         };
         if let Failure::Shape(_) = &failure
@@ -298,7 +314,7 @@ fn implausible_order(current: &Fitted, addition: &Addition) -> Option<Failure> {
 
 /// Why a shape (not a nuisance) among the parameters `params` is no shape of `current`'s
 /// fit, if one is: its value at an edge of its box.
-fn pinned(current: &Fitted, params: &[ParamId]) -> Option<String> {
+fn pinned(current: &Fitted, params: &[ParamId]) -> Option<Pinned> {
     let study = &current.study;
     let specs = param_specs(study);
     (0..study.layout().n_x()).find_map(|i| {
@@ -309,15 +325,91 @@ fn pinned(current: &Fitted, params: &[ParamId]) -> Option<String> {
             return None;
         }
         let value = current.solution.x[i];
-        at_edge(value, (lo, hi)).then(|| {
-            format!(
+        at_edge(value, (lo, hi)).then(|| Pinned {
+            index: i,
+            low: (value - lo).abs() <= (hi - value).abs(),
+            why: format!(
                 "the final fit pins {} at the edge of its range, {:.4} {}",
                 info.name,
                 value * info.per_si,
                 info.unit
-            )
+            ),
         })
     })
+}
+
+/// A shape parameter the final fit pins at an edge of its box ([`pinned`]).
+struct Pinned {
+    /// Its index in the fit's parameter vector.
+    index: usize,
+    /// At the lower edge (else the upper one).
+    low: bool,
+    why: String,
+}
+
+/// The simpler effect the pinned parameter's effect becomes at that edge
+/// ([`mtcal_effects::Effect::at_edge`]), unless one of its label is in the model already.
+fn simpler_form(current: &Fitted, pin: &Pinned) -> Option<Arc<dyn Effect>> {
+    let study = &current.study;
+    let effect = study.effect_of_param(pin.index)?;
+    let k = study
+        .effects()
+        .iter()
+        .position(|e| Arc::ptr_eq(e, effect))?;
+    let param = pin.index - study.layout().effect_range(k).start;
+    let simpler = effect.at_edge(param, pin.low)?;
+    let taken = study
+        .effects()
+        .iter()
+        .any(|e| e.info().label == simpler.info().label);
+    (!taken).then_some(simpler)
+}
+
+/// `current` with `stage`'s effect replaced by `simpler` (its form at the edge where the fit
+/// pinned it) and refitted on the same noise; the stage holds the simpler effect from now on
+/// and says why.
+fn simplified(
+    current: Fitted,
+    stage: &mut Stage,
+    simpler: Arc<dyn Effect>,
+    pin: Pinned,
+    options: &SearchOptions,
+) -> Result<Fitted, IdentifyError> {
+    let AddedChange::Effect(old) = &stage.addition.change else {
+        unreachable!("only an effect has a shape to pin");
+    };
+    let mut changes = current.study.changes().clone();
+    for e in &mut changes.effects {
+        if Arc::ptr_eq(e, old) {
+            *e = Arc::clone(&simpler);
+        }
+    }
+    changes
+        .hold
+        .retain(|id| !stage.addition.params.contains(id));
+    let study = current.study.rebuild(changes)?;
+    let x0 = carry_over(&current.study, &current.solution.x, &study);
+    let refitted = fit(study, Some(x0), options)?;
+    let params = (0..refitted.study.layout().n_x())
+        .filter(|&i| {
+            refitted
+                .study
+                .effect_of_param(i)
+                .is_some_and(|e| Arc::ptr_eq(e, &simpler))
+        })
+        .map(|i| refitted.study.param_id(i))
+        .collect();
+    stage.simplified = Some(format!(
+        "added as {}: {}, where it is this simpler form",
+        old.info().label,
+        pin.why.trim_start_matches("the ")
+    ));
+    stage.addition = Addition {
+        change: AddedChange::Effect(Arc::clone(&simpler)),
+        params,
+    };
+    stage.ranked.candidate = Candidate::Effect(simpler);
+    Ok(refitted)
 }
 
 /// Why an effect is not a determined, physical effect of a fit.

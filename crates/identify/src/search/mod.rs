@@ -46,9 +46,10 @@
 //!    fold, when the best predictor does (a reversal error fits a decaying spike as well as the
 //!    spike, with the geometry's help, and predicts the blocks it did not see worse).
 //!    A forecast (fit the earlier part, predict the later) refits the effects alone, and only
-//!    those parameters the earlier part carries 2 % of the session's information on at least:
-//!    a guideway bump the first runs cross at its tail only is not stepped by tens of
-//!    micrometres along a direction they barely see.
+//!    those parameters the earlier part carries 2 % of the session's information on at least,
+//!    of effects that have a course over the session at all (a drift, a lag of a temperature:
+//!    `Effect::follows_the_session`); a bump, a backlash or a play is the same early and late
+//!    and is judged by the blocked folds, as a change of the error model is.
 //!    A candidate that mostly re-expresses an effect added before (half or more of a new
 //!    amplitude explained by the earlier effects' parameters, the geometry profiled out: a
 //!    linear tool-length drift beside the head's warm-up along Z) must predict clearly better
@@ -78,8 +79,11 @@
 //!    together outside their 95 % region of zero (a Wald test: a joint model's columns are
 //!    correlated) — and the final model must predict held-out data (blocks and forecasts) no
 //!    worse than the fit before the search. A shape (τ, a pitch) the data do not determine is
-//!    held where the fit left it and said to be; anything else that fails is withdrawn, the
-//!    latest first, and reported as withdrawn, never as a discovery.
+//!    held where the fit left it and said to be; one pinned at the edge of its box where its
+//!    family makes the effect a simpler one (`Effect::at_edge`: a lateral play taken up over
+//!    no travel is the plain play) is replaced by that effect, and the discovery says so;
+//!    anything else that fails is withdrawn, the latest first, and reported as withdrawn,
+//!    never as a discovery.
 //!
 //! Nothing is searched on a fit that did not converge: the report says so and what to do.
 //!
@@ -328,6 +332,7 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
             after_id,
             after_solution: fitted.solution.clone(),
             addition,
+            simplified: None,
         });
         current = with_noise(fitted, options)?;
     }

@@ -43,6 +43,9 @@ pub(super) struct Stage {
     pub(super) after_solution: Solution,
     /// What the step added to the model, and the parameters it added.
     pub(super) addition: Addition,
+    /// Why the final model holds a simpler form of the effect the step added, if it does
+    /// (the fit pinned a shape at the edge where its family makes it that form).
+    pub(super) simplified: Option<String>,
 }
 
 /// What a step adds to the model: an effect (as it sits in the study's changes) or a change

@@ -608,10 +608,11 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
     // The bar, met: 90 % named (measured 76/80), claims in 5 % of the sessions at most
-    // (measured 1/60; 0/60 on the draws `SEED_SHIFT=100` and 200, 1/60 on 300 — 11/60 there
-    // before a concealed candidate had to predict clearly better). On the draws 200 and 300
-    // 69 of 72 validation runs are predicted within 1.2 × the noise (the bar below), none
-    // worse than before the search.
+    // (measured 0/60, and 0/60 on each of the draws `SEED_SHIFT=100`, 200 and 300 — 11/60 on
+    // 300 before a concealed candidate had to predict clearly better, 1/60 before a forecast
+    // left effects without a course in time at the full fit). On the draws 200 and 300, 70 of
+    // 72 validation runs are predicted within 1.2 × the noise (the bar below: the trunnion
+    // beside the head's two-source warm-up misses it), none worse than before the search.
     assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
     assert!(
         share(claimed, n) <= 0.05,
@@ -645,14 +646,64 @@ fn a_concealed_set_up_settling_is_not_claimed_on_a_few_per_cent_of_prediction() 
     assert!(o.dishonest.is_none(), "{:?}", o.dishonest);
     assert_eq!(o.named, [true], "{}", o.summary);
     assert!(o.claims.is_empty(), "{:?}\n{}", o.claims, o.summary);
+    predicted_within_the_noise(&o);
+}
+
+/// Every determined validation run of `o` within 1.2 × the noise.
+fn predicted_within_the_noise(o: &Outcome) {
     for v in o.validation.iter().filter(|v| v.determined) {
         assert!(
             v.after <= PREDICTION_OVER_NOISE,
-            "{}: {:.2} σ",
+            "{}: {:.2} σ\n{}",
             v.run,
-            v.after
+            v.after,
+            o.summary
         );
     }
+}
+
+/// The draw `SEED_SHIFT=300` of the ball-bar planes (seed 320), a guideway bump of X planted:
+/// the bump's local error, refitted from the first half of the session where one run crosses
+/// it, forecast the rest worse than the fit without it and was refused, and a bump of Z and a
+/// drift (neither planted) were claimed in its place. A bump has no course over the session:
+/// the forecast now leaves it at the full fit (as it leaves a change of the error model), the
+/// blocked folds judge it, and the planted bump is named with nothing else.
+#[test]
+fn a_guideway_bump_is_not_judged_by_a_forecast_in_time() {
+    let case = Case {
+        layout: Layout::Planes,
+        shapes: vec![("bump", 1.0)],
+        seed: 320,
+    };
+    let o = run_case(&case);
+    assert!(o.dishonest.is_none(), "{:?}", o.dishonest);
+    assert_eq!(o.named, [true], "{}", o.summary);
+    assert!(o.claims.is_empty(), "{:?}\n{}", o.claims, o.summary);
+    predicted_within_the_noise(&o);
+}
+
+/// The draw `SEED_SHIFT=200` of the ball-bar planes (seed 221), a reversal spike and a
+/// lateral play of X planted: the play was added taken up over travel, and the final fit
+/// pinned the take-up at the lower edge of its box — a carriage on its new flank at once, the
+/// plain play — so the play was withdrawn whole and the validation run left at 3.65 σ. The
+/// family says what the edge is; the final model now holds the plain play.
+#[test]
+fn a_take_up_pinned_at_no_travel_keeps_the_plain_lateral_play() {
+    let case = Case {
+        layout: Layout::Planes,
+        shapes: vec![("spike", 1.0), ("lateral", 1.0)],
+        seed: 221,
+    };
+    let o = run_case(&case);
+    assert!(o.dishonest.is_none(), "{:?}", o.dishonest);
+    assert_eq!(o.named, [true, true], "{}", o.summary);
+    assert!(o.claims.is_empty(), "{:?}\n{}", o.claims, o.summary);
+    assert!(
+        o.summary.contains("where it is this simpler form"),
+        "{}",
+        o.summary
+    );
+    predicted_within_the_noise(&o);
 }
 
 /// Clean sessions of the five machines (ten each): the search claims an effect in at most 5 %.
