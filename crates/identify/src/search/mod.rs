@@ -19,7 +19,9 @@
 //!    one per label and three per class, so that every kind of explanation the scores point at
 //!    is refitted) are each added to the model and refitted — in two stages, the shape
 //!    parameters (τ, pitch…) held first and then refined with everything else; a cycle's pitch
-//!    is first scanned on a grid fine enough for every phase ([`Effect::shape_scan`]), a joint
+//!    is first scanned on a grid fine enough for every phase ([`Effect::shape_scan`]: the best
+//!    of `K` independent pitches, the peaks of the score along the scan, owes the criterion
+//!    `2 ln K` more — the largest of `K` chances), a joint
 //!    model's prior width chosen by leaving each fitted run out (or each block of one
 //!    recording), the rung whose neighbourhood predicts best ([`Effect::prior_ladder`]). A
 //!    candidate passes if its refit is physics (no parameter driven beyond its plausible range,

@@ -28,9 +28,22 @@ pub struct Ranked {
     /// Fitted parameters the candidate hides behind, largest share first (see
     /// [`Score::mimicked_by`]).
     pub mimics: Vec<(String, f64)>,
+    /// Among how many independent shapes its starting shape was chosen (a cycle's pitch
+    /// scanned over a quarter of its value: the peaks of the score along the scan); 1 without
+    /// a scan. The best of many looks is owed the larger drop in χ² the largest of that many
+    /// chances would bring ([`Ranked::look_elsewhere_dof`]).
+    pub looked_among: usize,
 }
 
 impl Ranked {
+    /// The parameters' worth of information criterion owed to the scan that chose the
+    /// starting shape ([`Ranked::looked_among`]), for a fit of `n_rows` rows: the largest of
+    /// `K` independent χ² statistics exceeds a level about `2 ln K` higher than one does at the
+    /// same odds, and a parameter costs `ln n`.
+    pub fn look_elsewhere_dof(&self, n_rows: usize) -> f64 {
+        2.0 * (self.looked_among.max(1) as f64).ln() / (n_rows.max(2) as f64).ln()
+    }
+
     /// The candidate's name with its starting shape (`thermal-drift Z (t), τ₀ = 600 s`).
     pub fn name(&self) -> String {
         match &self.candidate {
@@ -191,6 +204,7 @@ pub(super) fn rank_with(
                 score,
                 biased,
                 mimics,
+                looked_among: 1,
             }
         })
         .collect();

@@ -216,26 +216,44 @@ fn scanned(current: &Fitted, r: Ranked, options: &SearchOptions) -> Result<Ranke
     if shapes.is_empty() {
         return Ok(r);
     }
-    let variants: Vec<Candidate> = shapes
-        .iter()
-        .filter_map(|s| e.with_shape(s))
-        .map(Candidate::Effect)
-        .collect();
+    let variants: Vec<Arc<dyn mtcal_effects::Effect>> =
+        shapes.iter().filter_map(|s| e.with_shape(s)).collect();
     let ranked = rank_with(
         &current.study,
         &current.solution,
-        variants,
+        variants.iter().cloned().map(Candidate::Effect).collect(),
         options.alpha,
         options.cache_bytes,
     )?;
+    // The score along the scan, in the scan's order: its peaks are the independent looks.
+    let along: Vec<f64> = variants
+        .iter()
+        .map(|v| {
+            ranked
+                .iter()
+                .find(|r| matches!(&r.candidate, Candidate::Effect(x) if Arc::ptr_eq(x, v)))
+                .map_or(0.0, |r| r.score.statistic)
+        })
+        .collect();
     Ok(match ranked.into_iter().next() {
         Some(mut best) if best.score.statistic > r.score.statistic => {
             best.score.adjusted_p = r.score.adjusted_p;
             best.score.significant = r.score.significant;
+            best.looked_among = peaks(&along);
             best
         }
         _ => r,
     })
+}
+
+/// The local maxima of `s` along its order (at least one): how many independent shapes a
+/// scan finer than the shapes' resolution looked at.
+fn peaks(s: &[f64]) -> usize {
+    let n = s.len();
+    let count = (0..n)
+        .filter(|&i| (i == 0 || s[i] > s[i - 1]) && (i + 1 == n || s[i] >= s[i + 1]))
+        .count();
+    count.max(1)
 }
 
 /// Adds `ranked`'s candidate to the current model, refits, and decides.
@@ -459,12 +477,16 @@ fn judge(
     let added = match widens {
         Some(old) => widened_dof(current, old, &study, &solution),
         None => added_dof(current, &study, &solution),
-    };
+    } + ranked.look_elsewhere_dof(solution.n_rows);
     let scale = solution.chi2_reduced.max(1.0);
     let penalty = added * (solution.n_rows.max(2) as f64).ln();
     if drop / scale <= penalty {
+        let scan = match ranked.looked_among {
+            k if k > 1 => format!(", its shape the best of {k} the scan looked at"),
+            _ => String::new(),
+        };
         trial.why = format!(
-            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added:.1} parameters",
+            "χ² dropped by {drop:.1}; scaled by the noise estimate ({scale:.2}) that is {:.1}, below the information criterion's {penalty:.1} for {added:.1} parameters{scan}",
             drop / scale
         );
         return Ok((trial, None));
@@ -980,14 +1002,33 @@ impl Refitted {
 
 #[cfg(test)]
 mod tests {
-    use super::{SharedWith, prior_width, signed_rank_p, try_candidate};
+    use super::{SharedWith, peaks, prior_width, signed_rank_p, try_candidate};
     use crate::search::fitted::fit;
     use crate::search::rank::{candidates, rank_with};
     use crate::search::settings::SearchOptions;
     use mtcal_effects::Candidate;
     use nalgebra::DMatrix;
+
     use std::fmt::Write as _;
     use std::sync::Arc;
+
+    #[test]
+    fn a_scan_counts_the_peaks_of_its_score() {
+        assert_eq!(peaks(&[1.0, 3.0, 2.0, 5.0, 4.0]), 2);
+        assert_eq!(peaks(&[1.0, 2.0, 3.0]), 1);
+        assert_eq!(peaks(&[3.0, 2.0, 1.0, 2.0]), 2);
+        assert_eq!(peaks(&[2.0, 2.0, 2.0]), 1);
+        assert_eq!(peaks(&[]), 1);
+        // A cycle's score along its pitch, sampled eight times per independent pitch: one
+        // look per period of the score's oscillation.
+        // Eleven crests from pitch 0 to 80 steps, both ends on one.
+        let s: Vec<f64> = (0..=80)
+            .map(|k| (std::f64::consts::TAU * k as f64 / 8.0).cos() + 2.0)
+            .collect();
+        assert_eq!(peaks(&s), 11);
+        // Stopped on the way down from its tenth crest: no more looks.
+        assert_eq!(peaks(&s[..76]), 10);
+    }
 
     /// A displacement sensor following a heated node through a 20-minute lag (5 µm/K, the
     /// node 10 K warm when loaded) beside a room sensor: 12 h at 30 s, loaded 3 h on, 3 h off.

@@ -608,9 +608,10 @@ fn real_shapes_are_named_nothing_else_is_claimed_and_nothing_predicts_worse() {
     assert!(share(held, checked) >= 0.9, "{held}/{checked} intervals");
     assert!(checked >= 100, "{checked} intervals checked");
     // The bar, met: 90 % named (measured 76/80), claims in 5 % of the sessions at most
-    // (measured 0/60, and 0/60 on each of the draws `SEED_SHIFT=100`, 200 and 300 — 11/60 on
-    // 300 before a concealed candidate had to predict clearly better, 1/60 before a forecast
-    // left effects without a course in time at the full fit). On the draws 200 and 300, 70 of
+    // (measured 0/60, and 0/60 on each of the draws `SEED_SHIFT=100` to 500 — 11/60 on 300
+    // before a concealed candidate had to predict clearly better, 1/60 before a forecast left
+    // effects without a course in time at the full fit, 1/60 on 500 before a scan's best shape
+    // paid for its looks). On the draws 200 and 300, 70 of
     // 72 validation runs are predicted within 1.2 × the noise (the bar below: the trunnion
     // beside the head's two-source warm-up misses it), none worse than before the search.
     assert!(share(found, effects) >= 0.9, "{found}/{effects} named");
@@ -703,6 +704,26 @@ fn a_take_up_pinned_at_no_travel_keeps_the_plain_lateral_play() {
         "{}",
         o.summary
     );
+    predicted_within_the_noise(&o);
+}
+
+/// The draw `SEED_SHIFT=500` of the head-head machine (seed 512), a backlash and a lateral
+/// play of X planted: once both were in, a cyclic error of C (0.4 µrad, a period of 5.13°,
+/// held-out mean square 0.6 % lower) was claimed. Its period was the best of the fourteen
+/// independent ones its scan looked at, and the largest of fourteen chances clears the
+/// information criterion that one chance seldom does: the best of a scan now pays for the
+/// looks (`2 ln K`), and nothing but the planted effects is claimed.
+#[test]
+fn the_best_period_of_a_scan_pays_for_the_periods_it_looked_at() {
+    let case = Case {
+        layout: Layout::Five(FiveAxisLayout::HeadHead),
+        shapes: vec![("backlash", 1.0), ("lateral", 1.0)],
+        seed: 512,
+    };
+    let o = run_case(&case);
+    assert!(o.dishonest.is_none(), "{:?}", o.dishonest);
+    assert_eq!(o.named, [true, true], "{}", o.summary);
+    assert!(o.claims.is_empty(), "{:?}\n{}", o.claims, o.summary);
     predicted_within_the_noise(&o);
 }
 
