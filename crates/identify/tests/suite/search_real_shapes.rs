@@ -304,9 +304,24 @@ fn truth(layout: Layout, seed: u64) -> (Machine, Truth) {
 
 /// The noise of the sessions: AR(1), σ stated 20 % small, quantised, set-ups up to 0.2 mm off.
 fn realism(seed: u64) -> Realism {
-    Realism {
+    let r = Realism {
         setup_position_bound_um: 200.0,
         ..Realism::realistic(3000 + seed)
+    };
+    // `HARSH=f`: noise more coloured (φ = 0.8), its σ stated `f` times the real one, readings
+    // quantised to 0.2 µm — to see how the search fares on noise further from what it assumes
+    // (measured 2026-11-30: f = 1.5: 76 of 80 named, no claim, 36 of 36 determined validation
+    // runs within 1.2 × the noise, none worse; f = 0.5: 75 of 80, no claim, 70 of 72, none
+    // worse — the C table + B head beside the head's warm-up, where the second drift node's
+    // refit stops at its iteration limit and is not kept).
+    match std::env::var("HARSH").ok().and_then(|f| f.parse().ok()) {
+        Some(factor) => Realism {
+            noise_phi: 0.8,
+            manifest_sigma_factor: factor,
+            resolution_um: 0.2,
+            ..r
+        },
+        None => r,
     }
 }
 
@@ -739,7 +754,7 @@ fn clean_sessions_of_five_machines_rarely_raise_a_claim() {
     ];
     let cases: Vec<(Layout, u64)> = layouts
         .iter()
-        .flat_map(|&l| (0..10).map(move |k| (l, 200 + k)))
+        .flat_map(|&l| (0..10).map(move |k| (l, 200 + k + seed_shift())))
         .collect();
     let claims = parallel(&cases, |&(layout, seed)| {
         let tmp = tempfile::tempdir().unwrap();
