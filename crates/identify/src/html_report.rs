@@ -52,7 +52,7 @@ pub fn report(
     Ok(rep::Report {
         title: format!("mtcal identification — {}", session_name(session)),
         summary: summary(session, study, id, before.as_ref()),
-        ballbar: polar_runs(study, &after, id, before.as_ref()),
+        polar: polar_runs(study, &after, id, before.as_ref()),
         diagnostics: id.diagnostics.iter().map(diagnosis_table).collect(),
         residuals: residuals(study, &after, before.as_ref()),
         components: components(study, id),
@@ -100,6 +100,7 @@ fn location_series(id: &Identification) -> Vec<rep::LocationSeriesPlot> {
 /// A circle pair's diagnostics as the page tables them.
 fn diagnosis_table(d: &crate::diagnostics::DiagnosisReport) -> rep::DiagnosisTable {
     rep::DiagnosisTable {
+        instrument: d.instrument.clone(),
         title: format!("{} {}: {}", d.instrument, d.subject, d.runs.join(" + ")),
         circularity_um: d.circularity_um,
         rows: d
@@ -292,6 +293,7 @@ fn polar_runs(
             .unwrap_or_default();
         out.push(rep::PolarRun {
             name: run.name.clone(),
+            instrument: study.setups[study.runs[r].setup].plugin.name.to_string(),
             plane: view.plane,
             radius_mm: view.radius * 1e3,
             angles_deg: view.angles.iter().map(|a| a.to_degrees()).collect(),

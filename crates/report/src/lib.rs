@@ -126,9 +126,10 @@ pub struct Report {
     /// The page title, e.g. `mtcal identification — five-axis-warm`.
     pub title: String,
     pub summary: Summary,
-    pub ballbar: Vec<PolarRun>,
+    /// The runs drawn on circles, each under its instrument's section.
+    pub polar: Vec<PolarRun>,
     /// The instruments' diagnostics in their users' terms (a ball-bar's circle pairs),
-    /// tabled under the ball-bar plots.
+    /// tabled under their instrument's polar plots.
     pub diagnostics: Vec<DiagnosisTable>,
     pub residuals: Vec<ResidualPlot>,
     pub components: Vec<ComponentCurve>,
@@ -176,6 +177,8 @@ pub struct SeriesPoint {
 /// contribution to circularity.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DiagnosisTable {
+    /// The instrument whose runs it diagnoses (its plugin's name).
+    pub instrument: String,
     /// e.g. `ballbar XY: ballbar-xy-ccw + ballbar-xy-cw`.
     pub title: String,
     pub circularity_um: f64,
@@ -264,6 +267,8 @@ pub struct RunRow {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PolarRun {
     pub name: String,
+    /// The instrument that draws it (its plugin's name): the section it goes under.
+    pub instrument: String,
     /// The plane, e.g. `XY`: angles run from the first letter's axis towards the second's.
     pub plane: String,
     /// Nominal bar length, mm.

@@ -3,7 +3,7 @@
 
 use crate::escape::{display_unit, escape, num, with_interval};
 use crate::plots::{self, BEFORE, MEASURED, MODEL};
-use crate::{Estimate, Report, ReportError};
+use crate::{DiagnosisTable, Estimate, PolarRun, Report, ReportError};
 use mtcal_instrument::capability::{PolarSection, declared};
 use std::fmt::Write as _;
 
@@ -76,7 +76,7 @@ pub(crate) const ACCEPTANCE: (&str, &str) = ("acceptance", "Acceptance");
 pub(crate) const SERIES: (&str, &str) = ("series", "Location errors cycle by cycle");
 
 pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
-    let polar = polar_section(r)?;
+    let polar = polar_sections(r)?;
     let bodies = [
         summary(r),
         residuals(r)?,
@@ -95,8 +95,8 @@ pub(crate) fn page(r: &Report) -> Result<String, ReportError> {
         escape(&r.summary.machine),
     );
     let mut sections: Vec<Section<'_>> = SECTIONS.into_iter().zip(bodies).collect();
-    if let Some(polar) = polar {
-        sections.insert(1, polar);
+    for (k, section) in polar.into_iter().enumerate() {
+        sections.insert(1 + k, section);
     }
     if !r.location_series.is_empty() {
         let at = sections
@@ -239,23 +239,38 @@ fn verdict_colour(verdict: &str) -> &'static str {
 /// A section of the page: its id and heading, its body.
 type Section<'a> = ((&'a str, &'a str), String);
 
-/// The section of the runs drawn on circles, id and heading as the plugin that draws them
-/// declares it ([`PolarSection`]; the first by name should several, the polar views sharing it);
-/// none when no linked plugin declares one.
-fn polar_section(r: &Report) -> Result<Option<Section<'static>>, ReportError> {
-    let Some(section) = declared::<PolarSection>().first().copied() else {
-        return Ok(None);
-    };
-    let body = polar_views(r, section.none)?;
-    Ok(Some(((section.instrument, section.heading), body)))
+/// A section per instrument whose runs are drawn on circles, id and heading as its plugin
+/// declares them ([`PolarSection`], in the order of their names), each with that instrument's
+/// runs and diagnostics; none when no linked plugin declares one.
+fn polar_sections(r: &Report) -> Result<Vec<Section<'static>>, ReportError> {
+    declared::<PolarSection>()
+        .into_iter()
+        .map(|section| {
+            let runs: Vec<&PolarRun> = r
+                .polar
+                .iter()
+                .filter(|p| p.instrument == section.instrument)
+                .collect();
+            let diagnostics = r
+                .diagnostics
+                .iter()
+                .filter(|d| d.instrument == section.instrument);
+            let body = polar_views(&runs, diagnostics, section.none)?;
+            Ok(((section.instrument, section.heading), body))
+        })
+        .collect()
 }
 
 /// Every polar view's plot (`none` when there is none) and the diagnostics under them.
-fn polar_views(r: &Report, none_text: &str) -> Result<String, ReportError> {
-    if r.ballbar.is_empty() {
+fn polar_views<'a>(
+    runs: &[&PolarRun],
+    diagnostics: impl Iterator<Item = &'a DiagnosisTable>,
+    none_text: &str,
+) -> Result<String, ReportError> {
+    if runs.is_empty() {
         return Ok(none(none_text));
     }
-    let with_before = r.ballbar.iter().any(|b| b.model_before_um.is_some());
+    let with_before = runs.iter().any(|b| b.model_before_um.is_some());
     let mut h = format!(
         "<p>The bar-length deviation <i>dr</i> around each circle, magnified about a reference \
          circle: the thick grey ring is <i>dr</i> = 0, the thin rings the scale written on \
@@ -268,7 +283,7 @@ fn polar_views(r: &Report, none_text: &str) -> Result<String, ReportError> {
         },
         key(MODEL, "identified model"),
     );
-    for run in &r.ballbar {
+    for run in runs {
         let svg = plots::polar(run)?;
         let mut caption = format!(
             "<b>{}</b> — plane {}, bar {} mm, {} samples",
@@ -289,7 +304,7 @@ fn polar_views(r: &Report, none_text: &str) -> Result<String, ReportError> {
         h.push_str(&figure("polar", &run.name, &svg, &caption));
     }
     h.push_str("</div>\n");
-    for (k, d) in r.diagnostics.iter().enumerate() {
+    for (k, d) in diagnostics.enumerate() {
         h.push_str(&diagnosis(k, d));
     }
     Ok(h)

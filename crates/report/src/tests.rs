@@ -63,6 +63,7 @@ fn circle_run(n: usize) -> PolarRun {
     let model: Vec<f64> = angles.iter().map(|a| 3.0 * a.to_radians().cos()).collect();
     PolarRun {
         name: "ballbar-xy-ccw".into(),
+        instrument: "ballbar".into(),
         plane: "XY".into(),
         radius_mm: 100.0,
         angles_deg: angles,
@@ -126,8 +127,9 @@ fn sample() -> Report {
                 rms_um: 0.988,
             }],
         },
-        ballbar: vec![circle_run(181), circle_run(91)],
+        polar: vec![circle_run(181), circle_run(91)],
         diagnostics: vec![DiagnosisTable {
+            instrument: "ballbar".into(),
             title: "ballbar XY: <ccw> + cw".into(),
             circularity_um: 7.0,
             rows: vec![
@@ -475,13 +477,13 @@ fn the_page_has_every_section_in_order_and_one_svg_per_plot() {
         at = k;
     }
     let count = |s: &str| s.matches("<svg ").count();
-    assert_eq!(count(section(&page, "ballbar")), r.ballbar.len());
+    assert_eq!(count(section(&page, "ballbar")), r.polar.len());
     assert_eq!(count(section(&page, "residuals")), r.residuals.len());
     assert_eq!(count(section(&page, "components")), r.components.len());
     assert_eq!(count(section(&page, "volumetric")), 1);
     assert_eq!(
         count(&page),
-        r.ballbar.len() + r.residuals.len() + r.components.len() + 1
+        r.polar.len() + r.residuals.len() + r.components.len() + 1
     );
     assert!(section(&page, "discoveries").contains("reversal X (X)"));
     assert!(section(&page, "discoveries").contains("1.004 → 0.756 µm"));
@@ -506,7 +508,7 @@ fn empty_sections_say_why() {
 #[test]
 fn bad_input_is_an_error_and_writes_nothing() {
     let mut r = sample();
-    r.ballbar[0].model_um.pop();
+    r.polar[0].model_um.pop();
     let err = render(&r).unwrap_err();
     assert!(matches!(err, ReportError::Invalid { .. }), "{err}");
     assert!(err.to_string().contains("ballbar-xy-ccw"), "{err}");
@@ -685,4 +687,36 @@ fn the_series_section_is_there_only_with_series_and_draws_each_cycle() {
     let without = format!("{}{}", &page[..start], &page[end..])
         .replace("<a href=\"#series\">Location errors cycle by cycle</a>", "");
     assert_eq!(without, plain);
+}
+
+// A second instrument that draws its runs on circles (declared only in these tests).
+inventory::submit! {
+    mtcal_instrument::capability::PolarSection {
+        instrument: "dial-circle",
+        heading: "Dial circles",
+        none: "No dial circles in this session.",
+    }
+}
+
+#[test]
+fn each_instrument_s_circles_are_under_its_own_heading() {
+    let mut r = sample();
+    let mut dial = circle_run(61);
+    dial.name = "dial-xy".into();
+    dial.instrument = "dial-circle".into();
+    r.polar.push(dial);
+    let mut table = r.diagnostics[0].clone();
+    table.instrument = "dial-circle".into();
+    table.title = "dial-circle XY: dial-xy".into();
+    r.diagnostics.push(table);
+    let page = render(&r).unwrap();
+    let (bar, dial) = (section(&page, "ballbar"), section(&page, "dial-circle"));
+    assert!(dial.contains("<h2>Dial circles</h2>"), "{dial}");
+    assert_eq!(dial.matches("<svg ").count(), 1);
+    assert!(dial.contains("dial-xy") && dial.contains("dial-circle XY"));
+    assert_eq!(bar.matches("<svg ").count(), r.polar.len() - 1);
+    assert!(!bar.contains("dial-xy") && !bar.contains("dial-circle XY"));
+    // Without its runs, the section says so in its own words.
+    let page = render(&sample()).unwrap();
+    assert!(section(&page, "dial-circle").contains("No dial circles in this session."));
 }
