@@ -312,8 +312,8 @@ fn realism(seed: u64) -> Realism {
     // quantised to 0.2 µm — to see how the search fares on noise further from what it assumes
     // (measured 2026-11-30: f = 1.5: 76 of 80 named, no claim, 36 of 36 determined validation
     // runs within 1.2 × the noise, none worse; f = 0.5: 75 of 80, no claim, 70 of 72, none
-    // worse — the C table + B head beside the head's warm-up, where the second drift node's
-    // refit stops at its iteration limit and is not kept).
+    // worse — the C table + B head beside the head's warm-up, whose second drift node these
+    // data cannot tell from the fitted parameters).
     match std::env::var("HARSH").ok().and_then(|f| f.parse().ok()) {
         Some(factor) => Realism {
             noise_phi: 0.8,
