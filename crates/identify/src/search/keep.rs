@@ -46,14 +46,10 @@ pub(super) fn keep_what_holds(
         let pin = pinned(&current, &stages[k].addition.params);
         // Pinned at the edge where its family makes it a simpler effect (a lateral play taken
         // up over no travel), the fit found that effect: the stage holds it instead.
-        if let Some(simpler) = pin.as_ref().and_then(|p| simpler_form(&current, p)) {
-            current = simplified(
-                current,
-                &mut stages[k],
-                simpler,
-                pin.expect("pinned"),
-                options,
-            )?;
+        if let Some(p) = &pin
+            && let Some((old, simpler)) = simpler_form(&current, p)
+        {
+            current = simplified(current, &mut stages[k], &old, simpler, &p.why, options)?;
             changed = true;
             continue;
         }
@@ -347,9 +343,9 @@ struct Pinned {
     why: String,
 }
 
-/// The simpler effect the pinned parameter's effect becomes at that edge
+/// The pinned parameter's effect and the simpler one it becomes at that edge
 /// ([`mtcal_effects::Effect::at_edge`]), unless one of its label is in the model already.
-fn simpler_form(current: &Fitted, pin: &Pinned) -> Option<Arc<dyn Effect>> {
+fn simpler_form(current: &Fitted, pin: &Pinned) -> Option<(Arc<dyn Effect>, Arc<dyn Effect>)> {
     let study = &current.study;
     let effect = study.effect_of_param(pin.index)?;
     let k = study
@@ -362,22 +358,20 @@ fn simpler_form(current: &Fitted, pin: &Pinned) -> Option<Arc<dyn Effect>> {
         .effects()
         .iter()
         .any(|e| e.info().label == simpler.info().label);
-    (!taken).then_some(simpler)
+    (!taken).then(|| (Arc::clone(effect), simpler))
 }
 
-/// `current` with `stage`'s effect replaced by `simpler` (its form at the edge where the fit
-/// pinned it) and refitted on the same noise; the stage holds the simpler effect from now on
-/// and says why.
+/// `current` with `stage`'s effect `old` replaced by `simpler` (its form at the edge where the
+/// fit pinned it, `pinned` saying so) and refitted on the same noise; the stage holds the
+/// simpler effect from now on and says why.
 fn simplified(
     current: Fitted,
     stage: &mut Stage,
+    old: &Arc<dyn Effect>,
     simpler: Arc<dyn Effect>,
-    pin: Pinned,
+    pinned: &str,
     options: &SearchOptions,
 ) -> Result<Fitted, IdentifyError> {
-    let AddedChange::Effect(old) = &stage.addition.change else {
-        unreachable!("only an effect has a shape to pin");
-    };
     let mut changes = current.study.changes().clone();
     for e in &mut changes.effects {
         if Arc::ptr_eq(e, old) {
@@ -402,7 +396,7 @@ fn simplified(
     stage.simplified = Some(format!(
         "added as {}: {}, where it is this simpler form",
         old.info().label,
-        pin.why.trim_start_matches("the ")
+        pinned.trim_start_matches("the ")
     ));
     stage.addition = Addition {
         change: AddedChange::Effect(Arc::clone(&simpler)),
