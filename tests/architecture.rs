@@ -1107,3 +1107,112 @@ fn the_name_check_reads_literals_outside_comments_and_tests() {
         assert!(names.contains(name), "{names:?}");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// ARCHITECTURE.md stays true and short
+
+/// Words a newcomer reads in about ten minutes with time left to look at the code.
+const ARCHITECTURE_WORDS: usize = 2_200;
+
+/// The layer table of ARCHITECTURE.md: per line that starts with a layer number, the crate
+/// names on it (`mtcal-…`; a plugin folder list counts as the plugins' crates).
+fn documented_layers(text: &str) -> Vec<(usize, BTreeSet<String>)> {
+    let table = text
+        .split("## Layers")
+        .nth(1)
+        .and_then(|t| t.split("```").nth(1))
+        .unwrap_or("");
+    let mut layers: Vec<(usize, BTreeSet<String>)> = Vec::new();
+    for line in table.lines() {
+        let mut words = line.split_whitespace().peekable();
+        if let Some(n) = words.peek().and_then(|w| w.parse::<usize>().ok()) {
+            words.next();
+            layers.push((n, BTreeSet::new()));
+        }
+        let Some((_, names)) = layers.last_mut() else {
+            continue;
+        };
+        for word in line.split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '/' || c == '*'))
+        {
+            if word.starts_with("mtcal-") || word == "mtcal" {
+                names.insert(word.to_string());
+            }
+        }
+        // `plugins/* (rtest ballbar …)`: the plugin crates by their folders.
+        if let Some(listed) = line.split("plugins/* (").nth(1) {
+            let listed = listed.split(')').next().unwrap_or("");
+            names.extend(listed.split_whitespace().map(|p| format!("mtcal-{p}")));
+        }
+    }
+    layers
+}
+
+/// Repository paths ARCHITECTURE.md names in backticks (`a/b.rs`, `crates/x/`) that do not
+/// exist.
+fn missing_paths(text: &str, root: &Path) -> Vec<String> {
+    text.split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|s| s.contains('/') && !s.contains(' ') && !s.contains("::"))
+        .filter(|s| {
+            let first = s.split('/').next().unwrap_or("");
+            [
+                "crates",
+                "kinematics",
+                "plugins",
+                "tests",
+                "xtask",
+                "python",
+                "benches",
+            ]
+            .contains(&first)
+        })
+        .filter(|s| !root.join(s.trim_end_matches('/')).exists())
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn architecture_md_tells_the_layers_and_paths_as_they_are_and_stays_short() {
+    let root = workspace();
+    let text = std::fs::read_to_string(root.join("ARCHITECTURE.md")).unwrap();
+    let words = text.split_whitespace().count();
+    assert!(
+        words <= ARCHITECTURE_WORDS,
+        "ARCHITECTURE.md has {words} words; keep it within {ARCHITECTURE_WORDS}"
+    );
+    let documented = documented_layers(&text);
+    for (layer, crates) in LAYERS.iter().enumerate() {
+        for name in crates.iter().filter(|n| !DEV_ONLY.contains(n)) {
+            let at = documented.iter().find(|(_, names)| names.contains(*name));
+            assert_eq!(
+                at.map(|(n, _)| *n),
+                Some(layer),
+                "{name}: layer {layer} in tests/architecture.rs, {:?} in ARCHITECTURE.md",
+                at.map(|(n, _)| n)
+            );
+        }
+    }
+    let missing = missing_paths(&text, &root);
+    assert!(missing.is_empty(), "ARCHITECTURE.md names {missing:?}");
+}
+
+#[test]
+fn the_architecture_md_checks_read_the_table_and_find_a_missing_path() {
+    let text = "## Layers\n\n```\n1  mtcal-a   plugins/* (x y)\n   mtcal-b\n0  mtcal-c\n```\n\
+                see `tests/architecture.rs` and `crates/nowhere/src/lib.rs`, `a::b/c`\n";
+    let layers = documented_layers(text);
+    let names = |n: usize| -> Vec<String> {
+        layers
+            .iter()
+            .find(|(l, _)| *l == n)
+            .map(|(_, s)| s.iter().cloned().collect())
+            .unwrap_or_default()
+    };
+    assert_eq!(names(1), ["mtcal-a", "mtcal-b", "mtcal-x", "mtcal-y"]);
+    assert_eq!(names(0), ["mtcal-c"]);
+    assert_eq!(
+        missing_paths(text, &workspace()),
+        ["crates/nowhere/src/lib.rs"]
+    );
+}

@@ -2,11 +2,8 @@
 //!
 //! A folder is identified exactly as `mtcal identify` does it: `pipeline::Prepared::load`, then
 //! `run`. A session in memory goes through `Study::from_parts` (the same study a folder of the
-//! same tables gives), then the same steps `Prepared` takes — which are public, but not
-//! `Prepared` for a study already built — in the same order: `identifiable_study`, the tolerance
-//! names checked, the fit on its noise (`pipeline::identify`, or `search::search` and
-//! `apply_base`), prediction bands, the information account without the held parameters, the
-//! acceptance. python/tests/test_session.py checks that both give the same JSON.
+//! same tables gives), then `Prepared::from_study` and the same `run`.
+//! python/tests/test_session.py checks that both give the same JSON.
 
 use crate::errors::{Kind, identify_error, other};
 use crate::machine::RsMachine;
@@ -342,12 +339,15 @@ pub struct RsOutcome {
 impl RsOutcome {
     /// The identification as `mtcal identify --json` writes it (`mtcal.identify/1`).
     fn json(&self) -> String {
-        self.outcome.identification.to_json()
+        self.outcome.to_json()
     }
 
     /// The fit before the physics search, as JSON; `None` without the search.
     fn initial_json(&self) -> Option<String> {
-        self.outcome.initial.as_ref().map(|i| i.to_json())
+        self.outcome
+            .search
+            .as_ref()
+            .map(|s| mtcal_identify::report::IdentifyJson::of(&s.before).to_json())
     }
 
     /// What a person reads first when the fit did not converge or the model does not explain

@@ -280,7 +280,7 @@ fn campaign_of(input: &Path, machine: &str, date: Option<Timestamp>) -> Result<C
         mtcal_version: env!("CARGO_PKG_VERSION"),
     };
     Ok(Campaign::from_identified_session(
-        &outcome.identification.to_json(),
+        &outcome.to_json(),
         machine,
         date,
         &provenance,

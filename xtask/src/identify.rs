@@ -105,7 +105,7 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
         files.file(path, outcome.suggested_model());
     }
     if let Some(path) = &args.json {
-        files.file(path, outcome.identification.to_json());
+        files.file(path, outcome.to_json());
     }
     if let Some(path) = &args.params_out {
         files.file(path, params_file(&outcome, path)?);
@@ -121,19 +121,19 @@ pub(crate) fn run(args: IdentifyArgs, out: &mut impl Write) -> Result<()> {
         files.file(dir.join("index.html"), outcome.report_page()?);
     }
     crate::commit(out, files)?;
-    checks_failed(&outcome.identification)
+    checks_failed(&outcome)
 }
 
 /// Exit 1 ([`crate::ChecksFailed`]) when the work is done but something asked of it is not: the
 /// fit did not converge or does not explain the recordings (the verdict), or the acceptance
 /// failed or could not be decided.
-fn checks_failed(id: &mtcal_identify::Identification) -> Result<()> {
+fn checks_failed(outcome: &mtcal_identify::pipeline::Outcome) -> Result<()> {
     let mut why = Vec::new();
-    if let Some(verdict) = id.verdict() {
+    if let Some(verdict) = outcome.identification.verdict() {
         let first = verdict.split([':', '\n']).next().unwrap_or(&verdict);
         why.push(format!("the fit: {first}"));
     }
-    if let Some(a) = id
+    if let Some(a) = outcome
         .acceptance
         .as_ref()
         .filter(|a| a.verdict != mtcal_acceptance::Verdict::Pass)
@@ -158,11 +158,7 @@ fn params_file(
     path: &std::path::Path,
 ) -> Result<String> {
     let errors = outcome.study.model.errors();
-    let from = mtcal_machine::from_identify::read_identify_json(
-        &outcome.identification.to_json(),
-        path,
-        errors,
-    )?;
+    let from = mtcal_machine::from_identify::read_identify_json(&outcome.to_json(), path, errors)?;
     let mut text: String = from
         .account("")
         .iter()

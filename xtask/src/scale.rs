@@ -175,21 +175,20 @@ fn physics_search(
     mtcal_solve::Solution,
 )> {
     let options = mtcal_identify::search::SearchOptions::default();
-    let mut result = mtcal_identify::search::search(study, &options)?;
-    result
+    let result = mtcal_identify::search::search(study, &options)?;
+    let identification = result
         .identification
-        .add_prediction_bands(&result.study, &result.solution);
-    if let Some(report) = &result.identification.search {
-        writeln!(
-            out,
-            "search: {} candidates, {} steps, {} discoveries; {}",
-            report.candidates,
-            report.steps.len(),
-            result.identification.discoveries.len(),
-            report.stopped
-        )?;
-    }
-    Ok((result.identification, result.study, result.solution))
+        .with_prediction_bands(&result.study, &result.solution);
+    let report = &result.findings.report;
+    writeln!(
+        out,
+        "search: {} candidates, {} steps, {} discoveries; {}",
+        report.candidates,
+        report.steps.len(),
+        result.findings.discoveries.len(),
+        report.stopped
+    )?;
+    Ok((identification, result.study, result.solution))
 }
 
 /// A `kB` line of `/proc/self/status` (Linux), in KiB.

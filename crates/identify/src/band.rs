@@ -99,9 +99,10 @@ fn prediction_u95_inflated(
 }
 
 impl crate::report::Identification {
-    /// Adds to every validation run its mean 95 % prediction band and, where it has readings,
-    /// its RMS prediction error in units of the stated noise (1 = predicted to the noise).
-    pub fn add_prediction_bands(&mut self, study: &Study, solution: &Solution) {
+    /// The report with every validation run's mean 95 % prediction band and, where it has
+    /// readings, its RMS prediction error in units of the stated noise (1 = predicted to the
+    /// noise).
+    pub fn with_prediction_bands(mut self, study: &Study, solution: &Solution) -> Self {
         let inflation = noise_inflation(study, solution);
         for (r, run) in study.runs.iter().enumerate() {
             if run.fit {
@@ -144,5 +145,6 @@ impl crate::report::Identification {
                 });
             }
         }
+        self
     }
 }

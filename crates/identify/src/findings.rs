@@ -1,5 +1,6 @@
 //! What the physics search found and how it went (FORMATS.md `discoveries` and `search`):
-//! data the report holds; [`crate::search`] fills them.
+//! data the outcome holds beside the fit ([`crate::pipeline::Outcome`]); [`crate::search`]
+//! builds them.
 
 use serde::Serialize;
 
@@ -115,6 +116,15 @@ pub struct Concealed {
     pub hides_behind: Vec<String>,
     /// A measurement that would separate it from them.
     pub measurement: String,
+}
+
+/// What the physics search found: the effects it added, in the order it added them
+/// (FORMATS.md `discoveries`), and how it went (`search`). Its words are
+/// [`SearchFindings::summary_with`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SearchFindings {
+    pub discoveries: Vec<Discovery>,
+    pub report: SearchReport,
 }
 
 /// How the search went.

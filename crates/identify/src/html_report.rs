@@ -5,7 +5,9 @@
 //! plugins' hooks ([`mtcal_instrument::InstrumentPlugin::polar_view`]): no instrument is named.
 
 use crate::IdentifyError;
+use crate::findings::SearchFindings;
 use crate::report::Identification;
+use crate::search::Searched;
 use crate::study::Study;
 use mtcal_instrument::PolarView;
 use mtcal_kinematics::volmap::{Grid, MapOptions, volumetric_map};
@@ -24,30 +26,32 @@ struct Before<'a> {
     predictions: Vec<Option<Vec<f64>>>,
 }
 
-/// The report of the identification `id` (its `study` and `solution`) of `session`; with
-/// `initial` (the fit before the physics search) the page compares before and after.
+/// The report of the identification `id` (its `study` and `solution`) of `session`; after a
+/// physics search (`searched`) the page compares the fit before it with the final one.
 pub fn report(
     session: &Path,
     study: &Study,
     solution: &Solution,
     id: &Identification,
-    initial: Option<&Identification>,
+    searched: Option<&Searched>,
+    verdicts: Option<&mtcal_acceptance::Acceptance>,
 ) -> Result<rep::Report, IdentifyError> {
-    let before = match initial {
-        Some(initial) => {
+    let before = match searched {
+        Some(searched) => {
             // The search started from the session as loaded: that study for its predictions.
             let study = study.as_loaded()?;
-            (study.layout().n_x() == initial.x.len()).then(|| {
-                let predictions = predictions(&study, &initial.x);
+            (study.layout().n_x() == searched.before_x.len()).then(|| {
+                let predictions = predictions(&study, &searched.before_x);
                 Before {
                     study,
-                    id: initial,
+                    id: &searched.before,
                     predictions,
                 }
             })
         }
         None => None,
     };
+    let findings = searched.map(|s| &s.findings);
     let after = predictions(study, &solution.x);
     Ok(rep::Report {
         title: format!("mtcal identification — {}", session_name(session)),
@@ -58,9 +62,9 @@ pub fn report(
         components: components(study, id),
         volumetric: volumetric(study, solution)?,
         parameters: parameters(study, solution, id),
-        identifiability: identifiability(id),
-        search: search(id),
-        acceptance: id.acceptance.as_ref().map(acceptance),
+        identifiability: identifiability(id, findings),
+        search: findings.map(search),
+        acceptance: verdicts.map(acceptance),
         location_series: location_series(id),
         conventions: id
             .conventions
@@ -547,7 +551,7 @@ fn parameters(study: &Study, solution: &Solution, id: &Identification) -> Vec<re
     rows
 }
 
-fn identifiability(id: &Identification) -> rep::Identifiability {
+fn identifiability(id: &Identification, findings: Option<&SearchFindings>) -> rep::Identifiability {
     rep::Identifiability {
         combinations: id
             .unidentifiable
@@ -557,10 +561,9 @@ fn identifiability(id: &Identification) -> rep::Identifiability {
                 why: u.why.clone(),
             })
             .collect(),
-        concealed: id
-            .search
+        concealed: findings
             .iter()
-            .flat_map(|s| &s.concealed)
+            .flat_map(|f| &f.report.concealed)
             .map(|c| rep::ConcealedEffect {
                 // The candidate's name already says its family, e.g. `ECZ (omitted-parameter)`.
                 effect: c.candidate.clone(),
@@ -579,9 +582,9 @@ fn identifiability(id: &Identification) -> rep::Identifiability {
     }
 }
 
-fn search(id: &Identification) -> Option<rep::SearchOutcome> {
-    let s = id.search.as_ref()?;
-    let discoveries = id
+fn search(findings: &SearchFindings) -> rep::SearchOutcome {
+    let s = &findings.report;
+    let discoveries = findings
         .discoveries
         .iter()
         .map(|d| rep::DiscoveryText {
@@ -605,12 +608,12 @@ fn search(id: &Identification) -> Option<rep::SearchOutcome> {
                 .map(move |t| format!("step {}: {}: {}", k + 1, t.candidate, t.why))
         })
         .collect();
-    Some(rep::SearchOutcome {
+    rep::SearchOutcome {
         candidates: s.candidates,
         stopped: s.stopped.to_string(),
         discoveries,
         not_kept,
-    })
+    }
 }
 
 #[cfg(test)]

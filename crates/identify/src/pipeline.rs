@@ -11,8 +11,8 @@
 
 use crate::IdentifyError;
 use crate::base::{BaseModel, identifiable_study, suggested_model};
-use crate::report::Identification;
-use crate::search::SearchOptions;
+use crate::report::{Identification, IdentifyJson};
+use crate::search::{SearchOptions, Searched};
 use crate::study::Study;
 use mtcal_solve::{Observer, Options, Solution};
 use std::fmt;
@@ -54,7 +54,7 @@ fn fit(
     let (study, solution) = fit_on_its_noise(study, options, observer)?;
     let mut identification = Identification::new(&study, &solution)?;
     if let Some(base) = &base {
-        identification.apply_base(base, &study, &solution);
+        identification = identification.with_base(base, &study, &solution);
     }
     Ok(Identified {
         study,
@@ -99,19 +99,19 @@ fn fit_on_its_noise(
 }
 
 /// The physics search from `study` (already reduced to `base`) with the model applied to its
-/// result; also the fit it started from.
+/// result; also the fit it started from and what it found.
 fn physics_search(
     study: Study,
     base: Option<BaseModel>,
     solver: &Options,
-) -> Result<(Identified, Identification), IdentifyError> {
+) -> Result<(Identified, Searched), IdentifyError> {
     let options = SearchOptions {
         solver: solver.clone(),
         ..Default::default()
     };
     let mut result = crate::search::search(study, &options)?;
     if let Some(base) = &base {
-        result.apply_base(base)?;
+        result = result.with_base(base)?;
     }
     let identified = Identified {
         study: result.study,
@@ -119,7 +119,12 @@ fn physics_search(
         identification: result.identification,
         base,
     };
-    Ok((identified, result.initial))
+    let searched = Searched {
+        before: result.initial,
+        before_x: result.initial_solution.x,
+        findings: result.findings,
+    };
+    Ok((identified, searched))
 }
 
 /// How [`Prepared::run`] identifies.
@@ -225,43 +230,47 @@ impl Prepared {
             base,
             options,
         } = self;
-        let (identified, initial) = if options.search {
-            let (identified, initial) = physics_search(study, base, &options.solver)?;
-            (identified, Some(initial))
+        let (identified, search) = if options.search {
+            let (identified, searched) = physics_search(study, base, &options.solver)?;
+            (identified, Some(searched))
         } else {
             (fit(study, base, &options.solver, observer)?, None)
         };
         let Identified {
             study,
             solution,
-            mut identification,
+            identification,
             base,
         } = identified;
-        identification.add_prediction_bands(&study, &solution);
-        let mut account = crate::information::account(&study, &solution)?;
+        let identification = identification.with_prediction_bands(&study, &solution);
+        let mut information = crate::information::account(&study, &solution)?;
         // What the runs do not determine has no value in the report, nor a line in the account.
         if let Some(base) = &base {
-            account
+            information
                 .parameters
                 .retain(|p| !base.held.iter().any(|h| h.name == p.name));
         }
-        identification.information = Some(account);
-        if let Some(tolerances) = &options.acceptance {
+        let acceptance = options.acceptance.as_ref().map(|tolerances| {
             let evidence = crate::acceptance::evidence(&study, &solution, &identification);
-            identification.acceptance = Some(mtcal_acceptance::evaluate(tolerances, &evidence));
-        }
+            mtcal_acceptance::evaluate(tolerances, &evidence)
+        });
         Ok(Outcome {
             session,
             study,
             solution,
-            identification,
             base,
-            initial,
+            identification,
+            search,
+            information,
+            acceptance,
         })
     }
 }
 
-/// Everything `mtcal identify` prints and writes, computed.
+/// Everything `mtcal identify` prints and writes, computed: the report of the final fit and,
+/// beside it, what the physics search found, the information account and the acceptance
+/// verdicts. Each part is built once and not changed after; the JSON is a view of them all
+/// ([`Outcome::json`]).
 #[derive(Debug)]
 pub struct Outcome {
     /// The session as the user named it.
@@ -269,13 +278,18 @@ pub struct Outcome {
     /// The study of the final model (with the effects the search kept).
     pub study: Study,
     pub solution: Solution,
-    /// The report: with prediction bands and the information account.
-    pub identification: Identification,
     /// The parameters held because the runs cannot determine them (`None` when the session
     /// names its parameters).
     pub base: Option<BaseModel>,
-    /// The fit before the physics search; `None` without the search.
-    pub initial: Option<Identification>,
+    /// The report of the final fit, with the validation runs' prediction bands.
+    pub identification: Identification,
+    /// With `--search`: the fit before it and what it found.
+    pub search: Option<Searched>,
+    /// Which instrument and run constrain each identified machine parameter, and what
+    /// repeating a run would do ([`crate::information`]).
+    pub information: crate::information::InformationAccount,
+    /// The verdicts against a tolerance file (`identify --acceptance FILE`).
+    pub acceptance: Option<mtcal_acceptance::Acceptance>,
 }
 
 impl Outcome {
@@ -283,16 +297,33 @@ impl Outcome {
     /// before it, the search and the model after it) and the information account — its first
     /// lines unless `verbose`.
     pub fn screen(&self, verbose: bool) -> String {
-        let after = &self.identification;
-        let mut s = match &self.initial {
-            Some(before) => search_screen(before, after, verbose),
-            None => after.summary_with(verbose),
+        let after = self
+            .identification
+            .summary_beside(verbose, self.acceptance.as_ref());
+        let mut s = match &self.search {
+            Some(searched) => search_screen(searched, &self.identification, after, verbose),
+            None => after,
         };
-        if let Some(account) = &after.information {
-            s.push('\n');
-            s.push_str(&screen_lines(&account.summary(), verbose, ACCOUNT_LINES));
-        }
+        s.push('\n');
+        s.push_str(&screen_lines(
+            &self.information.summary(),
+            verbose,
+            ACCOUNT_LINES,
+        ));
         s
+    }
+
+    /// The JSON view of every part ([`IdentifyJson`]).
+    pub fn json(&self) -> IdentifyJson<'_> {
+        IdentifyJson::of(&self.identification)
+            .search(self.search.as_ref().map(|s| &s.findings))
+            .information(Some(&self.information))
+            .acceptance(self.acceptance.as_ref())
+    }
+
+    /// The document `mtcal identify --json` writes (`mtcal.identify/1`).
+    pub fn to_json(&self) -> String {
+        self.json().to_json()
     }
 
     /// What adding the runs of the session `extra` would do to every interval, without
@@ -331,7 +362,7 @@ impl Outcome {
     /// Every validation run's predicted readings as `dir/<run>.csv` would hold them
     /// ([`crate::prediction_files`]).
     pub fn prediction_files(&self, dir: &Path) -> Result<Vec<(PathBuf, String)>, IdentifyError> {
-        crate::prediction_files(&self.study, &self.identification.x, dir)
+        crate::prediction_files(&self.study, &self.solution.x, dir)
     }
 
     /// The HTML report's model ([`crate::html_report::report`]).
@@ -341,7 +372,8 @@ impl Outcome {
             &self.study,
             &self.solution,
             &self.identification,
-            self.initial.as_ref(),
+            self.search.as_ref(),
+            self.acceptance.as_ref(),
         )
     }
 
@@ -352,15 +384,21 @@ impl Outcome {
 }
 
 /// The screen of the physics search: the model before it (its summary when `verbose`, else
-/// the final verdict and one line), the search, the model after it.
-fn search_screen(before: &Identification, after: &Identification, verbose: bool) -> String {
+/// the final verdict and one line), the search, the model after it (`after`: its summary).
+fn search_screen(
+    searched: &Searched,
+    final_fit: &Identification,
+    after: String,
+    verbose: bool,
+) -> String {
+    let before = &searched.before;
     let mut s = String::new();
     if verbose {
         s.push_str("before the physics search:\n");
         s.push_str(&before.summary_with(true));
     } else {
         // The verdict on the final model first; the fit before the search in one line.
-        if let Some(v) = after.verdict() {
+        if let Some(v) = final_fit.verdict() {
             s.push_str(&format!("{v}\n\n"));
         }
         s.push_str(&format!(
@@ -371,9 +409,9 @@ fn search_screen(before: &Identification, after: &Identification, verbose: bool)
         ));
     }
     s.push('\n');
-    s.push_str(&after.search_summary_with(verbose));
+    s.push_str(&searched.findings.summary_with(verbose));
     s.push_str("\nafter the physics search:\n");
-    s.push_str(&after.summary_with(verbose));
+    s.push_str(&after);
     s
 }
 

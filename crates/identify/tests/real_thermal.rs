@@ -189,7 +189,13 @@ fn fmt(mae: &[f64; 5]) -> String {
 /// on the last 20 % after each discovery (printed) and at the end, and the search's time.
 fn searched(rec: &Recording, cut: Cut) -> ([f64; 5], std::time::Duration) {
     let dir = tempfile::tempdir().unwrap();
-    let session = write_session(dir.path(), rec, cut);
+    // `KEEP=dir` keeps the session (as `dir/<cut>`) to time or look at with `mtcal`.
+    let folder = match std::env::var("KEEP") {
+        Ok(keep) => Path::new(&keep).join(format!("{cut:?}")),
+        Err(_) => dir.path().to_path_buf(),
+    };
+    std::fs::create_dir_all(&folder).unwrap();
+    let session = write_session(&folder, rec, cut);
     let started = std::time::Instant::now();
     let loaded = Study::load(&session).unwrap();
     assert!(loaded.effects().is_empty(), "no start model");
@@ -198,10 +204,10 @@ fn searched(rec: &Recording, cut: Cut) -> ([f64; 5], std::time::Duration) {
     let mut result = search(study, &SearchOptions::default()).unwrap();
     let took = started.elapsed();
     if let Some(base) = &base {
-        result.apply_base(base).unwrap();
+        result = result.with_base(base).unwrap();
     }
-    let id = &result.identification;
-    eprintln!("{cut:?}:\n{}", id.search_summary_with(false));
+    let found = &result.findings;
+    eprintln!("{cut:?}:\n{}", found.summary_with(false));
     // Every step's error on the unseen speed steps: the model with the first k discoveries,
     // refitted.
     let effects = result.study.effects().to_vec();
@@ -242,9 +248,12 @@ fn searched(rec: &Recording, cut: Cut) -> ([f64; 5], std::time::Duration) {
     eprintln!("{report}");
     // The drivers are the search's own: a joint model of every recorded input per channel.
     assert!(
-        id.discoveries.iter().any(|d| d.effect == "thermal-model"),
+        found
+            .discoveries
+            .iter()
+            .any(|d| d.effect == "thermal-model"),
         "{}",
-        id.search_summary()
+        found.summary()
     );
     for c in 0..5 {
         assert!(

@@ -124,14 +124,15 @@ fn search_peak_heap(samples: usize) -> (usize, usize) {
     GLOBAL.reset_peak_memory();
     let study = Study::load(&dir.path().join("s")).unwrap();
     let n: usize = study.runs.iter().map(|r| r.len()).sum();
-    let mut result = mtcal_identify::search::search(study, &SearchOptions::default()).unwrap();
-    result
+    let result = mtcal_identify::search::search(study, &SearchOptions::default()).unwrap();
+    let banded = result
         .identification
-        .add_prediction_bands(&result.study, &result.solution);
+        .clone()
+        .with_prediction_bands(&result.study, &result.solution);
     let account = mtcal_identify::information::account(&result.study, &result.solution).unwrap();
-    let report = result.identification.search.as_ref().unwrap();
+    let report = &result.findings.report;
     assert!(report.candidates > 100, "{}", report.stopped);
-    drop((account, result));
+    drop((account, banded, result));
     (n, GLOBAL.get_peak_memory())
 }
 

@@ -219,19 +219,11 @@ fn a_search_loads_each_set_up_once_and_reads_nothing_again() {
         if delete {
             std::fs::rename(&kept, &session).unwrap();
         }
-        let searched = outcome
-            .identification
-            .search
-            .as_ref()
-            .map_or(0, |s| s.steps.iter().map(Vec::len).sum::<usize>());
+        let searched = outcome.search.as_ref().map_or(0, |s| {
+            s.findings.report.steps.iter().map(Vec::len).sum::<usize>()
+        });
         let loads = COUNTED_LOADS.load(std::sync::atomic::Ordering::SeqCst);
-        (
-            loaded,
-            loads,
-            searched,
-            outcome.identification.to_json(),
-            page,
-        )
+        (loaded, loads, searched, outcome.to_json(), page)
     };
     let (loaded, loads, searched, json, page) = run(false);
     assert_eq!(loaded, rtest_setups.len(), "set-ups loaded by Study::load");
@@ -380,9 +372,9 @@ fn a_new_effect_family_is_one_registration() {
         3,
         Variant::default(),
     );
-    let id = &result.identification;
-    let summary = id.search_summary();
-    let d = id
+    let found = &result.findings;
+    let summary = found.summary();
+    let d = found
         .discoveries
         .iter()
         .find(|d| d.effect == "stub-step" && d.axis.as_deref() == Some("X"))
@@ -390,7 +382,7 @@ fn a_new_effect_family_is_one_registration() {
     let q = &d.parameters[0];
     let u95 = q.u95.expect("determined");
     assert!((q.value - 3.0).abs() <= u95, "{q:?}\n{summary}");
-    assert_eq!(id.discoveries.len(), 1, "{summary}");
+    assert_eq!(found.discoveries.len(), 1, "{summary}");
     // Its registration's words reach the discovery's sentence.
     assert!(
         summary.contains("a test's stub: nothing to measure"),

@@ -4,9 +4,10 @@
 //! crate and vanishes from a binary that never names that crate. This crate names them all, and
 //! whoever looks plugins up does so through its [`plugins`] and [`find`] (the identification
 //! core, the planner, the command line), so anything that links them sees every plugin without
-//! naming a plugin crate itself. A new plugin crate gets a `use … as _;` line here and its name
-//! in the test below. The tools that handle runs by what they are rather than by instrument ask
-//! for a [`capability`] through here too, so the plugins that declare it are linked.
+//! naming a plugin crate itself. A new plugin crate gets a `use … as _;` line here (and its
+//! dependency in this crate's manifest). The tools that handle runs by what they are rather
+//! than by instrument ask for a [`capability`] through here too, so the plugins that declare it
+//! are linked.
 
 use mtcal_artefact as _;
 use mtcal_ballbar as _;
@@ -31,19 +32,19 @@ pub fn names() -> Vec<&'static str> {
 mod tests {
     use super::*;
 
+    /// One plugin per crate linked above (a crate that registers none, or two, or two crates
+    /// under one name, fail here), each found by its name.
     #[test]
     fn every_plugin_is_registered_exactly_once() {
-        assert_eq!(
-            names(),
-            [
-                "artefact",
-                "ballbar",
-                "displacement",
-                "laser",
-                "rtest",
-                "tracer"
-            ]
-        );
+        let linked = include_str!("lib.rs")
+            .lines()
+            .filter(|l| l.starts_with("use mtcal_") && l.ends_with(" as _;"))
+            .count();
+        let mut unique = names();
+        unique.dedup();
+        assert_eq!(unique.len(), names().len(), "{:?}", names());
+        assert_eq!(names().len(), linked, "{:?}", names());
+        assert!(names().contains(&"rtest"), "{:?}", names());
         for name in names() {
             assert_eq!(find(name).map(|p| p.name), Some(name));
             assert!(!find(name).expect("registered").about.is_empty());

@@ -217,7 +217,7 @@ fn identified(dir: tempfile::TempDir, sim: SimMachine, truth: Truth) -> Case {
     let study = &outcome.study;
     let model = MachineModel::clone(&study.model);
     // The identify JSON as the user has it, read as `compensate --params id.json` reads it.
-    let json = outcome.identification.to_json();
+    let json = outcome.to_json();
     let json_path = dir.path().join("id.json");
     let from = mtcal_machine::from_identify::read_identify_json(&json, &json_path, model.errors())
         .unwrap();

@@ -19,7 +19,12 @@ fn every_parameter_of_the_examples_is_read_with_its_status() {
     let date = parse_date("2025-01-15T09:00:00Z").unwrap();
     for example in ["three-axis", "five-axis"] {
         let id = identify(example);
-        let campaign = Campaign::from_identify_json(&id.to_json(), "mill-7", date).unwrap();
+        let campaign = Campaign::from_identify_json(
+            &mtcal_identify::report::IdentifyJson::of(&id).to_json(),
+            "mill-7",
+            date,
+        )
+        .unwrap();
         assert_eq!(campaign.machine.name, "mill-7");
         assert_eq!(campaign.date, date);
         let weak: HashSet<&str> = id

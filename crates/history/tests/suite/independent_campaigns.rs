@@ -98,10 +98,10 @@ fn series(rate_um_per_day: f64, series: u64) -> (Vec<Measured>, TrendView) {
             .unwrap()
             .run(&mut mtcal_solve::Silent)
             .unwrap();
-        let id = &outcome.identification;
         let date = Timestamp::from_second(EPOCH_S + (days * DAY_S) as i64).unwrap();
-        let campaign = Campaign::from_identify_json(&id.to_json(), MACHINE, date).unwrap();
+        let campaign = Campaign::from_identify_json(&outcome.to_json(), MACHINE, date).unwrap();
         store.add(&campaign).unwrap();
+        let id = &outcome.identification;
         let value = id.verdict().is_none().then(|| {
             let p = id
                 .parameters

@@ -112,7 +112,7 @@ fn identify_json(example: &str) -> String {
         .join(example)
         .join("session");
     let (_, identification) = mtcal_identify::identify_session(&session).unwrap();
-    identification.to_json()
+    mtcal_identify::report::IdentifyJson::of(&identification).to_json()
 }
 
 fn nothing_is_ever_overwritten(kind: Kind) {

@@ -88,9 +88,7 @@ impl Identification {
             .flat_map(|r| &r.channels)
             .map(|c| c.rms * c.rms * c.samples as f64)
             .sum();
-        let mut id = Identification {
-            schema: "mtcal.identify/1",
-            verdict: None,
+        Ok(Identification {
             parameters,
             component_errors,
             combinations: Vec::new(),
@@ -124,8 +122,6 @@ impl Identification {
             mismatch: analysis.mismatch.clone(),
             mismatch_detail: analysis.describe(),
             tests: analysis.tests.clone(),
-            discoveries: Vec::new(),
-            search: None,
             solver: SolverReport {
                 iterations: solution.iterations,
                 passes: solution.evaluations,
@@ -136,15 +132,10 @@ impl Identification {
                 parameters: solution.x.len(),
                 condition_number: solution.condition_number,
             },
-            information: None,
             conventions: mtcal_machine::card::ConventionCard::mtcal_parameters(
                 study.model.machine(),
             ),
-            acceptance: None,
-            x,
-        };
-        id.verdict = id.verdict();
-        Ok(id)
+        })
     }
 }
 
@@ -381,15 +372,15 @@ pub(crate) fn component_curves_sampled(
 }
 
 impl Identification {
-    /// Reports what `base` says: a parameter that stands for a combination moves from
+    /// The report with what `base` says: a parameter that stands for a combination moves from
     /// `parameters` to `combinations` (FORMATS.md: what the data cannot separate never has a
     /// value of its own), and every held parameter is named in `unidentifiable`.
-    pub fn apply_base(
-        &mut self,
+    pub fn with_base(
+        mut self,
         base: &BaseModel,
         study: &Study,
         solution: &mtcal_solve::Solution,
-    ) {
+    ) -> Self {
         let index: std::collections::HashMap<String, usize> = (0..study.layout().n_x())
             .map(|i| (study.param_info(i).name, i))
             .collect();
@@ -466,5 +457,6 @@ impl Identification {
         }
         self.held = base.held.clone();
         self.undetermined_validation = base.validation.clone();
+        self
     }
 }

@@ -10,9 +10,11 @@ use serde::Serialize;
 use std::fmt::Write as _;
 
 mod build;
+mod json;
 mod text;
 
 pub(crate) use build::component_curves_sampled;
+pub use json::IdentifyJson;
 pub use text::chi2_within_noise;
 
 pub use crate::K95;
@@ -150,78 +152,49 @@ pub struct SolverReport {
     pub condition_number: f64,
 }
 
-/// Everything `identify` reports.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+/// The report of one fit: its parameters with their intervals, what the runs cannot
+/// determine, how well it fits and predicts, where its residuals depart from the noise. Built
+/// once per fit ([`Identification::new`], then [`Identification::with_base`] and
+/// [`Identification::with_prediction_bands`] where they apply); what the search found, the
+/// information account and the acceptance stand beside it in [`crate::pipeline::Outcome`],
+/// and the JSON is a view of them all ([`IdentifyJson`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Identification {
-    pub schema: &'static str,
-    /// What a person reads first when the fit is not a calibration ([`Self::verdict`]): it
-    /// did not converge, or the model does not explain the recordings. In the JSON only then.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub verdict: Option<String>,
     pub parameters: Vec<ParameterValue>,
     pub component_errors: Vec<ComponentCurve>,
     /// Combinations of parameters the runs determine although they cannot separate them
-    /// ([`crate::base`]); in the JSON only when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// ([`crate::base`]).
     pub combinations: Vec<CombinationValue>,
     pub unidentifiable: Vec<Unidentifiable>,
-    /// Parameters the runs do not determine, held near their start
-    /// ([`crate::base`]); in the JSON only when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// Parameters the runs do not determine, held near their start ([`crate::base`]).
     pub held: Vec<crate::base::Held>,
     /// Validation runs that depend on held parameters the fitted runs do not determine
-    /// ([`crate::base::BaseModel::validation`]); in the JSON only when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// ([`crate::base::BaseModel::validation`]).
     pub undetermined_validation: Vec<(String, Vec<crate::base::Term>)>,
-    /// Identified parameters the runs barely determine ([`WeaklyDetermined`]); in the JSON
-    /// only when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// Identified parameters the runs barely determine ([`WeaklyDetermined`]).
     pub weakly_determined: Vec<WeaklyDetermined>,
     pub fit: Fit,
     /// The noise the fit assumed where it is not the stated white noise ([`crate::noise`]),
-    /// one sentence per set-up; in the JSON only when there is one.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// one sentence per set-up.
     pub noise: Vec<String>,
     /// Validation runs: not fitted; how well the identified model predicts them.
     pub validation: Vec<RunFit>,
     /// The instruments' own diagnostics in their users' terms (a ball-bar's circle pairs),
     /// with the model's value and what stands behind it ([`crate::diagnostics`]).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub diagnostics: Vec<crate::diagnostics::DiagnosisReport>,
     /// The location errors cycle by cycle where the runs overlap in time (R-test sets
     /// repeated between load cycles), each cycle's own value beside the model's
-    /// ([`crate::series`]); in the JSON only when there are any.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    /// ([`crate::series`]).
     pub location_series: Vec<crate::series::LocationSeries>,
     /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
     pub mismatch: mtcal_mismatch::Mismatch,
     /// Every structure test behind `mismatch`, one sentence each for the rejected ones; in the
     /// JSON as `mismatch_tests`.
-    #[serde(rename = "mismatch_tests")]
     pub mismatch_detail: Vec<String>,
     /// Every structure test behind `mismatch` (for the physics search's sentences).
-    #[serde(skip)]
     pub tests: Vec<mtcal_mismatch::TestRecord>,
-    /// What the physics search added, in the order it added them (FORMATS.md `discoveries`);
-    /// empty without `--search`.
-    pub discoveries: Vec<crate::findings::Discovery>,
-    /// How the search went: candidates, every trial and why it was kept or not, effects the
-    /// data cannot tell from the fitted parameters. Only with `--search`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub search: Option<crate::findings::SearchReport>,
     pub solver: SolverReport,
-    /// Which instrument and run constrain each identified machine parameter, and what
-    /// repeating a run would do ([`crate::information`]); in the JSON when computed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub information: Option<crate::information::InformationAccount>,
     /// What the parameters' numbers mean: errors, ISO 230-1 signs, the squareness definition,
     /// rotary direction, units ([`mtcal_machine::card::ConventionCard::mtcal_parameters`]).
     pub conventions: mtcal_machine::card::ConventionCard,
-    /// The verdicts against a tolerance file (`identify --acceptance FILE`,
-    /// [`mtcal_acceptance`]); in the JSON, last, only then.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub acceptance: Option<mtcal_acceptance::Acceptance>,
-    /// The solution vector (SI), for predictions; not written to the JSON.
-    #[serde(skip)]
-    pub x: Vec<f64>,
 }

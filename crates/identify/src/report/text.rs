@@ -1,14 +1,9 @@
-//! An `Identification` for people and programs: the JSON, the verdict a person reads first,
-//! the plain-text summary.
+//! An `Identification` for people: the verdict a person reads first, the plain-text summary
+//! (its JSON is [`super::IdentifyJson`]).
 
 use super::*;
 
 impl Identification {
-    /// The FORMATS.md JSON (`mtcal.identify/1`, with mtcal's additional keys).
-    pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self).expect("the report serialises") + "\n"
-    }
-
     /// The verdict a person reads first: did the fit converge, and does the model explain the
     /// recordings? `None` when both hold.
     pub fn verdict(&self) -> Option<String> {
@@ -70,6 +65,16 @@ impl Identification {
 
     /// [`Self::summary`], every parameter and combination on its own line when `verbose`.
     pub fn summary_with(&self, verbose: bool) -> String {
+        self.summary_beside(verbose, None)
+    }
+
+    /// [`Self::summary_with`] with the verdicts against a tolerance file after what the runs
+    /// determine.
+    pub fn summary_beside(
+        &self,
+        verbose: bool,
+        acceptance: Option<&mtcal_acceptance::Acceptance>,
+    ) -> String {
         let mut s = String::new();
         if let Some(v) = self.verdict() {
             let _ = writeln!(s, "{v}\n");
@@ -201,7 +206,7 @@ impl Identification {
                 let _ = writeln!(s, "  {}: {}", w.parameters.join(", "), w.why);
             }
         }
-        if let Some(acceptance) = &self.acceptance {
+        if let Some(acceptance) = acceptance {
             s.push_str(&acceptance.summary());
         }
         if self.mismatch.detected {

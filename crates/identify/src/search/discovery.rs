@@ -2,15 +2,15 @@
 //! the final fit, the biases it corrected, where the residuals showed it, a sentence), the
 //! candidates the data cannot tell from the fitted parameters ([`concealed`]), the measurements
 //! that would separate them ([`separating_measurement`], [`telling_apart`]), and the search in
-//! words ([`Identification::search_summary`]). Reads the stages, the ranking and the final fit;
+//! words ([`SearchFindings::summary`]). Reads the stages, the ranking and the final fit;
 //! only the loop uses it.
 
 use super::fitted::Fitted;
 use super::rank::{CONCEALED, Ranked};
 use super::step::Stage;
 use crate::K95;
-use crate::findings::SearchStop;
 use crate::findings::{Concealed, Correction, Discovery, DiscoveryParameter, Remains, Trial};
+use crate::findings::{SearchFindings, SearchStop};
 use crate::ids::ParamId;
 use crate::report::Identification;
 use crate::study::Study;
@@ -555,23 +555,21 @@ pub fn separating_measurement(candidate: &Candidate, hides_behind: &[String]) ->
     }
 }
 
-impl Identification {
+impl SearchFindings {
     /// The physics search in words: what was added and why, what was tried and not kept,
-    /// what the data cannot tell apart. Empty without a search.
-    pub fn search_summary(&self) -> String {
-        self.search_summary_with(true)
+    /// what the data cannot tell apart.
+    pub fn summary(&self) -> String {
+        self.summary_with(true)
     }
 
-    /// [`Self::search_summary`]; without `verbose` only what a person reads first: how the
-    /// search ended, each discovery with its values, its evidence, the parameters it had
-    /// biased and its look-alikes, and a few of what the data cannot tell apart (every trial,
-    /// every concealed candidate and the remaining candidates' tests are in the JSON and with
+    /// [`Self::summary`]; without `verbose` only what a person reads first: how the search
+    /// ended, each discovery with its values, its evidence, the parameters it had biased and
+    /// its look-alikes, and a few of what the data cannot tell apart (every trial, every
+    /// concealed candidate and the remaining candidates' tests are in the JSON and with
     /// `verbose`).
-    pub fn search_summary_with(&self, verbose: bool) -> String {
+    pub fn summary_with(&self, verbose: bool) -> String {
         use std::fmt::Write as _;
-        let Some(report) = &self.search else {
-            return String::new();
-        };
+        let report = &self.report;
         let mut s = String::new();
         let added = match self.discoveries.len() {
             0 if report.stopped == SearchStop::BaseNotConverged => String::new(),

@@ -139,7 +139,7 @@ mod step;
 
 pub use crate::findings::{
     Concealed, Correction, Discovery, DiscoveryParameter, Heldout, LookAlike, Remains,
-    SearchReport, SearchStop, Trial, Withdrawn,
+    SearchFindings, SearchReport, SearchStop, Trial, Withdrawn,
 };
 pub use discovery::separating_measurement;
 pub use heldout::heldout;
@@ -158,12 +158,13 @@ use settings::with_session_options;
 use step::{Refitted, Stage, choose_tries, same_explanation, try_all};
 
 /// What [`search`] returns: the final study (the session with the discoveries added), its
-/// fit, and the report (with `discoveries` and `search` filled).
+/// fit and report, and what the search found.
 #[derive(Debug)]
 pub struct SearchResult {
     pub study: Study,
     pub solution: Solution,
     pub identification: Identification,
+    pub findings: SearchFindings,
     /// The fit before the search added anything.
     pub initial: Identification,
     /// Its solution, and the changes of its study (`study.rebuild(initial_changes)` gives it
@@ -197,12 +198,15 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
         // Every decision below compares χ² at optima: on a last iterate a candidate would
         // "explain" what the iteration had still to do.
         report.stopped = SearchStop::BaseNotConverged;
-        let (study, solution, mut identification, _) = current.into_parts()?;
-        identification.search = Some(report);
+        let (study, solution, identification, _) = current.into_parts()?;
         return Ok(SearchResult {
             study,
             solution,
             identification,
+            findings: SearchFindings {
+                discoveries: Vec::new(),
+                report,
+            },
             initial,
             initial_solution,
             initial_changes,
@@ -362,28 +366,45 @@ pub fn search(study: Study, options: &SearchOptions) -> Result<SearchResult, Ide
     report.ranking = last_ranking.iter().take(5).map(Ranked::describe).collect();
     report.remains = remains(current.id()?, &last_ranking, &report.steps);
     let discoveries = stages.iter().map(|s| discovery(s, &current)).collect();
-    let (study, solution, mut identification, _) = current.into_parts()?;
-    identification.discoveries = discoveries;
-    identification.search = Some(report);
+    let (study, solution, identification, _) = current.into_parts()?;
     Ok(SearchResult {
         study,
         solution,
         identification,
+        findings: SearchFindings {
+            discoveries,
+            report,
+        },
         initial,
         initial_solution,
         initial_changes,
     })
 }
 
+/// The physics search as an outcome holds it beside the final fit
+/// ([`crate::pipeline::Outcome`]).
+#[derive(Debug)]
+pub struct Searched {
+    /// The report of the fit before the search added anything.
+    pub before: Identification,
+    /// That fit's parameter vector (SI; of the session as loaded, [`Study::as_loaded`]).
+    pub before_x: Vec<f64>,
+    pub findings: SearchFindings,
+}
+
 impl SearchResult {
-    /// Applies `base` to the reports before and after the search (each with its own study's
-    /// parameter vector).
-    pub fn apply_base(&mut self, base: &crate::base::BaseModel) -> Result<(), IdentifyError> {
+    /// The reports before and after the search with what `base` says (each with its own
+    /// study's parameter vector, [`Identification::with_base`]).
+    pub fn with_base(self, base: &crate::base::BaseModel) -> Result<Self, IdentifyError> {
         let initial_study = self.study.rebuild(self.initial_changes.clone())?;
-        self.initial
-            .apply_base(base, &initial_study, &self.initial_solution);
-        self.identification
-            .apply_base(base, &self.study, &self.solution);
-        Ok(())
+        Ok(Self {
+            initial: self
+                .initial
+                .with_base(base, &initial_study, &self.initial_solution),
+            identification: self
+                .identification
+                .with_base(base, &self.study, &self.solution),
+            ..self
+        })
     }
 }

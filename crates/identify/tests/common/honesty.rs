@@ -11,9 +11,10 @@ use mtcal_identify::search::SearchResult;
 /// Every honesty rule on `result` (see the module docs); `Err` says which failed.
 pub fn honest(result: &SearchResult) -> Result<(), String> {
     let id = &result.identification;
-    let summary = id.search_summary();
+    let found = &result.findings;
+    let summary = found.summary();
     let first = summary.lines().next().unwrap_or_default();
-    let n = id.discoveries.len();
+    let n = found.discoveries.len();
     let says = match n {
         0 if !result.initial.solver.converged => "did not converge".to_string(),
         0 => "nothing added".to_string(),
@@ -34,7 +35,7 @@ pub fn honest(result: &SearchResult) -> Result<(), String> {
     let study = &result.study;
     let specs = param_specs(study);
     let index = |name: &str| (0..study.layout().n_x()).find(|&i| study.param_info(i).name == name);
-    for d in &id.discoveries {
+    for d in &found.discoveries {
         let mut amplitudes = Vec::new();
         for p in &d.parameters {
             let full = if d.effect == "omitted-parameter" || d.effect == "component-order" {

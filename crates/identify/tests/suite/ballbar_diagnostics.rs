@@ -292,7 +292,10 @@ fn the_search_stands_behind_the_backlash_it_finds() {
     session(tmp.path(), &Truth::zero(&machine), &effects, 6);
     let outcome = identify(tmp.path(), true);
     let found = outcome
-        .identification
+        .search
+        .as_ref()
+        .expect("the search ran")
+        .findings
         .discoveries
         .iter()
         .find(|d| d.axis.as_deref() == Some("X"))

@@ -456,13 +456,14 @@ fn planted_effects_are_fitted_back_without_noise() {
     // 30 % off their truth, amplitudes at zero: the fit must find them. (A screw's pitch is a
     // standard lead the candidates start from; 30 % off it the phase would wrap several times
     // over the stroke.)
-    let plain = mtcal_identify::identify(&loaded, &Options::default(), &mut Silent).unwrap();
+    let (plain, plain_solution) =
+        mtcal_identify::identify_with_solution(&loaded, &Options::default(), &mut Silent).unwrap();
     eprintln!(
         "plain: chi2 {} it {} {:?} x {:?}",
-        plain.fit.chi2, plain.solver.iterations, plain.solver.termination, &plain.x
+        plain.fit.chi2, plain.solver.iterations, plain.solver.termination, &plain_solution.x
     );
     let mut x0 = study.initial_x();
-    x0[..loaded.layout().n_x()].copy_from_slice(&plain.x);
+    x0[..loaded.layout().n_x()].copy_from_slice(&plain_solution.x);
     for i in study.layout().effects() {
         if let Some(p) = study.effect_param(i)
             && p.kind == mtcal_effects::ParamKind::Shape

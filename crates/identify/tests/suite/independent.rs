@@ -344,7 +344,11 @@ fn the_other_mounting_declared_is_reported_as_a_model_that_does_not_explain_the_
         "{summary}"
     );
     assert!(!summary.contains("identified parameters"), "{summary}");
-    assert!(id.to_json().contains("\"verdict\""));
+    assert!(
+        mtcal_identify::report::IdentifyJson::of(&id)
+            .to_json()
+            .contains("\"verdict\"")
+    );
     // The same session read in its own frame is explained.
     std::fs::write(&manifest, text).unwrap();
     let id = identify();

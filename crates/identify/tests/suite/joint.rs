@@ -248,11 +248,9 @@ fn the_account_adds_up_with_free_set_ups_and_null_directions() {
             );
         }
     }
-    let json = {
-        let mut id = id.clone();
-        id.information = Some(acc);
-        id.to_json()
-    };
+    let json = mtcal_identify::report::IdentifyJson::of(&id)
+        .information(Some(&acc))
+        .to_json();
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     let first = &v["information"]["parameters"][0];
     assert!(first["runs"][0]["share"].as_f64().unwrap() > 0.0);

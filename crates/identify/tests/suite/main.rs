@@ -28,6 +28,7 @@ mod mismatch;
 mod mixed_instruments;
 mod negative_control;
 mod no_panic;
+mod outcome;
 mod param_ids;
 mod physics_search;
 mod planted_truth;

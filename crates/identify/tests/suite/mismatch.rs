@@ -60,7 +60,11 @@ fn white_noise_gives_no_mismatch() {
             id.mismatch_detail
         );
         assert!(id.mismatch.locations.is_empty());
-        assert!(id.to_json().contains("\"mismatch\""));
+        assert!(
+            mtcal_identify::report::IdentifyJson::of(&id)
+                .to_json()
+                .contains("\"mismatch\"")
+        );
     }
 }
 

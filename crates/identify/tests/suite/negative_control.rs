@@ -13,7 +13,7 @@ fn fifty_clean_sessions_rarely_raise_a_claim() {
     let claims: Vec<(u64, Vec<String>)> = parallel(&seeds, |&seed| {
         let result = searched("", seed, Variant::default());
         let found: Vec<String> = result
-            .identification
+            .findings
             .discoveries
             .iter()
             .map(|d| d.label.clone())

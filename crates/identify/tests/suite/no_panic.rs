@@ -10,6 +10,7 @@ use crate::common;
 
 use common::finite::non_finite;
 use mtcal_identify::information::{account, what_if};
+use mtcal_identify::report::IdentifyJson;
 use mtcal_identify::search::{SearchOptions, search};
 use mtcal_identify::{IdentifyError, Study, identify_with_solution};
 use mtcal_simulate::simulate;
@@ -24,14 +25,14 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
     let mtcal_identify::pipeline::Identified {
         study,
         solution,
-        identification: mut id,
+        identification: id,
         base,
     } = mtcal_identify::pipeline::identify(
         Study::load(session)?,
         &Default::default(),
         &mut Silent,
     )?;
-    id.add_prediction_bands(&study, &solution);
+    let id = id.with_prediction_bands(&study, &solution);
     let acc = account(&study, &solution)?;
     for p in &acc.parameters {
         assert!(
@@ -55,8 +56,7 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
             );
         }
     }
-    id.information = Some(acc);
-    let bad = non_finite(&id);
+    let bad = non_finite(&IdentifyJson::of(&id).information(Some(&acc)));
     assert!(bad.is_empty(), "non-finite numbers in the report: {bad:?}");
     if let Some(extra) = extra {
         let extra = Study::load(extra)?;
@@ -67,10 +67,10 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
                 .iter()
                 .find(|p| &p.name == name)
                 .map(|p| p.u95);
-            let account_now = id
-                .information
-                .as_ref()
-                .and_then(|a| a.parameters.iter().find(|p| &p.name == name))
+            let account_now = acc
+                .parameters
+                .iter()
+                .find(|p| &p.name == name)
                 .map(|p| p.u95_account);
             assert!(
                 u95.is_finite() && *u95 >= 0.0,
@@ -86,16 +86,19 @@ fn run_like_the_command_line(session: &Path, extra: Option<&Path>) -> Result<(),
     }
     let mut result = search(study, &SearchOptions::default())?;
     if let Some(base) = &base {
-        result.apply_base(base)?;
+        result = result.with_base(base)?;
     }
-    let mut found = result.identification;
-    found.information = Some(account(&result.study, &result.solution)?);
-    let bad = non_finite(&found);
+    let after = account(&result.study, &result.solution)?;
+    let bad = non_finite(
+        &IdentifyJson::of(&result.identification)
+            .search(Some(&result.findings))
+            .information(Some(&after)),
+    );
     assert!(
         bad.is_empty(),
         "non-finite numbers after the search: {bad:?}"
     );
-    let bad = non_finite(&result.initial);
+    let bad = non_finite(&IdentifyJson::of(&result.initial));
     assert!(
         bad.is_empty(),
         "non-finite numbers before the search: {bad:?}"

@@ -93,18 +93,20 @@ fn machine_outside(id: &mtcal_identify::Identification) -> Vec<String> {
 fn check(name: &str, case: Case) {
     let result: SearchResult = searched(case.effects, case.seed, case.variant);
     let id = &result.identification;
+    let found = &result.findings;
     let study = &result.study;
     let summary = format!(
         "{name}: {}\n{}",
-        id.search_summary(),
-        id.discoveries
+        found.summary(),
+        found
+            .discoveries
             .iter()
             .map(|d| format!("  {} {:?}", d.label, d.parameters))
             .collect::<Vec<_>>()
             .join("\n")
     );
     for (k, p) in case.planted.iter().enumerate() {
-        let d = id
+        let d = found
             .discoveries
             .iter()
             .find(|d| matches(d, p))
@@ -163,7 +165,7 @@ fn check(name: &str, case: Case) {
             );
         }
     }
-    for d in &id.discoveries {
+    for d in &found.discoveries {
         assert!(
             case.planted.iter().any(|p| matches(d, p)),
             "{name}: claimed {} which was not planted\n{summary}",

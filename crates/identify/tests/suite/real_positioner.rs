@@ -293,7 +293,7 @@ fn the_positioners_squareness_and_scales_match_straight_lines_through_its_sweeps
         "fit: rms {:.1} µm, χ²/dof {:.2}; verdict: {}",
         id.fit.rms_um,
         id.fit.chi2_reduced,
-        id.verdict.as_deref().unwrap_or("none")
+        id.verdict().unwrap_or_else(|| "none".into())
     )];
     for (name, from_lines) in lines {
         let (v, u) = value(name);
@@ -346,7 +346,7 @@ fn the_positioners_squareness_and_scales_match_straight_lines_through_its_sweeps
     // What the residuals show, said first: the model does not explain, most of it in the Y
     // sweep (its positioning waves about the cubic).
     assert!(id.fit.chi2_reduced > 2.0, "χ²/dof {}", id.fit.chi2_reduced);
-    let verdict = id.verdict.as_deref().unwrap_or("");
+    let verdict = id.verdict().unwrap_or_default();
     assert!(
         verdict.starts_with("THE MODEL DOES NOT EXPLAIN") && verdict.contains("run `y-sweep`"),
         "{verdict}"

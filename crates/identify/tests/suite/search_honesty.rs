@@ -80,12 +80,13 @@ fn nothing_is_searched_on_a_fit_that_did_not_converge() {
     options.solver.max_iterations = 0;
     let result = search(study, &options).unwrap();
     let id = &result.identification;
+    let found = &result.findings;
     assert!(!id.solver.converged);
-    assert!(id.discoveries.is_empty());
-    let report = id.search.as_ref().unwrap();
+    assert!(found.discoveries.is_empty());
+    let report = &found.report;
     assert_eq!(report.stopped, SearchStop::BaseNotConverged);
     assert!(report.steps.is_empty());
-    let first = id.search_summary().lines().next().unwrap().to_string();
+    let first = found.summary().lines().next().unwrap().to_string();
     assert!(
         first.contains("did not converge") && first.contains("[identify] parameters"),
         "{first}"

@@ -500,7 +500,16 @@ fn matches(d: &mtcal_identify::search::Discovery, n: &Named) -> bool {
 
 fn run_case(case: &Case) -> Outcome {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("session");
+    // `KEEP=dir` keeps each session (under its case's name and seed) to look at or time with
+    // `mtcal`.
+    let dir = match std::env::var("KEEP") {
+        Ok(keep) => Path::new(&keep).join(format!(
+            "{}_seed_{}",
+            case.name.replace([' ', '\'', ','], "_"),
+            case.seed
+        )),
+        Err(_) => tmp.path().join("session"),
+    };
     let (_, mut truth) = truth(case.layout, case.seed);
     if case.model == Model::Eleven {
         // The truth inside the eleven-error family: the twist or sag is all it leaves out.
@@ -521,7 +530,7 @@ fn run_case(case: &Case) -> Outcome {
         base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
     let mut result = search(study, &SearchOptions::default()).unwrap();
     if let Some(base) = &base {
-        result.apply_base(base).unwrap();
+        result = result.with_base(base).unwrap();
     }
     outcome(case, &written, &realism, &result)
 }
@@ -549,12 +558,13 @@ fn truth_value(machine: &Machine, truth: &Truth, name: &str) -> Option<f64> {
 
 fn outcome(case: &Case, written: &Written, realism: &Realism, result: &SearchResult) -> Outcome {
     let id = &result.identification;
+    let found = &result.findings;
     let named: Vec<bool> = case
         .named
         .iter()
-        .map(|n| id.discoveries.iter().any(|d| matches(d, n)))
+        .map(|n| found.discoveries.iter().any(|d| matches(d, n)))
         .collect();
-    let claims = id
+    let claims = found
         .discoveries
         .iter()
         .filter(|d| !case.named.iter().any(|n| matches(d, n)))
@@ -601,7 +611,7 @@ fn outcome(case: &Case, written: &Written, realism: &Realism, result: &SearchRes
         validation.push((run.name.clone(), rms / noise_um));
     }
     let (machine, _) = truth(case.layout, case.seed);
-    let corrected = id
+    let corrected = found
         .discoveries
         .iter()
         .flat_map(|d| &d.corrected)
@@ -617,7 +627,7 @@ fn outcome(case: &Case, written: &Written, realism: &Realism, result: &SearchRes
         validation,
         corrected,
         inside: case.named.is_empty() && !case.effects.is_empty(),
-        summary: id.search_summary(),
+        summary: found.summary(),
     }
 }
 
@@ -718,10 +728,10 @@ fn clean_sessions_from_the_independent_simulator_rarely_raise_a_claim() {
             base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
         let result = search(study, &SearchOptions::default()).unwrap();
         if std::env::var("VERBOSE").is_ok() {
-            eprintln!("seed {seed}: {}", result.identification.search_summary());
+            eprintln!("seed {seed}: {}", result.findings.summary());
         }
         result
-            .identification
+            .findings
             .discoveries
             .iter()
             .map(|d| d.label.clone())
@@ -778,9 +788,9 @@ fn a_drift_and_a_temperature_that_follows_it_are_named_together() {
     let (study, _) =
         base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
     let result = search(study, &SearchOptions::default()).unwrap();
-    let id = &result.identification;
-    let summary = id.search_summary();
-    let d = id
+    let found = &result.findings;
+    let summary = found.summary();
+    let d = found
         .discoveries
         .iter()
         .find(|d| d.axis.as_deref() == Some("Z"))
@@ -825,7 +835,7 @@ fn searched_volumetric(
         base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
     let mut result = search(study, &SearchOptions::default()).unwrap();
     if let Some(base) = &base {
-        result.apply_base(base).unwrap();
+        result = result.with_base(base).unwrap();
     }
     (result, written)
 }
@@ -849,9 +859,9 @@ fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, fil
     ];
     let spec = VolumetricSpec::short(VolumetricLoad::YDrive, 12);
     let (result, _) = searched_volumetric(which, file, &spec, 7);
-    let id = &result.identification;
-    let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
-    for d in &id.discoveries {
+    let found = &result.findings;
+    let summary = found.summary_with(std::env::var("VERBOSE").is_ok());
+    for d in &found.discoveries {
         assert!(
             thermal.contains(&d.effect.as_str()),
             "{which:?}: {} claimed\n{summary}",
@@ -862,7 +872,7 @@ fn volumetric_search_names_the_drive(which: mtcal_indsim::VolumetricMachine, fil
         ("thermal-expansion", "Y", 1.5),
         ("thermal-tilt", "turn about X", 3.0),
     ] {
-        let d = id
+        let d = found
             .discoveries
             .iter()
             .find(|d| {
@@ -1023,12 +1033,13 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, [f64; 2]
     }
     let (result, written) = searched_volumetric(case.which, case.file, &spec, case.seed);
     let id = &result.identification;
-    let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
+    let found = &result.findings;
+    let summary = found.summary_with(std::env::var("VERBOSE").is_ok());
     let planted = planted_in(case);
     let mut named = 0;
     let mut notes = Vec::new();
     for p in &planted {
-        match id.discoveries.iter().find(|d| (p.names)(d)) {
+        match found.discoveries.iter().find(|d| (p.names)(d)) {
             Some(d) => {
                 let within = p.value.is_none_or(|v| {
                     let q = &d.parameters[0];
@@ -1046,14 +1057,14 @@ fn run_volumetric(case: &VolumetricCase) -> (usize, usize, Vec<String>, [f64; 2]
     // A joint model is widened when the search proposes it again, never stacked on itself
     // (a second bank of the same columns, withdrawn piece by piece, once left the model at
     // the first one's narrow prior).
-    for d in &id.discoveries {
+    for d in &found.discoveries {
         assert!(
             !(d.effect == "thermal-model" && d.label.contains(" #")),
             "{} stacked on itself\n{summary}",
             d.label
         );
     }
-    let false_claims: Vec<String> = id
+    let false_claims: Vec<String> = found
         .discoveries
         .iter()
         .filter(|d| !planted.iter().any(|p| (p.names)(d) || (p.describes)(d)))
@@ -1241,10 +1252,11 @@ fn repeated_rtest_sets_between_rotary_load_cycles_name_the_moving_axis_lines() {
             seed,
         );
         let id = &result.identification;
-        let summary = id.search_summary_with(std::env::var("VERBOSE").is_ok());
+        let found = &result.findings;
+        let summary = found.summary_with(std::env::var("VERBOSE").is_ok());
         eprintln!("seed {seed}\n{summary}");
         for (parameter, driver, planted) in [("EY0A", "T_adrive", 0.8), ("EX0C", "T_cdrive", 0.5)] {
-            let d = id
+            let d = found
                 .discoveries
                 .iter()
                 .find(|d| {
@@ -1267,7 +1279,7 @@ fn repeated_rtest_sets_between_rotary_load_cycles_name_the_moving_axis_lines() {
             );
         }
         assert_eq!(
-            id.discoveries.len(),
+            found.discoveries.len(),
             2,
             "seed {seed}: more claimed\n{summary}"
         );
@@ -1318,10 +1330,10 @@ fn repeated_rtest_sets_between_rotary_load_cycles_name_the_moving_axis_lines() {
             );
         }
         // Neither is said to be indistinguishable from the other: both are in the model.
-        for d in &id.discoveries {
+        for d in &found.discoveries {
             for a in &d.alternatives {
                 assert!(
-                    !id.discoveries.iter().any(|o| o.label == a.label),
+                    !found.discoveries.iter().any(|o| o.label == a.label),
                     "seed {seed}: {} said to look like {}, a discovery of its own\n{summary}",
                     d.label,
                     a.label

@@ -380,15 +380,15 @@ fn run_case(case: &Case) -> Outcome {
         base::identifiable_study(Study::load(&dir).unwrap(), &Options::default()).unwrap();
     let mut result = search(study, &Default::default()).unwrap();
     if let Some(base) = &base {
-        result.apply_base(base).unwrap();
+        result = result.with_base(base).unwrap();
     }
-    let id = &result.identification;
+    let found = &result.findings;
     // The drift that masks is named too when found, but not required below the others.
     let named = planted
         .iter()
-        .map(|(_, n)| id.discoveries.iter().any(|d| matches(d, n)))
+        .map(|(_, n)| found.discoveries.iter().any(|d| matches(d, n)))
         .collect();
-    let claims = id
+    let claims = found
         .discoveries
         .iter()
         .filter(|d| !planted.iter().any(|(_, n)| matches(d, n)))
@@ -400,7 +400,7 @@ fn run_case(case: &Case) -> Outcome {
         claims,
         validation: validation(&result, &written, &realism),
         intervals: intervals(&result, &machine, &truth),
-        summary: id.search_summary(),
+        summary: found.summary(),
         dishonest: honest(&result).err(),
     }
 }
@@ -764,16 +764,13 @@ fn clean_sessions_of_five_machines_rarely_raise_a_claim() {
             panic!("{layout:?} seed {seed}: {why}");
         }
         let labels: Vec<String> = result
-            .identification
+            .findings
             .discoveries
             .iter()
             .map(|d| d.label.clone())
             .collect();
         if !labels.is_empty() || std::env::var("VERBOSE").is_ok() {
-            eprintln!(
-                "{layout:?} seed {seed}: {}",
-                result.identification.search_summary()
-            );
+            eprintln!("{layout:?} seed {seed}: {}", result.findings.summary());
         }
         labels
     });

@@ -66,9 +66,9 @@ fn the_search_finds_a_backlash_in_a_tracer_campaign_and_nothing_in_the_clean_one
     )
     .unwrap();
     assert!(
-        clean.identification.discoveries.is_empty(),
+        clean.findings.discoveries.is_empty(),
         "{:?}",
-        clean.identification.discoveries
+        clean.findings.discoveries
     );
 
     let dir = tempfile::tempdir().unwrap();
@@ -91,7 +91,7 @@ fn the_search_finds_a_backlash_in_a_tracer_campaign_and_nothing_in_the_clean_one
         &SearchOptions::default(),
     )
     .unwrap();
-    let d = &found.identification.discoveries;
+    let d = &found.findings.discoveries;
     assert_eq!(d.len(), 1, "{d:?}");
     assert_eq!(
         (d[0].effect.as_str(), d[0].axis.as_deref()),

@@ -256,7 +256,7 @@ fn noise_free_campaign_recovers_all_21_errors_exactly() {
     assert!((s0 - 1500.0).abs() < 1e-6, "station {s0}");
     let dp = value(&id, "s3r2.dead_path").unwrap();
     assert!((dp - 75.0).abs() < 1e-6, "dead path {dp}");
-    let json = id.to_json();
+    let json = mtcal_identify::report::IdentifyJson::of(&id).to_json();
     assert!(json.contains("\"EC0Y\"") && json.contains("\"unidentifiable\": []"));
 }
 

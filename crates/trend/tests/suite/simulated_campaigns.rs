@@ -80,7 +80,7 @@ impl Calibrator {
         let (session, machine, tables) = session.into_parts();
         let study = mtcal_identify::Study::from_parts(session, machine, tables).unwrap();
         let id = mtcal_identify::identify(&study, &Options::default(), &mut Silent).unwrap();
-        assert!(id.verdict.is_none(), "seed {seed}: {:?}", id.verdict);
+        assert!(id.verdict().is_none(), "seed {seed}: {:?}", id.verdict());
         assert!(id.unidentifiable.is_empty(), "{:?}", id.unidentifiable);
         let p = id.parameters.iter().find(|p| p.name == planted.0).unwrap();
         (p.value, p.u95)
