@@ -324,9 +324,24 @@ pub struct Fixture {
 pub struct PathSpec<'a> {
     /// The run's `path` table from a test plan (plugin-specific keys, e.g. `kind = "xyc"`).
     pub path: &'a toml::Table,
-    /// The set-up table the path is for.
-    pub setup: &'a toml::Table,
+    /// The set-up the path is for, as the plugin loaded it on `machine`
+    /// ([`PathSpec::own_setup`] gives its own type).
+    pub setup: &'a dyn Setup,
     pub machine: &'a Machine,
+}
+
+impl<'a> PathSpec<'a> {
+    /// The set-up as the plugin's own type `T`, or the error a path function returns when
+    /// handed another plugin's set-up (a caller's mistake, never the plan's).
+    pub fn own_setup<T: 'static>(&self) -> Result<&'a T, SetupError> {
+        let setup: &'a dyn Setup = self.setup;
+        setup.as_any().downcast_ref().ok_or_else(|| {
+            SetupError::new(
+                "instrument",
+                "the path was asked for another instrument's set-up",
+            )
+        })
+    }
 }
 
 /// The label values of each sample of a measuring path (see [`SetupFormat::label_columns`]).

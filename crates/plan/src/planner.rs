@@ -5,11 +5,11 @@ use crate::PlanError;
 use crate::geometry::MachineGeometry;
 use crate::info::{self, Choice, Informations};
 use crate::run_keys;
-use crate::scene::{Hit, Scene, instrument_bodies};
+use crate::scene::{Hit, Scene, bodies_of};
 use crate::spec::{Group, Source, Wanted};
 use crate::tooled::tooled_machine;
 use mtcal_identify::Study;
-use mtcal_instrument::{PathSpec, SetupContext};
+use mtcal_instrument::{InstrumentPlugin, PathSpec, Setup, SetupContext};
 use mtcal_kinematics::{AxisKind, Machine};
 use mtcal_located::Location;
 use mtcal_machine::{LoadedMachine, load_machine, topology::Reading};
@@ -18,6 +18,7 @@ use nalgebra::DMatrix;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// One run of the plan, with its commanded poses.
 #[derive(Clone, Debug)]
@@ -27,6 +28,9 @@ pub struct PlannedRun {
     /// The shared set-up's name.
     pub setup_name: String,
     pub setup: toml::Table,
+    /// The set-up as its plugin loaded it on the plan's machine (tool length added): what the
+    /// path and the collision bodies are made from.
+    pub loaded: Arc<dyn Setup>,
     pub path: toml::Table,
     /// `fit` or `validate`.
     pub use_: String,
@@ -35,6 +39,15 @@ pub struct PlannedRun {
     pub poses: Vec<Vec<f64>>,
     /// Each sample's first label (artefact: `placement/feature`), or empty.
     pub labels: Vec<String>,
+}
+
+/// A set-up as the plan uses it, loaded once for all its runs ([`Ctx::planned_setup`]).
+struct PlannedSetup {
+    plugin: &'static InstrumentPlugin,
+    name: String,
+    /// Its table with the keys the planner writes out.
+    table: toml::Table,
+    loaded: Arc<dyn Setup>,
 }
 
 /// The collision check of one run.
@@ -410,39 +423,50 @@ impl Ctx<'_> {
             }
         };
         let feed = keys.feed_mm_min.unwrap_or(self.feed);
-        self.make_run(
-            &name,
-            &instrument,
-            &setup_name,
-            &setup,
-            &keys.path,
-            &keys.use_,
-            feed,
-        )
-        .map_err(|m| err(format!("run `{name}`: {m}")))
+        self.planned_setup(&instrument, &setup_name, &setup)
+            .and_then(|setup| self.make_run(&name, &setup, &keys.path, &keys.use_, feed))
+            .map_err(|m| err(format!("run `{name}`: {m}")))
     }
 
-    /// `setup` with the keys its instrument has the planner write out
+    /// The set-up `table` of `instrument` loaded by its plugin on the plan's machine, once for
+    /// every run that shares it, with the keys the instrument has the planner write out
     /// ([`Planning::written_out`](mtcal_instrument::collision::Planning::written_out), an
     /// R-test's `mount`) taken from the loaded set-up where they are left to the plugin's
     /// default, so that the plan — and the session simulated from it — says what it was planned
-    /// and collision-checked for. Other set-ups, and set-ups that do not load (the caller
-    /// reports why), are returned as given.
-    fn with_defaults_written_out(&self, instrument: &str, setup: &toml::Table) -> toml::Table {
-        let mut out = setup.clone();
-        let Some(plugin) = mtcal_plugins::find(instrument) else {
-            return out;
+    /// and collision-checked for. `Err` says why it does not load.
+    fn planned_setup(
+        &self,
+        instrument: &str,
+        name: &str,
+        table: &toml::Table,
+    ) -> Result<PlannedSetup, String> {
+        let plugin =
+            mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
+        let ctx = SetupContext {
+            machine: &self.tooled,
         };
+        let loaded: Arc<dyn Setup> = (plugin.load_setup)(table, &ctx)
+            .map_err(|e| format!("set-up: {e}"))?
+            .into();
+        Ok(PlannedSetup {
+            plugin,
+            name: name.to_string(),
+            table: Self::with_defaults_written_out(plugin, table, &*loaded),
+            loaded,
+        })
+    }
+
+    /// `setup` with the keys the planner writes out taken from `loaded` ([`Self::planned_setup`]).
+    fn with_defaults_written_out(
+        plugin: &InstrumentPlugin,
+        setup: &toml::Table,
+        loaded: &dyn Setup,
+    ) -> toml::Table {
+        let mut out = setup.clone();
         let keys = plugin.planning.map_or(&[][..], |p| p.written_out);
         if keys.iter().all(|k| setup.contains_key(*k)) {
             return out;
         }
-        let ctx = SetupContext {
-            machine: &self.tooled,
-        };
-        let Ok(loaded) = (plugin.load_setup)(setup, &ctx) else {
-            return out;
-        };
         let loaded = loaded.to_toml();
         for key in keys.iter().filter(|k| !setup.contains_key(**k)) {
             if let Some(value) = loaded.get(*key) {
@@ -452,28 +476,19 @@ impl Ctx<'_> {
         out
     }
 
-    /// Loads the set-up and generates the path; `Err` says why not.
-    #[allow(clippy::too_many_arguments)]
+    /// The run `name` of a planned set-up: its path generated; `Err` says why not.
     fn make_run(
         &self,
         name: &str,
-        instrument: &str,
-        setup_name: &str,
-        setup: &toml::Table,
+        setup: &PlannedSetup,
         path: &toml::Table,
         use_: &str,
         feed: f64,
     ) -> Result<PlannedRun, String> {
-        let plugin =
-            mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
-        let ctx = SetupContext {
-            machine: &self.tooled,
-        };
-        (plugin.load_setup)(setup, &ctx).map_err(|e| format!("set-up: {e}"))?;
-        let setup = &self.with_defaults_written_out(instrument, setup);
+        let plugin = setup.plugin;
         let spec = PathSpec {
             path,
-            setup,
+            setup: &*setup.loaded,
             machine: &self.tooled,
         };
         let poses = (plugin.path)(&spec).map_err(|e| format!("path: {e}"))?;
@@ -490,9 +505,10 @@ impl Ctx<'_> {
         };
         Ok(PlannedRun {
             name: name.to_string(),
-            instrument: instrument.to_string(),
-            setup_name: setup_name.to_string(),
-            setup: setup.clone(),
+            instrument: plugin.name.to_string(),
+            setup_name: setup.name.clone(),
+            setup: setup.table.clone(),
+            loaded: setup.loaded.clone(),
             path: path.clone(),
             use_: use_.to_string(),
             feed_mm_min: feed,
@@ -507,8 +523,9 @@ impl Ctx<'_> {
             file: self.src.path.clone(),
             message: format!("run `{}`: {m}", run.name),
         };
-        let bodies = instrument_bodies(
+        let bodies = bodies_of(
             &run.instrument,
+            &*run.loaded,
             &run.setup,
             self.tool_length,
             &self.loaded.machine,
@@ -625,7 +642,8 @@ impl Ctx<'_> {
                 key.clone(),
                 toml::Value::Array(pos.iter().map(|&v| toml::Value::Float(v)).collect()),
             );
-            let setup = self.with_defaults_written_out(instrument, &setup);
+            let planned = self.planned_setup(instrument, &name, &setup);
+            let setup = planned.as_ref().map_or(setup, |p| p.table.clone());
             let mut report = CandidateReport {
                 group: g.name.get_ref().clone(),
                 name: name.clone(),
@@ -670,7 +688,11 @@ impl Ctx<'_> {
                     .as_ref()
                     .map_or("fit".to_string(), |u| u.get_ref().clone());
                 let run_name = format!("{name}-{}", r.name.get_ref());
-                match self.make_run(&run_name, instrument, &name, &setup, &r.path, &use_, feed) {
+                let made = planned
+                    .as_ref()
+                    .map_err(Clone::clone)
+                    .and_then(|p| self.make_run(&run_name, p, &r.path, &use_, feed));
+                match made {
                     Ok(run) => runs.push(run),
                     Err(m) if m.starts_with("unknown instrument") || m.starts_with("set-up") => {
                         return Err(self

@@ -221,9 +221,11 @@ fn a_ballbar_that_dives_into_the_table_collides() {
             "kind = \"circle\"\nplane = \"{plane}\"\nsamples = 37"
         ))
         .unwrap();
+        let loaded =
+            (plugin.load_setup)(&setup, &mtcal_instrument::SetupContext { machine: &t }).unwrap();
         let poses = (plugin.path)(&mtcal_instrument::PathSpec {
             path: &path,
-            setup: &setup,
+            setup: &*loaded,
             machine: &t,
         })
         .unwrap();

@@ -64,7 +64,13 @@ impl Setup for Anchor {
     }
 }
 
+/// How many times the planner had the stub load a set-up; the tests that plan hold `ONE_PLAN`
+/// so that each counts its own.
+static LOADS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+static ONE_PLAN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<Box<dyn Setup>, SetupError> {
+    LOADS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
     let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
     let anchor: Vec<f64> = table
         .get("anchor")
@@ -111,11 +117,7 @@ fn load(table: &toml::Table, ctx: &SetupContext<'_>) -> Result<Box<dyn Setup>, S
 /// C turned once round with the linear axes keeping the tool point on the anchor.
 fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
-    let setup = load(spec.setup, &SetupContext { machine })?;
-    let setup = setup
-        .as_any()
-        .downcast_ref::<Anchor>()
-        .ok_or_else(|| SetupError::new("anchor", "not an anchor set-up"))?;
+    let setup: &Anchor = spec.own_setup()?;
     let tip = Vector3::from(setup.anchor_mm) * 1e-3;
     let c = machine
         .axis_index('C')
@@ -197,8 +199,15 @@ fn planning(dir: &std::path::Path, geometry: &str) -> std::path::PathBuf {
 
 #[test]
 fn an_instrument_registered_in_a_test_is_placed_and_collision_checked() {
+    let _one = ONE_PLAN.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
+    let before = LOADS.load(std::sync::atomic::Ordering::SeqCst);
     let planned = mtcal_plan::plan(&planning(dir.path(), "stub_probe_diameter_mm = 12.0")).unwrap();
+    // Each candidate's set-up is loaded once to plan it (the keys written out, its run's path
+    // and collision bodies), then once to simulate its run and once for the study of what it
+    // tells: two candidates, six loads (twelve when every step loaded its own).
+    let loads = LOADS.load(std::sync::atomic::Ordering::SeqCst) - before;
+    assert_eq!(loads, 6, "set-ups loaded");
     let r = &planned.report;
     let cand = |n: &str| r.candidates.iter().find(|c| c.name == n).unwrap();
     assert_eq!(cand("anchor-01").status, "ok", "{:?}", cand("anchor-01"));
@@ -229,6 +238,7 @@ fn an_instrument_registered_in_a_test_is_placed_and_collision_checked() {
 
 #[test]
 fn the_stub_s_geometry_key_is_checked_and_a_key_nobody_declares_is_refused() {
+    let _one = ONE_PLAN.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     for (geometry, expect) in [
         (

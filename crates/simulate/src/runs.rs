@@ -102,7 +102,7 @@ fn plan_run(
     let setup = (plugin.load_setup)(&choice.table, &ctx).map_err(|e| format!("set-up: {e}"))?;
     let spec = PathSpec {
         path: path_table,
-        setup: &choice.table,
+        setup: &*setup,
         machine: model.machine(),
     };
     let poses = commanded_poses(plugin, &spec, &settings.record, model)?;

@@ -35,14 +35,9 @@ impl TryFrom<toml::Value> for PlacementNames {
 /// The (placement, feature) pairs of a path, in probing order: placements in the order the path
 /// names them (default: every placement, name order), features in name order, the whole
 /// sequence `repeat` times.
-fn visits(spec: &PathSpec<'_>) -> Result<(ArtefactSetup, Vec<(usize, usize)>), SetupError> {
+fn visits(spec: &PathSpec<'_>) -> Result<Vec<(usize, usize)>, SetupError> {
     let keys: PathKeys = config::read(spec.path)?;
-    let setup = load(
-        spec.setup,
-        &SetupContext {
-            machine: spec.machine,
-        },
-    )?;
+    let setup: &ArtefactSetup = spec.own_setup()?;
     let order: Vec<usize> = match &keys.placements {
         None => (0..setup.placements().len()).collect(),
         Some(PlacementNames(names)) => names
@@ -76,13 +71,14 @@ fn visits(spec: &PathSpec<'_>) -> Result<(ArtefactSetup, Vec<(usize, usize)>), S
             out.extend((0..nf).map(|k| (j, k)));
         }
     }
-    Ok((setup, out))
+    Ok(out)
 }
 
 /// Commanded positions: the machine at each feature's nominal position (axis coordinates),
 /// every other axis at 0. A position outside the axis limits is an error naming the feature.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let (setup, visits) = visits(spec)?;
+    let setup: &ArtefactSetup = spec.own_setup()?;
+    let visits = visits(spec)?;
     let (xyz, _) = frame_of(spec.machine).map_err(|m| SetupError::new("features", m))?;
     let n = spec.machine.n_axes();
     visits
@@ -114,7 +110,8 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
 
 /// The `feature` label of each sample of [`path`].
 pub fn path_labels(spec: &PathSpec<'_>) -> Result<Vec<Vec<String>>, SetupError> {
-    let (setup, visits) = visits(spec)?;
+    let setup: &ArtefactSetup = spec.own_setup()?;
+    let visits = visits(spec)?;
     Ok(visits
         .into_iter()
         .map(|(j, k)| vec![setup.label_text(j, k)])
@@ -200,9 +197,10 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         setup.insert("feature_errors".into(), false.into());
     }
     let path_table = toml::Table::new();
+    let loaded = load(&setup, &SetupContext { machine }).ok()?;
     let spec = PathSpec {
         path: &path_table,
-        setup: &setup,
+        setup: &loaded,
         machine,
     };
     let poses = path(&spec).ok()?;

@@ -330,14 +330,14 @@ mod tests {
     /// The view of the run `path` of the set-up `setup` on the three-axis machine.
     fn view(setup: &toml::Table, path: &toml::Table) -> Option<PolarView> {
         let m = machine();
+        let loaded = crate::load_setup(setup, &SetupContext { machine: &m }).unwrap();
         let q: Vec<f64> = crate::path(&PathSpec {
             path,
-            setup,
+            setup: &*loaded,
             machine: &m,
         })
         .unwrap()
         .concat();
-        let loaded = crate::load_setup(setup, &SetupContext { machine: &m }).unwrap();
         polar_view(&Evaluation {
             machine: &m,
             setup: &*loaded,
@@ -371,9 +371,10 @@ mod tests {
         let setup = table("pivot = [0.0, 0.0, 390.0]\nlength = 100.0");
         let path = table("kind = \"circle\"\nplane = \"XY\"\nsamples = 37");
         let m = machine();
+        let loaded = crate::load_setup(&setup, &SetupContext { machine: &m }).unwrap();
         let q: Vec<f64> = crate::path(&PathSpec {
             path: &path,
-            setup: &setup,
+            setup: &*loaded,
             machine: &m,
         })
         .unwrap()

@@ -79,9 +79,10 @@ fn try_path(
     setup: &toml::Table,
     path_table: &toml::Table,
 ) -> Option<Vec<Vec<f64>>> {
+    let loaded = crate::BallbarSetup::new(crate::BallbarConfig::from_table(setup).ok()?);
     path::path(&PathSpec {
         path: path_table,
-        setup,
+        setup: &loaded,
         machine,
     })
     .ok()

@@ -199,7 +199,7 @@ impl TryFrom<String> for Turn {
 
 /// Commanded positions (SI, one `Vec` per sample) of a path; see the crate docs for the keys.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let setup = BallbarConfig::from_table(spec.setup)?;
+    let setup = spec.own_setup::<crate::BallbarSetup>()?.config();
     let tagged: Tagged = config::read_part(spec.path)?;
     let kind = required(
         tagged.kind,
@@ -207,8 +207,8 @@ pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
         "the path kind, \"circle\" or \"rotary\"",
     )?;
     match kind {
-        PathKind::Circle => circle_path(spec.machine, &setup, &config::read(spec.path)?),
-        PathKind::Rotary => rotary_path(spec.machine, &setup, &config::read(spec.path)?),
+        PathKind::Circle => circle_path(spec.machine, setup, &config::read(spec.path)?),
+        PathKind::Rotary => rotary_path(spec.machine, setup, &config::read(spec.path)?),
     }
 }
 

@@ -54,9 +54,10 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         "sensors".into(),
         toml::Value::Table(sensors(seed, lever_dir)),
     );
+    let loaded = crate::setup::load(&setup, &mtcal_instrument::SetupContext { machine }).ok()?;
     let poses = path(&PathSpec {
         path: &path_table,
-        setup: &setup,
+        setup: &loaded,
         machine,
     })
     .ok()?;

@@ -1,8 +1,8 @@
 //! Measuring paths: the machine held still at one position for the whole run.
 
-use crate::setup::{DisplacementSetup, load};
+use crate::setup::DisplacementSetup;
 use mtcal_instrument::config::{self, Number, expected};
-use mtcal_instrument::{PathSpec, SetupContext, SetupError};
+use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
 use serde::{Deserialize, Deserializer};
 
@@ -171,16 +171,11 @@ fn samples(samples: Option<Number>) -> Result<usize, SetupError> {
 /// The plugin's path function: `samples` copies of the held position of `at` (path keys in
 /// the crate docs), after checking the set-up (which must load) against the machine there.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let setup = load(
-        spec.setup,
-        &SetupContext {
-            machine: spec.machine,
-        },
-    )?;
+    let setup: &DisplacementSetup = spec.own_setup()?;
     let keys: PathKeys = config::read(spec.path)?;
     let n = samples(keys.samples)?;
     let q = held(spec.machine, keys.at.as_ref())?;
-    check_setup(spec.machine, &setup, &q)?;
+    check_setup(spec.machine, setup, &q)?;
     Ok(vec![q; n])
 }
 

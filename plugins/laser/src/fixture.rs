@@ -1,8 +1,8 @@
 //! A representative set-up and path on a given machine, for the conformance harness and tests.
 
 use crate::path::path;
-use crate::setup::perpendicular_basis;
-use mtcal_instrument::{Fixture, PathSpec};
+use crate::setup::{load, perpendicular_basis};
+use mtcal_instrument::{Fixture, PathSpec, SetupContext};
 use mtcal_kinematics::{AxisKind, Machine};
 use nalgebra::Vector3;
 
@@ -187,9 +187,10 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
         setup.insert("expansion_ppm_per_k".into(), 11.5.into());
         setup.insert("material_temperature_c".into(), 20.8.into());
     }
+    let loaded = load(&setup, &SetupContext { machine }).ok()?;
     let poses = path(&PathSpec {
         path: &path_t,
-        setup: &setup,
+        setup: &loaded,
         machine,
     })
     .ok()?;

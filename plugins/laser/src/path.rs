@@ -2,9 +2,9 @@
 //! bidirectional cycles, and diagonal / step-diagonal runs between two corners (ISO 230-6).
 //! The keys are documented in the crate docs.
 
-use crate::setup::{LaserSetup, Mode, load};
+use crate::setup::{LaserSetup, Mode};
 use mtcal_instrument::config::{self, Number, expected, required};
-use mtcal_instrument::{PathSpec, SetupContext, SetupError};
+use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
 use serde::{Deserialize, Deserializer};
 
@@ -439,16 +439,11 @@ fn diagonal_path(
 /// The plugin's path function (path keys in the crate docs): the set-up must load, and the
 /// path must move the tool point along its beam `direction`.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let setup = load(
-        spec.setup,
-        &SetupContext {
-            machine: spec.machine,
-        },
-    )?;
+    let setup: &LaserSetup = spec.own_setup()?;
     match setup.mode() {
-        Mode::Diagonal => diagonal_path(spec, &setup, false),
-        Mode::StepDiagonal => diagonal_path(spec, &setup, true),
-        _ => axis_path(spec, &setup),
+        Mode::Diagonal => diagonal_path(spec, setup, false),
+        Mode::StepDiagonal => diagonal_path(spec, setup, true),
+        _ => axis_path(spec, setup),
     }
 }
 

@@ -1,8 +1,8 @@
 //! A representative set-up and path on a given machine, for the conformance harness and tests.
 
 use crate::path::{check_machine, path};
-use crate::setup::Mount;
-use mtcal_instrument::{Fixture, PathSpec};
+use crate::setup::{Mount, load};
+use mtcal_instrument::{Fixture, PathSpec, SetupContext};
 use mtcal_kinematics::{AxisKind, Machine, Rigid, Side};
 use nalgebra::Vector3;
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -112,6 +112,9 @@ pub fn fixture_with_mount(machine: &Machine, seed: u64, mount: Mount) -> Option<
             "ball".into(),
             toml::Value::Array(ball_mm.iter().map(|&v| v.into()).collect()),
         );
+        let Ok(loaded) = load(&setup, &SetupContext { machine }) else {
+            continue;
+        };
         for shrink in [1.0, 0.5, 0.25] {
             let centre = 0.5 * (from + to);
             let half = 0.5 * (to - from) * shrink;
@@ -120,7 +123,7 @@ pub fn fixture_with_mount(machine: &Machine, seed: u64, mount: Mount) -> Option<
             let path_table = path_table(machine, swept, range, &held);
             let spec = PathSpec {
                 path: &path_table,
-                setup: &setup,
+                setup: &loaded,
                 machine,
             };
             if let Ok(poses) = path(&spec) {

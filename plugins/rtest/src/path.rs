@@ -1,8 +1,8 @@
 //! Measuring paths: rotary axes swept, linear axes following the ball.
 
-use crate::setup::load;
+use crate::setup::RTest;
 use mtcal_instrument::config::{self, Number, expected};
-use mtcal_instrument::{PathSpec, SetupContext, SetupError};
+use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::{AxisKind, Machine, ik};
 use nalgebra::Vector3;
 use serde::{Deserialize, Deserializer};
@@ -401,14 +401,9 @@ pub fn poses(
 }
 
 /// The plugin's path function: resolves `spec.path` on `spec.machine` and follows the ball of
-/// `spec.setup` (which must load).
+/// `spec.setup`.
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
-    let setup = load(
-        spec.setup,
-        &SetupContext {
-            machine: spec.machine,
-        },
-    )?;
+    let setup: &RTest = spec.own_setup()?;
     let plan = plan(spec.machine, spec.path)?;
     poses(spec.machine, &setup.ball_m(), &plan)
 }

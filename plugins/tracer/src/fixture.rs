@@ -92,9 +92,10 @@ pub fn fixture(machine: &Machine, seed: u64) -> Option<Fixture> {
     if !hold.is_empty() {
         p.insert("hold".into(), toml::Value::Table(hold));
     }
+    let loaded = crate::setup::load(&setup, &mtcal_instrument::SetupContext { machine }).ok()?;
     let poses = path::path(&PathSpec {
         path: &p,
-        setup: &setup,
+        setup: &loaded,
         machine,
     })
     .ok()?;

@@ -1,7 +1,7 @@
 //! Measuring paths: a 3-D grid or a set of lines (edges and body diagonals) over the linear
 //! axes' strokes, the same commanded path whatever the station.
 
-use crate::setup::{TracerConfig, TracerSetup};
+use crate::setup::TracerSetup;
 use mtcal_instrument::config::{self, Number, expected};
 use mtcal_instrument::{PathSpec, SetupError};
 use mtcal_kinematics::{AxisKind, Machine};
@@ -174,7 +174,7 @@ fn ticks(lo: f64, hi: f64, fraction: f64, n: usize) -> Vec<f64> {
 /// sample is checked against the axis limits and against [`MIN_DISTANCE_MM`].
 pub fn path(spec: &PathSpec<'_>) -> Result<Vec<Vec<f64>>, SetupError> {
     let machine = spec.machine;
-    let setup = TracerSetup::new(TracerConfig::from_table(spec.setup)?, machine);
+    let setup: &TracerSetup = spec.own_setup()?;
     let p: PathKeys = config::read(spec.path)?;
     let axes = linear_axes(machine)?;
     let xyz = [axes[0].0, axes[1].0, axes[2].0];

@@ -515,9 +515,14 @@ fn compare(file: &str, mount: Mount, write_mount_key: bool, seed: u64) -> Worst 
             path.insert("to".into(), corner(q_all.last().unwrap()));
             path.insert("points".into(), (targets as i64).into());
             path.insert("bidirectional".into(), false.into());
+            let loaded = mtcal_laser::load(
+                session.setup_of(run),
+                &mtcal_instrument::SetupContext { machine: &m },
+            )
+            .unwrap_or_else(|e| panic!("{file} run {}: the set-up: {e}", run.name));
             let planned = mtcal_laser::path(&mtcal_instrument::PathSpec {
                 path: &path,
-                setup: session.setup_of(run),
+                setup: &loaded,
                 machine: &m,
             })
             .unwrap_or_else(|e| panic!("{file} run {}: the plugin's path: {e}", run.name));

@@ -310,12 +310,11 @@ p3 = { origin = [0.0, 0.0, -300.0], flipped = true }
 #[test]
 fn the_path_visits_every_feature_of_every_placement_in_label_order() {
     let m = machine();
-    let t: toml::Table = toml::from_str(PLATE).unwrap();
     let s = setup(PLATE, &m);
     let empty = toml::Table::new();
     let spec = mtcal_instrument::PathSpec {
         path: &empty,
-        setup: &t,
+        setup: &s,
         machine: &m,
     };
     let poses = mtcal_artefact::path(&spec).unwrap();
@@ -338,15 +337,17 @@ fn the_path_visits_every_feature_of_every_placement_in_label_order() {
     let path: toml::Table = toml::from_str("placements = [\"p3\"]\nrepeat = 2").unwrap();
     let spec = mtcal_instrument::PathSpec {
         path: &path,
-        setup: &t,
+        setup: &s,
         machine: &m,
     };
     let labels = mtcal_artefact::path_labels(&spec).unwrap();
     assert_eq!(labels.len(), 6);
     assert!(labels.iter().all(|l| l[0].starts_with("p3/")));
     // Out of the machine's reach: the error names the placement.
-    let far: toml::Table =
-        toml::from_str(&PLATE.replace("[10.0, 20.0, -300.0]", "[1000.0, 0.0, -300.0]")).unwrap();
+    let far = setup(
+        &PLATE.replace("[10.0, 20.0, -300.0]", "[1000.0, 0.0, -300.0]"),
+        &m,
+    );
     let spec = mtcal_instrument::PathSpec {
         path: &empty,
         setup: &far,

@@ -28,9 +28,10 @@ fn table(s: &str) -> toml::Table {
 }
 
 fn run(m: &Machine, setup: &toml::Table, p: &toml::Table) -> Result<Vec<Vec<f64>>, SetupError> {
+    let loaded = mtcal_ballbar::BallbarSetup::new(mtcal_ballbar::BallbarConfig::from_table(setup)?);
     path(&PathSpec {
         path: p,
-        setup,
+        setup: &loaded,
         machine: m,
     })
 }

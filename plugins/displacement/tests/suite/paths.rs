@@ -16,9 +16,13 @@ fn table(text: &str) -> toml::Table {
 }
 
 fn run(m: &Machine, setup: &str, path_text: &str) -> Result<Vec<Vec<f64>>, SetupError> {
+    let loaded = mtcal_displacement::load(
+        &table(setup),
+        &mtcal_instrument::SetupContext { machine: m },
+    )?;
     path(&PathSpec {
         path: &table(path_text),
-        setup: &table(setup),
+        setup: &loaded,
         machine: m,
     })
 }

@@ -288,9 +288,10 @@ fn path_of(
 ) -> Result<Vec<Vec<f64>>, mtcal_instrument::SetupError> {
     let s: toml::Table = toml::from_str(setup).unwrap();
     let p: toml::Table = toml::from_str(path_t).unwrap();
+    let loaded = mtcal_laser::load(&s, &mtcal_instrument::SetupContext { machine: m })?;
     path(&PathSpec {
         path: &p,
-        setup: &s,
+        setup: &loaded,
         machine: m,
     })
 }

@@ -18,9 +18,10 @@ fn run(
 ) -> Result<Vec<Vec<f64>>, mtcal_instrument::SetupError> {
     let setup: toml::Table = toml::from_str(setup).expect("toml");
     let path: toml::Table = toml::from_str(path).expect("toml");
+    let loaded = mtcal_rtest::load_setup(&setup, &mtcal_instrument::SetupContext { machine: m })?;
     mtcal_rtest::path(&PathSpec {
         path: &path,
-        setup: &setup,
+        setup: &*loaded,
         machine: m,
     })
 }

@@ -25,9 +25,10 @@ fn setup(machine: &Machine, station: [f64; 3], reflector: [f64; 3]) -> (TracerSe
 
 fn grid(machine: &Machine, table: &toml::Table) -> Vec<Vec<f64>> {
     let p: toml::Table = toml::from_str("kind = \"grid\"\ncounts = [3, 3, 3]").unwrap();
+    let loaded = mtcal_tracer::load(table, &SetupContext { machine }).unwrap();
     mtcal_tracer::path(&PathSpec {
         path: &p,
-        setup: table,
+        setup: &loaded,
         machine,
     })
     .unwrap()

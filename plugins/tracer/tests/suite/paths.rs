@@ -17,9 +17,13 @@ fn table(text: &str) -> toml::Table {
 }
 
 fn run(m: &Machine, setup: &str, path: &str) -> Result<Vec<Vec<f64>>, SetupError> {
+    let loaded = mtcal_tracer::load(
+        &table(setup),
+        &mtcal_instrument::SetupContext { machine: m },
+    )?;
     mtcal_tracer::path(&PathSpec {
         path: &table(path),
-        setup: &table(setup),
+        setup: &loaded,
         machine: m,
     })
 }
