@@ -523,8 +523,10 @@ impl Ctx<'_> {
             file: self.src.path.clone(),
             message: format!("run `{}`: {m}", run.name),
         };
+        let plugin = mtcal_plugins::find(&run.instrument)
+            .ok_or_else(|| geo_err(mtcal_plugins::unknown(&run.instrument)))?;
         let bodies = bodies_of(
-            &run.instrument,
+            plugin,
             &*run.loaded,
             &run.setup,
             self.tool_length,

@@ -5,7 +5,7 @@ use crate::geometry::{Carrier, MachineGeometry, Solid, signed_distance};
 use crate::sizes::GeometryConfig;
 use crate::tooled::tooled_machine;
 use mtcal_instrument::collision::BodySpec;
-use mtcal_instrument::{Setup, SetupContext};
+use mtcal_instrument::{InstrumentPlugin, Setup, SetupContext};
 use mtcal_kinematics::rigid::Rigid;
 use mtcal_kinematics::{Machine, Side};
 use nalgebra::{Matrix3, Vector3};
@@ -27,27 +27,22 @@ pub fn instrument_bodies(
 ) -> Result<Option<Bodies>, String> {
     let plugin =
         mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
-    if plugin.planning.and_then(|p| p.bodies).is_none() {
-        return Ok(None);
-    }
     let tooled = tooled_machine(nominal, tool_length)?;
     let loaded = (plugin.load_setup)(setup, &SetupContext { machine: &tooled })
         .map_err(|e| format!("set-up: {e}"))?;
-    bodies_of(instrument, &*loaded, setup, tool_length, nominal, g)
+    bodies_of(plugin, &*loaded, setup, tool_length, nominal, g)
 }
 
-/// [`instrument_bodies`] of a set-up its plugin has loaded (`loaded`, on `nominal` with the
-/// tool point `tool_length` m down the tool axis; `table` its table as planned).
+/// [`instrument_bodies`] of a set-up `plugin` has loaded (`loaded`, on `nominal` with the tool
+/// point `tool_length` m down the tool axis; `table` its table as planned).
 pub fn bodies_of(
-    instrument: &str,
+    plugin: &InstrumentPlugin,
     loaded: &dyn Setup,
     table: &toml::Table,
     tool_length: f64,
     nominal: &Machine,
     g: &GeometryConfig,
 ) -> Result<Option<Bodies>, String> {
-    let plugin =
-        mtcal_plugins::find(instrument).ok_or_else(|| mtcal_plugins::unknown(instrument))?;
     let Some(bodies) = plugin.planning.and_then(|p| p.bodies) else {
         return Ok(None);
     };
