@@ -62,6 +62,11 @@ impl Identification {
         // are all that is kept of them.
         let prepared = crate::fit::prepared_effects(study, &x);
         let mut summaries = Vec::new();
+        let mut stated = study
+            .changes()
+            .noise
+            .as_ref()
+            .map(|_| AgainstStated::default());
         for r in 0..study.runs.len() {
             if study.runs[r].readings.is_none() {
                 continue;
@@ -72,6 +77,9 @@ impl Identification {
             }
             let fit = run_fit(study, r, &pred);
             if study.runs[r].fit {
+                if let Some(stated) = stated.as_mut() {
+                    stated.add(study, r, &fit);
+                }
                 runs.push(fit);
             } else {
                 validation.push(fit);
@@ -88,6 +96,9 @@ impl Identification {
             .flat_map(|r| &r.channels)
             .map(|c| c.rms * c.rms * c.samples as f64)
             .sum();
+        if let Some(stated) = stated.as_mut() {
+            stated.chi2_reduced = stated.chi2 / solution.dof.max(1) as f64;
+        }
         Ok(Identification {
             parameters,
             component_errors,
@@ -119,6 +130,7 @@ impl Identification {
             } else {
                 Vec::new()
             },
+            against_stated: stated,
             mismatch: analysis.mismatch.clone(),
             mismatch_detail: analysis.describe(),
             tests: analysis.tests.clone(),
@@ -458,5 +470,27 @@ impl Identification {
         self.held = base.held.clone();
         self.undetermined_validation = base.validation.clone();
         self
+    }
+}
+
+impl AgainstStated {
+    /// Adds the fitted run `r` (its fit `fit`, against the noise the study assumes).
+    fn add(&mut self, study: &Study, r: usize, fit: &RunFit) {
+        for (c, ch) in fit.channels.iter().enumerate() {
+            let scale = study.noise(r, c).scale;
+            // The channel's χ² with every residual weighed by the stated σ, not `scale` × it.
+            let chi2 = ch.chi2 * scale * scale;
+            self.chi2 += chi2;
+            self.largest_scale = self.largest_scale.max(scale);
+            if self.worst.as_ref().is_none_or(|w| chi2 > w.chi2) {
+                self.worst = Some(WorstChannel {
+                    run: fit.name.clone(),
+                    channel: ch.name.clone(),
+                    rms: ch.rms,
+                    unit: ch.unit.clone(),
+                    chi2,
+                });
+            }
+        }
     }
 }

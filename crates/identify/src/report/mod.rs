@@ -138,6 +138,30 @@ pub struct Fit {
     pub runs: Vec<RunFit>,
 }
 
+/// The fitted runs weighed by the σ their manifests state, for a fit that assumed another
+/// noise.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AgainstStated {
+    /// Σ (residual/σ_stated)² over the fitted runs, and over the fit's degrees of freedom.
+    pub chi2: f64,
+    pub chi2_reduced: f64,
+    /// The run and channel with the largest share of it.
+    pub worst: Option<WorstChannel>,
+    /// The largest ratio of the noise the fit assumes to the stated σ.
+    pub largest_scale: f64,
+}
+
+/// A fitted run's channel and its χ² against the stated σ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorstChannel {
+    pub run: String,
+    pub channel: String,
+    /// RMS residual, in `unit`.
+    pub rms: f64,
+    pub unit: String,
+    pub chi2: f64,
+}
+
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct SolverReport {
     pub iterations: usize,
@@ -186,6 +210,10 @@ pub struct Identification {
     /// repeated between load cycles), each cycle's own value beside the model's
     /// ([`crate::series`]).
     pub location_series: Vec<crate::series::LocationSeries>,
+    /// The fit judged against the σ the manifests state, when it weighs the runs by another
+    /// noise ([`crate::noise`]): a model that explains the recordings only at a noise far above
+    /// the stated one is not said to explain them ([`Identification::verdict`]).
+    pub against_stated: Option<AgainstStated>,
     /// Where the fitted runs' residuals depart from their noise (FORMATS.md `mismatch`).
     pub mismatch: mtcal_mismatch::Mismatch,
     /// Every structure test behind `mismatch`, one sentence each for the rejected ones; in the

@@ -14,7 +14,7 @@ impl Identification {
                 self.solver.termination, self.solver.iterations
             ));
         }
-        if !self.model_explains_recordings() {
+        if !chi2_within_noise(self.fit.chi2_reduced, self.fit.dof) {
             let worst = self
                 .fit
                 .runs
@@ -48,14 +48,50 @@ impl Identification {
                 chi2_spread(self.fit.dof)
             ));
         }
+        if let Some(stated) = self.beyond_stated_noise() {
+            let at = stated.worst.as_ref().map_or(String::new(), |w| {
+                format!(
+                    "; most of it in run `{}`, channel {} (rms {:.3} {}, {:.0} % of the χ²)",
+                    w.run,
+                    w.channel,
+                    w.rms,
+                    w.unit,
+                    100.0 * w.chi2 / stated.chi2.max(f64::MIN_POSITIVE)
+                )
+            });
+            return Some(format!(
+                "THE MODEL DOES NOT EXPLAIN THE RECORDINGS AT THE NOISE THEIR FILES STATE: chi2/dof \
+                 {:.2} against the stated σ where the noise alone gives {:.2} ± {:.2}{at}. The fit \
+                 weighs the runs by the noise their residuals show (up to {:.2} × the stated σ), \
+                 and at that noise nothing is left over: either the instruments are that much \
+                 noisier than stated, or the recordings hold what the model leaves out (a shape \
+                 too short or too sparse to tell from noise). Check the stated σ; if it is right, \
+                 the parameters below are not a calibration",
+                stated.chi2_reduced,
+                1.0,
+                chi2_spread(self.fit.dof),
+                stated.largest_scale
+            ));
+        }
         None
     }
 
     /// Whether χ²/dof lies within what noise of the stated σ could give: below twice, and
     /// below 1 + 5 standard deviations of χ²/dof. A σ stated 20 % off or mildly coloured noise
-    /// stays inside; readings in the wrong frame (χ²/dof of 50) do not.
+    /// stays inside; readings in the wrong frame (χ²/dof of 50) do not. A fit that weighs the
+    /// runs by the noise their residuals show is judged at the stated σ as well: residuals read
+    /// as noise at several times the stated σ are not explained by calling them noise.
     pub fn model_explains_recordings(&self) -> bool {
         chi2_within_noise(self.fit.chi2_reduced, self.fit.dof)
+            && self.beyond_stated_noise().is_none()
+    }
+
+    /// The fit against the stated σ, when the fit assumed another noise and at the stated σ it
+    /// is beyond what noise could give.
+    fn beyond_stated_noise(&self) -> Option<&AgainstStated> {
+        self.against_stated
+            .as_ref()
+            .filter(|s| !chi2_within_noise(s.chi2_reduced, self.fit.dof))
     }
 
     /// A plain-text summary for the terminal (a long parameter table summarised).

@@ -93,3 +93,71 @@ fn nothing_is_searched_on_a_fit_that_did_not_converge() {
     );
     honest(&result).unwrap();
 }
+
+/// The five-axis example (no effect planted) with every set-up's σ stated a third of the noise
+/// its recordings carry. The search weighs the runs by the noise their residuals show, and at
+/// that noise the model explains them: it must still say, first, that at the stated σ it does
+/// not — the plain fit says so, and a search that found nothing to add changes nothing in it.
+#[test]
+fn a_sigma_stated_too_small_is_not_explained_away_by_the_search() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let example = mtcal_testkit::repo().join("examples/five-axis/session");
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(&example).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    // The simulated noise is the plugins' default σ (0.5 µm R-test, 1 µm ball bar).
+    let manifest = std::fs::read_to_string(dir.join("session.toml")).unwrap();
+    let stated = manifest
+        .replace(
+            "mount = \"ball-in-spindle\"\n",
+            "mount = \"ball-in-spindle\"\nsigma_um = 0.17\n",
+        )
+        .replace("length = 100.0\n", "length = 100.0\nsigma_um = 0.33\n");
+    assert_eq!(stated.matches("sigma_um").count(), 3, "{stated}");
+    std::fs::write(dir.join("session.toml"), stated).unwrap();
+    let run = |search: bool| {
+        let options = mtcal_identify::pipeline::PipelineOptions {
+            search,
+            ..Default::default()
+        };
+        mtcal_identify::pipeline::Prepared::load(&dir, options)
+            .unwrap()
+            .run(&mut mtcal_solve::Silent)
+            .unwrap()
+    };
+    let plain = run(false);
+    let plain_verdict = plain
+        .identification
+        .verdict()
+        .expect("the plain fit's verdict");
+    assert!(
+        plain_verdict.starts_with("THE MODEL DOES NOT EXPLAIN THE RECORDINGS:"),
+        "{plain_verdict}"
+    );
+    let searched = run(true);
+    let id = &searched.identification;
+    let found = &searched.search.as_ref().expect("the search ran").findings;
+    assert!(found.discoveries.is_empty(), "{}", found.summary());
+    assert!(
+        !id.noise.is_empty(),
+        "the search weighs by the residuals' noise"
+    );
+    let verdict = id.verdict().expect("a verdict after the search too");
+    assert!(
+        verdict.starts_with(
+            "THE MODEL DOES NOT EXPLAIN THE RECORDINGS AT THE NOISE THEIR FILES STATE"
+        ) && verdict.contains("× the stated σ"),
+        "{verdict}"
+    );
+    assert!(!id.model_explains_recordings());
+    assert!(
+        searched.screen(false).starts_with(&verdict),
+        "{}",
+        searched.screen(false)
+    );
+}
