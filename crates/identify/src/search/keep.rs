@@ -19,17 +19,30 @@ use std::sync::Arc;
 
 /// Withdraws, latest first, every stage whose parameters the final fit does not determine
 /// ([`undetermined`]), then every one the model predicts held-out data as well without
-/// (latest first, the step's test the other way round), then — while the model predicts held-out data (blocks, forecasts:
-/// [`worse`]) worse than the model before the search, refitted on the same noise — the latest
-/// stage.
-/// Returns the model that remains.
+/// (latest first, the step's test the other way round), then — while the model predicts
+/// held-out data (blocks, forecasts: [`worse`]) worse than the model before the search,
+/// refitted on the same noise — the latest stage; then, on the noise the final model's
+/// residuals show, every stage that noise leaves undetermined. Returns the model that remains.
 pub(super) fn keep_what_holds(
-    mut current: Fitted,
+    current: Fitted,
     stages: &mut Vec<Stage>,
     initial_changes: &Changes,
     options: &SearchOptions,
     report: &mut SearchReport,
 ) -> Result<Fitted, IdentifyError> {
+    let (current, changed) = withdraw_undetermined(current, stages, options, report)?;
+    keep_what_earns_its_place(current, changed, stages, initial_changes, options, report)
+}
+
+/// Withdraws, latest first, every stage whose parameters `current`'s fit does not determine
+/// (holding a shape it does not determine first, or replacing a shape pinned at the edge where
+/// it is a simpler effect); returns the model that remains and whether it changed.
+fn withdraw_undetermined(
+    mut current: Fitted,
+    stages: &mut Vec<Stage>,
+    options: &SearchOptions,
+    report: &mut SearchReport,
+) -> Result<(Fitted, bool), IdentifyError> {
     let mut changed = false;
     let mut tried_holding: Vec<usize> = Vec::new();
     while let Some((k, failure)) = stages.iter().enumerate().rev().find_map(|(k, s)| {
@@ -76,6 +89,18 @@ pub(super) fn keep_what_holds(
         current = without(current, &stage.addition, options)?;
         changed = true;
     }
+    Ok((current, changed))
+}
+
+/// [`keep_what_holds`] after the stages are settled: what the final model keeps.
+fn keep_what_earns_its_place(
+    mut current: Fitted,
+    mut changed: bool,
+    stages: &mut Vec<Stage>,
+    initial_changes: &Changes,
+    options: &SearchOptions,
+    report: &mut SearchReport,
+) -> Result<Fitted, IdentifyError> {
     // Each effect must earn its place in the final model, not only at its step: one that a
     // later step made redundant (the same structure explained again), or that only predicts
     // better beside another, is withdrawn when the model without it predicts held-out data as
@@ -111,8 +136,12 @@ pub(super) fn keep_what_holds(
             current = before;
         }
     }
-    if changed {
+    // The final model on the noise its own residuals show; an effect that noise leaves
+    // undetermined (a withdrawal left structure that raises the noise) is withdrawn too, until
+    // the noise and the stages agree.
+    while changed {
         current = super::fitted::with_noise(current, options)?;
+        (current, changed) = withdraw_undetermined(current, stages, options, report)?;
     }
     Ok(current)
 }
