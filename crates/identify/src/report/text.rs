@@ -29,14 +29,7 @@ impl Identification {
                 .map(|c| c.chi2)
                 .sum();
             let at = worst.map_or(String::new(), |(r, c)| {
-                format!(
-                    "; most of it in run `{}`, channel {} (rms {:.3} {}, {:.0} % of the χ²)",
-                    r.name,
-                    c.name,
-                    c.rms,
-                    c.unit,
-                    100.0 * c.chi2 / total.max(f64::MIN_POSITIVE)
-                )
+                most_of_it(&r.name, &c.name, c.rms, &c.unit, c.chi2 / total)
             });
             return Some(format!(
                 "THE MODEL DOES NOT EXPLAIN THE RECORDINGS: chi2/dof {:.2} where the noise alone \
@@ -50,14 +43,7 @@ impl Identification {
         }
         if let Some(stated) = self.beyond_stated_noise() {
             let at = stated.worst.as_ref().map_or(String::new(), |w| {
-                format!(
-                    "; most of it in run `{}`, channel {} (rms {:.3} {}, {:.0} % of the χ²)",
-                    w.run,
-                    w.channel,
-                    w.rms,
-                    w.unit,
-                    100.0 * w.chi2 / stated.chi2.max(f64::MIN_POSITIVE)
-                )
+                most_of_it(&w.run, &w.channel, w.rms, &w.unit, w.chi2 / stated.chi2)
             });
             return Some(format!(
                 "THE MODEL DOES NOT EXPLAIN THE RECORDINGS AT THE NOISE THEIR FILES STATE: chi2/dof \
@@ -343,6 +329,19 @@ pub(super) fn given_held(u95: Option<f64>, full: f64) -> String {
         Some(u) if u < 0.8 * full => format!("  (± {u:.4} if the undetermined are zero)"),
         _ => String::new(),
     }
+}
+
+/// Where a verdict's χ² lies: "; most of it in run `r`, channel c (rms …, N % of the χ²)";
+/// `share` of the total (a total of zero gives no share).
+fn most_of_it(run: &str, channel: &str, rms: f64, unit: &str, share: f64) -> String {
+    let percent = if share.is_finite() {
+        100.0 * share
+    } else {
+        0.0
+    };
+    format!(
+        "; most of it in run `{run}`, channel {channel} (rms {rms:.3} {unit}, {percent:.0} % of the χ²)"
+    )
 }
 
 /// Whether χ²/dof (against the stated σ) lies within what noise could give, a σ stated 20 %
