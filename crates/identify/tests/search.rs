@@ -180,15 +180,10 @@ inventory::submit! {
 fn a_search_loads_each_set_up_once_and_reads_nothing_again() {
     use mtcal_identify::pipeline::{PipelineOptions, Prepared};
     let tmp = tempfile::tempdir().unwrap();
-    let session = tmp.path().join("session");
-    let example = mtcal_testkit::repo().join("examples/five-axis-warm/session");
-    std::fs::create_dir(&session).unwrap();
-    for entry in std::fs::read_dir(&example).unwrap() {
-        let entry = entry.unwrap();
-        if entry.file_type().unwrap().is_file() {
-            std::fs::copy(entry.path(), session.join(entry.file_name())).unwrap();
-        }
-    }
+    let session = mtcal_testkit::sessions::copied(
+        &mtcal_testkit::repo().join("examples/five-axis-warm/session"),
+        &tmp.path().join("session"),
+    );
     let manifest = session.join("session.toml");
     let text = std::fs::read_to_string(&manifest).unwrap();
     let rtest_setups = ["ball-low", "ball-high"];

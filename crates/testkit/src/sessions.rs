@@ -1,7 +1,20 @@
-//! What the tests that run whole sessions share: a written session put as a user has it, and a
-//! work list run on a few threads.
+//! What the tests that run whole sessions share: a written session put as a user has it, a
+//! bundled session copied to edit, and a work list run on a few threads.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The files of the session folder `from` (its manifest, runs and machine; not its
+/// subfolders) copied into a new folder `to`, which is returned.
+pub fn copied(from: &Path, to: &Path) -> PathBuf {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        if entry.file_type().unwrap().is_file() {
+            std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+        }
+    }
+    to.to_path_buf()
+}
 
 /// The session in `dir` as a user has it: the machine's URDF copied beside it as
 /// `machine.urdf` (without the shipped error-model file, so the default full model applies)

@@ -96,9 +96,6 @@ impl Identification {
             .flat_map(|r| &r.channels)
             .map(|c| c.rms * c.rms * c.samples as f64)
             .sum();
-        if let Some(stated) = stated.as_mut() {
-            stated.chi2_reduced = stated.chi2 / solution.dof.max(1) as f64;
-        }
         Ok(Identification {
             parameters,
             component_errors,

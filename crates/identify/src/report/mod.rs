@@ -142,9 +142,8 @@ pub struct Fit {
 /// noise.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct AgainstStated {
-    /// Σ (residual/σ_stated)² over the fitted runs, and over the fit's degrees of freedom.
+    /// Σ (residual/σ_stated)² over the fitted runs.
     pub chi2: f64,
-    pub chi2_reduced: f64,
     /// The run and channel with the largest share of it.
     pub worst: Option<WorstChannel>,
     /// The largest ratio of the noise the fit assumes to the stated σ.

@@ -41,7 +41,7 @@ impl Identification {
                 chi2_spread(self.fit.dof)
             ));
         }
-        if let Some(stated) = self.beyond_stated_noise() {
+        if let Some((stated, chi2_reduced)) = self.beyond_stated_noise() {
             let at = stated.worst.as_ref().map_or(String::new(), |w| {
                 most_of_it(&w.run, &w.channel, w.rms, &w.unit, w.chi2 / stated.chi2)
             });
@@ -53,7 +53,7 @@ impl Identification {
                  noisier than stated, or the recordings hold what the model leaves out (a shape \
                  too short or too sparse to tell from noise). Check the stated σ; if it is right, \
                  the parameters below are not a calibration",
-                stated.chi2_reduced,
+                chi2_reduced,
                 1.0,
                 chi2_spread(self.fit.dof),
                 stated.largest_scale
@@ -72,12 +72,12 @@ impl Identification {
             && self.beyond_stated_noise().is_none()
     }
 
-    /// The fit against the stated σ, when the fit assumed another noise and at the stated σ it
-    /// is beyond what noise could give.
-    fn beyond_stated_noise(&self) -> Option<&AgainstStated> {
-        self.against_stated
-            .as_ref()
-            .filter(|s| !chi2_within_noise(s.chi2_reduced, self.fit.dof))
+    /// The fit against the stated σ and its χ²/dof, when the fit assumed another noise and at
+    /// the stated σ it is beyond what noise could give.
+    fn beyond_stated_noise(&self) -> Option<(&AgainstStated, f64)> {
+        let stated = self.against_stated.as_ref()?;
+        let chi2_reduced = stated.chi2 / self.fit.dof.max(1) as f64;
+        (!chi2_within_noise(chi2_reduced, self.fit.dof)).then_some((stated, chi2_reduced))
     }
 
     /// A plain-text summary for the terminal (a long parameter table summarised).

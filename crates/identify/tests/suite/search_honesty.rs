@@ -101,15 +101,10 @@ fn nothing_is_searched_on_a_fit_that_did_not_converge() {
 #[test]
 fn a_sigma_stated_too_small_is_not_explained_away_by_the_search() {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("session");
-    let example = mtcal_testkit::repo().join("examples/five-axis/session");
-    std::fs::create_dir_all(&dir).unwrap();
-    for entry in std::fs::read_dir(&example).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_file() {
-            std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
-        }
-    }
+    let dir = mtcal_testkit::sessions::copied(
+        &mtcal_testkit::repo().join("examples/five-axis/session"),
+        &tmp.path().join("session"),
+    );
     // The simulated noise is the plugins' default σ (0.5 µm R-test, 1 µm ball bar).
     let manifest = std::fs::read_to_string(dir.join("session.toml")).unwrap();
     let stated = manifest
