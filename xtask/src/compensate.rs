@@ -346,10 +346,21 @@ fn found_reversals(
         let reversal = mtcal_compensate::Reversal {
             middle_um: -r.backlash_um,
             change_um,
+            span_mm: r.span_mm,
+        };
+        let beyond = match r.span_mm {
+            Some((lo, hi)) if change_um != 0.0 => {
+                format!("; beyond the measured {lo} … {hi} mm it holds its value at the nearer end")
+            }
+            _ => String::new(),
+        };
+        let at = match r.span_mm {
+            Some((lo, hi)) => format!("at {} mm", 0.5 * (lo + hi)),
+            None => "at mid-stroke".into(),
         };
         said.push(format!(
             "  {words}: in the reverse table of axis {} (ISO 230-2 reversal value B = {:+.1} µm \
-             at mid-stroke)",
+             {at}{beyond})",
             r.axis, reversal.middle_um
         ));
         kept.push(mtcal_compensate::AxisReversal {

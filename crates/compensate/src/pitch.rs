@@ -40,15 +40,20 @@ pub struct PitchTable {
 }
 
 /// A linear axis' reversal for a bidirectional table: the signed ISO 230-2 reversal value
-/// `B = x̄↑ − x̄↓` (µm) at the middle of the axis' stroke and its change from there to the
-/// positive end (lost motion that grows along the stroke, a worn screw): `B(x) = middle +
-/// change·û`, `û = (2x − lo − hi)/(hi − lo)` over the axis' limits — the form of mtcal's
-/// `reversal` effect along the stroke. An axis that lags by half its backlash `b` behind the
-/// command in the direction it last moved has `x̄↑ = −b/2`, `x̄↓ = +b/2`: `B = −b`.
+/// `B = x̄↑ − x̄↓` (µm) at the middle of a span of the axis' positions and its change from
+/// there to the span's positive end (lost motion that grows along the stroke, a worn screw):
+/// `B(x) = middle + change·û`, `û = (2x − lo − hi)/(hi − lo)` over the span — the form of
+/// mtcal's `reversal` effect along the stroke. The span is what was measured (`span_mm`), or
+/// the axis' limits; beyond a measured span `B` holds its value at the nearer end: a line
+/// through a measured stretch says nothing about the rest of the stroke, and carried on it
+/// would compensate a lost motion nobody saw. An axis that lags by half its backlash `b`
+/// behind the command in the direction it last moved has `x̄↑ = −b/2`, `x̄↓ = +b/2`: `B = −b`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Reversal {
     pub middle_um: f64,
     pub change_um: f64,
+    /// The positions `middle_um` and `change_um` are given over (mm); `None`: the stroke.
+    pub span_mm: Option<(f64, f64)>,
 }
 
 impl Reversal {
@@ -57,15 +62,18 @@ impl Reversal {
         Reversal {
             middle_um: b_um,
             change_um: 0.0,
+            span_mm: None,
         }
     }
 
-    /// `B` at axis position `x_mm` on the stroke `(lo, hi)` (mm).
-    pub fn at_um(&self, x_mm: f64, (lo, hi): (f64, f64)) -> f64 {
+    /// `B` at axis position `x_mm` of an axis whose stroke is `stroke_mm` (mm).
+    pub fn at_um(&self, x_mm: f64, stroke_mm: (f64, f64)) -> f64 {
         if self.change_um == 0.0 {
             return self.middle_um;
         }
-        self.middle_um + self.change_um * (2.0 * x_mm - lo - hi) / (hi - lo)
+        let (lo, hi) = self.span_mm.unwrap_or(stroke_mm);
+        let u = ((2.0 * x_mm - lo - hi) / (hi - lo)).clamp(-1.0, 1.0);
+        self.middle_um + self.change_um * u
     }
 }
 
@@ -453,6 +461,24 @@ mod tests {
     /// middle, `ΔB` to the positive end) gives each node its own reverse offset, linear in the
     /// position over the axis' limits — not over the table's nodes, which may not reach them.
     #[test]
+    fn a_reversal_measured_over_part_of_the_stroke_holds_its_ends_beyond_it() {
+        let r = Reversal {
+            middle_um: -3.0,
+            change_um: -1.0,
+            span_mm: Some((10.0, 30.0)),
+        };
+        let stroke = (-200.0, 200.0);
+        // Over the span: the line through it (−3 at 20 mm, −4 at 30 mm).
+        for (x, want) in [(10.0, -2.0), (20.0, -3.0), (25.0, -3.5), (30.0, -4.0)] {
+            assert!((r.at_um(x, stroke) - want).abs() < 1e-12, "at {x} mm");
+        }
+        // Beyond it: the nearer end's value, not the line carried on (−22 µm at 200 mm).
+        for (x, want) in [(-200.0, -2.0), (0.0, -2.0), (31.0, -4.0), (200.0, -4.0)] {
+            assert_eq!(r.at_um(x, stroke), want, "at {x} mm");
+        }
+    }
+
+    #[test]
     fn a_reversal_along_the_stroke_gives_each_node_its_own_offset() {
         let table = PitchTable {
             axis: 'X',
@@ -464,6 +490,7 @@ mod tests {
         let r = Reversal {
             middle_um: -3.0,
             change_um: -1.0,
+            span_mm: None,
         };
         let bi = table.with_reversal(&r, (-200.0, 200.0));
         let reverse = bi.reverse_um.clone().unwrap();

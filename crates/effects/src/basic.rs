@@ -29,11 +29,11 @@ pub enum Feature {
     /// in a run (the side it arrived from is unknown: the mean of `±B/2`;
     /// [`crate::view::AxisMotion`]).
     Reversal(usize),
-    /// Backlash that changes along axis `a`'s stroke: two terms on the axis, `−½·s` and
+    /// Backlash that changes along an axis' stroke: two terms on the axis, `−½·s` and
     /// `−½·s·û` (`s` the direction as for [`Feature::Reversal`], `û` the position normalised
-    /// to `[−1, 1]` over the stroke): the lost motion at the middle of the stroke and its
-    /// change from there to the stroke's positive end.
-    ReversalAlong(usize),
+    /// to `[−1, 1]` over the [`Span`]): the lost motion at the middle of the span and its
+    /// change from there to the span's positive end.
+    ReversalAlong(Span),
     /// `−½·s` of axis `a` (as [`Feature::Reversal`]) acting on another axis: a straightness
     /// step that flips with `a`'s direction (lateral play of the carriage in its guides).
     LateralPlay(usize),
@@ -110,6 +110,78 @@ impl Feature {
             | Feature::Bilinear(..)
             | Feature::Constant => false,
         }
+    }
+}
+
+/// A span of one axis' positions a feature normalises the position over (`û` from −1 at
+/// `lo` to 1 at `hi`), and so the span its amplitudes are given over. A candidate's is what
+/// the fitted runs cover ([`Span::fitted`]): a backlash "at the stroke's end" fitted from runs
+/// over a thirtieth of the stroke would be an extrapolation thirty times the data, its number
+/// and interval the line's, not the machine's. A plant's is the stroke ([`Span::stroke`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    pub axis: usize,
+    /// The axis' letter and kind, for words.
+    pub letter: char,
+    pub rotary: bool,
+    /// Lowest and highest position (SI).
+    pub lo: f64,
+    pub hi: f64,
+    /// Whether it is the span the fitted runs cover (not the stroke).
+    pub fitted: bool,
+}
+
+impl Span {
+    /// Axis `a`'s stroke.
+    pub fn stroke(view: &SessionView, a: usize) -> Self {
+        let ax = &view.axes[a];
+        Span {
+            axis: a,
+            letter: ax.letter,
+            rotary: ax.rotary,
+            lo: ax.stroke.0,
+            hi: ax.stroke.1,
+            fitted: false,
+        }
+    }
+
+    /// The positions axis `a` stands at over the fitted samples ([`SessionView::fitted_range`]);
+    /// the stroke where the fitted runs hold it in one place.
+    pub fn fitted(view: &SessionView, a: usize) -> Self {
+        let (lo, hi) = view.fitted_range(a);
+        if hi - lo <= 0.0 {
+            return Self::stroke(view, a);
+        }
+        Span {
+            lo,
+            hi,
+            fitted: true,
+            ..Self::stroke(view, a)
+        }
+    }
+
+    /// The position `q` (SI) normalised: −1 at `lo`, 1 at `hi`.
+    pub fn normalised(&self, q: f64) -> f64 {
+        (2.0 * q - self.lo - self.hi) / (self.hi - self.lo)
+    }
+
+    /// The file unit of the axis' positions and its factor from SI (mm; degrees for a rotary
+    /// axis).
+    pub fn unit(&self) -> (&'static str, f64) {
+        if self.rotary {
+            ("deg", 180.0 / std::f64::consts::PI)
+        } else {
+            ("mm", 1e3)
+        }
+    }
+
+    /// A position (SI) in the axis' file unit, for sentences: `12.5 mm`.
+    fn words(&self, q: f64) -> String {
+        let (unit, per_si) = self.unit();
+        let text = format!("{:.3}", q * per_si);
+        let text = text.trim_end_matches('0').trim_end_matches('.');
+        let text = if text == "-0" { "0" } else { text };
+        format!("{text} {unit}")
     }
 }
 
@@ -473,6 +545,13 @@ impl Effect for Basic {
         &self.terms
     }
 
+    fn spans(&self) -> Vec<Span> {
+        match &self.feature {
+            Feature::ReversalAlong(span) => vec![*span],
+            _ => Vec::new(),
+        }
+    }
+
     fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features> {
         let shape_value = shape.first().copied().unwrap_or(0.0);
         let second = shape.get(1).copied().unwrap_or(0.0);
@@ -625,11 +704,23 @@ impl Effect for Basic {
                 )
             }
             Feature::Reversal(_) => format!("a reversal error (backlash) of {target} of {}", p(0)),
-            Feature::ReversalAlong(_) => format!(
-                "a reversal error (backlash) of {target} of {} at the middle of its stroke, changing by {} from there to the stroke's positive end",
-                p(0),
-                p(1)
-            ),
+            Feature::ReversalAlong(span) => {
+                let over = if span.fitted {
+                    "the positions the fitted runs cover"
+                } else {
+                    "its stroke"
+                };
+                format!(
+                    "a reversal error (backlash) of {target} of {} at {} {}, the middle of {over} ({} … {}), changing by {} from there to {}",
+                    p(0),
+                    span.letter,
+                    span.words(0.5 * (span.lo + span.hi)),
+                    span.words(span.lo),
+                    span.words(span.hi),
+                    p(1),
+                    span.words(span.hi)
+                )
+            }
             Feature::LateralPlay(_) => format!(
                 "a lateral play: {target}, a step of {} that flips with the direction of motion",
                 p(0)
@@ -894,9 +985,8 @@ impl BasicFeatures {
             // The feature's own shape (a take-up) does nothing before the first motion.
             df[..first].fill(0.0);
         }
-        if let Feature::ReversalAlong(_) = self.feature {
-            let (lo, hi) = view.axes[a].stroke;
-            let u = (2.0 * view.q(r, i, a) - lo - hi) / (hi - lo);
+        if let Feature::ReversalAlong(span) = &self.feature {
+            let u = span.normalised(view.q(r, i, a));
             f[1] = f[0] * u;
             df[ns + first + k] = -0.5 * u;
         }
@@ -964,10 +1054,9 @@ impl Features for BasicFeatures {
                     df[0] = 0.0;
                 }
             }
-            Feature::ReversalAlong(a) => {
-                let (lo, hi) = view.axes[*a].stroke;
-                let u = (2.0 * view.q(r, i, *a) - lo - hi) / (hi - lo);
-                f[0] = -0.5 * f64::from(view.direction(r, *a, i));
+            Feature::ReversalAlong(span) => {
+                let u = span.normalised(view.q(r, i, span.axis));
+                f[0] = -0.5 * f64::from(view.direction(r, span.axis, i));
                 f[1] = f[0] * u;
             }
             Feature::ReversalSpike(a) | Feature::ReversalSpikeDamped(a) => {

@@ -45,7 +45,7 @@ pub mod lag;
 pub mod prepared;
 pub mod view;
 
-pub use basic::{Basic, Feature};
+pub use basic::{Basic, Feature, Span};
 pub use prepared::{Entry, PreparedEffects, SampleEffects, Slot, axis_slots};
 pub use view::{
     AxisView, BasisOrder, Input, ModelParamView, RunView, SeriesCache, SessionView, SetupView,
@@ -149,6 +149,12 @@ pub trait Effect: fmt::Debug + Send + Sync {
     /// The features at shape parameters `shape` (SI, in the order of the shape parameters in
     /// [`Effect::params`]).
     fn prepare(&self, view: &Arc<SessionView>, shape: &[f64]) -> Box<dyn Features>;
+    /// The spans of axis positions its amplitudes are given over (a backlash at the middle of
+    /// one and its change to the positive end): a number about positions holds over these and
+    /// says nothing beyond them. Empty for an effect whose numbers hold anywhere.
+    fn spans(&self) -> Vec<Span> {
+        Vec::new()
+    }
     /// The effect in words, for fitted values (SI) and their 95 % half-widths (SI; `None`
     /// where the data cannot tell).
     fn describe(&self, values: &[f64], u95: &[Option<f64>]) -> String;
@@ -497,6 +503,7 @@ mod tests {
             effect: effect.into(),
             axis: Some(axis.into()),
             parameters,
+            spans: Vec::new(),
         };
         let read = |d: &Discovery| {
             inventory::iter::<CompensableDiscovery>
@@ -513,10 +520,33 @@ mod tests {
         );
         let found = read(&linear).expect("a linear axis' reversal");
         assert_eq!(
-            (found.axis, found.backlash_um, found.change_um),
-            ('X', 8.0, 1.5)
+            (
+                found.axis,
+                found.backlash_um,
+                found.change_um,
+                found.span_mm
+            ),
+            ('X', 8.0, 1.5, None)
         );
         assert_eq!(found.label, "reversal X");
+        // Given over the span it measured: the table takes it there (another axis' span, or
+        // one in another unit, is not X's).
+        let span = |axis: &str, from, to, unit: &str| mtcal_machine::from_identify::DiscoverySpan {
+            axis: axis.into(),
+            from,
+            to,
+            unit: unit.into(),
+        };
+        let measured = Discovery {
+            spans: vec![span("Y", 0.0, 9.0, "mm"), span("X", -15.0, 15.0, "mm")],
+            ..linear.clone()
+        };
+        assert_eq!(read(&measured).unwrap().span_mm, Some((-15.0, 15.0)));
+        let elsewhere = Discovery {
+            spans: vec![span("X", -15.0, 15.0, "deg")],
+            ..linear.clone()
+        };
+        assert_eq!(read(&elsewhere).unwrap().span_mm, None);
         let rotary = discovery(
             "reversal",
             "C",

@@ -39,6 +39,29 @@ pub struct DiscoveryParameter {
     pub held: bool,
 }
 
+/// A span of one axis' positions a discovery's parameters are given over
+/// ([`mtcal_effects::Effect::spans`]), in the axis' file unit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiscoverySpan {
+    pub axis: String,
+    pub from: f64,
+    pub to: f64,
+    /// `mm`, or `deg` for a rotary axis.
+    pub unit: String,
+}
+
+impl DiscoverySpan {
+    pub fn of(span: &mtcal_effects::Span) -> Self {
+        let (unit, per_si) = span.unit();
+        DiscoverySpan {
+            axis: span.letter.to_string(),
+            from: span.lo * per_si,
+            to: span.hi * per_si,
+            unit: unit.to_string(),
+        }
+    }
+}
+
 /// A machine parameter an omitted effect had biased.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Correction {
@@ -61,6 +84,11 @@ pub struct Discovery {
     /// Its label (the prefix of its parameters' names).
     pub label: String,
     pub parameters: Vec<DiscoveryParameter>,
+    /// The spans of axis positions its parameters are given over (a backlash along the
+    /// stroke: at the middle of the positions the fitted runs cover and its change to their
+    /// positive end); nothing is said beyond them. In the JSON only when there are any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub spans: Vec<DiscoverySpan>,
     pub rms_before_um: f64,
     pub rms_after_um: f64,
     pub heldout_rms_before_um: f64,

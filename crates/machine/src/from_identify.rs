@@ -71,20 +71,24 @@ pub struct CombinationValue {
 
 /// A `reversal` discovery of a linear axis: the axis lags by half its backlash behind the
 /// commanded position in the direction it last moved, the backlash `B + ΔB·û` along the
-/// stroke (`û` the position normalised to `[−1, 1]` over the axis' limits; `ΔB` 0 for a
-/// constant one).
+/// stroke (`û` the position normalised to `[−1, 1]` over the span the identification measured
+/// — the axis' limits for a file without one —; `ΔB` 0 for a constant one).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FoundReversal {
     /// The discovery's label (`reversal X (along X)`).
     pub label: String,
     pub axis: char,
-    /// `B` at the middle of the stroke and its u95, µm.
+    /// `B` at the middle of the span and its u95, µm.
     pub backlash_um: f64,
     pub backlash_u95_um: Option<f64>,
-    /// `ΔB`, from the middle to the positive end, and its u95, µm (0 and `None` when the
-    /// discovery has no change along the stroke).
+    /// `ΔB`, from the middle to the span's positive end, and its u95, µm (0 and `None` when
+    /// the discovery has no change along the stroke).
     pub change_um: f64,
     pub change_u95_um: Option<f64>,
+    /// The positions `B` and `ΔB` are given over (mm, the discovery's `spans`): what the
+    /// identification measured, and nothing beyond. `None`: the axis' limits (a file written
+    /// before discoveries gave their spans).
+    pub span_mm: Option<(f64, f64)>,
 }
 
 impl FoundReversal {
@@ -102,7 +106,7 @@ impl FoundReversal {
     }
 
     /// The discovery in words: `reversal X (along X) of the identification: backlash 8.0 ±
-    /// 0.4 µm (mid-stroke), changing by +1.2 ± 0.3 µm to the positive end`.
+    /// 0.4 µm at 0 mm, changing by +1.2 ± 0.3 µm to 15 mm (measured over −15 … 15 mm)`.
     pub fn words(&self) -> String {
         let pm = |u: Option<f64>| u.map(|u| format!(" ± {u:.1}")).unwrap_or_default();
         let mut text = format!(
@@ -112,13 +116,35 @@ impl FoundReversal {
             pm(self.backlash_u95_um)
         );
         if self.change_um != 0.0 {
-            text.push_str(&format!(
-                " at mid-stroke, changing by {:+.1}{} µm to the positive end",
-                self.change_um,
-                pm(self.change_u95_um)
-            ));
+            match self.span_mm {
+                Some((lo, hi)) => text.push_str(&format!(
+                    " at {} mm, changing by {:+.1}{} µm to {} mm (measured over {} … {} mm)",
+                    mm(0.5 * (lo + hi)),
+                    self.change_um,
+                    pm(self.change_u95_um),
+                    mm(hi),
+                    mm(lo),
+                    mm(hi)
+                )),
+                None => text.push_str(&format!(
+                    " at mid-stroke, changing by {:+.1}{} µm to the positive end",
+                    self.change_um,
+                    pm(self.change_u95_um)
+                )),
+            }
         }
         text
+    }
+}
+
+/// A position for words: up to three decimals, no trailing zeros.
+fn mm(x: f64) -> String {
+    let text = format!("{x:.3}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.into()
     }
 }
 
@@ -177,6 +203,19 @@ pub struct Discovery {
     pub axis: Option<String>,
     #[serde(default)]
     pub parameters: Vec<DiscoveryParameter>,
+    /// The spans of axis positions the parameters are given over (absent in files written
+    /// before discoveries gave them).
+    #[serde(default)]
+    pub spans: Vec<DiscoverySpan>,
+}
+
+/// A span of one axis' positions a [`Discovery`]'s parameters are given over.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct DiscoverySpan {
+    pub axis: String,
+    pub from: f64,
+    pub to: f64,
+    pub unit: String,
 }
 
 /// One parameter of a [`Discovery`], in its file unit.
@@ -196,6 +235,21 @@ impl Discovery {
             (Some(axis), None) => Some(axis),
             _ => None,
         }
+    }
+
+    /// The span of axis `axis`'s positions its parameters are given over, in `unit`, if it
+    /// gives one.
+    pub fn span(&self, axis: char, unit: &str) -> Option<(f64, f64)> {
+        self.spans
+            .iter()
+            .find(|s| {
+                s.axis.chars().eq(std::iter::once(axis))
+                    && s.unit == unit
+                    && s.from.is_finite()
+                    && s.to.is_finite()
+                    && s.from < s.to
+            })
+            .map(|s| (s.from, s.to))
     }
 
     /// The parameter `name` given in `unit` with a finite value.

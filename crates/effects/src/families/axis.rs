@@ -19,9 +19,11 @@
 //! - **`reversal`**: the axis lags by half its backlash `B` behind the commanded position in
 //!   the direction it last moved, `±B/2` (plant key `backlash_um`; rotary `backlash_urad`).
 //!   With lost motion that changes along the stroke (a worn screw, a load that grows towards
-//!   one end), `−½·s·(B + ΔB·û)`: `B` at the middle of the stroke, `ΔB` its change from there
-//!   to the positive end, `û` the position normalised to `[−1, 1]` over the stroke (label
-//!   `reversal X (along X)`; plant keys `backlash_um`, `backlash_change_um`). Proposed for
+//!   one end), `−½·s·(B + ΔB·û)`: `B` at the middle of a span, `ΔB` its change from there to
+//!   the span's positive end, `û` the position normalised to `[−1, 1]` over the span (label
+//!   `reversal X (along X)`; plant keys `backlash_um`, `backlash_change_um`). A candidate's span
+//!   is the positions the fitted runs cover ([`crate::basic::Span::fitted`]: its numbers say
+//!   nothing beyond them), a plant's the stroke. Proposed for
 //!   every axis that reverses in a fitted run; the form along the stroke for linear axes and
 //!   rotary axes of less than a turn.
 //! - **`lateral-play`**: when axis `A` reverses, the tool steps across its motion along another
@@ -64,7 +66,7 @@ use super::{
     axis_aim, moves, moves_both_ways, number, plant_aim, plant_values, reverses, single_letter,
     string,
 };
-use crate::basic::{Basic, Feature};
+use crate::basic::{Basic, Feature, Span};
 use crate::view::SessionView;
 use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
 use mtcal_machine::from_identify::{CompensableDiscovery, Discovery, FoundReversal};
@@ -151,15 +153,16 @@ fn plant_on_axis(
     Ok((Arc::new(e), v))
 }
 
-/// Backlash of axis `a` that changes along its stroke.
-fn reversal_along(view: &SessionView, a: usize) -> Basic {
+/// Backlash of an axis that changes along the span `span` of its positions.
+fn reversal_along(view: &SessionView, span: Span) -> Basic {
+    let a = span.axis;
     let aim = axis_aim(view, a);
     let letter = view.axes[a].letter;
     let mut info = aim.info("reversal", Some(letter.to_string()));
     info.label = format!("reversal {letter} (along {letter})");
     Basic::new(
         info,
-        Feature::ReversalAlong(a),
+        Feature::ReversalAlong(span),
         aim.target,
         aim.words,
         aim.unit,
@@ -185,7 +188,7 @@ fn reversal_candidates(view: &SessionView) -> Vec<Candidate> {
             on_axis(view, a, "reversal", Feature::Reversal(a), None).with_start_states(view, a),
         );
         if reverses(view, a) && has_ends(view, a) {
-            out.push(reversal_along(view, a).with_start_states(view, a));
+            out.push(reversal_along(view, Span::fitted(view, a)).with_start_states(view, a));
         }
     }
     wrap(out)
@@ -208,7 +211,7 @@ fn reversal_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Pl
             ),
         ));
     }
-    let e = reversal_along(view, a);
+    let e = reversal_along(view, Span::stroke(view, a));
     let v = plant_values(&e, table, &[])?;
     Ok((Arc::new(e), v))
 }
@@ -558,8 +561,9 @@ inventory::submit! {
 }
 
 /// A `reversal` discovery of a linear axis as a bidirectional table holds it (`compensate
-/// --params id.json`): the backlash at mid-stroke and its change to the positive end (0 when
-/// constant), µm. A rotary axis' backlash (µrad) is no table's.
+/// --params id.json`): the backlash at the middle of the span it was measured over, its change
+/// to the span's positive end (0 when constant), µm, and the span. A rotary axis' backlash
+/// (µrad) is no table's.
 fn reversal_in_a_table(d: &Discovery) -> Option<FoundReversal> {
     if d.effect != "reversal" {
         return None;
@@ -574,6 +578,7 @@ fn reversal_in_a_table(d: &Discovery) -> Option<FoundReversal> {
         backlash_u95_um: backlash.u95,
         change_um: change.map_or(0.0, |c| c.value),
         change_u95_um: change.and_then(|c| c.u95),
+        span_mm: d.span(axis, "mm"),
     })
 }
 

@@ -89,9 +89,9 @@ pub struct SessionView {
     pub tool_reach_m: [f64; 3],
     /// The middle of that travel (m, machine frame).
     pub tool_middle_m: [f64; 3],
-    /// Per axis, the middle of the positions it stands at over the fitted samples (SI; the
-    /// middle of its stroke where no fitted sample has it).
-    fitted_middle: Vec<f64>,
+    /// Per axis, the span of the positions it stands at over the fitted samples (SI; its
+    /// stroke where no fitted sample has it).
+    fitted_range: Vec<(f64, f64)>,
     /// Runs in time order, and where each starts in the timeline (per run, and per place in
     /// time order).
     order: Vec<usize>,
@@ -145,7 +145,7 @@ impl SessionView {
             samples += runs[r].len();
         }
         let motion = motions(&axes, &runs, &order);
-        let fitted_middle = fitted_middles(&axes, &runs);
+        let fitted_range = fitted_ranges(&axes, &runs);
         let first_time = order.iter().find_map(|&r| runs[r].first_time());
         let last_time = order.iter().rev().find_map(|&r| runs[r].last_time());
         let mut view = Self {
@@ -157,7 +157,7 @@ impl SessionView {
             current: Vec::new(),
             tool_reach_m: [0.0; 3],
             tool_middle_m: [0.0; 3],
-            fitted_middle,
+            fitted_range,
             order,
             start,
             starts_in_order,
@@ -363,7 +363,15 @@ impl SessionView {
     /// scale change moves the readings least, so that it says how they differ between
     /// positions and leaves their common shift to an offset.
     pub fn fitted_middle(&self, a: usize) -> f64 {
-        self.fitted_middle[a]
+        let (lo, hi) = self.fitted_range[a];
+        0.5 * (lo + hi)
+    }
+
+    /// The lowest and highest positions axis `a` stands at over the fitted samples (SI; its
+    /// stroke where no fitted sample has it): what the fitted runs say about the axis, and
+    /// nothing beyond.
+    pub fn fitted_range(&self, a: usize) -> (f64, f64) {
+        self.fitted_range[a]
     }
 
     /// Commanded position of axis `a` at sample `i` of run `r` (SI).

@@ -92,9 +92,8 @@ pub struct StartState {
 }
 
 /// way round, arrive from an unknown side.
-/// Per axis, the middle of its positions over the fitted runs' samples (the middle of its
-/// stroke where none).
-pub(super) fn fitted_middles(axes: &[AxisView], runs: &[RunView]) -> Vec<f64> {
+/// Per axis, the span of its positions over the fitted runs' samples (its stroke where none).
+pub(super) fn fitted_ranges(axes: &[AxisView], runs: &[RunView]) -> Vec<(f64, f64)> {
     (0..axes.len())
         .map(|a| {
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -105,11 +104,7 @@ pub(super) fn fitted_middles(axes: &[AxisView], runs: &[RunView]) -> Vec<f64> {
                     hi = hi.max(q);
                 }
             }
-            if lo <= hi {
-                0.5 * (lo + hi)
-            } else {
-                0.5 * (axes[a].stroke.0 + axes[a].stroke.1)
-            }
+            if lo <= hi { (lo, hi) } else { axes[a].stroke }
         })
         .collect()
 }

@@ -9,7 +9,9 @@ use super::fitted::Fitted;
 use super::rank::{CONCEALED, Ranked};
 use super::step::Stage;
 use crate::K95;
-use crate::findings::{Concealed, Correction, Discovery, DiscoveryParameter, Remains, Trial};
+use crate::findings::{
+    Concealed, Correction, Discovery, DiscoveryParameter, DiscoverySpan, Remains, Trial,
+};
 use crate::findings::{SearchFindings, SearchStop};
 use crate::ids::ParamId;
 use crate::report::Identification;
@@ -49,7 +51,7 @@ pub(super) fn telling_apart(a: &Candidate, b: &Candidate) -> String {
 pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
     let study = &last.study;
     let sol = &last.solution;
-    let (info, parameters, words) = match &stage.ranked.candidate {
+    let (info, parameters, spans, words) = match &stage.ranked.candidate {
         Candidate::Effect(e) => {
             // Find the effect in the final study by its label.
             let label = &e.info().label;
@@ -103,7 +105,8 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                     "(held: these data do not determine it)",
                 );
             }
-            (fx.info().clone(), params, words)
+            let spans = fx.spans().iter().map(DiscoverySpan::of).collect();
+            (fx.info().clone(), params, spans, words)
         }
         Candidate::Model(m) => {
             let params: Vec<DiscoveryParameter> = (0..study.layout().n_machine())
@@ -151,6 +154,7 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
                     label: m.label(),
                 },
                 params,
+                Vec::new(),
                 words,
             )
         }
@@ -265,6 +269,7 @@ pub(super) fn discovery(stage: &Stage, last: &Fitted) -> Discovery {
         driver: info.driver.clone(),
         label: info.label.clone(),
         parameters,
+        spans,
         rms_before_um: stage.before_id.fit.rms_um,
         rms_after_um: stage.after_id.fit.rms_um,
         heldout_rms_before_um: stage.before_heldout.rms_um,

@@ -41,5 +41,6 @@ mod rtest_mounts;
 mod search_honesty;
 mod search_independent;
 mod search_real_shapes;
+mod search_spans;
 mod three_axis_example;
 mod tracer_campaign;

@@ -270,6 +270,7 @@ fn real_iso230_2_runs_follow_the_standard_not_the_producers_report() {
     dats.sort();
     assert_eq!(dats.len(), 8, "{dats:?}");
     let (mut r_differs, mut e_differs) = (0, 0);
+    let mut spanned = 0;
     for path in &dats {
         let folder = path
             .parent()
@@ -391,7 +392,31 @@ fn real_iso230_2_runs_follow_the_standard_not_the_producers_report() {
         if let Err(why) = honest(&searched) {
             panic!("{case}: {why}");
         }
+        // A number about positions is given over the targets the run covers: a backlash along
+        // X of ±15 mm of targets (b02-y) was "changing by 865 ± 421 µm" to the end of a stroke
+        // thirty times longer.
+        let (lo, hi) = dat
+            .targets
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                (lo.min(x), hi.max(x))
+            });
+        for d in &searched.findings.discoveries {
+            for span in &d.spans {
+                spanned += 1;
+                assert!(
+                    span.axis == "X"
+                        && span.unit == "mm"
+                        && (span.from - lo).abs() < 1e-6
+                        && (span.to - hi).abs() < 1e-6,
+                    "{case}: {} over {span:?}, the targets {lo} … {hi} mm",
+                    d.label
+                );
+            }
+        }
     }
+    // Measured 2026-11-30: b02-y and week42_y name a backlash along X.
+    assert!(spanned >= 1, "no discovery given over a span");
     // The README lists R wrong in five cases and E wrong in all eight.
     assert_eq!(
         r_differs, 5,
