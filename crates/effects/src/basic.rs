@@ -203,6 +203,9 @@ pub struct Basic {
     /// The simpler effect this one is when a shape reaches an edge of its box
     /// ([`Basic::becoming_at_edge`]).
     edge_form: Option<EdgeForm>,
+    /// The simpler effect this one is without one of its amplitudes
+    /// ([`Basic::becoming_without`]): the amplitude's index and the effect.
+    lesser_form: Option<(usize, Arc<dyn Effect>)>,
 }
 
 /// [`Basic::becoming_at_edge`]: shape parameter `param` at its lower (`low`) or upper edge
@@ -393,6 +396,7 @@ impl Basic {
             shared: false,
             start_states: None,
             edge_form: None,
+            lesser_form: None,
         }
     }
 
@@ -466,6 +470,19 @@ impl Basic {
             low,
             effect: Arc::new(simpler),
         });
+        self
+    }
+
+    /// The effect with its amplitude named `param` making it `simpler` when that amplitude is
+    /// zero ([`Effect::without`]). Panics if it has no such amplitude (a family's construction
+    /// error).
+    pub fn becoming_without(mut self, param: &str, simpler: Basic) -> Self {
+        let amplitude = self
+            .params
+            .iter()
+            .position(|p| p.name == param && p.kind == ParamKind::Amplitude)
+            .unwrap_or_else(|| panic!("{} has no amplitude {param}", self.info.label));
+        self.lesser_form = Some((amplitude, Arc::new(simpler)));
         self
     }
 
@@ -594,6 +611,11 @@ impl Effect for Basic {
 
     fn follows_the_session(&self) -> bool {
         self.feature.follows_the_session()
+    }
+
+    fn without(&self, param: usize) -> Option<Arc<dyn Effect>> {
+        let (amplitude, effect) = self.lesser_form.as_ref()?;
+        (*amplitude == param).then(|| Arc::clone(effect))
     }
 
     fn at_edge(&self, param: usize, low: bool) -> Option<Arc<dyn Effect>> {

@@ -202,6 +202,14 @@ pub trait Effect: fmt::Debug + Send + Sync {
     fn at_edge(&self, _param: usize, _low: bool) -> Option<Arc<dyn Effect>> {
         None
     }
+    /// The simpler effect of the same family this one is without its amplitude `param` (an
+    /// index into [`Effect::params`]): a backlash that changes along the stroke, with no
+    /// change, is the plain backlash. A fit that leaves that amplitude within its interval of
+    /// zero found the simpler effect, and claims no more. `None` where no amplitude is such a
+    /// refinement.
+    fn without(&self, _param: usize) -> Option<Arc<dyn Effect>> {
+        None
+    }
 }
 
 /// An effect's features at fixed shape parameters.

@@ -153,13 +153,16 @@ fn plant_on_axis(
     Ok((Arc::new(e), v))
 }
 
-/// Backlash of an axis that changes along the span `span` of its positions.
+/// Backlash of an axis that changes along the span `span` of its positions; without a change
+/// along it, the plain backlash.
 fn reversal_along(view: &SessionView, span: Span) -> Basic {
     let a = span.axis;
     let aim = axis_aim(view, a);
     let letter = view.axes[a].letter;
     let mut info = aim.info("reversal", Some(letter.to_string()));
     info.label = format!("reversal {letter} (along {letter})");
+    let change = format!("backlash_change_{}", aim.unit.unit);
+    let plain = on_axis(view, a, "reversal", Feature::Reversal(a), None).with_start_states(view, a);
     Basic::new(
         info,
         Feature::ReversalAlong(span),
@@ -168,6 +171,7 @@ fn reversal_along(view: &SessionView, span: Span) -> Basic {
         aim.unit,
         None,
     )
+    .becoming_without(&change, plain)
 }
 
 /// Whether a backlash along axis `a`'s stroke means something: a linear axis, or a rotary one

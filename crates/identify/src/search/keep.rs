@@ -45,11 +45,23 @@ fn withdraw_undetermined(
 ) -> Result<(Fitted, bool), IdentifyError> {
     let mut changed = false;
     let mut tried_holding: Vec<usize> = Vec::new();
-    while let Some((k, failure)) = stages.iter().enumerate().rev().find_map(|(k, s)| {
+    while let Some((k, verdict)) = stages.iter().enumerate().rev().find_map(|(k, s)| {
         undetermined(&current.study, &current.solution, &s.addition.params)
             .or_else(|| implausible_order(&current, &s.addition))
+            .map(Verdict::Fails)
+            .or_else(|| needless_amplitude(&current, &s.addition.params).map(Verdict::Lesser))
             .map(|w| (k, w))
     }) {
+        // A refinement (a change along the stroke) within its interval of zero: the effect
+        // without it is what the data show.
+        let failure = match verdict {
+            Verdict::Lesser(Lesser { old, simpler, why }) => {
+                current = simplified(current, &mut stages[k], &old, simpler, &why, options)?;
+                changed = true;
+                continue;
+            }
+            Verdict::Fails(failure) => failure,
+        };
         // A shape (τ, a pitch) the data do not determine, while the effect's size is: the
         // effect stays with its shape held where the fit left it — a stated assumption, not a
         // fitted number — if its amplitudes are then determined.
@@ -359,6 +371,71 @@ fn pinned(current: &Fitted, params: &[ParamId]) -> Option<Pinned> {
                 value * info.per_si,
                 info.unit
             ),
+        })
+    })
+}
+
+/// What [`withdraw_undetermined`] finds of a stage: a failure, or an amplitude to drop.
+enum Verdict {
+    Fails(Failure),
+    Lesser(Lesser),
+}
+
+/// A stage's effect `old`, the simpler effect `simpler` it is without an amplitude the final
+/// fit leaves within its interval of zero ([`mtcal_effects::Effect::without`]), and why.
+struct Lesser {
+    old: Arc<dyn Effect>,
+    simpler: Arc<dyn Effect>,
+    why: String,
+}
+
+/// The first amplitude among `params` whose effect is a simpler one without it and which the
+/// final fit leaves within its 95 % interval of zero (or cannot separate): the effect is then
+/// judged as a whole ([`undetermined`]: jointly determined), but this part of its claim is
+/// not. `None` where the simpler effect's label is in the model already.
+fn needless_amplitude(current: &Fitted, params: &[ParamId]) -> Option<Lesser> {
+    let study = &current.study;
+    let sol = &current.solution;
+    (0..study.layout().n_x()).find_map(|i| {
+        if !params.contains(&study.param_id(i)) {
+            return None;
+        }
+        let effect = study.effect_of_param(i)?;
+        let k = study
+            .effects()
+            .iter()
+            .position(|e| Arc::ptr_eq(e, effect))?;
+        let simpler = effect.without(i - study.layout().effect_range(k).start)?;
+        let u95 = sol.sigma[i].filter(|_| sol.identified[i]).map(|s| K95 * s);
+        let value = sol.x[i];
+        if u95.is_some_and(|u| u < value.abs()) {
+            return None;
+        }
+        let taken = study
+            .effects()
+            .iter()
+            .any(|e| e.info().label == simpler.info().label);
+        if taken {
+            return None;
+        }
+        let info = study.param_info(i);
+        let why = match u95 {
+            Some(u) => format!(
+                "the final fit puts {} at {:.4} ± {:.4} {}, within its interval of zero",
+                info.name,
+                value * info.per_si,
+                u * info.per_si,
+                info.unit
+            ),
+            None => format!(
+                "the final fit cannot separate {} from the other parameters",
+                info.name
+            ),
+        };
+        Some(Lesser {
+            old: Arc::clone(effect),
+            simpler,
+            why,
         })
     })
 }

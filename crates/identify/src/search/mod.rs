@@ -83,7 +83,10 @@
 //!    worse than the fit before the search. A shape (τ, a pitch) the data do not determine is
 //!    held where the fit left it and said to be; one pinned at the edge of its box where its
 //!    family makes the effect a simpler one (`Effect::at_edge`: a lateral play taken up over
-//!    no travel is the plain play) is replaced by that effect, and the discovery says so;
+//!    no travel is the plain play) is replaced by that effect, and the discovery says so; so
+//!    is one whose refinement the final fit leaves within its interval of zero
+//!    (`Effect::without`: a backlash whose change along the stroke is not shown is the plain
+//!    backlash);
 //!    anything else that fails is withdrawn, the latest first, and reported as withdrawn,
 //!    never as a discovery.
 //!

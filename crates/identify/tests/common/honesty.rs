@@ -81,6 +81,46 @@ pub fn honest(result: &SearchResult) -> Result<(), String> {
                 ));
             }
         }
+        refinements_determined(result, d)?;
+    }
+    Ok(())
+}
+
+/// A discovery's refinement — an amplitude without which its effect is a simpler one of its
+/// family (a backlash's change along the stroke) — is determined on its own: one within its
+/// interval of zero claims more than the data show.
+fn refinements_determined(
+    result: &SearchResult,
+    d: &mtcal_identify::search::Discovery,
+) -> Result<(), String> {
+    let study = &result.study;
+    let Some(k) = study
+        .effects()
+        .iter()
+        .position(|e| e.info().label == d.label)
+    else {
+        return Ok(());
+    };
+    let effect = &study.effects()[k];
+    let start = study.layout().effect_range(k).start;
+    for (j, p) in effect.params().iter().enumerate() {
+        if effect.without(j).is_none() {
+            continue;
+        }
+        let i = start + j;
+        let sigma = result.solution.sigma[i].filter(|_| result.solution.identified[i]);
+        let value = result.solution.x[i];
+        if !sigma.is_some_and(|s| mtcal_identify::K95 * s < value.abs()) {
+            return Err(format!(
+                "{}: {} = {} ± {:?} (SI) is within its interval of zero, and without it the \
+                 effect is {}",
+                d.label,
+                p.name,
+                value,
+                sigma.map(|s| mtcal_identify::K95 * s),
+                effect.without(j).unwrap().info().label
+            ));
+        }
     }
     Ok(())
 }
