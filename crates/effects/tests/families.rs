@@ -73,6 +73,7 @@ fn view() -> Arc<SessionView> {
                     },
                 ],
                 field_like: vec![false; 2],
+                at_standstill: false,
             },
             SetupView {
                 name: "sensors".into(),
@@ -81,6 +82,7 @@ fn view() -> Arc<SessionView> {
                 reads_pose: vec![false],
                 nuisance: vec![],
                 field_like: vec![],
+                at_standstill: false,
             },
         ],
         vec![run("a", 0, 0.0), run("b", 1, 500.0)],

@@ -37,6 +37,11 @@ const RUN_B: usize = 81;
 /// "a" (11 samples, R-test) and "b" (81 samples from t = 100 s, ball bar: X and Y on a circle,
 /// the spindle speed stepping when `speed`).
 fn view(pose: bool, tool_length: bool, speed: bool) -> Arc<SessionView> {
+    view_read(pose, tool_length, speed, false)
+}
+
+/// [`view`] with both set-ups reading with the axes standing (`at_standstill`) or on the fly.
+fn view_read(pose: bool, tool_length: bool, speed: bool, at_standstill: bool) -> Arc<SessionView> {
     let mut qa = Vec::new();
     for (i, x) in X_A.iter().enumerate() {
         let back = |k: usize, v: f64| {
@@ -100,6 +105,7 @@ fn view(pose: bool, tool_length: bool, speed: bool) -> Arc<SessionView> {
                 reads_pose: vec![pose; 3],
                 nuisance: tool(vec![nuisance("ball_x")]),
                 field_like: vec![false; 1 + usize::from(tool_length)],
+                at_standstill,
             },
             SetupView {
                 name: "bar".into(),
@@ -108,6 +114,7 @@ fn view(pose: bool, tool_length: bool, speed: bool) -> Arc<SessionView> {
                 reads_pose: vec![pose],
                 nuisance: tool(vec![nuisance("length")]),
                 field_like: vec![false; 1 + usize::from(tool_length)],
+                at_standstill,
             },
         ],
         vec![
@@ -652,4 +659,19 @@ fn only_effects_with_a_course_over_the_session_follow_it() {
         }
     }
     assert!(timed > 0 && moved > 0, "{timed} in time, {moved} of motion");
+}
+
+#[test]
+fn a_servo_lag_is_proposed_only_where_readings_are_taken_on_the_fly() {
+    let servo = "effect = \"servo-lag\"\naxis = \"X\"\nlag_ms = 2.0";
+    let on_the_fly = view_read(true, false, false, false);
+    assert!(!labels(&mtcal_effects::candidates(&on_the_fly), "servo-lag").is_empty());
+    assert!(on_axis(&on_the_fly, servo, 0).iter().any(|d| d.abs() > 1.0));
+    // Read with the axes standing at each target (a laser's ISO 230-2 points): a step over the
+    // time between two readings is no velocity, and no lag is proposed or planted there.
+    let standing = view_read(true, false, false, true);
+    assert!(labels(&mtcal_effects::candidates(&standing), "servo-lag").is_empty());
+    assert!(on_axis(&standing, servo, 0).iter().all(|&d| d == 0.0));
+    assert_eq!(standing.velocity(0, 0, 3), 0.0);
+    assert!(on_the_fly.velocity(0, 0, 3) != 0.0);
 }

@@ -213,6 +213,16 @@ pub trait Setup: SetupFormat + AsAny + fmt::Debug + Send + Sync {
         true
     }
 
+    /// Whether the instrument's readings are taken with the axes standing at their targets (a
+    /// laser's positioning and straightness runs, ISO 230-2; a tracer's or a probe's points):
+    /// then no reading sees the axes' velocity, and the physics search proposes no effect of
+    /// it there — a step between targets over the time between two readings is no velocity.
+    /// `false` (the default) for an instrument that may read on the fly (a ball bar, an R-test
+    /// following the ball).
+    fn reads_at_standstill(&self) -> bool {
+        false
+    }
+
     /// Predicted readings (SI) at one sample, for nuisance values `nuis` (SI deviations).
     fn predict(&self, at: &At<'_>, nuis: &[f64], out: &mut [f64]);
 

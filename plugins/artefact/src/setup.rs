@@ -557,6 +557,11 @@ impl Setup for ArtefactSetup {
         &self.nuisance
     }
 
+    // A feature is probed with the machine standing: the probing cycle reports where it touched.
+    fn reads_at_standstill(&self) -> bool {
+        true
+    }
+
     fn touches(&self) -> Touches {
         Touches {
             position: true,

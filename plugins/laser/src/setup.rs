@@ -578,6 +578,12 @@ impl Setup for LaserSetup {
         &self.nuisance
     }
 
+    // Positioning (ISO 230-2), straightness and angular runs and diagonals (ISO 230-6) read
+    // with the axes standing at each target.
+    fn reads_at_standstill(&self) -> bool {
+        true
+    }
+
     fn touches(&self) -> Touches {
         match self.mode {
             Mode::Angular => Touches {

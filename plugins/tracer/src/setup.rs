@@ -286,6 +286,11 @@ impl Setup for TracerSetup {
         &self.nuisance
     }
 
+    // A tracer measures each point with the machine standing at it.
+    fn reads_at_standstill(&self) -> bool {
+        true
+    }
+
     fn touches(&self) -> Touches {
         Touches {
             position: true,

@@ -60,7 +60,8 @@
 //! axis turned forward in one run and back in the next), reversals within a run for the form
 //! along the stroke, `lateral-play`, `reversal-spike` and `stick-slip`, travel over at least
 //! one pitch with 2.5 samples per pitch for `cyclic`,
-//! motion for `servo-lag`, both driving axes moving for `cross-coupling`.
+//! motion read on the fly for `servo-lag` (not a laser's or a tracer's points, read with the
+//! axes standing), both driving axes moving for `cross-coupling`.
 
 use super::{
     axis_aim, moves, moves_both_ways, number, plant_aim, plant_values, reverses, single_letter,
@@ -441,7 +442,18 @@ fn cyclic_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Plan
 }
 
 fn servo_candidates(view: &SessionView) -> Vec<Candidate> {
-    unshaped_candidates(view, "servo-lag", Feature::Velocity, moves)
+    unshaped_candidates(view, "servo-lag", Feature::Velocity, moves_while_read)
+}
+
+/// Whether axis `a` moves in a fitted run whose instrument reads on the fly: a lag behind the
+/// command shows only in readings taken while the axis moves (a laser's ISO 230-2 targets are
+/// read with it standing, [`crate::view::SetupView::at_standstill`]).
+fn moves_while_read(view: &SessionView, a: usize) -> bool {
+    (0..view.runs.len()).any(|r| {
+        let run = &view.runs[r];
+        let standing = view.setups.get(run.setup).is_some_and(|s| s.at_standstill);
+        run.fit && !standing && view.motion(r, a).moves
+    })
 }
 
 fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {

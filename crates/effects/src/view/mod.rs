@@ -326,9 +326,13 @@ impl SessionView {
     }
 
     /// Velocity of axis `a` at sample `i` of run `r` (SI per second), central differences
-    /// (one-sided at the run's ends; 0 where no time passes).
+    /// (one-sided at the run's ends; 0 where no time passes, and in a run whose set-up reads
+    /// with the axes standing: [`SetupView::at_standstill`]).
     pub fn velocity(&self, r: usize, a: usize, i: usize) -> f64 {
         let run = &self.runs[r];
+        if self.setups.get(run.setup).is_some_and(|s| s.at_standstill) {
+            return 0.0;
+        }
         let (lo, hi) = (i.saturating_sub(1), (i + 1).min(run.len() - 1));
         let dt = run.t.get(hi) - run.t.get(lo);
         if hi == lo || dt <= 0.0 {

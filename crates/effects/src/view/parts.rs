@@ -24,6 +24,7 @@ impl SetupView {
                 .collect(),
             field_like: vec![false; setup.nuisance().len()],
             nuisance: setup.nuisance().to_vec(),
+            at_standstill: setup.reads_at_standstill(),
         }
     }
 }
@@ -72,6 +73,9 @@ pub struct SetupView {
     /// takes it elsewhere). Its drift is then the machine's field there by another name. False
     /// where nobody said (a planned session).
     pub field_like: Vec<bool>,
+    /// Whether its readings are taken with the axes standing (`Setup::reads_at_standstill`):
+    /// its runs see no velocity.
+    pub at_standstill: bool,
 }
 
 /// One run. Its numbers are columns ([`Column`]: a study shares its own, a planned run's

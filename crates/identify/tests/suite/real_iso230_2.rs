@@ -402,6 +402,10 @@ fn real_iso230_2_runs_follow_the_standard_not_the_producers_report() {
                 (lo.min(x), hi.max(x))
             });
         for d in &searched.findings.discoveries {
+            // ISO 230-2 reads each target with the axis standing: a lag behind the command
+            // has nothing to show in these readings (one run claimed 7.8 ms from the steps
+            // between targets over the time between two readings).
+            assert_ne!(d.effect, "servo-lag", "{case}: {}", d.sentence);
             for span in &d.spans {
                 spanned += 1;
                 assert!(

@@ -90,6 +90,9 @@ fn a_backlash_along_part_of_the_stroke_is_given_over_the_positions_measured() {
         let result = search(study, &Default::default()).unwrap();
         honest(&result).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
         let found = &result.findings.discoveries;
+        // Nothing else is planted, nothing else is claimed.
+        let labels: Vec<&str> = found.iter().map(|d| d.label.as_str()).collect();
+        assert_eq!(labels, ["reversal Y (along Y)"], "seed {seed}");
         let along = found
             .iter()
             .find(|d| d.label == "reversal Y (along Y)")
