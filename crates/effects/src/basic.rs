@@ -67,8 +67,9 @@ pub enum Feature {
     /// turn may have been where the run starts, or not: the mean of both), 0 before it.
     /// Shape: λ (m or rad).
     StickSlip(usize),
-    /// `û_a · û_b`, positions normalised to `[−1, 1]` over their strokes.
-    Bilinear(usize, usize),
+    /// `û_a · û_b / k`, positions normalised to `[−1, 1]` over their strokes, `k` the product
+    /// at the [`Corner`] the amplitude is given at (1 at the strokes' corner).
+    Bilinear(Corner),
     /// One: the amplitude itself (a constant gain error, on a [`Target::Gain`]).
     Constant,
     /// Thermal expansion of axis `a`'s scale (screw, glass scale) with a temperature:
@@ -182,6 +183,52 @@ impl Span {
         let text = text.trim_end_matches('0').trim_end_matches('.');
         let text = if text == "-0" { "0" } else { text };
         format!("{text} {unit}")
+    }
+}
+
+/// Where a cross-coupling's amplitude is given ([`Feature::Bilinear`]): at the corner of two
+/// spans farthest from the strokes' middles (the largest product there). A candidate's spans
+/// are what the fitted runs cover ([`Span::fitted`]): its number is the coupling where the data
+/// reach furthest, not at the strokes' corners the runs may never have come near (the same
+/// fit, rescaled). A plant's are the strokes: its amplitude is the value at their corner.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corner {
+    pub over: [Span; 2],
+    /// The corner's positions (SI).
+    pub at: [f64; 2],
+    /// `û_a · û_b` there (over the strokes; never 0).
+    pub product: f64,
+}
+
+impl Corner {
+    /// The corner of `over` with the largest `|û_a · û_b|` over the strokes of `view`'s axes
+    /// (of corners within rounding of each other, the first of the high corner, the low one
+    /// and the two mixed ones: a plant's is the strokes' high corner, its product exactly 1);
+    /// the strokes' corner where every corner of `over` has a product of 0.
+    pub fn of(view: &SessionView, over: [Span; 2]) -> Self {
+        let stroke = |s: &Span| Span::stroke(view, s.axis);
+        let (sa, sb) = (stroke(&over[0]), stroke(&over[1]));
+        let strokes = Corner {
+            over: [sa, sb],
+            at: [sa.hi, sb.hi],
+            product: 1.0,
+        };
+        if over == strokes.over {
+            return strokes;
+        }
+        let [a, b] = over;
+        let corners = [[a.hi, b.hi], [a.lo, b.lo], [a.hi, b.lo], [a.lo, b.hi]];
+        let mut best: Option<([f64; 2], f64)> = None;
+        for at in corners {
+            let p = sa.normalised(at[0]) * sb.normalised(at[1]);
+            if best.is_none_or(|(_, q)| p.abs() > q.abs() * (1.0 + 1e-9)) {
+                best = Some((at, p));
+            }
+        }
+        match best {
+            Some((at, product)) if product.abs() > 1e-9 => Corner { over, at, product },
+            _ => strokes,
+        }
     }
 }
 
@@ -565,6 +612,7 @@ impl Effect for Basic {
     fn spans(&self) -> Vec<Span> {
         match &self.feature {
             Feature::ReversalAlong(span) => vec![*span],
+            Feature::Bilinear(corner) => corner.over.to_vec(),
             _ => Vec::new(),
         }
     }
@@ -788,10 +836,26 @@ impl Effect for Basic {
                 p(0),
                 p(1)
             ),
-            Feature::Bilinear(..) => format!(
-                "a cross-coupling: {target}, {} at the corners of the strokes",
-                p(0)
-            ),
+            Feature::Bilinear(corner) => {
+                let [a, b] = corner.over;
+                let over = if a.fitted || b.fitted {
+                    "the positions the fitted runs cover"
+                } else {
+                    "the strokes"
+                };
+                format!(
+                    "a cross-coupling: {target}, {} at {} {}, {} {}, the corner of {over} ({} … {}, {} … {}) farthest from the strokes' middles",
+                    p(0),
+                    a.letter,
+                    a.words(corner.at[0]),
+                    b.letter,
+                    b.words(corner.at[1]),
+                    a.words(a.lo),
+                    a.words(a.hi),
+                    b.words(b.lo),
+                    b.words(b.hi)
+                )
+            }
             Feature::Constant => format!("a scale error of {target} of {}", p(0)),
             Feature::Expansion(input, _) => format!(
                 "a thermal expansion of {target}'s scale with the temperature {}: {}",
@@ -1114,12 +1178,12 @@ impl Features for BasicFeatures {
                 f[0] = e;
                 df[0] = e * travel / (lambda * lambda);
             }
-            Feature::Bilinear(a, b) => {
+            Feature::Bilinear(corner) => {
                 let u = |k: usize| {
                     let (lo, hi) = view.axes[k].stroke;
                     (2.0 * view.q(r, i, k) - lo - hi) / (hi - lo)
                 };
-                f[0] = u(*a) * u(*b);
+                f[0] = u(corner.over[0].axis) * u(corner.over[1].axis) / corner.product;
             }
             Feature::Constant => f[0] = 1.0,
             Feature::Expansion(_, a) => {

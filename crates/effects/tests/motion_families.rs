@@ -675,3 +675,60 @@ fn a_servo_lag_is_proposed_only_where_readings_are_taken_on_the_fly() {
     assert_eq!(standing.velocity(0, 0, 3), 0.0);
     assert!(on_the_fly.velocity(0, 0, 3) != 0.0);
 }
+
+#[test]
+fn a_cross_coupling_is_given_at_the_farthest_corner_the_fitted_runs_reach() {
+    use mtcal_effects::basic::{Corner, Span};
+    let v = view(true, false, false);
+    let over = [Span::fitted(&v, 0), Span::fitted(&v, 1)];
+    // Where the fitted runs take X and Y.
+    assert_eq!((over[0].lo, over[0].hi), v.fitted_range(0));
+    assert_eq!((over[1].lo, over[1].hi), v.fitted_range(1));
+    let corner = Corner::of(&v, over);
+    let u = |a: usize, q: f64| {
+        let (lo, hi) = v.axes[a].stroke;
+        (2.0 * q - lo - hi) / (hi - lo)
+    };
+    assert_eq!(corner.product, u(0, corner.at[0]) * u(1, corner.at[1]));
+    for x in [over[0].lo, over[0].hi] {
+        for y in [over[1].lo, over[1].hi] {
+            assert!(
+                (u(0, x) * u(1, y)).abs() <= corner.product.abs() * (1.0 + 1e-9),
+                "({x}, {y}) is farther than {:?}",
+                corner.at
+            );
+        }
+    }
+    // The candidate is the plant's feature rescaled: the same fit, its amplitude the value
+    // at that corner (a plant's at the strokes' corner).
+    let all = mtcal_effects::candidates(&v);
+    let Candidate::Effect(found) = all
+        .iter()
+        .find(|c| c.label() == "cross-coupling Z (X*Y)")
+        .expect("a coupling of X and Y on Z")
+    else {
+        panic!("an effect")
+    };
+    assert_eq!(found.spans(), over.to_vec());
+    let (planted, _) = plant(
+        &table("effect = \"cross-coupling\"\naxis = \"Z\"\ndriver = \"X*Y\"\ncorner_um = 1.0"),
+        &v,
+    )
+    .unwrap();
+    let at_corner = effect_on_axes(&v, found, &[1e-6]);
+    let at_strokes = effect_on_axes(&v, &planted, &[1e-6]);
+    for (c, s) in at_corner.iter().zip(&at_strokes) {
+        assert!((c[2] * corner.product - s[2]).abs() < 1e-12, "{c:?} {s:?}");
+    }
+    assert!(at_strokes.iter().any(|s| s[2].abs() > 1e-3));
+    // The plant's amplitude is the value at the strokes' corner, as its key says.
+    let samples = (0..v.runs.len()).flat_map(|r| (0..v.runs[r].len()).map(move |i| (r, i)));
+    for ((r, i), s) in samples.zip(&at_strokes) {
+        let want = u(0, v.q(r, i, 0)) * u(1, v.q(r, i, 1));
+        assert!(
+            (s[2] - want).abs() < 1e-12,
+            "run {r} sample {i}: {} vs {want}",
+            s[2]
+        );
+    }
+}

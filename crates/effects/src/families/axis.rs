@@ -51,9 +51,11 @@
 //!   `s` the direction and `d` the travel since the reversal (plant keys `height_um`,
 //!   `decay_mm`).
 //! - **`cross-coupling`**: an error of axis `L` that grows with the product of two axes'
-//!   positions, `c·û_K·û_M` (positions normalised to ±1 over the strokes; `c` is the value at
-//!   the corners): the table sagging under an overhanging carriage. Plant keys `axis = "L"`,
-//!   `driver = "K*M"`, `corner_um`.
+//!   positions, `c·û_K·û_M/k` (positions normalised to ±1 over the strokes; `c` is the value
+//!   at a corner, `k` the product there: [`crate::basic::Corner`]): the table sagging under an
+//!   overhanging carriage. A candidate gives `c` at the corner of the positions the fitted runs
+//!   cover farthest from the strokes' middles, a plant at the strokes' corner. Plant keys
+//!   `axis = "L"`, `driver = "K*M"`, `corner_um`.
 //!
 //! Candidates need the right motion in some fitted run: motion both ways for `reversal` (a
 //! reversal within a run, or runs that move the axis one way and others the other: a rotary
@@ -67,7 +69,7 @@ use super::{
     axis_aim, moves, moves_both_ways, number, plant_aim, plant_values, reverses, single_letter,
     string,
 };
-use crate::basic::{Basic, Feature, Span};
+use crate::basic::{Basic, Corner, Feature, Span};
 use crate::view::SessionView;
 use crate::{Candidate, EffectFamily, PlantError, Planted, Target};
 use mtcal_machine::from_identify::{CompensableDiscovery, Discovery, FoundReversal};
@@ -499,12 +501,14 @@ fn stick_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Plant
     })
 }
 
-fn coupling_effect(view: &SessionView, l: usize, k: usize, m: usize) -> Basic {
+/// Axis `l`'s error growing with the product of axes `k` and `m`, its amplitude given at the
+/// corner of `over` (the two axes' spans) farthest from the strokes' middles.
+fn coupling_effect(view: &SessionView, l: usize, over: [Span; 2]) -> Basic {
     let aim = axis_aim(view, l);
-    let (kl, ml) = (view.axes[k].letter, view.axes[m].letter);
+    let (kl, ml) = (over[0].letter, over[1].letter);
     Basic::new(
         aim.info("cross-coupling", Some(format!("{kl}*{ml}"))),
-        Feature::Bilinear(k, m),
+        Feature::Bilinear(Corner::of(view, over)),
         aim.target,
         format!(
             "{} error growing with the product of {kl} and {ml}",
@@ -525,7 +529,11 @@ fn coupling_candidates(view: &SessionView) -> Vec<Candidate> {
         for (i, &k) in linear.iter().enumerate() {
             for &m in &linear[i + 1..] {
                 if moves(view, k) && moves(view, m) {
-                    out.push(coupling_effect(view, l, k, m));
+                    out.push(coupling_effect(
+                        view,
+                        l,
+                        [Span::fitted(view, k), Span::fitted(view, m)],
+                    ));
                 }
             }
         }
@@ -556,7 +564,8 @@ fn coupling_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, Pl
             "`driver`: a cross-coupling needs two different axes",
         ));
     }
-    let e = coupling_effect(view, l, k.min(m), k.max(m));
+    let (k, m) = (k.min(m), k.max(m));
+    let e = coupling_effect(view, l, [Span::stroke(view, k), Span::stroke(view, m)]);
     let v = plant_values(&e, table, &["driver"])?;
     Ok((Arc::new(e), v))
 }

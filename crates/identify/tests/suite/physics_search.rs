@@ -138,7 +138,7 @@ fn check(name: &str, case: Case) {
                 continue;
             }
             idx.push(i);
-            truth.push(value / study.param_info(i).per_si);
+            truth.push(value * at_its_corner(study, d) / study.param_info(i).per_si);
         }
         assert!(
             unidentified < p.params.len() || p.params.is_empty(),
@@ -726,4 +726,20 @@ tau_s = 400.0
         ],
         ..Case::default()
     };
+}
+
+/// A planted cross-coupling's value (at the strokes' corner) is the discovery's times the
+/// product of the normalised positions where the discovery gives it (the corner of the
+/// positions the fitted runs cover farthest from the strokes' middles): this factor; 1 for
+/// every other effect.
+fn at_its_corner(study: &mtcal_identify::Study, d: &mtcal_identify::search::Discovery) -> f64 {
+    let Some(effect) = study.effects().iter().find(|e| e.info().label == d.label) else {
+        return 1.0;
+    };
+    match effect.spans()[..] {
+        [a, b] if d.effect == "cross-coupling" => {
+            mtcal_effects::basic::Corner::of(study.view(), [a, b]).product
+        }
+        _ => 1.0,
+    }
 }
