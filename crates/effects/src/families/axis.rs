@@ -451,11 +451,8 @@ fn servo_candidates(view: &SessionView) -> Vec<Candidate> {
 /// command shows only in readings taken while the axis moves (a laser's ISO 230-2 targets are
 /// read with it standing, [`crate::view::SetupView::at_standstill`]).
 fn moves_while_read(view: &SessionView, a: usize) -> bool {
-    (0..view.runs.len()).any(|r| {
-        let run = &view.runs[r];
-        let standing = view.setups.get(run.setup).is_some_and(|s| s.at_standstill);
-        run.fit && !standing && view.motion(r, a).moves
-    })
+    (0..view.runs.len())
+        .any(|r| view.runs[r].fit && !view.read_at_standstill(r) && view.motion(r, a).moves)
 }
 
 fn servo_plant(table: &toml::Table, view: &SessionView) -> Result<Planted, PlantError> {

@@ -330,7 +330,7 @@ impl SessionView {
     /// with the axes standing: [`SetupView::at_standstill`]).
     pub fn velocity(&self, r: usize, a: usize, i: usize) -> f64 {
         let run = &self.runs[r];
-        if self.setups.get(run.setup).is_some_and(|s| s.at_standstill) {
+        if self.read_at_standstill(r) {
             return 0.0;
         }
         let (lo, hi) = (i.saturating_sub(1), (i + 1).min(run.len() - 1));
@@ -340,6 +340,13 @@ impl SessionView {
         } else {
             (run.q.get(hi, a) - run.q.get(lo, a)) / dt
         }
+    }
+
+    /// Whether run `r`'s set-up reads with the axes standing ([`SetupView::at_standstill`]).
+    pub fn read_at_standstill(&self, r: usize) -> bool {
+        self.setups
+            .get(self.runs[r].setup)
+            .is_some_and(|s| s.at_standstill)
     }
 
     /// Distance axis `a` travelled since its last reversal (or since its first motion in run

@@ -400,24 +400,13 @@ fn needless_amplitude(current: &Fitted, params: &[ParamId]) -> Option<Lesser> {
         if !params.contains(&study.param_id(i)) {
             return None;
         }
-        let effect = study.effect_of_param(i)?;
-        let k = study
-            .effects()
-            .iter()
-            .position(|e| Arc::ptr_eq(e, effect))?;
-        let simpler = effect.without(i - study.layout().effect_range(k).start)?;
+        let (effect, param) = effect_and_param(study, i)?;
         let u95 = sol.sigma[i].filter(|_| sol.identified[i]).map(|s| K95 * s);
         let value = sol.x[i];
         if u95.is_some_and(|u| u < value.abs()) {
             return None;
         }
-        let taken = study
-            .effects()
-            .iter()
-            .any(|e| e.info().label == simpler.info().label);
-        if taken {
-            return None;
-        }
+        let simpler = effect.without(param).filter(|e| !in_model(study, e))?;
         let info = study.param_info(i);
         let why = match u95 {
             Some(u) => format!(
@@ -453,18 +442,25 @@ struct Pinned {
 /// ([`mtcal_effects::Effect::at_edge`]), unless one of its label is in the model already.
 fn simpler_form(current: &Fitted, pin: &Pinned) -> Option<(Arc<dyn Effect>, Arc<dyn Effect>)> {
     let study = &current.study;
-    let effect = study.effect_of_param(pin.index)?;
+    let (effect, param) = effect_and_param(study, pin.index)?;
+    let simpler = effect.at_edge(param, pin.low)?;
+    (!in_model(study, &simpler)).then(|| (Arc::clone(effect), simpler))
+}
+
+/// The effect parameter `i` of `study` belongs to, and its index among the effect's own.
+fn effect_and_param(study: &Study, i: usize) -> Option<(&Arc<dyn Effect>, usize)> {
+    let effect = study.effect_of_param(i)?;
     let k = study
         .effects()
         .iter()
         .position(|e| Arc::ptr_eq(e, effect))?;
-    let param = pin.index - study.layout().effect_range(k).start;
-    let simpler = effect.at_edge(param, pin.low)?;
-    let taken = study
-        .effects()
-        .iter()
-        .any(|e| e.info().label == simpler.info().label);
-    (!taken).then(|| (Arc::clone(effect), simpler))
+    Some((effect, i - study.layout().effect_range(k).start))
+}
+
+/// Whether an effect of `effect`'s label is in `study`'s model already.
+fn in_model(study: &Study, effect: &Arc<dyn Effect>) -> bool {
+    let label = &effect.info().label;
+    study.effects().iter().any(|e| e.info().label == *label)
 }
 
 /// `current` with `stage`'s effect `old` replaced by `simpler` (its form at the edge where the
